@@ -1,0 +1,30 @@
+#!/usr/bin/env bash
+# Installs the Debian 12 packages hazmap needs. A no-op when they are all present.
+#   scripts/install-deps.sh          build + test dependencies
+#   scripts/install-deps.sh --peers  also PCL and Open3D (benchmarks only)
+set -euo pipefail
+packages=(
+  build-essential cmake pkg-config
+  libeigen3-dev libtbb-dev libceres-dev libsuitesparse-dev libnanoflann-dev
+  libcli11-dev libyaml-cpp-dev libfmt-dev libspdlog-dev libstb-dev libembree-dev
+  nlohmann-json3-dev libgtest-dev libgmock-dev libbenchmark-dev
+  pcl-tools clang libclang-rt-14-dev
+)
+if [[ "${1:-}" == "--peers" ]]; then
+  packages+=(libpcl-dev libopen3d-dev)
+fi
+missing=()
+for p in "${packages[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$p")
+  fi
+done
+if [[ ${#missing[@]} -eq 0 ]]; then
+  exit 0
+fi
+echo "install-deps: installing ${missing[*]}"
+SUDO=""
+if [[ $(id -u) -ne 0 ]]; then SUDO="sudo"; fi
+export DEBIAN_FRONTEND=noninteractive
+$SUDO apt-get update -qq
+$SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"

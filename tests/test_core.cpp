@@ -1,0 +1,175 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "hazmap/core/class_table.hpp"
+#include "hazmap/core/error.hpp"
+#include "hazmap/core/labeled_cloud.hpp"
+#include "hazmap/core/se3.hpp"
+#include "test_helpers.hpp"
+
+using namespace hazmap;
+
+TEST(LabeledCloud, PushSelectSliceAppendKeepChannelsAligned) {
+  LabeledCloud c;
+  c.enableIntensity();
+  for (int i = 0; i < 10; ++i) c.push_back({float(i), 0, 0}, ClassId(i % 3), float(i) * 2);
+  ASSERT_EQ(c.size(), 10u);
+  ASSERT_EQ(c.intensity.size(), 10u);
+  EXPECT_FALSE(c.hasTimestamps());
+  std::vector<std::size_t> idx{9, 1};
+  auto s = c.select(idx);
+  ASSERT_EQ(s.size(), 2u);
+  EXPECT_EQ(s.points[0].x(), 9.0f);
+  EXPECT_EQ(s.classes[1], 1);
+  EXPECT_EQ(s.intensity[0], 18.0f);
+  auto sl = c.slice(2, 5);
+  EXPECT_EQ(sl.size(), 3u);
+  EXPECT_EQ(sl.intensity[2], 8.0f);
+  LabeledCloud no_i;
+  no_i.push_back({1, 1, 1}, 2);
+  auto joined = c;
+  joined.append(no_i);
+  EXPECT_EQ(joined.size(), 11u);
+  EXPECT_FALSE(joined.hasIntensity());  // only channels both sides have survive
+  joined.checkConsistent("joined");
+  LabeledCloud empty;
+  empty.append(c);
+  EXPECT_TRUE(empty.hasIntensity());
+}
+
+TEST(LabeledCloud, RemoveNonFiniteCountsAndCompacts) {
+  LabeledCloud c;
+  c.enableProperty();
+  c.push_back({1, 2, 3}, 1, 0, 0, 20.f);
+  c.push_back({NAN, 2, 3}, 1);
+  c.push_back({1, INFINITY, 3}, 1);
+  c.push_back({4, 5, 6}, 2, 0, 0, NAN);
+  c.push_back({7, 8, 9}, 3, 0, 0, 30.f);
+  EXPECT_EQ(c.removeNonFinite(), 3u);
+  ASSERT_EQ(c.size(), 2u);
+  EXPECT_EQ(c.classes[1], 3);
+  EXPECT_EQ(c.property[1], 30.f);
+}
+
+TEST(LabeledCloud, TransformAndBounds) {
+  LabeledCloud c;
+  c.push_back({1, 0, 0});
+  c.push_back({0, 2, 0});
+  const auto T = fromXyzRpy(1, 2, 3, 0, 0, M_PI / 2);
+  auto t = c.transformed(T);
+  EXPECT_NEAR(t.points[0].x(), 1.0f, 1e-6);
+  EXPECT_NEAR(t.points[0].y(), 3.0f, 1e-6);
+  EXPECT_NEAR(t.points[1].x(), -1.0f, 1e-6);
+  const auto b = t.bounds();
+  EXPECT_NEAR(b.min.x(), -1.0f, 1e-6);
+  EXPECT_NEAR(b.max.y(), 3.0f, 1e-6);
+}
+
+TEST(LabeledCloud, InconsistentChannelIsReported) {
+  LabeledCloud c;
+  c.push_back({0, 0, 0});
+  c.intensity = {1.f, 2.f};
+  try {
+    c.checkConsistent("scan.pcd");
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("scan.pcd: intensity count 2"), std::string::npos);
+  }
+}
+
+TEST(SE3, ExpLogRoundTripAndSmallAngles) {
+  std::mt19937 rng(1);
+  std::normal_distribution<double> n(0, 1);
+  for (int k = 0; k < 100; ++k) {
+    Vector6d xi;
+    for (int i = 0; i < 6; ++i) xi[i] = n(rng) * (k < 10 ? 1e-9 : 0.8);
+    const auto T = se3Exp(xi);
+    EXPECT_TRUE((se3Log(T) - xi).norm() < 1e-9) << xi.transpose();
+    EXPECT_NEAR(T.linear().determinant(), 1.0, 1e-12);
+  }
+}
+
+TEST(SE3, AdjointMatchesConjugation) {
+  const auto T = fromXyzRpy(1, -2, 0.5, 0.1, -0.3, 1.2);
+  Vector6d xi;
+  xi << 0.1, 0.2, -0.1, 0.05, -0.02, 0.03;
+  const Vector6d lhs = se3Log(T * se3Exp(xi) * T.inverse());
+  EXPECT_LT((lhs - adjoint(T) * xi).norm(), 1e-9);
+}
+
+TEST(SE3, SwapOrderIsAnInvolution) {
+  Matrix6d m = Matrix6d::Random();
+  EXPECT_TRUE(swapTranslationRotation(swapTranslationRotation(m)).isApprox(m));
+  Matrix6d d = Matrix6d::Zero();
+  d(0, 0) = 1;  // x variance → becomes element (3,3) in rotation-first order
+  EXPECT_EQ(swapTranslationRotation(d)(3, 3), 1.0);
+  EXPECT_NEAR(yawOf(fromXyYaw(0, 0, 2.5)), 2.5, 1e-12);
+  EXPECT_NEAR(rotationAngle(fromXyzRpy(0, 0, 0, 0.3, 0, 0)), 0.3, 1e-12);
+  Eigen::Matrix3d noisy = so3Exp({0.1, 0.2, 0.3}) + 1e-3 * Eigen::Matrix3d::Random();
+  const auto R = projectToSO3(noisy);
+  EXPECT_NEAR(R.determinant(), 1.0, 1e-12);
+  EXPECT_TRUE((R * R.transpose()).isIdentity(1e-12));
+}
+
+TEST(ClassTable, DefaultsAndSemanticKitti) {
+  const auto t = ClassTable::defaults();
+  EXPECT_EQ(t.size(), 4u);
+  EXPECT_EQ(t.at(1).kind, PropertyKind::Heat);
+  EXPECT_EQ(t.at(2).name, "water");
+  EXPECT_FALSE(t.isProperty(0));
+  EXPECT_TRUE(t.isProperty(3));
+  EXPECT_EQ(t.mapRaw(2), 2);  // no raw map: identity
+  const auto k = ClassTable::semanticKitti();
+  EXPECT_EQ(k.mapRaw(80), 1);
+  EXPECT_EQ(k.mapRaw(71), 2);
+  EXPECT_EQ(k.mapRaw(81), 3);
+  EXPECT_EQ(k.mapRaw(40), 0);
+  EXPECT_THROW(t.at(9), Error);
+}
+
+TEST(ClassTable, YamlRoundTripAndShippedFiles) {
+  const auto k = ClassTable::semanticKitti();
+  const auto back = ClassTable::fromYamlString(k.toYamlString(), "mem");
+  EXPECT_EQ(back.size(), k.size());
+  EXPECT_EQ(back.mapRaw(81), 3);
+  EXPECT_EQ(back.at(1).color, k.at(1).color);
+  EXPECT_DOUBLE_EQ(back.at(2).search_radius, k.at(2).search_radius);
+  for (const char* f : {"config/classes/default.yaml", "config/classes/semantic_kitti.yaml"}) {
+    const auto t = ClassTable::fromYamlFile(test::sourceDir(f));
+    EXPECT_EQ(t.size(), 4u) << f;
+  }
+  EXPECT_EQ(ClassTable::fromYamlFile(test::sourceDir("config/classes/semantic_kitti.yaml")).mapRaw(80), 1);
+}
+
+TEST(ClassTable, BadYamlGivesOneLineErrorNamingTheFile) {
+  const auto expectError = [](const std::string& yaml, const std::string& needle) {
+    try {
+      ClassTable::fromYamlString(yaml, "t.yaml");
+      ADD_FAILURE() << "no error for: " << yaml;
+    } catch (const Error& e) {
+      const std::string msg = e.what();
+      EXPECT_EQ(msg.rfind("t.yaml: ", 0), 0u) << msg;
+      EXPECT_NE(msg.find(needle), std::string::npos) << msg;
+      EXPECT_EQ(msg.find('\n'), std::string::npos) << msg;
+    }
+  };
+  expectError("classes: [", "invalid YAML");
+  expectError("foo: 1", "'classes'");
+  expectError("classes:\n  - {id: 0, name: a, kind: lava}", "unknown kind 'lava'");
+  expectError("classes:\n  - {id: 70000, name: a}", "out of range");
+  expectError("classes:\n  - {id: 1, name: a, search_radius: -1}", "search_radius");
+  expectError("classes:\n  - {id: 1, name: a, search_radius: abc}", "search_radius");
+  expectError("classes:\n  - {id: 1, name: a}\n  - {id: 1, name: b}", "defined twice");
+  expectError("classes:\n  - {id: 0, name: a}\nraw_labels: {80: 5}", "unknown class 5");
+  expectError("mismatch_penalty: -2\nclasses:\n  - {id: 0, name: a}", "mismatch_penalty");
+  EXPECT_THROW(ClassTable::fromYamlFile("/nonexistent/t.yaml"), Error);
+}
+
+TEST(ClassTable, CheckCloudRejectsUnknownClass) {
+  LabeledCloud c;
+  c.push_back({0, 0, 0}, 0);
+  c.push_back({0, 0, 0}, 7);
+  EXPECT_THROW(ClassTable::defaults().checkCloud(c, "x.bin"), Error);
+}

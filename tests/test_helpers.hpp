@@ -1,0 +1,49 @@
+#pragma once
+// Shared test helpers: paths to the shared real data and a fresh scratch folder per test.
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <string>
+
+namespace hazmap::test {
+
+inline std::filesystem::path sharedData(const std::string& rel = "") {
+  return std::filesystem::path(HAZMAP_SHARED_DATA_DIR) / rel;
+}
+
+inline std::filesystem::path sourceDir(const std::string& rel = "") {
+  return std::filesystem::path(HAZMAP_SOURCE_DIR) / rel;
+}
+
+/// A new empty folder named after the running test.
+inline std::filesystem::path scratchDir() {
+  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+  const char* base = std::getenv("HAZMAP_TEST_TMP");
+  std::filesystem::path dir = std::filesystem::path(base ? base : "/tmp/hazmap-test") /
+                              (std::string(info->test_suite_name()) + "." + info->name());
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
+struct CommandResult {
+  int exit_code = 0;
+  std::string output;  ///< stdout and stderr together
+};
+
+/// Runs the hazmap CLI with the given argument string (shell-quoted by the caller).
+inline CommandResult runCli(const std::string& args) {
+  const std::string cmd = std::string(HAZMAP_CLI) + " " + args + " 2>&1";
+  CommandResult r;
+  FILE* pipe = popen(cmd.c_str(), "r");
+  if (!pipe) return {-1, "popen failed"};
+  char buf[4096];
+  std::size_t n;
+  while ((n = fread(buf, 1, sizeof buf, pipe)) > 0) r.output.append(buf, n);
+  const int status = pclose(pipe);
+  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  return r;
+}
+
+}  // namespace hazmap::test
