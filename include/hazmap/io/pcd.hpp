@@ -1,0 +1,21 @@
+#pragma once
+// PCD v0.7 (PCL's format). Reads DATA ascii / binary / binary_compressed with fields x y z and
+// optional intensity, label (→ class via table.mapRaw), timestamp (or t/time); extra fields are
+// skipped. Writes ascii or binary, readable by PCL.
+#include <filesystem>
+
+#include "hazmap/core/class_table.hpp"
+#include "hazmap/core/labeled_cloud.hpp"
+#include "hazmap/io/read_stats.hpp"
+
+namespace hazmap {
+
+enum class PcdEncoding { Ascii, Binary };
+
+LabeledCloud readPcd(const std::filesystem::path& path, const ClassTable& table = ClassTable::defaults(),
+                     ReadStats* stats = nullptr);
+/// Writes x y z [intensity] label [timestamp] [property]. Atomic.
+void writePcd(const std::filesystem::path& path, const LabeledCloud& cloud,
+              PcdEncoding encoding = PcdEncoding::Binary);
+
+}  // namespace hazmap

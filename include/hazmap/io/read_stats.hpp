@@ -1,0 +1,12 @@
+#pragma once
+#include <cstddef>
+
+namespace hazmap {
+
+/// What a reader saw besides the points it returned.
+struct ReadStats {
+  std::size_t points_in_file = 0;      ///< records declared/present in the file
+  std::size_t dropped_non_finite = 0;  ///< NaN/Inf points removed (never passed on)
+};
+
+}  // namespace hazmap

@@ -1,0 +1,67 @@
+#pragma once
+// A sequence directory (SemanticKITTI-compatible layout):
+//   velodyne/NNNNNN.bin | .pcd | .ply   scans, sorted by name
+//   labels/NNNNNN.label                  optional per-point labels (for .bin scans)
+//   poses.txt                            optional ground truth, KITTI format, one line per scan
+//   odometry.txt                         optional wheel odometry, KITTI format, one line per scan
+//   hazmap.yaml                          optional: `class_table:` (a class table) and `sensor:`
+// Frames are read lazily, one at a time.
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "hazmap/core/class_table.hpp"
+#include "hazmap/core/labeled_cloud.hpp"
+#include "hazmap/io/read_stats.hpp"
+#include "hazmap/io/trajectory.hpp"
+
+namespace hazmap {
+
+class Sequence {
+ public:
+  /// Scans the folder (does not read any scan). `table_override` replaces hazmap.yaml's table.
+  static Sequence open(const std::filesystem::path& dir,
+                       const std::optional<ClassTable>& table_override = std::nullopt);
+
+  std::size_t size() const { return scans_.size(); }
+  /// Reads frame i (labels mapped through classTable()). Throws hazmap::Error naming the file.
+  LabeledCloud frame(std::size_t i, ReadStats* stats = nullptr) const;
+  const std::filesystem::path& scanPath(std::size_t i) const { return scans_.at(i); }
+
+  const std::filesystem::path& directory() const { return dir_; }
+  const ClassTable& classTable() const { return table_; }
+  const std::optional<Trajectory>& groundTruth() const { return ground_truth_; }
+  const std::optional<Trajectory>& odometry() const { return odometry_; }
+  /// The `sensor:` section of hazmap.yaml as YAML text (empty if none).
+  const std::string& sensorYaml() const { return sensor_yaml_; }
+
+ private:
+  std::filesystem::path dir_;
+  std::vector<std::filesystem::path> scans_;
+  std::vector<std::optional<std::filesystem::path>> labels_;
+  ClassTable table_ = ClassTable::defaults();
+  std::optional<Trajectory> ground_truth_, odometry_;
+  std::string sensor_yaml_;
+};
+
+/// Writes a sequence directory frame by frame (velodyne/*.bin + labels/*.label), then the
+/// trajectories and hazmap.yaml. Every file is written atomically.
+class SequenceWriter {
+ public:
+  SequenceWriter(std::filesystem::path dir, ClassTable table, std::string sensor_yaml = "");
+  void addFrame(const LabeledCloud& scan);
+  void writeGroundTruth(const Trajectory& poses);
+  void writeOdometry(const Trajectory& odometry);
+  /// Writes hazmap.yaml; call last.
+  void finish();
+  std::size_t frames() const { return frames_; }
+
+ private:
+  std::filesystem::path dir_;
+  ClassTable table_;
+  std::string sensor_yaml_;
+  std::size_t frames_ = 0;
+};
+
+}  // namespace hazmap
