@@ -173,3 +173,35 @@ TEST(ClassTable, CheckCloudRejectsUnknownClass) {
   c.push_back({0, 0, 0}, 7);
   EXPECT_THROW(ClassTable::defaults().checkCloud(c, "x.bin"), Error);
 }
+
+#include "hazmap/preprocess/voxel_downsample.hpp"
+
+TEST(VoxelDownsample, CentroidAndVotes) {
+  LabeledCloud c;
+  c.enableIntensity();
+  // voxel A (0..1): three "none" points and one heat point
+  c.push_back({0.1f, 0.1f, 0.1f}, 0, 1.f);
+  c.push_back({0.3f, 0.1f, 0.1f}, 0, 1.f);
+  c.push_back({0.5f, 0.1f, 0.1f}, 0, 1.f);
+  c.push_back({0.7f, 0.1f, 0.1f}, 1, 5.f);
+  // voxel B: one water point
+  c.push_back({2.5f, 0.5f, 0.5f}, 2, 3.f);
+  VoxelDownsampleConfig cfg;
+  cfg.voxel_size = 1.0;
+  auto m = voxelDownsample(c, cfg);
+  ASSERT_EQ(m.size(), 2u);
+  EXPECT_NEAR(m.points[0].x(), 0.4f, 1e-6);
+  EXPECT_EQ(m.classes[0], 0);
+  EXPECT_NEAR(m.intensity[0], 2.0f, 1e-6);
+  EXPECT_EQ(m.classes[1], 2);
+  cfg.vote = ClassVote::PreferProperty;
+  cfg.property_share = 0.25;
+  auto p = voxelDownsample(c, cfg);
+  EXPECT_EQ(p.classes[0], 1);  // 1 of 4 points is heat: enough under PreferProperty
+  cfg.voxel_size = 0;
+  EXPECT_THROW(voxelDownsample(c, cfg), Error);
+  cfg.voxel_size = -1;
+  EXPECT_THROW(voxelDownsample(c, cfg), Error);
+  cfg.voxel_size = 1;
+  EXPECT_TRUE(voxelDownsample(LabeledCloud{}, cfg).empty());
+}

@@ -1,0 +1,26 @@
+#pragma once
+// Voxel-grid downsampling that keeps classes: one point per occupied voxel at the centroid of its
+// points, optional channels averaged, and a class chosen by vote.
+#include "hazmap/core/class_table.hpp"
+#include "hazmap/core/labeled_cloud.hpp"
+
+namespace hazmap {
+
+enum class ClassVote {
+  Majority,        ///< the most frequent class in the voxel (ties → smaller id); for maps
+  PreferProperty,  ///< a property class wins if it holds >= `property_share` of the voxel's
+                   ///< points; property points are rare and carry the paper's signal (sec. IV-B)
+};
+
+struct VoxelDownsampleConfig {
+  double voxel_size = 0.25;  ///< m, must be > 0
+  ClassVote vote = ClassVote::Majority;
+  double property_share = 0.25;  ///< for PreferProperty
+};
+
+/// Deterministic: output order follows the voxels' sorted keys. `table` tells which classes are
+/// properties (needed for PreferProperty). Throws hazmap::Error on voxel_size <= 0.
+LabeledCloud voxelDownsample(const LabeledCloud& cloud, const VoxelDownsampleConfig& config,
+                             const ClassTable& table = ClassTable::defaults());
+
+}  // namespace hazmap
