@@ -101,9 +101,15 @@ std::vector<PropertyLandmark> extractLandmarks(const LabeledCloud& cloud, const 
   const double max_range2 = config.max_range > 0 ? config.max_range * config.max_range : 0.0;
 
   // Labelled points only (they are a few percent of a scan, so this stays small).
+  std::vector<char> is_property;  // class id → property? (a table lookup per point is slow)
+  for (ClassId id : table.ids()) {
+    if (id >= is_property.size()) is_property.resize(static_cast<std::size_t>(id) + 1, 0);
+    is_property[id] = table.isProperty(id);
+  }
   std::vector<std::size_t> idx;
   for (std::size_t i = 0; i < cloud.size(); ++i) {
-    if (!table.isProperty(cloud.classes[i])) continue;
+    const ClassId c = cloud.classes[i];
+    if (c >= is_property.size() || !is_property[c]) continue;
     const Eigen::Vector3f& p = cloud.points[i];
     if (!p.allFinite()) continue;
     if (max_range2 > 0 && p.cast<double>().squaredNorm() > max_range2) continue;
@@ -111,31 +117,48 @@ std::vector<PropertyLandmark> extractLandmarks(const LabeledCloud& cloud, const 
   }
   if (idx.empty()) return {};
 
-  // Hash grid with cell = tolerance: every neighbour within `tol` lies in the 27 adjacent cells
-  // of the same class.
+  // Hash grid with cell edge tol/√3: the cell diagonal is tol, so all points of one cell are
+  // connected outright, and every neighbour within tol lies within ±2 cells. Cell pairs whose
+  // points are already connected are skipped, which keeps dense patches cheap.
+  const double cell = tol / std::sqrt(3.0);
   auto keyOf = [&](std::size_t i) {
     const Eigen::Vector3f& p = cloud.points[i];
-    return CellKey{static_cast<std::int32_t>(std::floor(p.x() / tol)),
-                   static_cast<std::int32_t>(std::floor(p.y() / tol)),
-                   static_cast<std::int32_t>(std::floor(p.z() / tol)), cloud.classes[i]};
+    return CellKey{static_cast<std::int32_t>(std::floor(p.x() / cell)),
+                   static_cast<std::int32_t>(std::floor(p.y() / cell)),
+                   static_cast<std::int32_t>(std::floor(p.z() / cell)), cloud.classes[i]};
   };
   std::unordered_map<CellKey, std::vector<std::uint32_t>, CellHash> grid;
+  std::vector<CellKey> order;  // cells in first-seen order (deterministic)
   grid.reserve(idx.size());
-  for (std::uint32_t k = 0; k < idx.size(); ++k) grid[keyOf(idx[k])].push_back(k);
-
-  DisjointSets sets(idx.size());
   for (std::uint32_t k = 0; k < idx.size(); ++k) {
     const CellKey key = keyOf(idx[k]);
-    const Eigen::Vector3f& p = cloud.points[idx[k]];
-    for (int dx = -1; dx <= 1; ++dx)
-      for (int dy = -1; dy <= 1; ++dy)
-        for (int dz = -1; dz <= 1; ++dz) {
+    auto [it, inserted] = grid.try_emplace(key);
+    if (inserted) order.push_back(key);
+    it->second.push_back(k);
+  }
+
+  DisjointSets sets(idx.size());
+  for (const auto& [key, members] : grid)
+    for (std::size_t m = 1; m < members.size(); ++m) sets.unite(members[0], members[m]);
+  for (const CellKey& key : order) {
+    const auto& a = grid.find(key)->second;
+    for (int dx = -2; dx <= 2; ++dx)
+      for (int dy = -2; dy <= 2; ++dy)
+        for (int dz = -2; dz <= 2; ++dz) {
+          if (dx == 0 && dy == 0 && dz == 0) continue;
           auto it = grid.find(CellKey{key.x + dx, key.y + dy, key.z + dz, key.c});
           if (it == grid.end()) continue;
-          for (std::uint32_t m : it->second) {
-            if (m <= k) continue;
-            if (sets.find(m) == sets.find(k)) continue;
-            if ((cloud.points[idx[m]] - p).cast<double>().squaredNorm() <= tol2) sets.unite(k, m);
+          const auto& b = it->second;
+          if (sets.find(a[0]) == sets.find(b[0])) continue;
+          bool joined = false;
+          for (std::size_t s = 0; s < a.size() && !joined; ++s) {
+            const Eigen::Vector3f& p = cloud.points[idx[a[s]]];
+            for (std::size_t t = 0; t < b.size(); ++t)
+              if ((cloud.points[idx[b[t]]] - p).cast<double>().squaredNorm() <= tol2) {
+                sets.unite(a[s], b[t]);
+                joined = true;
+                break;
+              }
           }
         }
   }

@@ -1,5 +1,7 @@
 #include "hazmap/core/error.hpp"
+#include "hazmap/core/se3.hpp"
 #include "hazmap/loop/loop_closure.hpp"
+#include "hazmap/preprocess/voxel_downsample.hpp"
 
 namespace hazmap {
 
@@ -11,6 +13,12 @@ LoopDetector::LoopDetector(ClassTable classes, LoopClosureConfig config)
 std::size_t LoopDetector::addKeyframe(LabeledCloud cloud) {
   cloud.checkConsistent("loop closure keyframe " + std::to_string(clouds_.size()));
   landmarks_.push_back(extractLandmarks(cloud, classes_, config_.landmarks));
+  if (config_.keyframe_voxel > 0.0) {
+    VoxelDownsampleConfig v;
+    v.voxel_size = config_.keyframe_voxel;
+    v.vote = ClassVote::PreferProperty;
+    cloud = voxelDownsample(cloud, v, classes_);
+  }
   clouds_.push_back(std::move(cloud));
   return clouds_.size() - 1;
 }
@@ -68,6 +76,13 @@ std::vector<LoopClosure> LoopDetector::consistentLoops(const PoseList& estimate)
   std::vector<LoopClosure> out;
   for (std::size_t i : consistentSubset(loops_, estimate, config_.consistency)) out.push_back(loops_[i]);
   return out;
+}
+
+bool isTrueLoop(const LoopClosure& loop, const PoseList& truth, double max_t, double max_r) {
+  if (loop.from >= truth.size() || loop.to >= truth.size())
+    fail("isTrueLoop", "loop keyframe index out of range of the ground truth");
+  const Eigen::Isometry3d err = (truth[loop.from].inverse() * truth[loop.to]).inverse() * loop.T_from_to;
+  return translationNorm(err) <= max_t && rotationAngle(err) <= max_r;
 }
 
 }  // namespace hazmap

@@ -27,6 +27,7 @@ const char* toString(CandidateMethod method);
 ///   loop_closure:
 ///     method: constellation          # constellation | distance | both
 ///     max_loops_per_keyframe: 1
+///     keyframe_voxel: 0.15
 ///     landmarks:    {cluster_tolerance: 0.7, min_points: 8, max_range: 30}
 ///     candidates:   {min_index_gap: 15, search_radius: 3, max_candidates: 3,
 ///                    constellation: {model: planar, distance_tolerance: 0.8, inlier_distance: 1,
@@ -46,6 +47,10 @@ struct LoopClosureConfig {
   CandidateMethod method = CandidateMethod::Constellation;
   /// Verified loops kept per query keyframe (best candidates first).
   std::size_t max_loops_per_keyframe = 1;
+  /// Keyframe clouds are stored voxel-downsampled to this size (m) for verification (property
+  /// points win their voxel, see preprocess/voxel_downsample.hpp); 0 = keep every point.
+  /// Landmarks are always extracted from the full cloud.
+  double keyframe_voxel = 0.15;
   LandmarkConfig landmarks;
   CandidateSearchConfig candidates;
   VerificationConfig verification;
@@ -102,5 +107,10 @@ class LoopDetector {
   std::vector<std::vector<PropertyLandmark>> landmarks_;
   std::vector<LoopClosure> loops_;
 };
+
+/// Whether a loop agrees with ground truth (`truth` = world ← keyframe): its relative pose is
+/// within the given translation (m) and rotation (rad) error of the true one.
+bool isTrueLoop(const LoopClosure& loop, const PoseList& truth, double max_translation_error = 0.5,
+                double max_rotation_error = 0.05);
 
 }  // namespace hazmap
