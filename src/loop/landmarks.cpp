@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <numeric>
 #include <unordered_map>
 
@@ -176,6 +177,70 @@ std::vector<PropertyLandmark> extractLandmarks(const LabeledCloud& cloud, const 
   std::vector<PropertyLandmark> out;
   for (const auto& members : clusters)
     if (members.size() >= config.min_points) out.push_back(describe(cloud, members));
+  std::stable_sort(out.begin(), out.end(), [](const PropertyLandmark& a, const PropertyLandmark& b) {
+    return a.class_id < b.class_id;
+  });
+  return out;
+}
+
+std::vector<PropertyLandmark> mergeLandmarks(
+    const std::vector<std::vector<PropertyLandmark>>& per_keyframe, const PoseList& poses,
+    std::size_t first, std::size_t last, std::size_t ref, double merge_distance) {
+  if (first > last || last >= per_keyframe.size() || last >= poses.size() || ref >= poses.size())
+    fail("mergeLandmarks", "keyframe range out of bounds");
+  // Reference keyframe first, then by distance in index: nearer keyframes seed the merge.
+  std::vector<std::size_t> order;
+  for (std::size_t k = first; k <= last; ++k) order.push_back(k);
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+    auto d = [&](std::size_t k) { return k > ref ? k - ref : ref - k; };
+    return d(a) < d(b);
+  });
+  const Eigen::Isometry3d T_ref_world = poses[ref].inverse();
+  std::vector<PropertyLandmark> out;
+  for (std::size_t k : order) {
+    const Eigen::Isometry3d T = T_ref_world * poses[k];
+    for (const PropertyLandmark& l : per_keyframe[k]) {
+      PropertyLandmark t = l;
+      t.centroid = T * l.centroid;
+      t.axes = T.linear() * l.axes;
+      // Bounds of the moved box: its eight corners.
+      t.box_min = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+      t.box_max = -t.box_min;
+      for (int c = 0; c < 8; ++c) {
+        const Eigen::Vector3d corner((c & 1) ? l.box_max.x() : l.box_min.x(),
+                                     (c & 2) ? l.box_max.y() : l.box_min.y(),
+                                     (c & 4) ? l.box_max.z() : l.box_min.z());
+        const Eigen::Vector3d q = T * corner;
+        t.box_min = t.box_min.cwiseMin(q);
+        t.box_max = t.box_max.cwiseMax(q);
+      }
+      PropertyLandmark* into = nullptr;
+      double best = merge_distance;
+      for (auto& o : out) {
+        const double d = (o.centroid - t.centroid).norm();
+        if (o.class_id == t.class_id && d <= best) {
+          best = d;
+          into = &o;
+        }
+      }
+      if (!into) {
+        out.push_back(t);
+        continue;
+      }
+      const double wa = static_cast<double>(into->point_count), wb = static_cast<double>(t.point_count);
+      const double w = wa + wb > 0 ? wb / (wa + wb) : 0.5;
+      into->centroid = (1 - w) * into->centroid + w * t.centroid;
+      if (into->has_property_value && t.has_property_value)
+        into->mean_property = (1 - w) * into->mean_property + w * t.mean_property;
+      if (t.extent(0) > into->extent(0)) {
+        into->extent = t.extent;
+        into->axes = t.axes;
+      }
+      into->box_min = into->box_min.cwiseMin(t.box_min);
+      into->box_max = into->box_max.cwiseMax(t.box_max);
+      into->point_count += t.point_count;
+    }
+  }
   std::stable_sort(out.begin(), out.end(), [](const PropertyLandmark& a, const PropertyLandmark& b) {
     return a.class_id < b.class_id;
   });

@@ -26,8 +26,19 @@ std::size_t LoopDetector::addKeyframe(LabeledCloud cloud) {
 std::vector<LoopCandidate> LoopDetector::candidates(std::size_t query, const PoseList& estimate) const {
   if (query >= size()) fail("loop closure", "query keyframe " + std::to_string(query) + " does not exist");
   std::vector<LoopCandidate> out;
-  if (config_.method != CandidateMethod::Distance)
-    out = findConstellationCandidates(query, landmarks_, config_.candidates);
+  if (config_.method != CandidateMethod::Distance) {
+    if (config_.landmark_window <= 1) {
+      out = findConstellationCandidates(query, landmarks_, config_.candidates);
+    } else {
+      if (estimate.size() <= query)
+        fail("loop closure", "landmark_window > 1 needs a pose estimate for keyframe " + std::to_string(query));
+      std::vector<std::vector<PropertyLandmark>> places(query + 1);
+      places[query] = placeLandmarks(query, estimate);
+      for (std::size_t j = 0; j + config_.candidates.min_index_gap <= query; ++j)
+        places[j] = placeLandmarks(j, estimate);
+      out = findConstellationCandidates(query, places, config_.candidates);
+    }
+  }
   if (config_.method != CandidateMethod::Constellation) {
     if (estimate.size() <= query)
       fail("loop closure", "the distance search needs a pose estimate for keyframe " + std::to_string(query));
@@ -41,6 +52,13 @@ std::vector<LoopCandidate> LoopDetector::candidates(std::size_t query, const Pos
     }
   }
   return out;
+}
+
+std::vector<PropertyLandmark> LoopDetector::placeLandmarks(std::size_t k, const PoseList& estimate) const {
+  if (k >= size()) fail("loop closure", "keyframe " + std::to_string(k) + " does not exist");
+  if (config_.landmark_window <= 1) return landmarks_[k];
+  const std::size_t first = k + 1 >= config_.landmark_window ? k + 1 - config_.landmark_window : 0;
+  return mergeLandmarks(landmarks_, estimate, first, k, k, config_.landmark_merge_distance);
 }
 
 LoopDetection LoopDetector::detect(std::size_t query, const PoseList& estimate) {
