@@ -1,0 +1,156 @@
+#include "hazmap/io/sequence.hpp"
+
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <system_error>
+
+#include "hazmap/core/error.hpp"
+#include "hazmap/io/atomic_file.hpp"
+#include "hazmap/io/cloud_file.hpp"
+#include "hazmap/io/kitti.hpp"
+#include "io/io_detail.hpp"
+
+namespace hazmap {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+bool isScan(const fs::path& p) {
+  const std::string ext = io_detail::extensionOf(p);
+  return ext == ".bin" || ext == ".pcd" || ext == ".ply";
+}
+
+std::optional<Trajectory> readOptionalTrajectory(const fs::path& path, std::size_t scans) {
+  std::error_code ec;
+  if (!fs::exists(path, ec)) return std::nullopt;
+  Trajectory t = readKittiTrajectory(path);
+  if (t.size() != scans)
+    fail(path.string(), "has " + std::to_string(t.size()) + " poses but the sequence has " +
+                            std::to_string(scans) + " scans (one line per scan expected)");
+  return t;
+}
+
+/// The class table stored with a sequence: the classes without the raw-label mapping, because a
+/// SequenceWriter stores class ids (not raw ids) in labels/*.label.
+ClassTable withoutRawMapping(const ClassTable& table) {
+  ClassTable out;
+  for (ClassId id : table.ids()) out.add(table.at(id));
+  out.mismatch_penalty = table.mismatch_penalty;
+  return out;
+}
+
+std::string frameName(std::size_t i) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%06zu", i);
+  return buf;
+}
+
+}  // namespace
+
+Sequence Sequence::open(const fs::path& dir, const std::optional<ClassTable>& table_override) {
+  std::error_code ec;
+  if (!fs::exists(dir, ec)) fail(dir.string(), "sequence folder not found");
+  if (!fs::is_directory(dir, ec)) fail(dir.string(), "is not a folder (expected a sequence directory)");
+  const fs::path velodyne = dir / "velodyne";
+  if (!fs::is_directory(velodyne, ec)) fail(dir.string(), "no velodyne/ folder (not a sequence directory)");
+  Sequence seq;
+  seq.dir_ = dir;
+  for (const auto& entry : fs::directory_iterator(velodyne, ec))
+    if (entry.is_regular_file() && isScan(entry.path())) seq.scans_.push_back(entry.path());
+  if (ec) fail(velodyne.string(), "cannot list: " + ec.message());
+  std::sort(seq.scans_.begin(), seq.scans_.end());
+  for (const auto& scan : seq.scans_) {
+    std::optional<fs::path> label;
+    if (io_detail::extensionOf(scan) == ".bin") {
+      fs::path l = dir / "labels" / scan.filename();
+      l.replace_extension(".label");
+      if (fs::is_regular_file(l, ec)) label = l;
+    }
+    seq.labels_.push_back(label);
+  }
+
+  const fs::path yaml_path = dir / "hazmap.yaml";
+  if (fs::exists(yaml_path, ec)) {
+    const std::string where = yaml_path.string();
+    YAML::Node root;
+    try {
+      root = YAML::Load(readTextFile(yaml_path));
+    } catch (const YAML::Exception& e) {
+      fail(where, std::string("invalid YAML: ") + e.msg + " at line " + std::to_string(e.mark.line + 1));
+    }
+    if (root && !root.IsNull() && !root.IsMap()) fail(where, "must be a YAML mapping");
+    if (root.IsMap()) {
+      if (const YAML::Node t = root["class_table"]; t && !table_override) {
+        if (t.IsScalar()) {
+          // A built-in name or a path relative to the sequence folder.
+          const std::string name = t.as<std::string>();
+          const fs::path rel = dir / name;
+          seq.table_ = (name == "default" || name == "semantic-kitti" || fs::path(name).is_absolute())
+                           ? ClassTable::load(name)
+                           : ClassTable::fromYamlFile(rel);
+        } else if (t.IsMap()) {
+          seq.table_ = ClassTable::fromYamlString(YAML::Dump(t), where + ": class_table");
+        } else {
+          fail(where, "'class_table' must be a table or the name/path of one");
+        }
+      }
+      if (const YAML::Node s = root["sensor"]; s && !s.IsNull()) seq.sensor_yaml_ = YAML::Dump(s) + "\n";
+    }
+  }
+  if (table_override) seq.table_ = *table_override;
+  seq.ground_truth_ = readOptionalTrajectory(dir / "poses.txt", seq.scans_.size());
+  seq.odometry_ = readOptionalTrajectory(dir / "odometry.txt", seq.scans_.size());
+  return seq;
+}
+
+LabeledCloud Sequence::frame(std::size_t i, ReadStats* stats) const {
+  if (i >= scans_.size())
+    fail(dir_.string(), "frame " + std::to_string(i) + " out of range (" + std::to_string(scans_.size()) +
+                            " frames)");
+  if (io_detail::extensionOf(scans_[i]) == ".bin") return readKittiScan(scans_[i], labels_[i], table_, stats);
+  return readCloud(scans_[i], table_, stats);
+}
+
+SequenceWriter::SequenceWriter(fs::path dir, ClassTable table, std::string sensor_yaml)
+    : dir_(std::move(dir)), table_(std::move(table)), sensor_yaml_(std::move(sensor_yaml)) {
+  if (!sensor_yaml_.empty()) {
+    try {
+      (void)YAML::Load(sensor_yaml_);
+    } catch (const YAML::Exception& e) {
+      fail(dir_.string(), std::string("sensor description is not valid YAML: ") + e.msg);
+    }
+  }
+  std::error_code ec;
+  fs::create_directories(dir_ / "velodyne", ec);
+  if (!ec) fs::create_directories(dir_ / "labels", ec);
+  if (ec) fail(dir_.string(), "cannot create sequence folders: " + ec.message());
+}
+
+void SequenceWriter::addFrame(const LabeledCloud& scan) {
+  const std::string name = frameName(frames_);
+  writeKittiBin(dir_ / "velodyne" / (name + ".bin"), scan);
+  writeSemanticKittiLabels(dir_ / "labels" / (name + ".label"), scan);
+  ++frames_;
+}
+
+void SequenceWriter::writeGroundTruth(const Trajectory& poses) { writeKittiTrajectory(dir_ / "poses.txt", poses); }
+
+void SequenceWriter::writeOdometry(const Trajectory& odometry) {
+  writeKittiTrajectory(dir_ / "odometry.txt", odometry);
+}
+
+void SequenceWriter::finish() {
+  YAML::Emitter out;
+  out << YAML::Comment("hazmap sequence: labels/*.label hold hazmap class ids of this table");
+  out << YAML::BeginMap;
+  out << YAML::Key << "frames" << YAML::Value << frames_;
+  out << YAML::Key << "class_table" << YAML::Value << YAML::Load(withoutRawMapping(table_).toYamlString());
+  if (!sensor_yaml_.empty()) out << YAML::Key << "sensor" << YAML::Value << YAML::Load(sensor_yaml_);
+  out << YAML::EndMap;
+  writeTextAtomically(dir_ / "hazmap.yaml", std::string(out.c_str()) + "\n");
+}
+
+}  // namespace hazmap
