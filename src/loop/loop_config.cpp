@@ -71,6 +71,10 @@ class Section {
     for (const auto& [n, e] : names) options += (options.empty() ? "" : ", ") + std::string(n);
     fail(where_, std::string("'") + key + "' must be one of " + options + " (got '" + text + "')");
   }
+  YAML::Node raw(const char* key) {
+    known_.insert(key);
+    return node_ && node_.IsMap() ? node_[key] : YAML::Node();
+  }
   Section child(const char* key) {
     known_.insert(key);
     return Section(node_ && node_.IsMap() ? node_[key] : YAML::Node(), where_ + "." + key);
@@ -163,13 +167,10 @@ LoopClosureConfig LoopClosureConfig::fromYamlString(const std::string& yaml, con
     ve.get("max_correction_rotation", v.max_correction_rotation);
     ve.get("min_translation_sigma", v.min_translation_sigma);
     ve.get("min_rotation_sigma", v.min_rotation_sigma);
-    Section re = ve.child("registration");
-    re.get("use_classes", v.registration.use_classes);
-    re.getEnum("metric", v.registration.metric, {{"point-to-point", IcpMetric::PointToPoint},
-                                                 {"point-to-plane", IcpMetric::PointToPlane}});
-    re.get("max_correspondence_distance", v.registration.max_correspondence_distance);
-    re.get("max_iterations", v.registration.max_iterations);
-    re.finish();
+    // The registration section is the registration stage's own config (its loader, its keys).
+    if (const YAML::Node re = ve.raw("registration"); re && !re.IsNull())
+      v.registration = registrationConfigFromYaml(YAML::Dump(re), where + ": loop_closure.verification.registration",
+                                                  v.registration);
     ve.finish();
 
     Section cn = top.child("consistency");
@@ -239,13 +240,8 @@ std::string LoopClosureConfig::toYamlString() const {
   o << YAML::Key << "max_correction_rotation" << YAML::Value << v.max_correction_rotation;
   o << YAML::Key << "min_translation_sigma" << YAML::Value << v.min_translation_sigma;
   o << YAML::Key << "min_rotation_sigma" << YAML::Value << v.min_rotation_sigma;
-  o << YAML::Key << "registration" << YAML::Value << YAML::BeginMap;
-  o << YAML::Key << "use_classes" << YAML::Value << v.registration.use_classes;
-  o << YAML::Key << "metric" << YAML::Value
-    << (v.registration.metric == IcpMetric::PointToPoint ? "point-to-point" : "point-to-plane");
-  o << YAML::Key << "max_correspondence_distance" << YAML::Value << v.registration.max_correspondence_distance;
-  o << YAML::Key << "max_iterations" << YAML::Value << v.registration.max_iterations;
-  o << YAML::EndMap << YAML::EndMap;
+  o << YAML::Key << "registration" << YAML::Value << YAML::Load(hazmap::toYamlString(v.registration));
+  o << YAML::EndMap;
   const ConsistencyConfig& g = consistency;
   o << YAML::Key << "consistency" << YAML::Value << YAML::BeginMap;
   o << YAML::Key << "translation_drift_per_metre" << YAML::Value << g.translation_drift_per_metre;

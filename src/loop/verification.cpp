@@ -24,8 +24,11 @@ void validate(const VerificationConfig& c) {
   positive(c.max_correction_rotation, "max_correction_rotation");
   nonneg(c.min_translation_sigma, "min_translation_sigma");
   nonneg(c.min_rotation_sigma, "min_rotation_sigma");
-  positive(c.registration.max_correspondence_distance, "registration.max_correspondence_distance");
-  if (c.registration.max_iterations < 1) fail(where, "registration.max_iterations must be >= 1");
+  try {
+    c.registration.validate();
+  } catch (const Error& e) {
+    fail(where + ".registration", e.what());
+  }
 }
 
 namespace {

@@ -36,12 +36,13 @@ const char* toString(CandidateMethod method);
 ///                                    min_inliers: 3, min_pair_distance: 1.5,
 ///                                    min_triangle_height: 1, max_extent_ratio: 4,
 ///                                    property_value_tolerance: 0, max_hypotheses: 4000, seed: 1}}
-///     verification: {min_fitness: 0.5, max_rmse: 0.25, max_translation_sigma: 0.25,
+///     verification: {min_fitness: 0.8, max_rmse: 0.4, max_translation_sigma: 0.25,
 ///                    max_rotation_sigma: 0.035, reject_degenerate: true,
 ///                    max_correction_translation: 2, max_correction_rotation: 0.35,
 ///                    min_translation_sigma: 0.01, min_rotation_sigma: 0.001,
-///                    registration: {use_classes: true, metric: point-to-plane,
-///                                   max_correspondence_distance: 1.5, max_iterations: 60}}
+///                    registration: {...}}  # the registration stage's keys
+///                                          # (docs/registration.md); defaults differ in
+///                                          # max_correspondence_distance 1.5, max_iterations 60
 ///     consistency:  {translation_drift_per_metre: 0.04, rotation_drift_per_metre: 0.004,
 ///                    translation_sigma_floor: 0.1, rotation_sigma_floor: 0.01,
 ///                    gate_probability: 0.999, use_drift_gate: true, use_pairwise: true}

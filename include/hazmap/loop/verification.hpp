@@ -18,14 +18,21 @@ struct VerificationConfig {
   /// The ICP used for verification (property-aware by default; use_classes = false for the
   /// conventional baselines). Loops start farther from the truth than odometry steps, so the
   /// correspondence distance is wider than for frame-to-frame tracking.
+  /// At most 6000 source points (evenly strided): enough to verify a loop and bounded in time.
   RegistrationConfig registration = [] {
     RegistrationConfig r;
     r.max_correspondence_distance = 1.5;
     r.max_iterations = 60;
+    r.max_source_points = 6000;
     return r;
   }();
-  double min_fitness = 0.5;  ///< fraction of source points with a correspondence
-  double max_rmse = 0.25;    ///< m, inlier RMSE
+  /// Fraction of source points with a correspondence. Keyframes of one place from 1–3 m apart
+  /// reach 0.93–1.0 on simulated VLP-16 data; wrong alignments often 0.7–0.9.
+  double min_fitness = 0.8;
+  /// Inlier RMSE (m). Loose: two sparse VLP-16 scans of one place from 1–3 m apart have
+  /// 0.25–0.4 m even when aligned (the rings hit different spots), so this only catches gross
+  /// misalignment; the covariance and consistency checks do the rest.
+  double max_rmse = 0.4;
   /// Bounded uncertainty: the largest standard deviation of the translation (m) and rotation
   /// (rad) blocks of the ICP covariance.
   double max_translation_sigma = 0.25;

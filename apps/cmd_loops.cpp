@@ -1,0 +1,159 @@
+// hazmap loops: loop closure from property landmarks over a sequence (see docs/loop_closure.md).
+#include <fmt/format.h>
+
+#include <chrono>
+#include <iostream>
+#include <nlohmann/json.hpp>
+
+#include "command.hpp"
+#include "hazmap/core/error.hpp"
+#include "hazmap/io/atomic_file.hpp"
+#include "hazmap/io/sequence.hpp"
+#include "hazmap/io/trajectory.hpp"
+#include "hazmap/loop/loop_closure.hpp"
+
+namespace hazmap::cli {
+namespace {
+
+struct LoopsOptions {
+  std::string sequence;
+  std::string estimate;
+  std::string method;
+  std::string config;
+  std::string out;
+  std::size_t frames = 0;
+};
+
+using Clock = std::chrono::steady_clock;
+double secondsSince(Clock::time_point t) {
+  return std::chrono::duration<double>(Clock::now() - t).count();
+}
+
+nlohmann::json poseJson(const Eigen::Isometry3d& T) {
+  nlohmann::json rows = nlohmann::json::array();
+  for (int r = 0; r < 3; ++r) rows.push_back({T(r, 0), T(r, 1), T(r, 2), T(r, 3)});
+  return rows;
+}
+
+void runLoops(const LoopsOptions& o, bool method_given) {
+  LoopClosureConfig config;
+  if (!o.config.empty()) config = LoopClosureConfig::fromYamlFile(o.config);
+  if (method_given) {
+    if (o.method == "constellation") config.method = CandidateMethod::Constellation;
+    else if (o.method == "distance") config.method = CandidateMethod::Distance;
+    else if (o.method == "both") config.method = CandidateMethod::Both;
+    else fail("--method", "must be constellation, distance or both (got '" + o.method + "')");
+  }
+  const Sequence seq = Sequence::open(o.sequence);
+  if (seq.size() == 0) fail(o.sequence, "sequence has no scans");
+  Trajectory est;
+  if (!o.estimate.empty()) {
+    est = readTrajectoryAuto(o.estimate);
+  } else {
+    if (!seq.odometry()) fail(o.sequence, "no odometry.txt; give the pose estimate with --estimate");
+    est = *seq.odometry();
+  }
+  const std::size_t n = o.frames > 0 ? std::min(o.frames, seq.size()) : seq.size();
+  const std::string est_name = o.estimate.empty() ? (seq.directory() / "odometry.txt").string() : o.estimate;
+  if (est.size() < n)
+    fail(est_name, fmt::format("has {} poses, the sequence needs {}", est.size(), n));
+  PoseList estimate(est.poses.begin(), est.poses.begin() + static_cast<std::ptrdiff_t>(n));
+  PoseList truth;
+  if (seq.groundTruth() && seq.groundTruth()->size() >= n)
+    truth.assign(seq.groundTruth()->poses.begin(), seq.groundTruth()->poses.begin() + static_cast<std::ptrdiff_t>(n));
+
+  LoopDetector detector(seq.classTable(), config);
+  std::size_t landmarks = 0, candidates = 0, true_candidates = 0, verified = 0, gated = 0;
+  double t_read = 0, t_detect = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    auto t0 = Clock::now();
+    LabeledCloud cloud = seq.frame(i);
+    detector.addKeyframe(std::move(cloud));
+    t_read += secondsSince(t0);
+    landmarks += detector.landmarks(i).size();
+    t0 = Clock::now();
+    const LoopDetection det = detector.detect(i, estimate);
+    t_detect += secondsSince(t0);
+    candidates += det.candidates.size();
+    if (!truth.empty())
+      for (const auto& c : det.candidates) {
+        LoopClosure as_loop;
+        as_loop.from = c.match;
+        as_loop.to = c.query;
+        as_loop.T_from_to = c.initial_guess;
+        true_candidates += isTrueLoop(as_loop, truth, 1.0, 0.1);
+      }
+    for (const auto& v : det.verifications) verified += v.accepted || v.reason.rfind("drift gate", 0) == 0;
+    for (const auto& g : det.gates) gated += !g.accepted;
+  }
+  const auto t0 = Clock::now();
+  const std::vector<LoopClosure> loops = detector.consistentLoops(estimate);
+  const double t_consistency = secondsSince(t0);
+  const auto& accepted = detector.acceptedLoops();
+  auto countTrue = [&](const std::vector<LoopClosure>& ls) {
+    std::size_t k = 0;
+    for (const auto& l : ls) k += isTrueLoop(l, truth);
+    return k;
+  };
+
+  std::cout << fmt::format("{} frames, {:.2f} landmarks/frame, method {}\n", n,
+                           static_cast<double>(landmarks) / n, toString(config.method));
+  std::cout << fmt::format("candidates {}{}, ICP-verified {}, rejected by the drift gate {}, accepted {}, "
+                           "pairwise-consistent {}\n",
+                           candidates, truth.empty() ? "" : fmt::format(" ({} true)", true_candidates),
+                           verified, gated, accepted.size(), loops.size());
+  if (!truth.empty())
+    std::cout << fmt::format("against poses.txt: accepted {} true / {} false; kept {} true / {} false\n",
+                             countTrue(accepted), accepted.size() - countTrue(accepted), countTrue(loops),
+                             loops.size() - countTrue(loops));
+  std::cout << fmt::format("time: read + landmarks {:.2f} s, candidates + verification {:.2f} s, "
+                           "consistency {:.3f} s\n",
+                           t_read, t_detect, t_consistency);
+
+  if (!o.out.empty()) {
+    nlohmann::json j;
+    j["sequence"] = o.sequence;
+    j["frames"] = n;
+    j["method"] = toString(config.method);
+    j["loops"] = nlohmann::json::array();
+    for (const auto& l : loops) {
+      nlohmann::json e;
+      e["from"] = l.from;
+      e["to"] = l.to;
+      e["source"] = toString(l.source);
+      e["T_from_to"] = poseJson(l.T_from_to);
+      e["information"] = std::vector<double>(l.information.data(), l.information.data() + 36);
+      e["fitness"] = l.fitness;
+      e["rmse"] = l.rmse;
+      if (!truth.empty()) e["true"] = isTrueLoop(l, truth);
+      j["loops"].push_back(e);
+    }
+    AtomicFile file(o.out);
+    file.stream() << j.dump(1) << "\n";
+    file.commit();
+  }
+}
+
+void setupLoops(CLI::App& app) {
+  auto opt = std::make_shared<LoopsOptions>();
+  app.add_option("sequence", opt->sequence, "Sequence folder (velodyne/, labels/, odometry.txt, ...)")
+      ->required();
+  app.add_option("--estimate", opt->estimate,
+                 "Pose estimate (KITTI or TUM) the distance search and the consistency checks use; "
+                 "default: the sequence's odometry.txt");
+  auto* method = app.add_option("--method", opt->method,
+                                "Candidate search: constellation (property landmarks), distance "
+                                "(nearby in the estimate) or both; default from --config, else constellation");
+  app.add_option("--config", opt->config, "YAML with a loop_closure: section (docs/loop_closure.md)");
+  app.add_option("--frames", opt->frames, "Use only the first N frames (0 = all)");
+  app.add_option("--out", opt->out, "Write the consistent loops (from, to, T_from_to, information) as JSON");
+  app.callback([opt, method]() { runLoops(*opt, method->count() > 0); });
+}
+
+const RegisterCommand kRegister{{"loops",
+                                 "Find loop closures in a sequence from property landmarks; "
+                                 "reports candidates, verified and consistent loops",
+                                 setupLoops}};
+
+}  // namespace
+}  // namespace hazmap::cli
