@@ -148,6 +148,7 @@ SimulationSummary writeSimulation(const SimulatorConfig& config, const fs::path&
     const auto t_scan = Clock::now();
     tbb::parallel_for(begin, end, [&](std::size_t i) { scans[i - begin] = sim.scan(i, &truths[i - begin]); });
     summary.scan_seconds += secondsSince(t_scan);
+    const auto t_write = Clock::now();
     for (std::size_t i = begin; i < end; ++i) {
       const LabeledCloud& scan = scans[i - begin];
       writer.addFrame(scan);
@@ -160,7 +161,9 @@ SimulationSummary writeSimulation(const SimulatorConfig& config, const fs::path&
         reference.classes.push_back(truths[i - begin][k]);
       }
     }
+    summary.write_seconds += secondsSince(t_write);
   }
+  const auto t_trajectories = Clock::now();
   writer.writeGroundTruth(toTrajectory(sim.groundTruth(), sim.samples()));
   writer.writeOdometry(toTrajectory(sim.odometry(), sim.samples()));
   {
@@ -170,6 +173,8 @@ SimulationSummary writeSimulation(const SimulatorConfig& config, const fs::path&
     writeTextAtomically(tmp.path / "times.txt", times.str());
   }
   writer.finish();
+  summary.write_seconds += secondsSince(t_trajectories);
+  const auto t_reference = Clock::now();
 
   VoxelDownsampleConfig voxel;
   voxel.voxel_size = sim.config().reference_voxel;
@@ -183,6 +188,7 @@ SimulationSummary writeSimulation(const SimulatorConfig& config, const fs::path&
     ply.colors.push_back(info ? info->color : Rgb{160, 160, 160});
   }
   writePly(tmp.path / "reference_map.ply", map, ply);
+  summary.reference_seconds = secondsSince(t_reference);
   writePlyMesh(tmp.path / "scene.ply", coloredSceneMesh(sim.scene(), table));
   writeTextAtomically(tmp.path / "regions.yaml", regionsToYaml(sim.scene(), table));
 

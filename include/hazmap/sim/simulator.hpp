@@ -110,6 +110,8 @@ struct SimulationSummary {
   double route_length = 0.0;
   double bvh_seconds = 0.0;
   double scan_seconds = 0.0;  ///< generating the scans (excluding the BVH and file writing)
+  double write_seconds = 0.0;      ///< writing scans, labels and trajectories
+  double reference_seconds = 0.0;  ///< building and writing reference_map.ply
   double total_seconds = 0.0;
   OdometryDrift drift;
 };
