@@ -2,6 +2,7 @@
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
+#include <charconv>
 #include <chrono>
 #include <cstdio>
 #include <random>
@@ -203,7 +204,21 @@ SimulationSummary writeSimulation(const SimulatorConfig& config, const fs::path&
        << "  odometry_final_position_error_m: " << summary.drift.final_position_error << "\n"
        << "  odometry_max_frame_translation_error_m: " << summary.drift.max_frame_translation_error << "\n"
        << "  odometry_max_frame_rotation_error_deg: " << summary.drift.max_frame_rotation_error_deg << "\n"
-       << "  track_slips: " << summary.drift.slips << "\n";
+       << "  track_slips: " << summary.drift.slips << "\n"
+       << "# Pose of the first scan in scene.ply's frame (row-major 3x4, like a poses.txt line):\n"
+       << "# poses.txt and reference_map.ply are in the first scan's frame (KITTI convention).\n"
+       << "world_from_first_frame: [";
+  {
+    const Eigen::Isometry3d& W = sim.worldFromFirst();
+    char buf[64];
+    for (int r = 0; r < 3; ++r)
+      for (int k = 0; k < 4; ++k) {
+        const double v = k < 3 ? W.linear()(r, k) : W.translation()(r);
+        const auto res = std::to_chars(buf, buf + sizeof buf, v);
+        info << (r || k ? ", " : "") << std::string(buf, res.ptr);
+      }
+  }
+  info << "]\n";
   writeTextAtomically(tmp.path / "simulation.yaml", info.str());
 
   if (replace) fs::remove_all(out_dir);
