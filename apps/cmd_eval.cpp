@@ -1,0 +1,134 @@
+// hazmap eval: trajectory metrics (evo-compatible APE/RPE, KITTI segment errors) and, with
+// --scans, the paper's map error.
+#include <fstream>
+#include <iostream>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <sstream>
+#include <string>
+#include <tuple>
+
+#include "command.hpp"
+#include "hazmap/core/error.hpp"
+#include "hazmap/eval/map_error.hpp"
+#include "hazmap/eval/trajectory_metrics.hpp"
+#include "hazmap/io/sequence.hpp"
+#include "hazmap/io/trajectory.hpp"
+
+namespace hazmap::cli {
+namespace {
+
+struct EvalOptions {
+  std::string gt, est, format = "auto", align = "se3", delta_unit = "m", scans;
+  double delta = 10.0;
+  double max_dt = 0.01;
+  bool json = false;
+  std::size_t map_points = 1000;
+};
+
+Trajectory readWith(const std::string& path, const std::string& format) {
+  if (format == "kitti") return readTrajectory(path, TrajectoryFormat::Kitti);
+  if (format == "tum") return readTrajectory(path, TrajectoryFormat::Tum);
+  return readTrajectoryAuto(path);
+}
+
+bool isTumFile(const std::string& path, const std::string& format) {
+  if (format != "auto") return format == "tum";
+  // Auto: KITTI rows have 12 numbers, TUM rows 8.
+  std::ifstream in(path);
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream s(line);
+    int n = 0;
+    for (double v; s >> v;) ++n;
+    return n == 8;
+  }
+  return false;
+}
+
+void run(const EvalOptions& o) {
+  const auto align = parseAlignment(o.align);
+  if (!align) fail("--align", "expected se3, sim3 or none, got '" + o.align + "'");
+  if (o.format != "auto" && o.format != "kitti" && o.format != "tum")
+    fail("--format", "expected kitti, tum or auto, got '" + o.format + "'");
+  if (o.delta_unit != "m" && o.delta_unit != "frames")
+    fail("--delta-unit", "expected m or frames, got '" + o.delta_unit + "'");
+
+  Trajectory gt = readWith(o.gt, o.format);
+  Trajectory est = readWith(o.est, o.format);
+  checkTrajectory(gt, o.gt);
+  checkTrajectory(est, o.est);
+  const bool tum = isTumFile(o.gt, o.format) && isTumFile(o.est, o.format);
+  if (tum) {
+    std::tie(gt, est) = associateTrajectories(gt, est, o.max_dt);
+  } else if (gt.size() != est.size()) {
+    fail(o.est, "has " + std::to_string(est.size()) + " poses but the ground truth " + o.gt +
+                    " has " + std::to_string(gt.size()) +
+                    " (KITTI files are compared row by row; use TUM files to match by time)");
+  }
+
+  TrajectoryEvalConfig config;
+  config.ape_alignment = *align;
+  config.rpe.delta = o.delta;
+  config.rpe.unit = o.delta_unit == "m" ? DeltaUnit::Metres : DeltaUnit::Frames;
+  const TrajectoryEvaluation e = evaluateTrajectory(gt, est, config);
+
+  std::optional<MapErrorResult> map_error;
+  if (!o.scans.empty()) {
+    const Sequence seq = Sequence::open(o.scans);
+    if (seq.size() != gt.size())
+      fail(o.scans, "has " + std::to_string(seq.size()) + " scans but the trajectories have " +
+                        std::to_string(gt.size()) + " poses");
+    MapErrorConfig mc;
+    mc.max_points_per_frame = o.map_points;
+    MapErrorAccumulator acc(mc);
+    for (std::size_t i = 0; i < seq.size(); ++i) acc.addFrame(seq.frame(i), est.poses[i], gt.poses[i]);
+    map_error = acc.result();
+  }
+
+  if (o.json) {
+    nlohmann::json j = nlohmann::json::parse(toJson(e));
+    j["map_error"] = map_error ? nlohmann::json::parse(toJson(*map_error)) : nlohmann::json();
+    std::cout << j.dump(2) << "\n";
+  } else {
+    std::cout << toText(e);
+    if (map_error) {
+      const auto& p = map_error->point;
+      std::cout.setf(std::ios::fixed);
+      std::cout.precision(4);
+      std::cout << "map error [m]    mean " << p.mean << "  median " << p.median << "  p95 " << p.p95
+                << "  (" << p.count << " points, " << map_error->frames << " frames)\n"
+                << "cloud-to-cloud   mean " << map_error->c2c.mean << "  median "
+                << map_error->c2c.median << "  p95 " << map_error->c2c.p95 << "\n";
+    }
+  }
+}
+
+const RegisterCommand kRegister{{
+    "eval",
+    "Trajectory metrics as evo and the KITTI devkit compute them (APE, RPE, segment errors); "
+    "with --scans also the map error of the paper's Table 2.",
+    [](CLI::App& app) {
+      auto o = std::make_shared<EvalOptions>();
+      app.add_option("--gt", o->gt, "Ground-truth trajectory (KITTI 3x4 rows or TUM)")
+          ->required()->check(CLI::ExistingFile);
+      app.add_option("--est", o->est, "Estimated trajectory (same format)")
+          ->required()->check(CLI::ExistingFile);
+      app.add_option("--format", o->format, "kitti | tum | auto (guess from the column count)");
+      app.add_option("--align", o->align,
+                     "APE alignment: se3 (Umeyama, evo --align), sim3 (with scale), none");
+      app.add_option("--delta", o->delta, "RPE pair spacing (metres of path, or frames)");
+      app.add_option("--delta-unit", o->delta_unit, "m | frames");
+      app.add_option("--max-dt", o->max_dt, "TUM: largest time-stamp difference of a pair (s)");
+      app.add_option("--scans", o->scans,
+                     "Sequence folder with one scan per pose: also report the map error");
+      app.add_option("--map-points", o->map_points, "Map error: points used per scan (0 = all)");
+      app.add_flag("--json", o->json, "Print one JSON object instead of text");
+      app.callback([o] { run(*o); });
+    },
+}};
+
+}  // namespace
+}  // namespace hazmap::cli

@@ -1,0 +1,197 @@
+#include "hazmap/map/hazards.hpp"
+
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <cmath>
+#include <iomanip>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <sstream>
+#include <unordered_map>
+
+#include "hazmap/core/error.hpp"
+#include "hazmap/io/atomic_file.hpp"
+
+namespace hazmap {
+
+void HazardConfig::validate() const {
+  if (link_cells < 1 || link_cells > 5) fail("hazards: link_cells", "must be between 1 and 5");
+  if (min_cells < 1) fail("hazards: min_cells", "must be >= 1");
+}
+
+HazardConfig HazardConfig::fromYamlString(const std::string& yaml, const std::string& where) {
+  HazardConfig c;
+  try {
+    const YAML::Node n = YAML::Load(yaml);
+    if (n && !n.IsNull()) {
+      if (!n.IsMap()) fail(where, "hazard config must be a YAML mapping");
+      for (const auto& kv : n) {
+        const std::string key = kv.first.as<std::string>();
+        if (key == "link_cells") c.link_cells = kv.second.as<int>();
+        else if (key == "min_cells") c.min_cells = kv.second.as<std::size_t>();
+        else if (key == "min_points") c.min_points = kv.second.as<std::size_t>();
+        else fail(where, "unknown hazard key '" + key + "'");
+      }
+    }
+  } catch (const YAML::Exception& e) {
+    fail(where, std::string("invalid YAML: ") + e.what());
+  }
+  try {
+    c.validate();
+  } catch (const Error& e) {
+    fail(where, e.what());
+  }
+  return c;
+}
+
+namespace {
+
+struct IndexHash {
+  std::size_t operator()(const Eigen::Vector3i& v) const {
+    return std::size_t(v.x()) * 73856093u ^ std::size_t(v.y()) * 19349663u ^ std::size_t(v.z()) * 83492791u;
+  }
+};
+
+// RFC 4180 quoting for a text field.
+std::string csvField(const std::string& text) {
+  if (text.find_first_of(",\"\n") == std::string::npos) return text;
+  std::string out = "\"";
+  for (char c : text) out += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return out + "\"";
+}
+
+}  // namespace
+
+std::vector<Hazard> findHazards(const GlobalMap& map, const HazardConfig& config) {
+  config.validate();
+  const ClassTable& table = map.classTable();
+  const double v = map.voxelSize();
+  const std::vector<MapCell> all = map.cells();
+
+  // Property cells per class, looked up by index.
+  std::map<ClassId, std::unordered_map<Eigen::Vector3i, std::size_t, IndexHash>> by_class;
+  for (std::size_t i = 0; i < all.size(); ++i)
+    if (table.isProperty(all[i].label)) by_class[all[i].label].emplace(all[i].index, i);
+
+  std::vector<Hazard> out;
+  const int L = config.link_cells;
+  for (const auto& [label, lookup] : by_class) {
+    // Seeds in sorted cell order (all is sorted) → deterministic components.
+    std::vector<std::size_t> seeds;
+    for (const auto& [idx, i] : lookup) seeds.push_back(i);
+    std::sort(seeds.begin(), seeds.end());
+    std::unordered_map<std::size_t, bool> visited;
+    std::vector<Hazard> regions;
+    for (std::size_t seed : seeds) {
+      if (visited[seed]) continue;
+      std::vector<std::size_t> members, stack{seed};
+      visited[seed] = true;
+      while (!stack.empty()) {
+        const std::size_t cur = stack.back();
+        stack.pop_back();
+        members.push_back(cur);
+        const Eigen::Vector3i c = all[cur].index;
+        for (int dz = -L; dz <= L; ++dz)
+          for (int dy = -L; dy <= L; ++dy)
+            for (int dx = -L; dx <= L; ++dx) {
+              auto it = lookup.find(c + Eigen::Vector3i(dx, dy, dz));
+              if (it == lookup.end() || visited[it->second]) continue;
+              visited[it->second] = true;
+              stack.push_back(it->second);
+            }
+      }
+      Hazard h;
+      h.label = label;
+      const ClassInfo* info = table.find(label);
+      h.class_name = info ? info->name : std::to_string(label);
+      h.kind = info ? info->kind : PropertyKind::Other;
+      h.min = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+      h.max = -h.min;
+      std::set<std::pair<int, int>> footprint;
+      double prop_sum = 0;
+      std::size_t prop_n = 0;
+      std::vector<FrameRange> frames;
+      for (std::size_t m : members) {
+        const MapCell& cell = all[m];
+        h.points += cell.points;
+        h.centroid += cell.centroid.cast<double>() * double(cell.points);
+        const Eigen::Vector3d lo = cell.index.cast<double>() * v;
+        h.min = h.min.cwiseMin(lo);
+        h.max = h.max.cwiseMax(lo + Eigen::Vector3d::Constant(v));
+        footprint.emplace(cell.index.x(), cell.index.y());
+        prop_sum += double(cell.property_mean) * cell.property_samples;
+        prop_n += cell.property_samples;
+        frames.insert(frames.end(), cell.frames.begin(), cell.frames.end());
+      }
+      h.cells = members.size();
+      if (h.cells < config.min_cells || h.points < config.min_points) continue;
+      h.centroid /= double(h.points);
+      h.area_m2 = double(footprint.size()) * v * v;
+      if (prop_n) h.mean_property = prop_sum / double(prop_n);
+      h.frames = unionRanges(std::move(frames));
+      h.frame_count = countFrames(h.frames);  // exact unless a cell's list was capped
+      regions.push_back(std::move(h));
+    }
+    std::stable_sort(regions.begin(), regions.end(),
+                     [](const Hazard& a, const Hazard& b) { return a.points > b.points; });
+    for (auto& r : regions) out.push_back(std::move(r));
+  }
+  for (std::size_t i = 0; i < out.size(); ++i) out[i].id = int(i) + 1;
+  return out;
+}
+
+std::string hazardsJson(const std::vector<Hazard>& hazards, double voxel_size, int indent) {
+  const auto vec = [](const Eigen::Vector3d& p) { return nlohmann::json::array({p.x(), p.y(), p.z()}); };
+  nlohmann::json list = nlohmann::json::array();
+  for (const auto& h : hazards) {
+    nlohmann::json frames = nlohmann::json::array();
+    for (const auto& r : h.frames) frames.push_back({r.first, r.last});
+    list.push_back({{"id", h.id},
+                    {"class", h.class_name},
+                    {"class_id", h.label},
+                    {"kind", toString(h.kind)},
+                    {"centroid", vec(h.centroid)},
+                    {"min", vec(h.min)},
+                    {"max", vec(h.max)},
+                    {"extent", vec(h.extent())},
+                    {"area_m2", h.area_m2},
+                    {"cells", h.cells},
+                    {"points", h.points},
+                    {"mean_property", h.mean_property ? nlohmann::json(*h.mean_property) : nlohmann::json()},
+                    {"frame_count", h.frame_count},
+                    {"frames", frames}});
+  }
+  nlohmann::json j{{"voxel_size", voxel_size}, {"count", hazards.size()}, {"hazards", list}};
+  return j.dump(indent);
+}
+
+void writeHazardsJson(const std::filesystem::path& path, const std::vector<Hazard>& hazards,
+                      double voxel_size) {
+  writeTextAtomically(path, hazardsJson(hazards, voxel_size) + "\n");
+}
+
+void writeHazardsCsv(const std::filesystem::path& path, const std::vector<Hazard>& hazards) {
+  std::ostringstream s;
+  s << std::setprecision(10);
+  s << "id,class,kind,centroid_x,centroid_y,centroid_z,extent_x,extent_y,extent_z,min_x,min_y,"
+       "min_z,max_x,max_y,max_z,area_m2,cells,points,mean_property,frame_count,frames\n";
+  for (const auto& h : hazards) {
+    s << h.id << ',' << csvField(h.class_name) << ',' << toString(h.kind);
+    s << ',' << h.centroid.x() << ',' << h.centroid.y() << ',' << h.centroid.z();
+    const Eigen::Vector3d e = h.extent();
+    s << ',' << e.x() << ',' << e.y() << ',' << e.z();
+    s << ',' << h.min.x() << ',' << h.min.y() << ',' << h.min.z();
+    s << ',' << h.max.x() << ',' << h.max.y() << ',' << h.max.z();
+    s << ',' << h.area_m2 << ',' << h.cells << ',' << h.points << ',';
+    if (h.mean_property) s << *h.mean_property;
+    s << ',' << h.frame_count << ',';
+    for (std::size_t i = 0; i < h.frames.size(); ++i)
+      s << (i ? ";" : "") << h.frames[i].first << '-' << h.frames[i].last;
+    s << '\n';
+  }
+  writeTextAtomically(path, s.str());
+}
+
+}  // namespace hazmap
