@@ -1,0 +1,68 @@
+#pragma once
+// Rejection of false loops, complementary to the robust loss the pose graph puts on loop edges.
+//
+//  1. Drift gate: a verified loop's relative pose is compared with the relative pose of the two
+//     keyframes in the current estimate. Their difference is gated by a χ² test on its
+//     Mahalanobis distance under the loop's ICP covariance plus the drift the estimate can have
+//     accumulated along the trajectory between the keyframes (σ = floor + rate · path length).
+//     Far-apart loops (much drift) therefore pass even when metres off; a loop between
+//     keyframes close in time must agree closely.
+//  2. Pairwise consistency (as in PCM, Mangelson et al. 2018): loops i→j and k→l are consistent
+//     when the cycle  loop_ij⁻¹ · est_ik · loop_kl · est_lj  is the identity within the drift of
+//     the short paths i…k and l…j. Only the largest mutually consistent set is kept, so a
+//     wrong loop must agree with every other loop to survive.
+#include <cstddef>
+#include <vector>
+
+#include "hazmap/loop/candidates.hpp"
+#include "hazmap/loop/verification.hpp"
+
+namespace hazmap {
+
+struct ConsistencyConfig {
+  /// Drift model of the pose estimate between two keyframes, as standard deviations per metre
+  /// of path travelled, plus floors. Defaults sized for the crawler's odometry (issue 3: ~5 %
+  /// distance error plus slips, ~0.25° yaw per metre): conservative, so that the gate rejects
+  /// only clearly impossible loops.
+  double translation_drift_per_metre = 0.04;
+  double rotation_drift_per_metre = 0.004;  ///< rad/m (≈ 0.23°/m)
+  double translation_sigma_floor = 0.1;      ///< m
+  double rotation_sigma_floor = 0.01;        ///< rad
+  /// Probability of the χ² gates (6 degrees of freedom): 0.999 → d² ≤ 22.46.
+  double gate_probability = 0.999;
+  bool use_drift_gate = true;
+  bool use_pairwise = true;
+};
+
+struct GateResult {
+  bool accepted = false;
+  double mahalanobis2 = 0.0;  ///< d² of the loop against the estimate
+  double threshold = 0.0;     ///< χ² quantile used
+  double path_length = 0.0;   ///< m, along the estimate between the keyframes
+};
+
+/// Path length (m) along `poses` between keyframes a and b (either order).
+double pathLength(const PoseList& poses, std::size_t a, std::size_t b);
+
+/// Drift covariance (translation-first, diagonal) for a path of the given length.
+Matrix6d driftCovariance(double path_length, const ConsistencyConfig& config);
+
+/// χ² quantile for 6 degrees of freedom at probability p in (0, 1) (closed-form CDF, bisection).
+double chiSquare6Quantile(double p);
+
+/// Gate 1: the loop against the current estimate `poses` (world ← keyframe).
+GateResult driftGate(const LoopClosure& loop, const PoseList& poses, const ConsistencyConfig& config = {});
+
+/// Squared Mahalanobis distance of the cycle formed by two loops and the estimate.
+double pairwiseDistance2(const LoopClosure& a, const LoopClosure& b, const PoseList& poses,
+                         const ConsistencyConfig& config = {});
+
+/// Indices (ascending) of the largest pairwise-consistent subset of `loops` (exact maximum
+/// clique for up to 64 loops, greedy beyond). Ties prefer the subset with the smaller summed
+/// drift-gate distance. Every loop is consistent with itself, so one loop is kept as is.
+std::vector<std::size_t> consistentSubset(const std::vector<LoopClosure>& loops, const PoseList& poses,
+                                          const ConsistencyConfig& config = {});
+
+void validate(const ConsistencyConfig& config);
+
+}  // namespace hazmap

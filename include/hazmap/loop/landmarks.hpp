@@ -1,0 +1,53 @@
+#pragma once
+// Property landmarks (paper section V: "we utilize physical properties as landmark
+// information"): the labelled points of one keyframe, clustered by class, each cluster summarised
+// by a small descriptor that can be matched against other keyframes without any pose estimate.
+#include <Eigen/Core>
+#include <cstddef>
+#include <vector>
+
+#include "hazmap/core/class_table.hpp"
+#include "hazmap/core/labeled_cloud.hpp"
+
+namespace hazmap {
+
+struct LandmarkConfig {
+  /// Euclidean clustering distance (m): two same-class points closer than this belong to the
+  /// same landmark. Large enough to bridge the gaps between VLP-16 rings on a floor puddle a few
+  /// metres away (ring spacing ≈ 0.3–0.6 m at 2–4 m range), small enough to keep separate
+  /// sources apart (the simulator places them metres apart). Must be > 0.
+  double cluster_tolerance = 0.7;
+  /// Clusters with fewer points are label noise (the simulator flips 0.5 % of "none" points to a
+  /// property class; those are isolated) and are dropped. Must be >= 1.
+  std::size_t min_points = 8;
+  /// Points farther than this from the sensor origin are ignored (0 = no limit): far sources are
+  /// hit by one or two rings only and their centroid is biased by which rings hit them.
+  double max_range = 30.0;
+};
+
+/// One cluster of same-class property points, in the frame of the cloud it came from.
+struct PropertyLandmark {
+  ClassId class_id = 0;
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  /// Principal standard deviations (m), largest first (PCA of the cluster's points): a
+  /// rotation-invariant size/shape descriptor.
+  Eigen::Vector3d extent = Eigen::Vector3d::Zero();
+  /// Principal directions, column k belongs to extent(k) (right-handed).
+  Eigen::Matrix3d axes = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d box_min = Eigen::Vector3d::Zero();  ///< axis-aligned bounds
+  Eigen::Vector3d box_max = Eigen::Vector3d::Zero();
+  std::size_t point_count = 0;
+  bool has_property_value = false;  ///< the cloud had a `property` channel
+  double mean_property = 0.0;       ///< mean of that channel over the cluster (e.g. °C)
+};
+
+/// Clusters the property-class points of `cloud` (classes with kind != None in `table`) and
+/// describes every cluster with >= min_points points. Deterministic: sorted by class, then by
+/// the lowest point index in the cluster. Throws hazmap::Error on an invalid config.
+std::vector<PropertyLandmark> extractLandmarks(const LabeledCloud& cloud, const ClassTable& table,
+                                               const LandmarkConfig& config = {});
+
+/// Throws hazmap::Error("loop_closure.landmarks: ...") naming the bad parameter.
+void validate(const LandmarkConfig& config);
+
+}  // namespace hazmap

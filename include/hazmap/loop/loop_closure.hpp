@@ -1,0 +1,106 @@
+#pragma once
+// Loop closure from property landmarks (paper section V), end to end:
+//   keyframe → landmarks → candidates (constellation and/or distance) → property-ICP
+//   verification → drift gate → pairwise-consistent set → loop edges for the pose graph.
+// See docs/loop_closure.md.
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "hazmap/core/class_table.hpp"
+#include "hazmap/core/labeled_cloud.hpp"
+#include "hazmap/loop/candidates.hpp"
+#include "hazmap/loop/consistency.hpp"
+#include "hazmap/loop/landmarks.hpp"
+#include "hazmap/loop/verification.hpp"
+
+namespace hazmap {
+
+enum class CandidateMethod {
+  Constellation,  ///< property-landmark constellations (hazmap's method)
+  Distance,       ///< nearby in the current estimate (the conventional baseline)
+  Both,
+};
+const char* toString(CandidateMethod method);
+
+/// Every setting of the loop-closure stage. YAML (all keys optional, defaults below):
+///   loop_closure:
+///     method: constellation          # constellation | distance | both
+///     max_loops_per_keyframe: 1
+///     landmarks:    {cluster_tolerance: 0.7, min_points: 8, max_range: 30}
+///     candidates:   {min_index_gap: 15, search_radius: 3, max_candidates: 3,
+///                    constellation: {model: planar, distance_tolerance: 0.8, inlier_distance: 1,
+///                                    min_inliers: 3, min_pair_distance: 1.5,
+///                                    min_triangle_height: 1, max_extent_ratio: 4,
+///                                    property_value_tolerance: 0, max_hypotheses: 4000, seed: 1}}
+///     verification: {min_fitness: 0.5, max_rmse: 0.25, max_translation_sigma: 0.25,
+///                    max_rotation_sigma: 0.035, reject_degenerate: true,
+///                    max_correction_translation: 2, max_correction_rotation: 0.35,
+///                    min_translation_sigma: 0.01, min_rotation_sigma: 0.001,
+///                    registration: {use_classes: true, metric: point-to-plane,
+///                                   max_correspondence_distance: 1.5, max_iterations: 60}}
+///     consistency:  {translation_drift_per_metre: 0.04, rotation_drift_per_metre: 0.004,
+///                    translation_sigma_floor: 0.1, rotation_sigma_floor: 0.01,
+///                    gate_probability: 0.999, use_drift_gate: true, use_pairwise: true}
+struct LoopClosureConfig {
+  CandidateMethod method = CandidateMethod::Constellation;
+  /// Verified loops kept per query keyframe (best candidates first).
+  std::size_t max_loops_per_keyframe = 1;
+  LandmarkConfig landmarks;
+  CandidateSearchConfig candidates;
+  VerificationConfig verification;
+  ConsistencyConfig consistency;
+
+  /// Reads a YAML file holding a `loop_closure:` mapping (or that mapping at top level).
+  /// Unknown keys and bad values throw hazmap::Error naming the file and the key.
+  static LoopClosureConfig fromYamlFile(const std::filesystem::path& path);
+  static LoopClosureConfig fromYamlString(const std::string& yaml, const std::string& where);
+  /// The full config as YAML (a `loop_closure:` mapping); fromYamlString reads it back.
+  std::string toYamlString() const;
+  /// Throws hazmap::Error naming the first invalid parameter.
+  void validate() const;
+};
+
+/// What happened to one query keyframe.
+struct LoopDetection {
+  std::vector<LoopCandidate> candidates;         ///< ranked, as searched
+  std::vector<VerificationResult> verifications;  ///< one per candidate tried
+  std::vector<GateResult> gates;                  ///< one per verified candidate (drift gate)
+  std::vector<LoopClosure> accepted;              ///< passed verification and the drift gate
+};
+
+/// Keeps the keyframes (clouds in their sensor frames and their landmarks) and closes loops.
+class LoopDetector {
+ public:
+  explicit LoopDetector(ClassTable classes, LoopClosureConfig config = {});
+
+  /// Adds a keyframe (cloud in its own sensor frame); returns its index.
+  std::size_t addKeyframe(LabeledCloud cloud);
+  std::size_t size() const { return clouds_.size(); }
+  const LabeledCloud& cloud(std::size_t k) const { return clouds_.at(k); }
+  const std::vector<PropertyLandmark>& landmarks(std::size_t k) const { return landmarks_.at(k); }
+  const std::vector<std::vector<PropertyLandmark>>& allLandmarks() const { return landmarks_; }
+  const LoopClosureConfig& config() const { return config_; }
+
+  /// Candidates for `query` by the configured method. `estimate` (world ← keyframe, at least
+  /// query + 1 poses) is used by the distance search only.
+  std::vector<LoopCandidate> candidates(std::size_t query, const PoseList& estimate) const;
+
+  /// Candidates → ICP verification → drift gate against `estimate`; accepted loops are also
+  /// remembered for consistentLoops().
+  LoopDetection detect(std::size_t query, const PoseList& estimate);
+
+  /// Every loop accepted so far that belongs to the largest pairwise-consistent set under
+  /// `estimate` (all of them when use_pairwise is off).
+  std::vector<LoopClosure> consistentLoops(const PoseList& estimate) const;
+  const std::vector<LoopClosure>& acceptedLoops() const { return loops_; }
+
+ private:
+  ClassTable classes_;
+  LoopClosureConfig config_;
+  std::vector<LabeledCloud> clouds_;
+  std::vector<std::vector<PropertyLandmark>> landmarks_;
+  std::vector<LoopClosure> loops_;
+};
+
+}  // namespace hazmap

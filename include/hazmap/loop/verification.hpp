@@ -1,0 +1,79 @@
+#pragma once
+// Loop verification (paper section V): property-aware ICP from the candidate's initial guess;
+// the loop is accepted only if the registration converged, fits well, and its covariance is
+// well conditioned and small. The loop edge's information matrix is the inverse of the ICP
+// covariance (eq. 3, Σ_{u,t}⁻¹).
+#include <Eigen/Geometry>
+#include <string>
+
+#include "hazmap/core/class_table.hpp"
+#include "hazmap/core/labeled_cloud.hpp"
+#include "hazmap/core/se3.hpp"
+#include "hazmap/loop/candidates.hpp"
+#include "hazmap/registration/registration.hpp"
+
+namespace hazmap {
+
+struct VerificationConfig {
+  /// The ICP used for verification (property-aware by default; use_classes = false for the
+  /// conventional baselines). Loops start farther from the truth than odometry steps, so the
+  /// correspondence distance is wider than for frame-to-frame tracking.
+  RegistrationConfig registration = [] {
+    RegistrationConfig r;
+    r.max_correspondence_distance = 1.5;
+    r.max_iterations = 60;
+    return r;
+  }();
+  double min_fitness = 0.5;  ///< fraction of source points with a correspondence
+  double max_rmse = 0.25;    ///< m, inlier RMSE
+  /// Bounded uncertainty: the largest standard deviation of the translation (m) and rotation
+  /// (rad) blocks of the ICP covariance.
+  double max_translation_sigma = 0.25;
+  double max_rotation_sigma = 0.035;  ///< ≈ 2°
+  /// Reject loops whose registration reported a degenerate direction (a corridor: the loop
+  /// would constrain nothing along it and pull the graph by an arbitrary amount).
+  bool reject_degenerate = true;
+  /// ICP may move the pose at most this far from the initial guess (m, rad); farther means it
+  /// slid into another local minimum (e.g. the neighbouring identical tank).
+  double max_correction_translation = 2.0;
+  double max_correction_rotation = 0.35;
+  /// Floors on the standard deviations before inverting (m, rad): an over-confident ICP
+  /// covariance (identical points, noise-free data) must not make a loop edge rigid.
+  double min_translation_sigma = 0.01;
+  double min_rotation_sigma = 0.001;
+};
+
+/// An accepted loop: an edge from the past keyframe `from` to the current keyframe `to`.
+struct LoopClosure {
+  std::size_t from = 0;  ///< the past keyframe (candidate.match)
+  std::size_t to = 0;    ///< the current keyframe (candidate.query)
+  Eigen::Isometry3d T_from_to = Eigen::Isometry3d::Identity();  ///< from ← to (ICP result)
+  Matrix6d covariance = Matrix6d::Identity();   ///< translation-first, floored
+  Matrix6d information = Matrix6d::Identity();  ///< covariance⁻¹
+  CandidateSource source = CandidateSource::Constellation;
+  double fitness = 0.0;
+  double rmse = 0.0;
+};
+
+struct VerificationResult {
+  bool accepted = false;
+  std::string reason;  ///< why it was rejected (empty when accepted)
+  LoopClosure closure;
+  RegistrationResult registration;
+};
+
+/// The acceptance rules applied to a finished registration of `candidate` (source = query
+/// keyframe, target = match keyframe). Pure; no ICP is run.
+VerificationResult evaluateRegistration(const LoopCandidate& candidate,
+                                        const RegistrationResult& registration,
+                                        const VerificationConfig& config = {});
+
+/// Runs hazmap::registerClouds(query_cloud → match_cloud) from candidate.initial_guess, then
+/// evaluateRegistration. Clouds are in their keyframes' sensor frames.
+VerificationResult verifyCandidate(const LoopCandidate& candidate, const LabeledCloud& query_cloud,
+                                   const LabeledCloud& match_cloud, const ClassTable& classes,
+                                   const VerificationConfig& config = {});
+
+void validate(const VerificationConfig& config);
+
+}  // namespace hazmap

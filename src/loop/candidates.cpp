@@ -1,0 +1,291 @@
+#include "hazmap/loop/candidates.hpp"
+
+#include <Eigen/SVD>
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <numeric>
+#include <random>
+
+#include "hazmap/core/error.hpp"
+#include "hazmap/core/se3.hpp"
+
+namespace hazmap {
+
+const char* toString(CandidateSource source) {
+  return source == CandidateSource::Constellation ? "constellation" : "distance";
+}
+
+void validate(const CandidateSearchConfig& c) {
+  const std::string where = "loop_closure.candidates";
+  auto positive = [&](double v, const char* name) {
+    if (!(v > 0.0) || !std::isfinite(v)) fail(where, std::string(name) + " must be a finite number > 0");
+  };
+  const ConstellationConfig& k = c.constellation;
+  positive(k.distance_tolerance, "distance_tolerance");
+  positive(k.inlier_distance, "inlier_distance");
+  if (!(k.min_pair_distance >= 0.0)) fail(where, "min_pair_distance must be >= 0");
+  if (!(k.min_triangle_height >= 0.0)) fail(where, "min_triangle_height must be >= 0");
+  if (k.min_inliers < 2) fail(where, "min_inliers must be >= 2");
+  if (k.model == ConstellationModel::Full3D && k.min_inliers < 3)
+    fail(where, "min_inliers must be >= 3 for the full-3d model");
+  if (!(k.max_extent_ratio == 0.0 || k.max_extent_ratio >= 1.0))
+    fail(where, "max_extent_ratio must be 0 (off) or >= 1");
+  if (!(k.property_value_tolerance >= 0.0)) fail(where, "property_value_tolerance must be >= 0");
+  if (k.max_hypotheses < 1) fail(where, "max_hypotheses must be >= 1");
+  positive(c.search_radius, "search_radius");
+  if (c.max_candidates < 1) fail(where, "max_candidates must be >= 1");
+}
+
+namespace {
+
+using Corr = std::pair<std::size_t, std::size_t>;  // (query landmark, match landmark)
+
+bool compatible(const PropertyLandmark& a, const PropertyLandmark& b, const ConstellationConfig& c) {
+  if (a.class_id != b.class_id) return false;
+  if (c.max_extent_ratio > 0.0) {
+    const double ea = std::max(a.extent(0), 0.05), eb = std::max(b.extent(0), 0.05);
+    if (std::max(ea, eb) / std::min(ea, eb) > c.max_extent_ratio) return false;
+  }
+  if (c.property_value_tolerance > 0.0 && a.has_property_value && b.has_property_value &&
+      std::abs(a.mean_property - b.mean_property) > c.property_value_tolerance)
+    return false;
+  return true;
+}
+
+// Least-squares rigid transform m ≈ T q over the given correspondences.
+Eigen::Isometry3d fitTransform(const std::vector<Eigen::Vector3d>& q,
+                               const std::vector<Eigen::Vector3d>& m, ConstellationModel model) {
+  const double n = static_cast<double>(q.size());
+  Eigen::Vector3d qc = Eigen::Vector3d::Zero(), mc = Eigen::Vector3d::Zero();
+  for (std::size_t i = 0; i < q.size(); ++i) {
+    qc += q[i];
+    mc += m[i];
+  }
+  qc /= n;
+  mc /= n;
+  Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
+  for (std::size_t i = 0; i < q.size(); ++i) H += (q[i] - qc) * (m[i] - mc).transpose();
+  Eigen::Matrix3d R;
+  if (model == ConstellationModel::Planar) {
+    // argmax_θ Σ m'ᵀ R(θ) q' over the xy components.
+    const double yaw = std::atan2(H(0, 1) - H(1, 0), H(0, 0) + H(1, 1));
+    R = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  } else {
+    Eigen::JacobiSVD<Eigen::Matrix3d> svd(H, Eigen::ComputeFullU | Eigen::ComputeFullV);
+    Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
+    D(2, 2) = (svd.matrixV() * svd.matrixU().transpose()).determinant() < 0 ? -1.0 : 1.0;
+    R = svd.matrixV() * D * svd.matrixU().transpose();
+  }
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = R;
+  T.translation() = mc - R * qc;
+  return T;
+}
+
+struct Scored {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  std::vector<Corr> inliers;
+  double rmse = 0.0;
+  bool better(const Scored& o) const {
+    if (inliers.size() != o.inliers.size()) return inliers.size() > o.inliers.size();
+    return rmse < o.rmse;
+  }
+};
+
+// One-to-one inlier assignment: greedy by residual over all compatible correspondences.
+Scored score(const Eigen::Isometry3d& T, const std::vector<Corr>& corrs,
+             const std::vector<PropertyLandmark>& q, const std::vector<PropertyLandmark>& m,
+             const ConstellationConfig& c) {
+  std::vector<std::pair<double, std::size_t>> close;
+  for (std::size_t k = 0; k < corrs.size(); ++k) {
+    const double r = (T * q[corrs[k].first].centroid - m[corrs[k].second].centroid).norm();
+    if (r <= c.inlier_distance) close.emplace_back(r, k);
+  }
+  std::sort(close.begin(), close.end());
+  std::vector<char> used_q(q.size(), 0), used_m(m.size(), 0);
+  Scored s;
+  s.T = T;
+  double sq = 0.0;
+  for (const auto& [r, k] : close) {
+    const auto [i, j] = corrs[k];
+    if (used_q[i] || used_m[j]) continue;
+    used_q[i] = used_m[j] = 1;
+    s.inliers.push_back(corrs[k]);
+    sq += r * r;
+  }
+  s.rmse = s.inliers.empty() ? 0.0 : std::sqrt(sq / static_cast<double>(s.inliers.size()));
+  return s;
+}
+
+Scored refine(Scored s, const std::vector<Corr>& corrs, const std::vector<PropertyLandmark>& q,
+              const std::vector<PropertyLandmark>& m, const ConstellationConfig& c) {
+  auto sortedSet = [](std::vector<Corr> v) {
+    std::sort(v.begin(), v.end());
+    return v;
+  };
+  // Least-squares pose over all inliers, re-scored until the inlier set stops changing.
+  for (int iter = 0; iter < 5 && s.inliers.size() >= 2; ++iter) {
+    std::vector<Eigen::Vector3d> qs, ms;
+    for (const auto& [i, j] : s.inliers) {
+      qs.push_back(q[i].centroid);
+      ms.push_back(m[j].centroid);
+    }
+    const ConstellationModel model =
+        (c.model == ConstellationModel::Full3D && s.inliers.size() >= 3) ? ConstellationModel::Full3D
+                                                                           : ConstellationModel::Planar;
+    Scored next = score(fitTransform(qs, ms, model), corrs, q, m, c);
+    if (next.inliers.size() < s.inliers.size()) break;
+    const bool same = sortedSet(next.inliers) == sortedSet(s.inliers);
+    s = std::move(next);
+    if (same) break;
+  }
+  return s;
+}
+
+double triangleHeight(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c) {
+  const double area2 = (b - a).cross(c - a).norm();
+  const double longest = std::max({(b - a).norm(), (c - a).norm(), (c - b).norm()});
+  return longest > 0 ? area2 / longest : 0.0;
+}
+
+}  // namespace
+
+std::optional<ConstellationMatch> matchConstellations(const std::vector<PropertyLandmark>& q,
+                                                      const std::vector<PropertyLandmark>& m,
+                                                      const ConstellationConfig& c) {
+  if (q.size() < c.min_inliers || m.size() < c.min_inliers) return std::nullopt;
+  std::vector<Corr> corrs;
+  for (std::size_t i = 0; i < q.size(); ++i)
+    for (std::size_t j = 0; j < m.size(); ++j)
+      if (compatible(q[i], m[j], c)) corrs.emplace_back(i, j);
+  if (corrs.size() < c.min_inliers) return std::nullopt;
+
+  // Pairwise consistency: distances between landmarks are invariant to the unknown pose.
+  auto consistent = [&](const Corr& a, const Corr& b) {
+    if (a.first == b.first || a.second == b.second) return false;
+    const double dq = (q[a.first].centroid - q[b.first].centroid).norm();
+    const double dm = (m[a.second].centroid - m[b.second].centroid).norm();
+    return std::abs(dq - dm) <= c.distance_tolerance;
+  };
+  auto baselineOk = [&](const Corr& a, const Corr& b) {
+    const Eigen::Vector3d d = q[a.first].centroid - q[b.first].centroid;
+    const double len = c.model == ConstellationModel::Planar ? d.head<2>().norm() : d.norm();
+    return len >= c.min_pair_distance;
+  };
+
+  // Minimal samples: pairs (planar) or triples (3-D).
+  std::vector<std::array<std::size_t, 3>> samples;
+  const std::size_t cap = c.max_hypotheses * 8;  // bound enumeration before sampling
+  for (std::size_t a = 0; a < corrs.size() && samples.size() < cap; ++a)
+    for (std::size_t b = a + 1; b < corrs.size() && samples.size() < cap; ++b) {
+      if (!consistent(corrs[a], corrs[b]) || !baselineOk(corrs[a], corrs[b])) continue;
+      if (c.model == ConstellationModel::Planar) {
+        samples.push_back({a, b, b});
+        continue;
+      }
+      for (std::size_t d = b + 1; d < corrs.size() && samples.size() < cap; ++d) {
+        if (!consistent(corrs[a], corrs[d]) || !consistent(corrs[b], corrs[d])) continue;
+        if (triangleHeight(q[corrs[a].first].centroid, q[corrs[b].first].centroid,
+                           q[corrs[d].first].centroid) < c.min_triangle_height)
+          continue;
+        samples.push_back({a, b, d});
+      }
+    }
+  if (samples.empty()) return std::nullopt;
+  if (samples.size() > c.max_hypotheses) {
+    std::mt19937_64 rng(c.seed);
+    std::shuffle(samples.begin(), samples.end(), rng);
+    samples.resize(c.max_hypotheses);
+  }
+
+  std::vector<Scored> hypotheses;
+  hypotheses.reserve(samples.size());
+  for (const auto& s : samples) {
+    const std::size_t n = c.model == ConstellationModel::Planar ? 2 : 3;
+    std::vector<Eigen::Vector3d> qs, ms;
+    for (std::size_t k = 0; k < n; ++k) {
+      qs.push_back(q[corrs[s[k]].first].centroid);
+      ms.push_back(m[corrs[s[k]].second].centroid);
+    }
+    hypotheses.push_back(score(fitTransform(qs, ms, c.model), corrs, q, m, c));
+  }
+  std::size_t best = 0;
+  for (std::size_t h = 1; h < hypotheses.size(); ++h)
+    if (hypotheses[h].better(hypotheses[best])) best = h;
+  Scored result = refine(hypotheses[best], corrs, q, m, c);
+  if (result.inliers.size() < c.min_inliers) return std::nullopt;
+
+  ConstellationMatch out;
+  out.T_match_query = result.T;
+  out.inliers = result.inliers;
+  out.rmse = result.rmse;
+  // Ambiguity: another hypothesis explaining as many landmarks with a clearly different pose
+  // (e.g. a symmetric arrangement of same-class sources).
+  Eigen::Vector3d q_mean = Eigen::Vector3d::Zero();
+  for (const auto& lm : q) q_mean += lm.centroid;
+  q_mean /= static_cast<double>(q.size());
+  for (const auto& h : hypotheses) {
+    if (h.inliers.size() < result.inliers.size()) continue;
+    const double dt = (h.T * q_mean - result.T * q_mean).norm();
+    const double dr = rotationAngle(h.T.inverse() * result.T);
+    if (dt > 2.0 * c.inlier_distance || dr > 0.5) {
+      out.ambiguous = true;
+      break;
+    }
+  }
+  return out;
+}
+
+std::vector<LoopCandidate> findConstellationCandidates(
+    std::size_t query, const std::vector<std::vector<PropertyLandmark>>& lms,
+    const CandidateSearchConfig& config) {
+  validate(config);
+  if (query >= lms.size()) fail("findConstellationCandidates", "query keyframe out of range");
+  std::vector<LoopCandidate> out;
+  if (query < config.min_index_gap) return out;
+  for (std::size_t j = 0; j + config.min_index_gap <= query; ++j) {
+    const auto match = matchConstellations(lms[query], lms[j], config.constellation);
+    if (!match || match->ambiguous) continue;
+    LoopCandidate cand;
+    cand.query = query;
+    cand.match = j;
+    cand.initial_guess = match->T_match_query;
+    cand.source = CandidateSource::Constellation;
+    cand.inliers = match->inliers.size();
+    cand.rmse = match->rmse;
+    cand.score = static_cast<double>(cand.inliers) - match->rmse / config.constellation.inlier_distance;
+    out.push_back(cand);
+  }
+  std::stable_sort(out.begin(), out.end(),
+                   [](const LoopCandidate& a, const LoopCandidate& b) { return a.score > b.score; });
+  if (out.size() > config.max_candidates) out.resize(config.max_candidates);
+  return out;
+}
+
+std::vector<LoopCandidate> findDistanceCandidates(std::size_t query, const PoseList& poses,
+                                                  const CandidateSearchConfig& config) {
+  validate(config);
+  if (query >= poses.size()) fail("findDistanceCandidates", "query keyframe out of range");
+  std::vector<LoopCandidate> out;
+  if (query < config.min_index_gap) return out;
+  const Eigen::Isometry3d& Tq = poses[query];
+  for (std::size_t j = 0; j + config.min_index_gap <= query; ++j) {
+    const double d = (poses[j].translation() - Tq.translation()).norm();
+    if (!(d <= config.search_radius)) continue;
+    LoopCandidate cand;
+    cand.query = query;
+    cand.match = j;
+    cand.initial_guess = poses[j].inverse() * Tq;
+    cand.source = CandidateSource::Distance;
+    cand.score = -d;
+    cand.rmse = d;
+    out.push_back(cand);
+  }
+  std::stable_sort(out.begin(), out.end(),
+                   [](const LoopCandidate& a, const LoopCandidate& b) { return a.score > b.score; });
+  if (out.size() > config.max_candidates) out.resize(config.max_candidates);
+  return out;
+}
+
+}  // namespace hazmap

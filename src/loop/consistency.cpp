@@ -1,0 +1,176 @@
+#include "hazmap/loop/consistency.hpp"
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <cstdint>
+#include <functional>
+
+#include "hazmap/core/error.hpp"
+#include "hazmap/core/se3.hpp"
+
+namespace hazmap {
+
+void validate(const ConsistencyConfig& c) {
+  const std::string where = "loop_closure.consistency";
+  auto nonneg = [&](double v, const char* name) {
+    if (!(v >= 0.0) || !std::isfinite(v)) fail(where, std::string(name) + " must be a finite number >= 0");
+  };
+  nonneg(c.translation_drift_per_metre, "translation_drift_per_metre");
+  nonneg(c.rotation_drift_per_metre, "rotation_drift_per_metre");
+  nonneg(c.translation_sigma_floor, "translation_sigma_floor");
+  nonneg(c.rotation_sigma_floor, "rotation_sigma_floor");
+  if (!(c.translation_sigma_floor > 0.0 && c.rotation_sigma_floor > 0.0))
+    fail(where, "translation_sigma_floor and rotation_sigma_floor must be > 0");
+  if (!(c.gate_probability > 0.0 && c.gate_probability < 1.0))
+    fail(where, "gate_probability must be in (0, 1)");
+}
+
+double pathLength(const PoseList& poses, std::size_t a, std::size_t b) {
+  if (a > b) std::swap(a, b);
+  if (b >= poses.size()) fail("pathLength", "keyframe index out of range");
+  double len = 0.0;
+  for (std::size_t i = a; i < b; ++i)
+    len += (poses[i + 1].translation() - poses[i].translation()).norm();
+  return len;
+}
+
+Matrix6d driftCovariance(double L, const ConsistencyConfig& c) {
+  const double st = c.translation_sigma_floor + c.translation_drift_per_metre * L;
+  const double sr = c.rotation_sigma_floor + c.rotation_drift_per_metre * L;
+  Vector6d d;
+  d << st * st, st * st, st * st, sr * sr, sr * sr, sr * sr;
+  return d.asDiagonal();
+}
+
+double chiSquare6Quantile(double p) {
+  if (!(p > 0.0 && p < 1.0)) fail("chiSquare6Quantile", "probability must be in (0, 1)");
+  // CDF of χ² with 6 dof: 1 − e^{−x/2} (1 + x/2 + x²/8).
+  auto cdf = [](double x) { return 1.0 - std::exp(-x / 2) * (1 + x / 2 + x * x / 8); };
+  double lo = 0.0, hi = 1.0;
+  while (cdf(hi) < p) hi *= 2;
+  for (int i = 0; i < 100; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (cdf(mid) < p ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
+namespace {
+
+double mahalanobis2(const Vector6d& e, const Matrix6d& cov) {
+  const Matrix6d s = 0.5 * (cov + cov.transpose());
+  return e.dot(s.ldlt().solve(e));
+}
+
+}  // namespace
+
+GateResult driftGate(const LoopClosure& loop, const PoseList& poses, const ConsistencyConfig& c) {
+  validate(c);
+  if (loop.from >= poses.size() || loop.to >= poses.size())
+    fail("driftGate", "loop keyframe index out of range of the pose estimate");
+  GateResult g;
+  g.path_length = pathLength(poses, loop.from, loop.to);
+  g.threshold = chiSquare6Quantile(c.gate_probability);
+  const Eigen::Isometry3d predicted = poses[loop.from].inverse() * poses[loop.to];
+  // Left-perturbation error in the `from` frame, the convention of the loop covariance.
+  const Vector6d e = se3Log(loop.T_from_to * predicted.inverse());
+  g.mahalanobis2 = mahalanobis2(e, loop.covariance + driftCovariance(g.path_length, c));
+  g.accepted = g.mahalanobis2 <= g.threshold;
+  return g;
+}
+
+double pairwiseDistance2(const LoopClosure& a, const LoopClosure& b, const PoseList& poses,
+                         const ConsistencyConfig& c) {
+  const std::size_t i = a.from, j = a.to, k = b.from, l = b.to;
+  if (std::max({i, j, k, l}) >= poses.size())
+    fail("pairwiseDistance2", "loop keyframe index out of range of the pose estimate");
+  const Eigen::Isometry3d T_ik = poses[i].inverse() * poses[k];
+  const Eigen::Isometry3d T_lj = poses[l].inverse() * poses[j];
+  // Both routes from i to j: the loop a directly, or estimate i→k, loop b, estimate l→j.
+  const Eigen::Isometry3d via_b = T_ik * b.T_from_to * T_lj;
+  const Vector6d e = se3Log(a.T_from_to * via_b.inverse());
+  // First-order: the covariances of both loops and the drift of the two short estimate paths.
+  const double L = pathLength(poses, i, k) + pathLength(poses, l, j);
+  return mahalanobis2(e, a.covariance + b.covariance + driftCovariance(L, c));
+}
+
+std::vector<std::size_t> consistentSubset(const std::vector<LoopClosure>& loops, const PoseList& poses,
+                                          const ConsistencyConfig& c) {
+  validate(c);
+  const std::size_t n = loops.size();
+  if (n <= 1) {
+    std::vector<std::size_t> all(n);
+    for (std::size_t i = 0; i < n; ++i) all[i] = i;
+    return all;
+  }
+  const double threshold = chiSquare6Quantile(c.gate_probability);
+  std::vector<double> cost(n);
+  for (std::size_t i = 0; i < n; ++i) cost[i] = driftGate(loops[i], poses, c).mahalanobis2;
+  std::vector<std::vector<char>> adj(n, std::vector<char>(n, 0));
+  for (std::size_t i = 0; i < n; ++i)
+    for (std::size_t j = i + 1; j < n; ++j)
+      adj[i][j] = adj[j][i] = pairwiseDistance2(loops[i], loops[j], poses, c) <= threshold;
+
+  std::vector<std::size_t> best;
+  double best_cost = 0.0;
+  auto consider = [&](const std::vector<std::size_t>& clique) {
+    double s = 0.0;
+    for (std::size_t v : clique) s += cost[v];
+    if (clique.size() > best.size() || (clique.size() == best.size() && s < best_cost)) {
+      best = clique;
+      best_cost = s;
+    }
+  };
+
+  if (n <= 64) {
+    // Bron–Kerbosch with pivoting on 64-bit vertex sets: exact maximum clique.
+    std::vector<std::uint64_t> nbr(n, 0);
+    for (std::size_t i = 0; i < n; ++i)
+      for (std::size_t j = 0; j < n; ++j)
+        if (adj[i][j]) nbr[i] |= std::uint64_t{1} << j;
+    std::vector<std::size_t> current;
+    std::function<void(std::uint64_t, std::uint64_t)> expand = [&](std::uint64_t P, std::uint64_t X) {
+      if (P == 0) {
+        if (X == 0) consider(current);
+        return;
+      }
+      if (current.size() + static_cast<std::size_t>(std::popcount(P)) < best.size()) return;
+      const std::uint64_t PX = P | X;
+      const int pivot = std::countr_zero(PX);
+      std::uint64_t candidates = P & ~nbr[pivot];
+      while (candidates) {
+        const int v = std::countr_zero(candidates);
+        candidates &= candidates - 1;
+        current.push_back(static_cast<std::size_t>(v));
+        expand(P & nbr[v], X & nbr[v]);
+        current.pop_back();
+        P &= ~(std::uint64_t{1} << v);
+        X |= std::uint64_t{1} << v;
+      }
+    };
+    const std::uint64_t all = n == 64 ? ~std::uint64_t{0} : (std::uint64_t{1} << n) - 1;
+    expand(all, 0);
+  } else {
+    // Greedy: most-connected loops first, each kept if consistent with all kept so far.
+    std::vector<std::size_t> order(n);
+    for (std::size_t i = 0; i < n; ++i) order[i] = i;
+    std::vector<int> degree(n, 0);
+    for (std::size_t i = 0; i < n; ++i)
+      for (std::size_t j = 0; j < n; ++j) degree[i] += adj[i][j];
+    std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+      return degree[a] != degree[b] ? degree[a] > degree[b] : cost[a] < cost[b];
+    });
+    std::vector<std::size_t> kept;
+    for (std::size_t v : order) {
+      bool ok = true;
+      for (std::size_t u : kept) ok = ok && adj[u][v];
+      if (ok) kept.push_back(v);
+    }
+    consider(kept);
+  }
+  std::sort(best.begin(), best.end());
+  return best;
+}
+
+}  // namespace hazmap

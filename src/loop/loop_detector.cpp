@@ -1,0 +1,73 @@
+#include "hazmap/core/error.hpp"
+#include "hazmap/loop/loop_closure.hpp"
+
+namespace hazmap {
+
+LoopDetector::LoopDetector(ClassTable classes, LoopClosureConfig config)
+    : classes_(std::move(classes)), config_(std::move(config)) {
+  config_.validate();
+}
+
+std::size_t LoopDetector::addKeyframe(LabeledCloud cloud) {
+  cloud.checkConsistent("loop closure keyframe " + std::to_string(clouds_.size()));
+  landmarks_.push_back(extractLandmarks(cloud, classes_, config_.landmarks));
+  clouds_.push_back(std::move(cloud));
+  return clouds_.size() - 1;
+}
+
+std::vector<LoopCandidate> LoopDetector::candidates(std::size_t query, const PoseList& estimate) const {
+  if (query >= size()) fail("loop closure", "query keyframe " + std::to_string(query) + " does not exist");
+  std::vector<LoopCandidate> out;
+  if (config_.method != CandidateMethod::Distance)
+    out = findConstellationCandidates(query, landmarks_, config_.candidates);
+  if (config_.method != CandidateMethod::Constellation) {
+    if (estimate.size() <= query)
+      fail("loop closure", "the distance search needs a pose estimate for keyframe " + std::to_string(query));
+    auto d = findDistanceCandidates(query, estimate, config_.candidates);
+    // Both: constellation candidates first (they carry a landmark-derived guess), then distance
+    // candidates for keyframes not already proposed.
+    for (const auto& c : d) {
+      bool seen = false;
+      for (const auto& o : out) seen = seen || o.match == c.match;
+      if (!seen) out.push_back(c);
+    }
+  }
+  return out;
+}
+
+LoopDetection LoopDetector::detect(std::size_t query, const PoseList& estimate) {
+  LoopDetection det;
+  det.candidates = candidates(query, estimate);
+  const bool gate = config_.consistency.use_drift_gate;
+  if (gate && estimate.size() <= query)
+    fail("loop closure", "the drift gate needs a pose estimate for keyframe " + std::to_string(query));
+  for (const auto& cand : det.candidates) {
+    if (det.accepted.size() >= config_.max_loops_per_keyframe) break;
+    VerificationResult v =
+        verifyCandidate(cand, clouds_[cand.query], clouds_[cand.match], classes_, config_.verification);
+    det.verifications.push_back(v);
+    if (!v.accepted) continue;
+    if (gate) {
+      const GateResult g = driftGate(v.closure, estimate, config_.consistency);
+      det.gates.push_back(g);
+      if (!g.accepted) {
+        det.verifications.back().accepted = false;
+        det.verifications.back().reason = "drift gate: d² = " + std::to_string(g.mahalanobis2) +
+                                          " > " + std::to_string(g.threshold);
+        continue;
+      }
+    }
+    det.accepted.push_back(v.closure);
+    loops_.push_back(v.closure);
+  }
+  return det;
+}
+
+std::vector<LoopClosure> LoopDetector::consistentLoops(const PoseList& estimate) const {
+  if (!config_.consistency.use_pairwise) return loops_;
+  std::vector<LoopClosure> out;
+  for (std::size_t i : consistentSubset(loops_, estimate, config_.consistency)) out.push_back(loops_[i]);
+  return out;
+}
+
+}  // namespace hazmap

@@ -1,0 +1,98 @@
+#include "hazmap/loop/verification.hpp"
+
+#include <Eigen/Eigenvalues>
+#include <cmath>
+#include <sstream>
+
+#include "hazmap/core/error.hpp"
+
+namespace hazmap {
+
+void validate(const VerificationConfig& c) {
+  const std::string where = "loop_closure.verification";
+  auto nonneg = [&](double v, const char* name) {
+    if (!(v >= 0.0) || !std::isfinite(v)) fail(where, std::string(name) + " must be a finite number >= 0");
+  };
+  auto positive = [&](double v, const char* name) {
+    if (!(v > 0.0) || !std::isfinite(v)) fail(where, std::string(name) + " must be a finite number > 0");
+  };
+  if (!(c.min_fitness >= 0.0 && c.min_fitness <= 1.0)) fail(where, "min_fitness must be in [0, 1]");
+  positive(c.max_rmse, "max_rmse");
+  positive(c.max_translation_sigma, "max_translation_sigma");
+  positive(c.max_rotation_sigma, "max_rotation_sigma");
+  positive(c.max_correction_translation, "max_correction_translation");
+  positive(c.max_correction_rotation, "max_correction_rotation");
+  nonneg(c.min_translation_sigma, "min_translation_sigma");
+  nonneg(c.min_rotation_sigma, "min_rotation_sigma");
+  positive(c.registration.max_correspondence_distance, "registration.max_correspondence_distance");
+  if (c.registration.max_iterations < 1) fail(where, "registration.max_iterations must be >= 1");
+}
+
+namespace {
+
+std::string fmt(double v) {
+  std::ostringstream s;
+  s.precision(3);
+  s << v;
+  return s.str();
+}
+
+double largestSigma(const Eigen::Matrix3d& block) {
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(0.5 * (block + block.transpose()));
+  return std::sqrt(std::max(0.0, eig.eigenvalues().maxCoeff()));
+}
+
+}  // namespace
+
+VerificationResult evaluateRegistration(const LoopCandidate& cand, const RegistrationResult& reg,
+                                        const VerificationConfig& c) {
+  validate(c);
+  VerificationResult out;
+  out.registration = reg;
+  LoopClosure& lc = out.closure;
+  lc.from = cand.match;
+  lc.to = cand.query;
+  lc.T_from_to = reg.transform;
+  lc.source = cand.source;
+  lc.fitness = reg.fitness;
+  lc.rmse = reg.inlier_rmse;
+  auto reject = [&](std::string why) {
+    out.accepted = false;
+    out.reason = std::move(why);
+    return out;
+  };
+  if (!reg.converged) return reject("registration did not converge" + (reg.reason.empty() ? "" : ": " + reg.reason));
+  if (!isFinite(reg.transform) || !reg.covariance.allFinite()) return reject("non-finite registration result");
+  if (reg.fitness < c.min_fitness) return reject("fitness " + fmt(reg.fitness) + " < " + fmt(c.min_fitness));
+  if (reg.inlier_rmse > c.max_rmse) return reject("rmse " + fmt(reg.inlier_rmse) + " m > " + fmt(c.max_rmse));
+  if (c.reject_degenerate && !reg.degenerate_directions.empty())
+    return reject("degenerate registration (" + std::to_string(reg.degenerate_directions.size()) +
+                  " unconstrained directions)");
+  const Eigen::Isometry3d correction = cand.initial_guess.inverse() * reg.transform;
+  if (translationNorm(correction) > c.max_correction_translation ||
+      rotationAngle(correction) > c.max_correction_rotation)
+    return reject("ICP moved " + fmt(translationNorm(correction)) + " m / " +
+                  fmt(rotationAngle(correction)) + " rad from the initial guess");
+
+  // Covariance: symmetric, positive definite, bounded.
+  Matrix6d cov = 0.5 * (reg.covariance + reg.covariance.transpose());
+  Eigen::SelfAdjointEigenSolver<Matrix6d> eig(cov);
+  if (eig.info() != Eigen::Success || !(eig.eigenvalues().minCoeff() > 0.0))
+    return reject("covariance is not positive definite");
+  const double st = largestSigma(cov.topLeftCorner<3, 3>());
+  const double sr = largestSigma(cov.bottomRightCorner<3, 3>());
+  if (st > c.max_translation_sigma) return reject("translation sigma " + fmt(st) + " m > " + fmt(c.max_translation_sigma));
+  if (sr > c.max_rotation_sigma) return reject("rotation sigma " + fmt(sr) + " rad > " + fmt(c.max_rotation_sigma));
+  // Add the floor variances so the information stays finite and no loop becomes rigid.
+  Eigen::Matrix<double, 6, 1> floor;
+  floor << Eigen::Vector3d::Constant(c.min_translation_sigma * c.min_translation_sigma),
+      Eigen::Vector3d::Constant(c.min_rotation_sigma * c.min_rotation_sigma);
+  cov += floor.asDiagonal();
+  lc.covariance = cov;
+  Matrix6d info = cov.llt().solve(Matrix6d::Identity());
+  lc.information = 0.5 * (info + info.transpose());
+  out.accepted = true;
+  return out;
+}
+
+}  // namespace hazmap
