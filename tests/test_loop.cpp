@@ -78,6 +78,40 @@ TEST(LoopLandmarks, ToleranceSplitsOrJoinsAndRangeFilters) {
   EXPECT_TRUE(extractLandmarks(LabeledCloud{}, table, {}).empty());
 }
 
+TEST(LoopLandmarks, MergeAWindowOfKeyframesIntoOnePlace) {
+  const LabeledCloud world = test::samplePatches(test::routePatches());
+  const PoseList truth = test::rectangleRoute();
+  std::mt19937 rng(11);
+  std::vector<std::vector<PropertyLandmark>> lms;
+  for (std::size_t k = 0; k < 6; ++k)
+    lms.push_back(extractLandmarks(test::observe(world, truth[k], 6.0, 0.02, 0.3, rng),
+                                   ClassTable::defaults(), {}));
+  const auto place = mergeLandmarks(lms, truth, 0, 5, 5, 1.0);
+  // Every landmark seen in the window appears once, at its true position in keyframe 5's frame.
+  std::size_t most = 0;
+  for (const auto& l : lms) most = std::max(most, l.size());
+  EXPECT_GT(place.size(), most);
+  std::size_t total_points = 0;
+  for (const auto& l : lms)
+    for (const auto& x : l) total_points += x.point_count;
+  std::size_t merged_points = 0;
+  for (const auto& l : place) merged_points += l.point_count;
+  EXPECT_EQ(merged_points, total_points);
+  const auto patches = test::routePatches();
+  for (const auto& l : place) {
+    const Eigen::Vector3d w = truth[5] * l.centroid;
+    double nearest = 1e9;
+    for (const auto& p : patches)
+      if (p.cls == l.class_id) nearest = std::min(nearest, (p.center - w).norm());
+    EXPECT_LT(nearest, 0.8) << "merged landmark at " << w.transpose();
+  }
+  for (std::size_t i = 0; i < place.size(); ++i)
+    for (std::size_t j = i + 1; j < place.size(); ++j)
+      if (place[i].class_id == place[j].class_id)
+        EXPECT_GT((place[i].centroid - place[j].centroid).norm(), 1.0);
+  EXPECT_THROW(mergeLandmarks(lms, truth, 3, 9, 5, 1.0), Error);
+}
+
 // ------------------------------------------------------------------------ constellations
 
 std::vector<PropertyLandmark> landmarksSeenFrom(const LabeledCloud& world, const Eigen::Isometry3d& pose,

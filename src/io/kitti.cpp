@@ -49,6 +49,9 @@ LabeledCloud decodeBin(const io_detail::FileBytes& bytes, const std::uint32_t* l
   if (stats) {
     stats->points_in_file = n;
     stats->dropped_non_finite = n - w;
+    stats->format = "kitti-bin";
+    stats->fields = {"x", "y", "z", "remission"};
+    if (labels) stats->fields.push_back("label");
   }
   return cloud;
 }

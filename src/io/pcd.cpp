@@ -298,6 +298,11 @@ LabeledCloud readPcd(const std::filesystem::path& path, const ClassTable& table,
                  ft ? ct.at(i) : 0.0, fp ? cp.at(i) : 0.0, i);
     }
   }
+  if (stats) {
+    stats->format = "pcd " + h.data;
+    stats->fields.clear();
+    for (const auto& f : h.fields) stats->fields.push_back(f.name);
+  }
   return sink.finish(n, stats);
 }
 

@@ -124,7 +124,7 @@ PlyHeader parseHeader(std::string_view text, const std::filesystem::path& path) 
       done = true;
       break;
     } else {
-      io_detail::failAtLine(path, ln, "unknown header line '" + std::string(key.substr(0, 30)) + "'");
+      io_detail::failAtLine(path, ln, "unknown header line '" + std::string(key.substr(0, 30)) + "' (missing end_header?)");
     }
   }
   if (!done) fail(where, "header has no end_header line (truncated?)");
@@ -339,6 +339,13 @@ LabeledCloud readPly(const std::filesystem::path& path, const ClassTable& table,
       sink.add(v(kx), v(ky), v(kz), v(ki), v(kl), v(kt), v(kp), i);
     });
     break;  // later elements (faces) are not needed for a cloud
+  }
+  if (stats) {
+    stats->format = h.format == PlyFormat::Ascii                ? "ply ascii"
+                    : h.format == PlyFormat::BinaryLittleEndian ? "ply binary_little_endian"
+                                                                : "ply binary_big_endian";
+    stats->fields.clear();
+    for (const auto& p : vertex->props) stats->fields.push_back(p.name);
   }
   return sink.finish(vertex->count, stats);
 }

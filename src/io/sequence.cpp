@@ -92,7 +92,7 @@ Sequence Sequence::open(const fs::path& dir, const std::optional<ClassTable>& ta
                            ? ClassTable::load(name)
                            : ClassTable::fromYamlFile(rel);
         } else if (t.IsMap()) {
-          seq.table_ = ClassTable::fromYamlString(YAML::Dump(t), where + " (class_table)");
+          seq.table_ = ClassTable::fromYamlString(YAML::Dump(t), where + ": class_table");
         } else {
           fail(where, "'class_table' must be a table or the name/path of one");
         }

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <numeric>
 #include <unordered_map>
 
@@ -101,9 +102,15 @@ std::vector<PropertyLandmark> extractLandmarks(const LabeledCloud& cloud, const 
   const double max_range2 = config.max_range > 0 ? config.max_range * config.max_range : 0.0;
 
   // Labelled points only (they are a few percent of a scan, so this stays small).
+  std::vector<char> is_property;  // class id → property? (a table lookup per point is slow)
+  for (ClassId id : table.ids()) {
+    if (id >= is_property.size()) is_property.resize(static_cast<std::size_t>(id) + 1, 0);
+    is_property[id] = table.isProperty(id);
+  }
   std::vector<std::size_t> idx;
   for (std::size_t i = 0; i < cloud.size(); ++i) {
-    if (!table.isProperty(cloud.classes[i])) continue;
+    const ClassId c = cloud.classes[i];
+    if (c >= is_property.size() || !is_property[c]) continue;
     const Eigen::Vector3f& p = cloud.points[i];
     if (!p.allFinite()) continue;
     if (max_range2 > 0 && p.cast<double>().squaredNorm() > max_range2) continue;
@@ -111,31 +118,48 @@ std::vector<PropertyLandmark> extractLandmarks(const LabeledCloud& cloud, const 
   }
   if (idx.empty()) return {};
 
-  // Hash grid with cell = tolerance: every neighbour within `tol` lies in the 27 adjacent cells
-  // of the same class.
+  // Hash grid with cell edge tol/√3: the cell diagonal is tol, so all points of one cell are
+  // connected outright, and every neighbour within tol lies within ±2 cells. Cell pairs whose
+  // points are already connected are skipped, which keeps dense patches cheap.
+  const double cell = tol / std::sqrt(3.0);
   auto keyOf = [&](std::size_t i) {
     const Eigen::Vector3f& p = cloud.points[i];
-    return CellKey{static_cast<std::int32_t>(std::floor(p.x() / tol)),
-                   static_cast<std::int32_t>(std::floor(p.y() / tol)),
-                   static_cast<std::int32_t>(std::floor(p.z() / tol)), cloud.classes[i]};
+    return CellKey{static_cast<std::int32_t>(std::floor(p.x() / cell)),
+                   static_cast<std::int32_t>(std::floor(p.y() / cell)),
+                   static_cast<std::int32_t>(std::floor(p.z() / cell)), cloud.classes[i]};
   };
   std::unordered_map<CellKey, std::vector<std::uint32_t>, CellHash> grid;
+  std::vector<CellKey> order;  // cells in first-seen order (deterministic)
   grid.reserve(idx.size());
-  for (std::uint32_t k = 0; k < idx.size(); ++k) grid[keyOf(idx[k])].push_back(k);
-
-  DisjointSets sets(idx.size());
   for (std::uint32_t k = 0; k < idx.size(); ++k) {
     const CellKey key = keyOf(idx[k]);
-    const Eigen::Vector3f& p = cloud.points[idx[k]];
-    for (int dx = -1; dx <= 1; ++dx)
-      for (int dy = -1; dy <= 1; ++dy)
-        for (int dz = -1; dz <= 1; ++dz) {
+    auto [it, inserted] = grid.try_emplace(key);
+    if (inserted) order.push_back(key);
+    it->second.push_back(k);
+  }
+
+  DisjointSets sets(idx.size());
+  for (const auto& [key, members] : grid)
+    for (std::size_t m = 1; m < members.size(); ++m) sets.unite(members[0], members[m]);
+  for (const CellKey& key : order) {
+    const auto& a = grid.find(key)->second;
+    for (int dx = -2; dx <= 2; ++dx)
+      for (int dy = -2; dy <= 2; ++dy)
+        for (int dz = -2; dz <= 2; ++dz) {
+          if (dx == 0 && dy == 0 && dz == 0) continue;
           auto it = grid.find(CellKey{key.x + dx, key.y + dy, key.z + dz, key.c});
           if (it == grid.end()) continue;
-          for (std::uint32_t m : it->second) {
-            if (m <= k) continue;
-            if (sets.find(m) == sets.find(k)) continue;
-            if ((cloud.points[idx[m]] - p).cast<double>().squaredNorm() <= tol2) sets.unite(k, m);
+          const auto& b = it->second;
+          if (sets.find(a[0]) == sets.find(b[0])) continue;
+          bool joined = false;
+          for (std::size_t s = 0; s < a.size() && !joined; ++s) {
+            const Eigen::Vector3f& p = cloud.points[idx[a[s]]];
+            for (std::size_t t = 0; t < b.size(); ++t)
+              if ((cloud.points[idx[b[t]]] - p).cast<double>().squaredNorm() <= tol2) {
+                sets.unite(a[s], b[t]);
+                joined = true;
+                break;
+              }
           }
         }
   }
@@ -153,6 +177,70 @@ std::vector<PropertyLandmark> extractLandmarks(const LabeledCloud& cloud, const 
   std::vector<PropertyLandmark> out;
   for (const auto& members : clusters)
     if (members.size() >= config.min_points) out.push_back(describe(cloud, members));
+  std::stable_sort(out.begin(), out.end(), [](const PropertyLandmark& a, const PropertyLandmark& b) {
+    return a.class_id < b.class_id;
+  });
+  return out;
+}
+
+std::vector<PropertyLandmark> mergeLandmarks(
+    const std::vector<std::vector<PropertyLandmark>>& per_keyframe, const PoseList& poses,
+    std::size_t first, std::size_t last, std::size_t ref, double merge_distance) {
+  if (first > last || last >= per_keyframe.size() || last >= poses.size() || ref >= poses.size())
+    fail("mergeLandmarks", "keyframe range out of bounds");
+  // Reference keyframe first, then by distance in index: nearer keyframes seed the merge.
+  std::vector<std::size_t> order;
+  for (std::size_t k = first; k <= last; ++k) order.push_back(k);
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+    auto d = [&](std::size_t k) { return k > ref ? k - ref : ref - k; };
+    return d(a) < d(b);
+  });
+  const Eigen::Isometry3d T_ref_world = poses[ref].inverse();
+  std::vector<PropertyLandmark> out;
+  for (std::size_t k : order) {
+    const Eigen::Isometry3d T = T_ref_world * poses[k];
+    for (const PropertyLandmark& l : per_keyframe[k]) {
+      PropertyLandmark t = l;
+      t.centroid = T * l.centroid;
+      t.axes = T.linear() * l.axes;
+      // Bounds of the moved box: its eight corners.
+      t.box_min = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+      t.box_max = -t.box_min;
+      for (int c = 0; c < 8; ++c) {
+        const Eigen::Vector3d corner((c & 1) ? l.box_max.x() : l.box_min.x(),
+                                     (c & 2) ? l.box_max.y() : l.box_min.y(),
+                                     (c & 4) ? l.box_max.z() : l.box_min.z());
+        const Eigen::Vector3d q = T * corner;
+        t.box_min = t.box_min.cwiseMin(q);
+        t.box_max = t.box_max.cwiseMax(q);
+      }
+      PropertyLandmark* into = nullptr;
+      double best = merge_distance;
+      for (auto& o : out) {
+        const double d = (o.centroid - t.centroid).norm();
+        if (o.class_id == t.class_id && d <= best) {
+          best = d;
+          into = &o;
+        }
+      }
+      if (!into) {
+        out.push_back(t);
+        continue;
+      }
+      const double wa = static_cast<double>(into->point_count), wb = static_cast<double>(t.point_count);
+      const double w = wa + wb > 0 ? wb / (wa + wb) : 0.5;
+      into->centroid = (1 - w) * into->centroid + w * t.centroid;
+      if (into->has_property_value && t.has_property_value)
+        into->mean_property = (1 - w) * into->mean_property + w * t.mean_property;
+      if (t.extent(0) > into->extent(0)) {
+        into->extent = t.extent;
+        into->axes = t.axes;
+      }
+      into->box_min = into->box_min.cwiseMin(t.box_min);
+      into->box_max = into->box_max.cwiseMax(t.box_max);
+      into->point_count += t.point_count;
+    }
+  }
   std::stable_sort(out.begin(), out.end(), [](const PropertyLandmark& a, const PropertyLandmark& b) {
     return a.class_id < b.class_id;
   });

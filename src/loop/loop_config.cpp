@@ -1,6 +1,7 @@
 // LoopClosureConfig: validation and YAML round trip.
 #include <yaml-cpp/yaml.h>
 
+#include <cmath>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -25,6 +26,11 @@ void LoopClosureConfig::validate() const {
   hazmap::validate(verification);
   hazmap::validate(consistency);
   if (max_loops_per_keyframe < 1) fail("loop_closure", "max_loops_per_keyframe must be >= 1");
+  if (landmark_window < 1) fail("loop_closure", "landmark_window must be >= 1");
+  if (!(landmark_merge_distance > 0.0) || !std::isfinite(landmark_merge_distance))
+    fail("loop_closure", "landmark_merge_distance must be a finite number > 0");
+  if (!(keyframe_voxel >= 0.0) || !std::isfinite(keyframe_voxel))
+    fail("loop_closure", "keyframe_voxel must be >= 0 (0 = no downsampling)");
 }
 
 namespace {
@@ -111,6 +117,9 @@ LoopClosureConfig LoopClosureConfig::fromYamlString(const std::string& yaml, con
                                      {"distance", CandidateMethod::Distance},
                                      {"both", CandidateMethod::Both}});
     top.getSize("max_loops_per_keyframe", c.max_loops_per_keyframe);
+    top.get("keyframe_voxel", c.keyframe_voxel);
+    top.getSize("landmark_window", c.landmark_window);
+    top.get("landmark_merge_distance", c.landmark_merge_distance);
 
     Section lm = top.child("landmarks");
     lm.get("cluster_tolerance", c.landmarks.cluster_tolerance);
@@ -185,6 +194,9 @@ std::string LoopClosureConfig::toYamlString() const {
   o << YAML::BeginMap << YAML::Key << "loop_closure" << YAML::Value << YAML::BeginMap;
   o << YAML::Key << "method" << YAML::Value << toString(method);
   o << YAML::Key << "max_loops_per_keyframe" << YAML::Value << max_loops_per_keyframe;
+  o << YAML::Key << "keyframe_voxel" << YAML::Value << keyframe_voxel;
+  o << YAML::Key << "landmark_window" << YAML::Value << landmark_window;
+  o << YAML::Key << "landmark_merge_distance" << YAML::Value << landmark_merge_distance;
   o << YAML::Key << "landmarks" << YAML::Value << YAML::BeginMap;
   o << YAML::Key << "cluster_tolerance" << YAML::Value << landmarks.cluster_tolerance;
   o << YAML::Key << "min_points" << YAML::Value << landmarks.min_points;

@@ -1,5 +1,7 @@
 #include "hazmap/core/error.hpp"
+#include "hazmap/core/se3.hpp"
 #include "hazmap/loop/loop_closure.hpp"
+#include "hazmap/preprocess/voxel_downsample.hpp"
 
 namespace hazmap {
 
@@ -11,6 +13,12 @@ LoopDetector::LoopDetector(ClassTable classes, LoopClosureConfig config)
 std::size_t LoopDetector::addKeyframe(LabeledCloud cloud) {
   cloud.checkConsistent("loop closure keyframe " + std::to_string(clouds_.size()));
   landmarks_.push_back(extractLandmarks(cloud, classes_, config_.landmarks));
+  if (config_.keyframe_voxel > 0.0) {
+    VoxelDownsampleConfig v;
+    v.voxel_size = config_.keyframe_voxel;
+    v.vote = ClassVote::PreferProperty;
+    cloud = voxelDownsample(cloud, v, classes_);
+  }
   clouds_.push_back(std::move(cloud));
   return clouds_.size() - 1;
 }
@@ -18,8 +26,19 @@ std::size_t LoopDetector::addKeyframe(LabeledCloud cloud) {
 std::vector<LoopCandidate> LoopDetector::candidates(std::size_t query, const PoseList& estimate) const {
   if (query >= size()) fail("loop closure", "query keyframe " + std::to_string(query) + " does not exist");
   std::vector<LoopCandidate> out;
-  if (config_.method != CandidateMethod::Distance)
-    out = findConstellationCandidates(query, landmarks_, config_.candidates);
+  if (config_.method != CandidateMethod::Distance) {
+    if (config_.landmark_window <= 1) {
+      out = findConstellationCandidates(query, landmarks_, config_.candidates);
+    } else {
+      if (estimate.size() <= query)
+        fail("loop closure", "landmark_window > 1 needs a pose estimate for keyframe " + std::to_string(query));
+      std::vector<std::vector<PropertyLandmark>> places(query + 1);
+      places[query] = placeLandmarks(query, estimate);
+      for (std::size_t j = 0; j + config_.candidates.min_index_gap <= query; ++j)
+        places[j] = placeLandmarks(j, estimate);
+      out = findConstellationCandidates(query, places, config_.candidates);
+    }
+  }
   if (config_.method != CandidateMethod::Constellation) {
     if (estimate.size() <= query)
       fail("loop closure", "the distance search needs a pose estimate for keyframe " + std::to_string(query));
@@ -33,6 +52,13 @@ std::vector<LoopCandidate> LoopDetector::candidates(std::size_t query, const Pos
     }
   }
   return out;
+}
+
+std::vector<PropertyLandmark> LoopDetector::placeLandmarks(std::size_t k, const PoseList& estimate) const {
+  if (k >= size()) fail("loop closure", "keyframe " + std::to_string(k) + " does not exist");
+  if (config_.landmark_window <= 1) return landmarks_[k];
+  const std::size_t first = k + 1 >= config_.landmark_window ? k + 1 - config_.landmark_window : 0;
+  return mergeLandmarks(landmarks_, estimate, first, k, k, config_.landmark_merge_distance);
 }
 
 LoopDetection LoopDetector::detect(std::size_t query, const PoseList& estimate) {
@@ -68,6 +94,13 @@ std::vector<LoopClosure> LoopDetector::consistentLoops(const PoseList& estimate)
   std::vector<LoopClosure> out;
   for (std::size_t i : consistentSubset(loops_, estimate, config_.consistency)) out.push_back(loops_[i]);
   return out;
+}
+
+bool isTrueLoop(const LoopClosure& loop, const PoseList& truth, double max_t, double max_r) {
+  if (loop.from >= truth.size() || loop.to >= truth.size())
+    fail("isTrueLoop", "loop keyframe index out of range of the ground truth");
+  const Eigen::Isometry3d err = (truth[loop.from].inverse() * truth[loop.to]).inverse() * loop.T_from_to;
+  return translationNorm(err) <= max_t && rotationAngle(err) <= max_r;
 }
 
 }  // namespace hazmap

@@ -1,6 +1,7 @@
 #include "hazmap/map/render.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -126,7 +127,41 @@ Image renderTopDown(const LabeledCloud& map, const ClassTable& table,
   const int map_h = std::max(1, int(std::ceil(span.y() * ppm)));
   const int title_h = config.title.empty() ? 0 : textHeight(config.title, 2) + 12;
   const int m = config.margin_px;
-  Image img(map_w + 2 * m, map_h + 2 * m + title_h, config.background);
+
+  // Legend entries (property classes present, then the trajectory) and the footer that holds
+  // them with the scale bar, below the map so that nothing covers map content.
+  std::vector<ClassId> seen;
+  for (std::size_t i = 0; i < map.size(); ++i)
+    if (table.isProperty(map.classes[i]) && visible(map.points[i]) &&
+        std::find(seen.begin(), seen.end(), map.classes[i]) == seen.end())
+      seen.push_back(map.classes[i]);
+  std::sort(seen.begin(), seen.end());
+  std::vector<std::pair<Rgb, std::string>> legend;
+  for (ClassId id : seen) legend.emplace_back(propertyColor(table.at(id), config.colors), table.at(id).name);
+  if (!trajectory.empty()) legend.emplace_back(config.trajectory, "trajectory");
+  if (!config.draw_legend) legend.clear();
+  const double bar_m = niceStep(span.x(), 5.0);
+  const int bar_px = int(std::lround(bar_m * ppm));
+  const std::string bar_label = formatNumber(bar_m) + " m";
+  std::vector<std::pair<int, int>> slots;  // (x, row) of each footer item; item 0 = scale bar
+  int footer_rows = 0;
+  {
+    const int usable = map_w;
+    int x = 0, row = 0;
+    const auto place = [&](int w) {
+      if (x > 0 && x + w > usable) {
+        x = 0;
+        ++row;
+      }
+      slots.emplace_back(x, row);
+      x += w + 16;
+    };
+    if (config.draw_scale_bar) place(bar_px + 8 + textWidth(bar_label, 1));
+    for (const auto& e : legend) place(20 + textWidth(e.second, 1));
+    footer_rows = slots.empty() ? 0 : row + 1;
+  }
+  const int footer_h = footer_rows * 18;
+  Image img(map_w + 2 * m, map_h + 2 * m + title_h + footer_h, config.background);
   if (!config.title.empty()) drawText(img, m, 8, config.title, kBlack, 2);
   const auto px = [&](double x) { return m + (x - view.min.x()) * ppm; };
   const auto py = [&](double y) { return title_h + m + (view.max.y() - y) * ppm; };
@@ -134,15 +169,39 @@ Image renderTopDown(const LabeledCloud& map, const ClassTable& table,
   // Plain points: the highest one per pixel decides the grey.
   std::vector<float> zbuf(std::size_t(map_w) * std::size_t(map_h), -std::numeric_limits<float>::infinity());
   std::vector<float> heights;
+  // Pixel span [x0, x1) × [y0, y1) (map-area coordinates) covered by a point's cell.
+  const double half = 0.5 * std::max(0.0, config.cell_size);
+  const auto footprint = [&](const Eigen::Vector3f& p, int min_px) {
+    // Edges are rounded (not floored) so that neighbouring cells whose float centroids land a
+    // hair either side of a pixel boundary still share that boundary: no one-pixel seams.
+    int x0 = int(std::lround((p.x() - half - view.min.x()) * ppm));
+    int x1 = std::max(x0 + 1, int(std::lround((p.x() + half - view.min.x()) * ppm)));
+    int y0 = int(std::lround((view.max.y() - p.y() - half) * ppm));
+    int y1 = std::max(y0 + 1, int(std::lround((view.max.y() - p.y() + half) * ppm)));
+    if (x1 - x0 < min_px) {
+      const int c = int(std::floor((p.x() - view.min.x()) * ppm));
+      x0 = c - min_px / 2;
+      x1 = x0 + min_px;
+    }
+    if (y1 - y0 < min_px) {
+      const int c = int(std::floor((view.max.y() - p.y()) * ppm));
+      y0 = c - min_px / 2;
+      y1 = y0 + min_px;
+    }
+    return std::array<int, 4>{x0, y0, x1, y1};
+  };
   for (std::size_t i = 0; i < map.size(); ++i) {
     const Eigen::Vector3f& p = map.points[i];
     if (!visible(p) || table.isProperty(map.classes[i])) continue;
-    const int x = int(std::floor((p.x() - view.min.x()) * ppm));
-    const int y = int(std::floor((view.max.y() - p.y()) * ppm));
-    if (x < 0 || y < 0 || x >= map_w || y >= map_h) continue;
-    float& z = zbuf[std::size_t(y) * std::size_t(map_w) + std::size_t(x)];
-    z = std::max(z, p.z());
-    heights.push_back(p.z());
+    const auto [x0, y0, x1, y1] = footprint(p, 1);
+    bool inside = false;
+    for (int y = std::max(0, y0); y < std::min(map_h, y1); ++y)
+      for (int x = std::max(0, x0); x < std::min(map_w, x1); ++x) {
+        float& z = zbuf[std::size_t(y) * std::size_t(map_w) + std::size_t(x)];
+        z = std::max(z, p.z());
+        inside = true;
+      }
+    if (inside) heights.push_back(p.z());
   }
   double lo = 0, hi = 1;
   if (!heights.empty()) {
@@ -153,7 +212,10 @@ Image renderTopDown(const LabeledCloud& map, const ClassTable& table,
     };
     lo = at(config.colors.low_percentile);
     hi = at(config.colors.high_percentile);
-    if (hi <= lo) hi = lo + 1.0;
+    if (hi - lo < 1e-3) {  // a flat map: mid grey rather than the darkest shade
+      lo -= 0.5;
+      hi = lo + 1.0;
+    }
   }
   for (int y = 0; y < map_h; ++y)
     for (int x = 0; x < map_w; ++x) {
@@ -161,34 +223,26 @@ Image renderTopDown(const LabeledCloud& map, const ClassTable& table,
       if (std::isfinite(z)) img.set(m + x, title_h + m + y, greyForHeight(z, lo, hi, config.colors));
     }
 
-  // Property cells on top, as small squares so that thin hazards stay visible.
-  std::vector<std::pair<Rgb, std::string>> legend;
-  std::vector<ClassId> seen;
-  const int s = std::max(0, config.property_point_px - 1);
+  // Property cells on top, at least a few pixels wide so that thin hazards stay visible.
+  const int min_px = std::max(1, 2 * config.property_point_px - 1);
   for (std::size_t i = 0; i < map.size(); ++i) {
     const Eigen::Vector3f& p = map.points[i];
     const ClassInfo* info = table.find(map.classes[i]);
     if (!visible(p) || !info || info->kind == PropertyKind::None) continue;
     const Rgb c = propertyColor(*info, config.colors);
-    const int x = int(std::floor(px(p.x()))), y = int(std::floor(py(p.y())));
-    fillRect(img, x - s, y - s, x + s + 1, y + s + 1, c);
-    if (std::find(seen.begin(), seen.end(), info->id) == seen.end()) seen.push_back(info->id);
-  }
-  std::sort(seen.begin(), seen.end());
-  for (ClassId id : seen) {
-    const ClassInfo& info = table.at(id);
-    legend.emplace_back(propertyColor(info, config.colors), info.name);
+    const auto [x0, y0, x1, y1] = footprint(p, min_px);
+    fillRect(img, std::max(0, x0) + m, std::max(0, y0) + title_h + m, std::min(map_w, x1) + m,
+             std::min(map_h, y1) + title_h + m, c);
   }
 
   // Trajectory.
   for (std::size_t i = 1; i < trajectory.size(); ++i)
     drawLine(img, px(trajectory[i - 1].x()), py(trajectory[i - 1].y()), px(trajectory[i].x()),
-             py(trajectory[i].y()), config.trajectory, 2);
+             py(trajectory[i].y()), config.trajectory, 3);
   if (!trajectory.empty()) {
     fillCircle(img, px(trajectory.front().x()), py(trajectory.front().y()), 5, {0, 160, 60});
     const double ex = px(trajectory.back().x()), ey = py(trajectory.back().y());
     fillRect(img, int(ex) - 4, int(ey) - 4, int(ex) + 5, int(ey) + 5, kBlack);
-    legend.emplace_back(config.trajectory, "trajectory");
   }
 
   // Hazard rings and numbers.
@@ -206,18 +260,23 @@ Image renderTopDown(const LabeledCloud& map, const ClassTable& table,
     }
   }
 
+  // Footer: scale bar, then the legend entries.
+  const int fy = title_h + 2 * m + map_h - m / 2;
+  std::size_t slot = 0;
   if (config.draw_scale_bar) {
-    const double metres = niceStep(span.x(), 5.0);
-    const int len = int(std::lround(metres * ppm));
-    const int x0 = m + 8, y0 = title_h + m + map_h - 10;
-    const std::string label = formatNumber(metres) + " m";
-    fillRect(img, x0 - 4, y0 - 16, x0 + std::max(len, textWidth(label, 1)) + 6, y0 + 6, kWhite);
-    fillRect(img, x0, y0, x0 + len, y0 + 3, kBlack);
+    const int x0 = m + slots[slot].first, y0 = fy + slots[slot].second * 18 + 8;
+    ++slot;
+    fillRect(img, x0, y0, x0 + bar_px, y0 + 3, kBlack);
     fillRect(img, x0, y0 - 5, x0 + 2, y0 + 3, kBlack);
-    fillRect(img, x0 + len - 2, y0 - 5, x0 + len, y0 + 3, kBlack);
-    drawText(img, x0, y0 - 14, label, kBlack, 1);
+    fillRect(img, x0 + bar_px - 2, y0 - 5, x0 + bar_px, y0 + 3, kBlack);
+    drawText(img, x0 + bar_px + 8, y0 - 4, bar_label, kBlack, 1);
   }
-  if (config.draw_legend) drawLegend(img, img.width - m - 4, title_h + m + 4, legend, 1);
+  for (const auto& [color, label] : legend) {
+    const int x0 = m + slots[slot].first, y0 = fy + slots[slot].second * 18 + 2;
+    ++slot;
+    fillRect(img, x0, y0 + 1, x0 + 14, y0 + 9, color);
+    drawText(img, x0 + 20, y0, label, kBlack, 1);
+  }
   return img;
 }
 

@@ -20,8 +20,6 @@
 
 namespace hazmap {
 
-using PoseList = std::vector<Eigen::Isometry3d, Eigen::aligned_allocator<Eigen::Isometry3d>>;
-
 enum class ConstellationModel {
   Planar,  ///< x, y, yaw from landmark pairs, z offset from the inliers' mean (ground robot)
   Full3D,  ///< 6-DoF from landmark triples (Kabsch); needs >= 3 non-collinear landmarks

@@ -3,6 +3,7 @@
 // information"): the labelled points of one keyframe, clustered by class, each cluster summarised
 // by a small descriptor that can be matched against other keyframes without any pose estimate.
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <cstddef>
 #include <vector>
 
@@ -10,6 +11,8 @@
 #include "hazmap/core/labeled_cloud.hpp"
 
 namespace hazmap {
+
+using PoseList = std::vector<Eigen::Isometry3d, Eigen::aligned_allocator<Eigen::Isometry3d>>;
 
 struct LandmarkConfig {
   /// Euclidean clustering distance (m): two same-class points closer than this belong to the
@@ -46,6 +49,16 @@ struct PropertyLandmark {
 /// the lowest point index in the cluster. Throws hazmap::Error on an invalid config.
 std::vector<PropertyLandmark> extractLandmarks(const LabeledCloud& cloud, const ClassTable& table,
                                                const LandmarkConfig& config = {});
+
+/// The landmarks of keyframes [first, last] expressed in the frame of keyframe `ref`, using
+/// `poses` (world ← keyframe; locally accurate odometry is enough over a short window).
+/// Same-class landmarks closer than `merge_distance` are fused: centroid, property value and
+/// bounds weighted by point count / united, extent and axes of the larger one, counts summed.
+/// A "place" seen over a few keyframes has more landmarks than one scan, which makes
+/// constellations more distinctive. Throws hazmap::Error on indices out of range.
+std::vector<PropertyLandmark> mergeLandmarks(
+    const std::vector<std::vector<PropertyLandmark>>& per_keyframe, const PoseList& poses,
+    std::size_t first, std::size_t last, std::size_t ref, double merge_distance);
 
 /// Throws hazmap::Error("loop_closure.landmarks: ...") naming the bad parameter.
 void validate(const LandmarkConfig& config);

@@ -27,6 +27,9 @@ const char* toString(CandidateMethod method);
 ///   loop_closure:
 ///     method: constellation          # constellation | distance | both
 ///     max_loops_per_keyframe: 1
+///     keyframe_voxel: 0.15
+///     landmark_window: 1
+///     landmark_merge_distance: 1.0
 ///     landmarks:    {cluster_tolerance: 0.7, min_points: 8, max_range: 30}
 ///     candidates:   {min_index_gap: 15, search_radius: 3, max_candidates: 3,
 ///                    constellation: {model: planar, distance_tolerance: 0.8, inlier_distance: 1,
@@ -46,6 +49,17 @@ struct LoopClosureConfig {
   CandidateMethod method = CandidateMethod::Constellation;
   /// Verified loops kept per query keyframe (best candidates first).
   std::size_t max_loops_per_keyframe = 1;
+  /// Keyframe clouds are stored voxel-downsampled to this size (m) for verification (property
+  /// points win their voxel, see preprocess/voxel_downsample.hpp); 0 = keep every point.
+  /// Landmarks are always extracted from the full cloud.
+  double keyframe_voxel = 0.15;
+  /// Constellations are built from the landmarks of this many keyframes (the keyframe and the
+  /// ones before it, merged into its frame with the pose estimate; same-class landmarks within
+  /// landmark_merge_distance fuse). 1 = the keyframe's own landmarks only. A VLP-16 sees a floor
+  /// puddle only from 2–10 m, so one scan often holds too few landmarks for a distinctive
+  /// constellation; a short window of locally accurate odometry gathers them.
+  std::size_t landmark_window = 1;
+  double landmark_merge_distance = 1.0;  ///< m
   LandmarkConfig landmarks;
   CandidateSearchConfig candidates;
   VerificationConfig verification;
@@ -80,10 +94,13 @@ class LoopDetector {
   const LabeledCloud& cloud(std::size_t k) const { return clouds_.at(k); }
   const std::vector<PropertyLandmark>& landmarks(std::size_t k) const { return landmarks_.at(k); }
   const std::vector<std::vector<PropertyLandmark>>& allLandmarks() const { return landmarks_; }
+  /// The constellation keyframe k is matched with: its landmarks merged over landmark_window.
+  std::vector<PropertyLandmark> placeLandmarks(std::size_t k, const PoseList& estimate) const;
   const LoopClosureConfig& config() const { return config_; }
 
   /// Candidates for `query` by the configured method. `estimate` (world ← keyframe, at least
-  /// query + 1 poses) is used by the distance search only.
+  /// query + 1 poses) is used by the distance search and, with landmark_window > 1, to merge
+  /// the window's landmarks (locally only: drift between distant keyframes does not matter).
   std::vector<LoopCandidate> candidates(std::size_t query, const PoseList& estimate) const;
 
   /// Candidates → ICP verification → drift gate against `estimate`; accepted loops are also
@@ -102,5 +119,10 @@ class LoopDetector {
   std::vector<std::vector<PropertyLandmark>> landmarks_;
   std::vector<LoopClosure> loops_;
 };
+
+/// Whether a loop agrees with ground truth (`truth` = world ← keyframe): its relative pose is
+/// within the given translation (m) and rotation (rad) error of the true one.
+bool isTrueLoop(const LoopClosure& loop, const PoseList& truth, double max_translation_error = 0.5,
+                double max_rotation_error = 0.05);
 
 }  // namespace hazmap

@@ -28,7 +28,10 @@ struct TopDownConfig {
   /// Points with world z above this are not drawn (e.g. ceilings hiding an indoor map);
   /// nullopt = draw everything.
   std::optional<double> clip_above;
-  int property_point_px = 2;   ///< half-size of the square drawn for each property cell
+  /// Size (m) of the map's cells (GlobalMap::voxelSize()): each point then fills its cell's
+  /// footprint, so the render has no holes at high zoom. 0 = one pixel per point.
+  double cell_size = 0.0;
+  int property_point_px = 2;   ///< property points are drawn at least (2·this − 1) px wide
   bool draw_hazard_labels = true;
   bool draw_legend = true;
   bool draw_scale_bar = true;

@@ -1,7 +1,17 @@
 #pragma once
 // Property-aware ICP (paper section IV, eq. 2) with pose covariance. Plain ICP is the same code
 // with use_classes = false (α = 0 and one search radius for every point).
+//
+// Correspondence rule (eq. 2): a source point p of class c(p) is paired with the target point q
+// minimising d²(p, q) + λ(p, q), λ = α when the classes differ, 0 when they agree. Candidates of
+// the same class are searched within the class's search radius (ClassInfo::search_radius, wider
+// for property classes, 0 = max_correspondence_distance); candidates of other classes within
+// max_correspondence_distance. The gate is geometric, the ranking penalised. See
+// docs/registration.md for the details, the beyond-the-paper options and the covariance.
 #include <Eigen/Geometry>
+#include <cstddef>
+#include <map>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -12,13 +22,98 @@
 namespace hazmap {
 
 enum class IcpMetric { PointToPoint, PointToPlane };
+enum class RobustKernel { None, Huber, GemanMcClure };
+enum class LabelMode {
+  Hard,  ///< the paper: mismatch costs α, mismatched pairs count fully in the objective
+  Soft,  ///< labels are right with probability `label_confidence`: mismatch costs α·c², and
+         ///< a mismatched pair's residual weight is discounted by (1 − c²) (SuMa++-like)
+};
+enum class SpatialIndexKind {
+  VoxelHash,  ///< sparse voxel grid, exact radius-bounded search (default; faster, see bench)
+  KdTree,     ///< nanoflann k-d tree per class (kept for the comparison)
+};
+
+const char* toString(IcpMetric m);
+const char* toString(RobustKernel k);
+const char* toString(LabelMode m);
+const char* toString(SpatialIndexKind k);
 
 struct RegistrationConfig {
   bool use_classes = true;                ///< false = conventional ICP
   IcpMetric metric = IcpMetric::PointToPlane;
-  double max_correspondence_distance = 1.0;  ///< m, for unlabelled points
-  int max_iterations = 50;
-  // (the registration stage adds its further documented settings here)
+  double max_correspondence_distance = 1.0;  ///< m, for unlabelled points (> 0)
+  int max_iterations = 50;                   ///< >= 1
+
+  // --- the paper's penalty ---
+  /// α (m²) override; < 0 = take ClassTable::mismatch_penalty. Ignored when use_classes=false.
+  double mismatch_penalty = -1.0;
+  LabelMode label_mode = LabelMode::Hard;
+  double label_confidence = 0.9;  ///< soft mode: probability that a label is right, (0, 1]
+  /// Multiply a pair's residual weight by ClassInfo::weight of the source point's class.
+  bool use_class_weights = true;
+  /// Continuous property (LabeledCloud::property, e.g. °C): adds property_weight·(v_p − v_q)²
+  /// (m² per unit²) to the matching cost when both clouds have the channel; 0 = off.
+  double property_weight = 0.0;
+  /// Point-to-plane only: a property point matched to its own class gets a 3-D (point-to-point)
+  /// residual — a labelled patch usually lies in its wall, so its plane residual would not say
+  /// where along the wall it is, which is exactly what the label tells.
+  bool property_point_to_point = true;
+
+  // --- robust kernel with adaptive threshold ---
+  RobustKernel robust_kernel = RobustKernel::GemanMcClure;
+  /// Kernel scale = max(robust_min_scale, robust_scale_factor · 1.4826 · median |residual|),
+  /// re-estimated every iteration from the observed residuals.
+  double robust_scale_factor = 3.0;
+  double robust_min_scale = 0.01;  ///< m
+
+  // --- convergence ---
+  double translation_tolerance = 1e-4;  ///< m; stop when the update is below both tolerances
+  double rotation_tolerance = 1e-4;     ///< rad
+  std::size_t min_correspondences = 10;  ///< fewer → converged=false, reason given
+
+  // --- point-to-plane normals (target) ---
+  int normal_neighbors = 10;     ///< k nearest target points used for each normal (>= 3)
+  double normal_radius = 1.0;    ///< m, neighbours farther away are ignored
+
+  // --- speed ---
+  SpatialIndexKind index = SpatialIndexKind::VoxelHash;
+  /// Voxel edge of the hash index for unlabelled points (m); 0 = max_correspondence_distance/2.
+  double index_cell_size = 0.0;
+  /// Use at most this many source points (evenly strided, deterministic); 0 = all.
+  std::size_t max_source_points = 0;
+  int threads = 0;  ///< 0 = TBB's default (or the surrounding tbb::global_control)
+
+  // --- covariance / degeneracy ---
+  /// A direction of the Hessian (rotations scaled by degeneracy_length) whose eigenvalue is below
+  /// this fraction of the pairs' total weight is reported as degenerate (see covariance.hpp).
+  double degeneracy_threshold = 0.01;
+  double degeneracy_length = 1.0;  ///< m: a rotation θ weighs like a translation θ·length
+
+  /// Throws hazmap::Error naming the offending parameter.
+  void validate() const;
+  /// The α actually used (0 when use_classes=false).
+  double effectiveMismatchPenalty(const ClassTable& classes) const;
+};
+
+/// Reads a YAML mapping (keys = field names above; enums as text: metric point|plane,
+/// robust_kernel none|huber|geman-mcclure, label_mode hard|soft, index voxel|kdtree). Unknown keys
+/// are an error. `base` supplies the defaults for keys that are absent.
+RegistrationConfig registrationConfigFromYaml(const std::string& yaml, const std::string& where,
+                                              const RegistrationConfig& base = {});
+RegistrationConfig loadRegistrationConfig(const std::string& path,
+                                          const RegistrationConfig& base = {});
+std::string toYamlString(const RegistrationConfig& config);
+
+/// How the labels shaped the final correspondences (beyond the paper; for reports).
+struct CorrespondenceStats {
+  std::size_t source_points = 0;     ///< points used (after max_source_points)
+  std::size_t matched = 0;           ///< with a correspondence
+  std::size_t same_class = 0;        ///< matched to a point of the same class
+  std::size_t cross_class = 0;       ///< matched to a point of another class (penalised)
+  std::size_t property_points = 0;   ///< source points of a property class
+  std::size_t property_matched = 0;  ///< … of which matched to their own class
+  /// property points matched beyond max_correspondence_distance (only the wider radius allowed it)
+  std::size_t wide_matches = 0;
 };
 
 struct RegistrationResult {
@@ -30,10 +125,27 @@ struct RegistrationResult {
   bool converged = false;
   std::vector<Vector6d> degenerate_directions;  ///< unit tangent directions, translation-first
   std::string reason;  ///< why it did not converge (empty when converged)
+  // --- additions ---
+  CorrespondenceStats stats;
+  Matrix6d hessian = Matrix6d::Zero();  ///< Σ w JᵀJ at the solution (translation-first)
+  double residual_sigma = 0.0;          ///< m, estimated residual standard deviation
+  double kernel_scale = 0.0;            ///< m, final adaptive robust-kernel scale
 };
 
+class RegistrationTarget;
+
 /// Aligns `source` to `target` starting from `initial_guess` (target ← source).
+/// Throws hazmap::Error for an invalid config, a non-finite initial guess or a class that is not in
+/// `classes`. Empty or too small clouds give converged=false with `reason` and transform =
+/// initial_guess. Non-finite points are ignored.
 RegistrationResult registerClouds(const LabeledCloud& source, const LabeledCloud& target,
+                                  const Eigen::Isometry3d& initial_guess, const ClassTable& classes,
+                                  const RegistrationConfig& config = {});
+
+/// Same, against a prebuilt target (indexes + normals), for repeated registrations against the
+/// same cloud or local map. `target` must have been built with the same classes and a config
+/// whose use_classes/metric/index/radii match (checked).
+RegistrationResult registerClouds(const LabeledCloud& source, const RegistrationTarget& target,
                                   const Eigen::Isometry3d& initial_guess, const ClassTable& classes,
                                   const RegistrationConfig& config = {});
 

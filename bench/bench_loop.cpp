@@ -1,0 +1,125 @@
+// Loop-closure benchmarks: landmark extraction on a VLP-16-sized scan (peer: PCL's
+// EuclideanClusterExtraction on the same labelled points, same tolerance), and the constellation
+// candidate search of one query against a few hundred keyframes.
+#include <benchmark/benchmark.h>
+
+#include <random>
+
+#include "hazmap/core/class_table.hpp"
+#include "hazmap/core/se3.hpp"
+#include "hazmap/loop/candidates.hpp"
+#include "hazmap/loop/landmarks.hpp"
+
+#ifdef HAZMAP_BENCH_HAVE_PCL
+#include <pcl/point_types.h>
+#include <pcl/search/kdtree.h>
+#include <pcl/segmentation/extract_clusters.h>
+#endif
+
+namespace {
+
+using namespace hazmap;
+
+// ~29k points like one VLP-16 scan: unlabelled clutter plus six property patches (heat on walls,
+// water on the floor) of a few hundred to a few thousand points, and 0.5 % label noise.
+LabeledCloud scanLikeCloud() {
+  std::mt19937 rng(42);
+  std::uniform_real_distribution<float> u(-1.f, 1.f);
+  LabeledCloud c;
+  c.reserve(30000);
+  for (int i = 0; i < 27000; ++i) {
+    const float r = 2.f + 20.f * (0.5f + 0.5f * u(rng)), a = 3.14159f * u(rng);
+    c.push_back({r * std::cos(a), r * std::sin(a), 0.5f * u(rng)}, (i % 200 == 0) ? 1 : 0);
+  }
+  const Eigen::Vector3f centers[] = {{5, 2, 0.5}, {-6, 4, 1}, {10, -7, -0.5}, {-3, -9, -0.5}, {15, 9, 1}, {2, 12, 0}};
+  for (int k = 0; k < 6; ++k)
+    for (int i = 0; i < 300 + 120 * k; ++i)
+      c.push_back(centers[k] + Eigen::Vector3f(u(rng), u(rng), 0.3f * u(rng)), k % 2 ? 2 : 1);
+  return c;
+}
+
+void BM_ExtractLandmarks(benchmark::State& state) {
+  const LabeledCloud cloud = scanLikeCloud();
+  const ClassTable table = ClassTable::defaults();
+  LandmarkConfig cfg;
+  cfg.max_range = 0;
+  std::size_t n = 0;
+  for (auto _ : state) {
+    auto lms = extractLandmarks(cloud, table, cfg);
+    n = lms.size();
+    benchmark::DoNotOptimize(lms);
+  }
+  state.counters["landmarks"] = static_cast<double>(n);
+}
+BENCHMARK(BM_ExtractLandmarks)->Unit(benchmark::kMicrosecond);
+
+#ifdef HAZMAP_BENCH_HAVE_PCL
+// The peer: one PCL Euclidean clustering per property class over the same labelled points
+// (building the per-class clouds is included, as hazmap's time includes its selection).
+void BM_PclEuclideanClusters(benchmark::State& state) {
+  const LabeledCloud cloud = scanLikeCloud();
+  const LandmarkConfig cfg;
+  std::size_t n = 0;
+  for (auto _ : state) {
+    n = 0;
+    for (ClassId cls : {ClassId{1}, ClassId{2}}) {
+      pcl::PointCloud<pcl::PointXYZ>::Ptr pc(new pcl::PointCloud<pcl::PointXYZ>);
+      for (std::size_t i = 0; i < cloud.size(); ++i)
+        if (cloud.classes[i] == cls) pc->push_back({cloud.points[i].x(), cloud.points[i].y(), cloud.points[i].z()});
+      pcl::search::KdTree<pcl::PointXYZ>::Ptr tree(new pcl::search::KdTree<pcl::PointXYZ>);
+      tree->setInputCloud(pc);
+      std::vector<pcl::PointIndices> clusters;
+      pcl::EuclideanClusterExtraction<pcl::PointXYZ> ec;
+      ec.setClusterTolerance(cfg.cluster_tolerance);
+      ec.setMinClusterSize(static_cast<int>(cfg.min_points));
+      ec.setSearchMethod(tree);
+      ec.setInputCloud(pc);
+      ec.extract(clusters);
+      n += clusters.size();
+    }
+    benchmark::DoNotOptimize(n);
+  }
+  state.counters["landmarks"] = static_cast<double>(n);
+}
+BENCHMARK(BM_PclEuclideanClusters)->Unit(benchmark::kMicrosecond);
+#endif
+
+// One query against `range(0)` past keyframes, each seeing 4–7 of 12 sources.
+void BM_ConstellationSearch(benchmark::State& state) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  std::vector<PropertyLandmark> world;
+  for (int k = 0; k < 12; ++k) {
+    PropertyLandmark l;
+    l.class_id = static_cast<ClassId>(1 + k % 2);
+    l.centroid = {20 * u(rng), 12 * u(rng), 0.5 * u(rng)};
+    l.extent = {0.5, 0.3, 0.05};
+    world.push_back(l);
+  }
+  const std::size_t frames = static_cast<std::size_t>(state.range(0));
+  std::vector<std::vector<PropertyLandmark>> lms(frames + 1);
+  for (auto& f : lms) {
+    const Eigen::Isometry3d T = fromXyYaw(10 * u(rng), 6 * u(rng), 3 * u(rng));
+    for (const auto& l : world) {
+      if (u(rng) < -0.3) continue;
+      PropertyLandmark s = l;
+      s.centroid = T * l.centroid + 0.1 * Eigen::Vector3d(u(rng), u(rng), u(rng));
+      f.push_back(s);
+    }
+  }
+  CandidateSearchConfig cfg;
+  std::size_t found = 0;
+  for (auto _ : state) {
+    auto c = findConstellationCandidates(frames, lms, cfg);
+    found = c.size();
+    benchmark::DoNotOptimize(c);
+  }
+  state.counters["candidates"] = static_cast<double>(found);
+  state.counters["keyframes/s"] = benchmark::Counter(static_cast<double>(frames) * state.iterations(),
+                                                     benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_ConstellationSearch)->Arg(150)->Arg(600)->Unit(benchmark::kMillisecond);
+
+}  // namespace
+
+BENCHMARK_MAIN();

@@ -1,0 +1,80 @@
+#pragma once
+// A registration target prepared once and reused: per-class spatial indexes (the paper's wider
+// same-class search costs little because property points live in their own small index), the
+// all-points index, and — for point-to-plane — the target normals. Build it once for a local map
+// or a loop-closure candidate and register many sources against it.
+#include <Eigen/Core>
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "hazmap/core/class_table.hpp"
+#include "hazmap/core/labeled_cloud.hpp"
+#include "hazmap/preprocess/spatial_index.hpp"
+#include "hazmap/registration/registration.hpp"
+
+namespace hazmap {
+
+/// One candidate correspondence in the target.
+struct TargetMatch {
+  std::int64_t index = -1;  ///< target point index, -1 = none within the gates
+  float distance2 = 0.0f;   ///< squared Euclidean distance (m²)
+  float cost = 0.0f;        ///< distance2 + penalty (what the rule minimised)
+  bool cross_class = false;
+};
+
+class RegistrationTarget {
+ public:
+  /// Copies the finite points of `cloud`. Throws hazmap::Error for an invalid config or a class
+  /// missing from `classes` (only when config.use_classes).
+  RegistrationTarget(const LabeledCloud& cloud, const ClassTable& classes,
+                     const RegistrationConfig& config);
+  ~RegistrationTarget();
+  RegistrationTarget(RegistrationTarget&&) noexcept;
+  RegistrationTarget& operator=(RegistrationTarget&&) noexcept;
+
+  const LabeledCloud& cloud() const { return cloud_; }
+  std::size_t size() const { return cloud_.size(); }
+  bool empty() const { return cloud_.empty(); }
+  /// Unit normals (zero = none) when built for point-to-plane, else empty.
+  const std::vector<Eigen::Vector3f>& normals() const { return normals_; }
+  bool hasNormals() const { return !normals_.empty(); }
+
+  /// The paper's rule for one (already transformed) source point of class `cls` with property
+  /// value `value` (ignored unless the property term is on).
+  TargetMatch match(const Eigen::Vector3f& p, ClassId cls, float value) const;
+
+  /// True if `config` asks for the same search structure this target was built with.
+  bool compatibleWith(const RegistrationConfig& config, const ClassTable& classes) const;
+  /// Search radius (m) for same-class partners of `cls` (the default radius for unknown classes).
+  float sameClassRadius(ClassId cls) const;
+  float defaultRadius() const { return radius_; }
+  float penalty() const { return alpha_; }
+  bool usesClasses() const { return use_classes_; }
+  bool usesProperty() const { return property_weight_ > 0.0f; }
+
+ private:
+  struct ClassSlot {
+    ClassId cls = 0;
+    float radius2 = 0.0f;
+    std::unique_ptr<NeighborIndex> index;
+  };
+  LabeledCloud cloud_;
+  std::vector<Eigen::Vector3f> normals_;
+  std::unique_ptr<NeighborIndex> all_;  ///< every point (plain ICP, normals)
+  std::vector<ClassSlot> slots_;        ///< one per class present in the target (use_classes)
+  std::vector<std::int16_t> slot_of_class_;  ///< class id → slot, -1 = absent
+  std::vector<float> class_radius_;     ///< class id → same-class radius (m)
+  bool use_classes_ = false;
+  float radius_ = 1.0f;
+  float alpha_ = 0.0f;
+  float property_weight_ = 0.0f;
+  // what the target was built with (for compatibleWith)
+  IcpMetric metric_ = IcpMetric::PointToPlane;
+  SpatialIndexKind index_kind_ = SpatialIndexKind::VoxelHash;
+  float cell_ = 0.5f;
+  LabelMode label_mode_ = LabelMode::Hard;
+  float confidence_ = 1.0f;
+};
+
+}  // namespace hazmap

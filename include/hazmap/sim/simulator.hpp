@@ -1,0 +1,126 @@
+#pragma once
+// The simulator of the paper's experiment: a crawler with a VLP-16 driving through a facility
+// with heat sources and puddles. One config struct (documented defaults, loadable from YAML),
+// a Simulator that makes frames on demand (thread-safe, deterministic per frame), and
+// writeSimulation() that writes the whole sequence directory.
+#include <Eigen/Geometry>
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "hazmap/core/class_table.hpp"
+#include "hazmap/core/labeled_cloud.hpp"
+#include "hazmap/sim/lidar.hpp"
+#include "hazmap/sim/odometry_noise.hpp"
+#include "hazmap/sim/raycaster.hpp"
+#include "hazmap/sim/route.hpp"
+#include "hazmap/sim/scene.hpp"
+
+namespace hazmap::sim {
+
+using PoseList = std::vector<Eigen::Isometry3d, Eigen::aligned_allocator<Eigen::Isometry3d>>;
+
+struct SimulatorConfig {
+  /// Built-in scene name (naraha, corridor, tanks); ignored when scene_file is set.
+  std::string scenario = "naraha";
+  std::string scene_file;    ///< user scene mesh (.ply); needs regions_file
+  std::string regions_file;  ///< user regions + route (.yaml)
+  std::string class_table = "default";  ///< "default", "semantic-kitti" or a YAML path
+  std::uint64_t seed = 1;
+  std::size_t max_frames = 0;  ///< 0 = the whole route
+  LidarConfig sensor;
+  LabelNoiseConfig labels;
+  TemperatureConfig temperature;
+  RobotConfig robot;
+  OdometryNoiseConfig odometry;
+  double reference_voxel = 0.1;  ///< m, voxel size of reference_map.ply
+
+  /// Reads a YAML file; unknown keys are errors (typos must not silently use defaults).
+  /// Keys missing from the file keep the values already in `base`.
+  static SimulatorConfig fromYamlFile(const std::filesystem::path& path,
+                                      const SimulatorConfig& base);
+  static SimulatorConfig fromYamlFile(const std::filesystem::path& path);
+  static SimulatorConfig fromYamlString(const std::string& yaml, const std::string& where,
+                                        const SimulatorConfig& base);
+  static SimulatorConfig fromYamlString(const std::string& yaml, const std::string& where);
+  std::string toYamlString() const;
+  /// The `sensor:` section of hazmap.yaml (the VLP-16 model with its channel elevations).
+  std::string sensorYaml() const;
+  /// Throws hazmap::Error("<where>: <parameter> ...") for any invalid value.
+  void validate(const std::string& where = "simulator config") const;
+};
+
+/// The scene a config asks for (built-in or loaded), validated against `table`.
+Scene loadConfiguredScene(const SimulatorConfig& config, const ClassTable& table);
+
+class Simulator {
+ public:
+  /// Validates everything and builds the BVH; throws hazmap::Error before any work on bad input.
+  explicit Simulator(const SimulatorConfig& config);
+  Simulator(const SimulatorConfig& config, Scene scene, ClassTable table);
+
+  std::size_t frames() const { return truth_.size(); }
+  /// Scan i in the sensor frame (thread-safe; same bytes for the same seed and index).
+  /// `true_classes` receives the noise-free classes.
+  LabeledCloud scan(std::size_t i, std::vector<ClassId>* true_classes = nullptr) const;
+  /// True sensor poses in the world frame (KITTI poses.txt), one per frame.
+  const PoseList& groundTruth() const { return truth_; }
+  /// Accumulated encoder odometry (odometry.txt), starting at groundTruth()[0].
+  const PoseList& odometry() const { return odometry_; }
+  /// Whether a track slip happened between frame i-1 and i.
+  const std::vector<bool>& slips() const { return slips_; }
+  const std::vector<RouteSample>& samples() const { return samples_; }
+  const Scene& scene() const { return scene_; }
+  const ClassTable& classTable() const { return table_; }
+  const SimulatorConfig& config() const { return config_; }
+  double bvhBuildSeconds() const { return caster_->buildSeconds(); }
+  /// Path length driven up to the last frame (m).
+  double routeLength() const { return samples_.empty() ? 0.0 : samples_.back().travelled; }
+
+ private:
+  void init();
+  SimulatorConfig config_;
+  Scene scene_;
+  ClassTable table_;
+  std::unique_ptr<RayCaster> caster_;
+  std::vector<Eigen::Vector3f> directions_;
+  std::vector<RouteSample> samples_;
+  PoseList truth_, odometry_;
+  std::vector<bool> slips_;
+  ScanInputs inputs_;
+};
+
+/// Odometry-vs-truth statistics of a sequence (both start at the same pose).
+struct OdometryDrift {
+  double mean_position_error = 0.0;  ///< m, mean over frames of |t_odo - t_true|
+  double max_position_error = 0.0;   ///< m
+  double final_position_error = 0.0; ///< m, at the last frame
+  double max_frame_translation_error = 0.0;  ///< m, worst per-frame increment error
+  double max_frame_rotation_error_deg = 0.0; ///< °, worst per-frame increment error
+  std::size_t slips = 0;
+};
+OdometryDrift odometryDrift(const PoseList& truth, const PoseList& odometry,
+                            const std::vector<bool>& slips = {});
+
+struct SimulationSummary {
+  std::size_t frames = 0;
+  std::size_t points = 0;
+  double route_length = 0.0;
+  double bvh_seconds = 0.0;
+  double scan_seconds = 0.0;  ///< generating the scans (excluding the BVH and file writing)
+  double total_seconds = 0.0;
+  OdometryDrift drift;
+};
+
+/// Writes the sequence directory `out_dir`: velodyne/*.bin, labels/*.label, poses.txt,
+/// odometry.txt, times.txt, hazmap.yaml, reference_map.ply, scene.ply, simulation.yaml (the
+/// effective config) and, with the temperature channel on, temperature/*.bin. Everything is
+/// written into a temporary sibling folder that is renamed to `out_dir` at the end, so a
+/// failure leaves no half-written sequence. `out_dir` must not exist or be empty unless
+/// `overwrite` is set. Validation happens before anything is created.
+SimulationSummary writeSimulation(const SimulatorConfig& config, const std::filesystem::path& out_dir,
+                                  bool overwrite = false);
+
+}  // namespace hazmap::sim

@@ -1,0 +1,64 @@
+#include "hazmap/preprocess/normals.hpp"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <Eigen/Eigenvalues>
+#include <cmath>
+#include <string>
+
+#include "hazmap/core/error.hpp"
+
+namespace hazmap {
+
+namespace {
+
+void checkConfig(const NormalConfig& config) {
+  if (config.neighbors < 3)
+    fail("normals", "neighbors must be >= 3 (got " + std::to_string(config.neighbors) + ")");
+  if (!(config.radius > 0.0) || !std::isfinite(config.radius))
+    fail("normals", "radius must be > 0 (got " + std::to_string(config.radius) + ")");
+}
+
+}  // namespace
+
+std::vector<Eigen::Vector3f> estimateNormals(const LabeledCloud& cloud, const NeighborIndex& index,
+                                             const NormalConfig& config) {
+  checkConfig(config);
+  std::vector<Eigen::Vector3f> normals(cloud.size(), Eigen::Vector3f::Zero());
+  const float r2 = static_cast<float>(config.radius * config.radius);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cloud.size(), 256), [&](const auto& range) {
+    std::vector<Neighbor> nb;
+    for (std::size_t i = range.begin(); i < range.end(); ++i) {
+      const Eigen::Vector3f& p = cloud.points[i];
+      if (!p.allFinite()) continue;
+      index.kNearest(p, config.neighbors, r2, nb);
+      if (nb.size() < 3) continue;
+      Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+      for (const auto& n : nb) mean += cloud.points[n.index].cast<double>();
+      mean /= static_cast<double>(nb.size());
+      Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+      for (const auto& n : nb) {
+        const Eigen::Vector3d d = cloud.points[n.index].cast<double>() - mean;
+        cov.noalias() += d * d.transpose();
+      }
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es;
+      es.computeDirect(cov);
+      Eigen::Vector3f normal = es.eigenvectors().col(0).cast<float>();
+      // Two or more collinear neighbours give no plane.
+      if (!(es.eigenvalues()(1) > 1e-12) || !normal.allFinite()) continue;
+      if (normal.dot(config.viewpoint - p) < 0.0f) normal = -normal;
+      normals[i] = normal.normalized();
+    }
+  });
+  return normals;
+}
+
+std::vector<Eigen::Vector3f> estimateNormals(const LabeledCloud& cloud, const NormalConfig& config) {
+  checkConfig(config);
+  const VoxelHashIndex index(cloud.points, {}, static_cast<float>(config.radius) * 0.5f,
+                             static_cast<float>(config.radius));
+  return estimateNormals(cloud, index, config);
+}
+
+}  // namespace hazmap

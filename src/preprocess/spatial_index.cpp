@@ -1,0 +1,257 @@
+#include "hazmap/preprocess/spatial_index.hpp"
+
+#include <nanoflann.hpp>
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include "hazmap/core/error.hpp"
+
+namespace hazmap {
+
+namespace {
+
+constexpr std::uint64_t kEmpty = ~std::uint64_t{0};
+constexpr std::int64_t kAxisBias = std::int64_t{1} << 20;  // 21 bits per axis
+
+inline bool packKey(std::int64_t x, std::int64_t y, std::int64_t z, std::uint64_t& key) {
+  x += kAxisBias;
+  y += kAxisBias;
+  z += kAxisBias;
+  constexpr std::int64_t kMax = (std::int64_t{1} << 21) - 1;
+  if (x < 0 || y < 0 || z < 0 || x > kMax || y > kMax || z > kMax) return false;
+  key = (std::uint64_t(x) << 42) | (std::uint64_t(y) << 21) | std::uint64_t(z);
+  return true;
+}
+
+inline std::uint64_t hashKey(std::uint64_t key) {
+  key ^= key >> 29;
+  key *= 0x9E3779B97F4A7C15ull;
+  return key ^ (key >> 32);
+}
+
+inline bool finite(const Eigen::Vector3f& p) { return std::isfinite(p.x()) && std::isfinite(p.y()) && std::isfinite(p.z()); }
+
+// Keeps the k best (smallest distance2) neighbours, sorted.
+inline void pushBest(std::vector<Neighbor>& best, int k, Neighbor n) {
+  if (static_cast<int>(best.size()) == k) {
+    if (n.distance2 >= best.back().distance2) return;
+    best.pop_back();
+  }
+  auto it = std::upper_bound(best.begin(), best.end(), n,
+                             [](const Neighbor& a, const Neighbor& b) { return a.distance2 < b.distance2; });
+  best.insert(it, n);
+}
+
+}  // namespace
+
+VoxelHashIndex::VoxelHashIndex(std::span<const Eigen::Vector3f> points,
+                               std::span<const std::uint32_t> ids, float cell_size,
+                               float max_radius) {
+  if (!(cell_size > 0.0f) || !std::isfinite(cell_size))
+    fail("voxel hash index", "cell size must be > 0 (got " + std::to_string(cell_size) + ")");
+  if (!(max_radius > 0.0f) || !std::isfinite(max_radius))
+    fail("voxel hash index", "max radius must be > 0 (got " + std::to_string(max_radius) + ")");
+  cell_ = cell_size;
+  inv_cell_ = 1.0f / cell_size;
+  const std::size_t n = ids.empty() ? points.size() : ids.size();
+  const std::uint64_t table_size = std::bit_ceil(std::max<std::uint64_t>(16, 2 * n));
+  table_mask_ = table_size - 1;
+  table_keys_.assign(table_size, kEmpty);
+  table_cells_.assign(table_size, 0);
+
+  std::vector<std::uint32_t> cell_of(n, ~0u);
+  std::vector<std::uint32_t> counts;
+  counts.reserve(n / 2 + 1);
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::uint32_t id = ids.empty() ? static_cast<std::uint32_t>(i) : ids[i];
+    const Eigen::Vector3f& p = points[id];
+    if (!finite(p)) continue;
+    std::uint64_t key;
+    if (!packKey(static_cast<std::int64_t>(std::floor(p.x() * inv_cell_)),
+                 static_cast<std::int64_t>(std::floor(p.y() * inv_cell_)),
+                 static_cast<std::int64_t>(std::floor(p.z() * inv_cell_)), key))
+      continue;  // farther than ~1e6 voxels from the origin: not indexable
+    std::uint64_t slot = hashKey(key) & table_mask_;
+    while (table_keys_[slot] != kEmpty && table_keys_[slot] != key) slot = (slot + 1) & table_mask_;
+    if (table_keys_[slot] == kEmpty) {
+      table_keys_[slot] = key;
+      table_cells_[slot] = static_cast<std::uint32_t>(counts.size());
+      counts.push_back(0);
+    }
+    cell_of[i] = table_cells_[slot];
+    ++counts[cell_of[i]];
+  }
+  cell_begin_.assign(counts.size() + 1, 0);
+  for (std::size_t c = 0; c < counts.size(); ++c) cell_begin_[c + 1] = cell_begin_[c] + counts[c];
+  const std::size_t stored = cell_begin_.back();
+  points_.resize(stored);
+  ids_.resize(stored);
+  std::vector<std::uint32_t> fill(cell_begin_.begin(), cell_begin_.end() - 1);
+  for (std::size_t i = 0; i < n; ++i) {
+    if (cell_of[i] == ~0u) continue;
+    const std::uint32_t id = ids.empty() ? static_cast<std::uint32_t>(i) : ids[i];
+    const std::uint32_t at = fill[cell_of[i]]++;
+    points_[at] = points[id];
+    ids_[at] = id;
+  }
+
+  const int ring = static_cast<int>(std::ceil(max_radius / cell_size));
+  const float max_lb2 = (max_radius / cell_size) * (max_radius / cell_size);
+  for (int dx = -ring; dx <= ring; ++dx)
+    for (int dy = -ring; dy <= ring; ++dy)
+      for (int dz = -ring; dz <= ring; ++dz) {
+        const auto gap = [](int d) { return static_cast<float>(std::max(std::abs(d) - 1, 0)); };
+        const float lb2 = gap(dx) * gap(dx) + gap(dy) * gap(dy) + gap(dz) * gap(dz);
+        if (lb2 <= max_lb2) offsets_.push_back({dx, dy, dz, lb2});
+      }
+  std::stable_sort(offsets_.begin(), offsets_.end(), [](const Offset& a, const Offset& b) {
+    const int ma = std::abs(a.dx) + std::abs(a.dy) + std::abs(a.dz);
+    const int mb = std::abs(b.dx) + std::abs(b.dy) + std::abs(b.dz);
+    return a.lower_bound2 != b.lower_bound2 ? a.lower_bound2 < b.lower_bound2 : ma < mb;
+  });
+}
+
+std::int64_t VoxelHashIndex::findCell(std::int64_t x, std::int64_t y, std::int64_t z) const {
+  std::uint64_t key;
+  if (!packKey(x, y, z, key)) return -1;
+  std::uint64_t slot = hashKey(key) & table_mask_;
+  while (true) {
+    const std::uint64_t k = table_keys_[slot];
+    if (k == key) return table_cells_[slot];
+    if (k == kEmpty) return -1;
+    slot = (slot + 1) & table_mask_;
+  }
+}
+
+std::int64_t VoxelHashIndex::nearest(const Eigen::Vector3f& q, float max_distance2,
+                                     float& distance2) const {
+  const float sx = q.x() * inv_cell_, sy = q.y() * inv_cell_, sz = q.z() * inv_cell_;
+  const float bx = std::floor(sx), by = std::floor(sy), bz = std::floor(sz);
+  const float fx = sx - bx, fy = sy - by, fz = sz - bz;  // position inside the voxel, [0, 1)
+  const auto cx = static_cast<std::int64_t>(bx), cy = static_cast<std::int64_t>(by),
+             cz = static_cast<std::int64_t>(bz);
+  const float c2 = cell_ * cell_;
+  float best = max_distance2;
+  std::int64_t best_index = -1;
+  const auto gap = [](int d, float f) {
+    return d > 0 ? static_cast<float>(d) - f : (d < 0 ? f - static_cast<float>(d + 1) : 0.0f);
+  };
+  for (const Offset& o : offsets_) {
+    if (o.lower_bound2 * c2 >= best) break;
+    const float gx = gap(o.dx, fx), gy = gap(o.dy, fy), gz = gap(o.dz, fz);
+    if ((gx * gx + gy * gy + gz * gz) * c2 >= best) continue;
+    const std::int64_t cell = findCell(cx + o.dx, cy + o.dy, cz + o.dz);
+    if (cell < 0) continue;
+    const std::uint32_t end = cell_begin_[cell + 1];
+    for (std::uint32_t i = cell_begin_[cell]; i < end; ++i) {
+      const float d2 = (points_[i] - q).squaredNorm();
+      if (d2 < best) {
+        best = d2;
+        best_index = i;
+      }
+    }
+  }
+  if (best_index < 0) return -1;
+  distance2 = best;
+  return ids_[best_index];
+}
+
+void VoxelHashIndex::kNearest(const Eigen::Vector3f& q, int k, float max_distance2,
+                              std::vector<Neighbor>& out) const {
+  out.clear();
+  if (k <= 0) return;
+  const float sx = q.x() * inv_cell_, sy = q.y() * inv_cell_, sz = q.z() * inv_cell_;
+  const float bx = std::floor(sx), by = std::floor(sy), bz = std::floor(sz);
+  const float fx = sx - bx, fy = sy - by, fz = sz - bz;
+  const auto cx = static_cast<std::int64_t>(bx), cy = static_cast<std::int64_t>(by),
+             cz = static_cast<std::int64_t>(bz);
+  const float c2 = cell_ * cell_;
+  const auto gap = [](int d, float f) {
+    return d > 0 ? static_cast<float>(d) - f : (d < 0 ? f - static_cast<float>(d + 1) : 0.0f);
+  };
+  const auto bound = [&] {
+    return static_cast<int>(out.size()) == k ? std::min(out.back().distance2, max_distance2) : max_distance2;
+  };
+  for (const Offset& o : offsets_) {
+    if (o.lower_bound2 * c2 >= bound()) break;
+    const float gx = gap(o.dx, fx), gy = gap(o.dy, fy), gz = gap(o.dz, fz);
+    if ((gx * gx + gy * gy + gz * gz) * c2 >= bound()) continue;
+    const std::int64_t cell = findCell(cx + o.dx, cy + o.dy, cz + o.dz);
+    if (cell < 0) continue;
+    const std::uint32_t end = cell_begin_[cell + 1];
+    for (std::uint32_t i = cell_begin_[cell]; i < end; ++i) {
+      const float d2 = (points_[i] - q).squaredNorm();
+      if (d2 < max_distance2) pushBest(out, k, {ids_[i], d2});
+    }
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+struct KdTreeIndex::Impl {
+  struct Adaptor {
+    const std::vector<Eigen::Vector3f>* pts;
+    std::size_t kdtree_get_point_count() const { return pts->size(); }
+    float kdtree_get_pt(std::size_t i, std::size_t dim) const { return (*pts)[i][dim]; }
+    template <class B>
+    bool kdtree_get_bbox(B&) const { return false; }
+  };
+  using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<float, Adaptor>,
+                                                   Adaptor, 3, std::uint32_t>;
+  std::vector<Eigen::Vector3f> points;
+  std::vector<std::uint32_t> ids;
+  Adaptor adaptor{&points};
+  std::unique_ptr<Tree> tree;
+};
+
+KdTreeIndex::KdTreeIndex(std::span<const Eigen::Vector3f> points, std::span<const std::uint32_t> ids)
+    : impl_(std::make_unique<Impl>()) {
+  const std::size_t n = ids.empty() ? points.size() : ids.size();
+  impl_->points.reserve(n);
+  impl_->ids.reserve(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::uint32_t id = ids.empty() ? static_cast<std::uint32_t>(i) : ids[i];
+    if (!finite(points[id])) continue;
+    impl_->points.push_back(points[id]);
+    impl_->ids.push_back(id);
+  }
+  impl_->adaptor.pts = &impl_->points;
+  impl_->tree = std::make_unique<Impl::Tree>(3, impl_->adaptor,
+                                             nanoflann::KDTreeSingleIndexAdaptorParams(10));
+  impl_->tree->buildIndex();
+}
+
+KdTreeIndex::~KdTreeIndex() = default;
+
+std::size_t KdTreeIndex::size() const { return impl_->points.size(); }
+
+std::int64_t KdTreeIndex::nearest(const Eigen::Vector3f& q, float max_distance2, float& distance2) const {
+  if (impl_->points.empty()) return -1;
+  std::uint32_t idx = 0;
+  float d2 = max_distance2;
+  nanoflann::KNNResultSet<float, std::uint32_t> rs(1);
+  rs.init(&idx, &d2);
+  d2 = max_distance2;  // init() sets it to +inf; bound the search by the radius instead
+  impl_->tree->findNeighbors(rs, q.data(), nanoflann::SearchParams(32, 0.0f, false));
+  if (!(d2 < max_distance2) || rs.size() == 0) return -1;
+  distance2 = d2;
+  return impl_->ids[idx];
+}
+
+void KdTreeIndex::kNearest(const Eigen::Vector3f& q, int k, float max_distance2,
+                           std::vector<Neighbor>& out) const {
+  out.clear();
+  if (k <= 0 || impl_->points.empty()) return;
+  std::vector<std::uint32_t> idx(k);
+  std::vector<float> d2(k);
+  nanoflann::KNNResultSet<float, std::uint32_t> rs(k);
+  rs.init(idx.data(), d2.data());
+  const std::size_t found = impl_->tree->findNeighbors(rs, q.data(), nanoflann::SearchParams()) ? rs.size() : 0;
+  for (std::size_t i = 0; i < found; ++i)
+    if (d2[i] < max_distance2) out.push_back({impl_->ids[idx[i]], d2[i]});
+}
+
+}  // namespace hazmap

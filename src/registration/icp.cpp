@@ -1,0 +1,411 @@
+// The ICP loop: correspondences by the paper's rule (eq. 2, RegistrationTarget::match), robust
+// weights with an adaptive scale, a weighted point-to-point closed form (eq. 1) or a point-to-plane
+// Gauss–Newton step, and the pose covariance at the solution.
+//
+// Determinism: the source is cut into fixed chunks; each chunk's partial sums are computed in
+// parallel and added in chunk order, so results do not depend on the number of threads.
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/SVD>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include "hazmap/core/error.hpp"
+#include "hazmap/registration/covariance.hpp"
+#include "hazmap/registration/registration.hpp"
+#include "hazmap/registration/registration_target.hpp"
+
+namespace hazmap {
+
+namespace {
+
+constexpr std::size_t kChunk = 512;
+
+struct Corr {
+  std::int32_t target = -1;
+  float distance2 = 0.0f;
+  float residual = 0.0f;  ///< signed point-to-plane distance, or |p − q| for point-to-point
+  float weight = 1.0f;    ///< class / soft-label weight (robust weight applied later)
+  bool cross = false;
+  bool point3 = false;    ///< 3-D point-to-point residual (point metric, or a property pair)
+  std::uint8_t group = 0; ///< 0 ordinary pair, 1 property point matched to its class
+};
+
+// Partial sums of one chunk. Point-to-point also accumulates centroids and the cross-covariance.
+struct Sums {
+  Matrix6d H = Matrix6d::Zero();  ///< Σ w JᵀJ
+  Vector6d g = Vector6d::Zero();  ///< Σ w Jᵀ r
+  double wr2 = 0.0, w = 0.0, w1 = 0.0, w3 = 0.0, d2 = 0.0, r2 = 0.0;
+  std::size_t n = 0;
+  Eigen::Vector3d sp = Eigen::Vector3d::Zero(), sq = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d spq = Eigen::Matrix3d::Zero();
+  void add(const Sums& o) {
+    H += o.H; g += o.g;
+    wr2 += o.wr2; w += o.w; w1 += o.w1; w3 += o.w3; d2 += o.d2; r2 += o.r2; n += o.n;
+    sp += o.sp; sq += o.sq; spq += o.spq;
+  }
+};
+
+// Weight w(s) = ψ(s)/s and the derivative factor ψ'(s)/w(s) − 1 = s·w'(s)/w(s) (for the bread).
+double robustWeight(RobustKernel kernel, double r, double k) {
+  switch (kernel) {
+    case RobustKernel::None: return 1.0;
+    case RobustKernel::Huber: return std::abs(r) <= k ? 1.0 : k / std::abs(r);
+    case RobustKernel::GemanMcClure: {
+      const double a = k * k / (k * k + r * r);
+      return a * a;
+    }
+  }
+  return 1.0;
+}
+
+double robustSlope(RobustKernel kernel, double s, double k) {
+  switch (kernel) {
+    case RobustKernel::None: return 0.0;
+    case RobustKernel::Huber: return std::abs(s) <= k ? 0.0 : -1.0;
+    case RobustKernel::GemanMcClure: return -4.0 * s * s / (k * k + s * s);
+  }
+  return 0.0;
+}
+
+template <typename F>
+void runWithThreads(int threads, F&& f) {
+  if (threads > 0) {
+    tbb::task_arena arena(threads);
+    arena.execute(f);
+  } else {
+    f();
+  }
+}
+
+}  // namespace
+
+RegistrationResult registerClouds(const LabeledCloud& source, const LabeledCloud& target,
+                                  const Eigen::Isometry3d& initial_guess, const ClassTable& classes,
+                                  const RegistrationConfig& config) {
+  config.validate();
+  if (!isFinite(initial_guess)) fail("registration", "initial guess has a non-finite entry");
+  RegistrationResult result;
+  runWithThreads(config.threads, [&] {
+    const RegistrationTarget prepared(target, classes, config);
+    result = registerClouds(source, prepared, initial_guess, classes, config);
+  });
+  return result;
+}
+
+RegistrationResult registerClouds(const LabeledCloud& source, const RegistrationTarget& target,
+                                  const Eigen::Isometry3d& initial_guess, const ClassTable& classes,
+                                  const RegistrationConfig& config) {
+  config.validate();
+  if (!isFinite(initial_guess)) fail("registration", "initial guess has a non-finite entry");
+  source.checkConsistent("registration source");
+  if (config.use_classes) classes.checkCloud(source, "registration source");
+  if (!target.compatibleWith(config, classes))
+    fail("registration", "the prebuilt target was built with a different configuration or class table");
+
+  RegistrationResult result;
+  result.transform = initial_guess;
+  result.covariance = Matrix6d::Identity() * 1e6;  // "unknown" until a solution exists
+
+  // Source points used: finite, evenly strided down to max_source_points.
+  std::vector<std::uint32_t> used;
+  used.reserve(source.size());
+  for (std::size_t i = 0; i < source.size(); ++i)
+    if (source.points[i].allFinite()) used.push_back(static_cast<std::uint32_t>(i));
+  if (config.max_source_points > 0 && used.size() > config.max_source_points) {
+    std::vector<std::uint32_t> strided(config.max_source_points);
+    const double step = static_cast<double>(used.size()) / static_cast<double>(config.max_source_points);
+    for (std::size_t k = 0; k < strided.size(); ++k) strided[k] = used[static_cast<std::size_t>(k * step)];
+    used.swap(strided);
+  }
+  result.stats.source_points = used.size();
+  if (used.empty()) {
+    result.reason = "empty source cloud";
+    return result;
+  }
+  if (target.empty()) {
+    result.reason = "empty target cloud";
+    return result;
+  }
+  if (used.size() < config.min_correspondences) {
+    result.reason = "source has only " + std::to_string(used.size()) +
+                    " points (min_correspondences = " + std::to_string(config.min_correspondences) + ")";
+    return result;
+  }
+
+  const bool plane = config.metric == IcpMetric::PointToPlane;
+  const LabeledCloud& tc = target.cloud();
+  const auto& normals = target.normals();
+  const bool use_value = target.usesProperty() && source.hasProperty();
+  const bool soft = config.use_classes && config.label_mode == LabelMode::Soft;
+  const float mismatch_weight = soft ? static_cast<float>(1.0 - config.label_confidence * config.label_confidence) : 1.0f;
+  // Class weights per source class id (1 when off or unknown).
+  std::vector<float> class_weight;
+  std::vector<char> is_property;
+  const bool property_point = config.use_classes && config.property_point_to_point;
+  for (ClassId id : classes.ids()) {
+    if (is_property.size() <= id) is_property.resize(std::size_t(id) + 1, 0);
+    is_property[id] = classes.isProperty(id);
+  }
+  if (config.use_classes && config.use_class_weights) {
+    for (ClassId id : classes.ids()) {
+      if (class_weight.size() <= id) class_weight.resize(std::size_t(id) + 1, 1.0f);
+      class_weight[id] = static_cast<float>(classes.at(id).weight);
+    }
+  }
+
+  const std::size_t n = used.size();
+  const std::size_t chunks = (n + kChunk - 1) / kChunk;
+  std::vector<Corr> corr(n);
+  std::vector<Sums> partial(chunks);
+  std::vector<float> abs_res;
+  abs_res.reserve(n);
+  Eigen::Isometry3d T = initial_guess;
+  Eigen::Isometry3d T_corr = T;  // the pose at which `corr` was computed
+  Sums total;
+  double kernel[2] = {0.0, 0.0};
+
+  const auto run = [&] {
+    for (int it = 0; it < config.max_iterations; ++it) {
+      const Eigen::Matrix3f R = T.linear().cast<float>();
+      const Eigen::Vector3f t = T.translation().cast<float>();
+      T_corr = T;
+      // 1. correspondences (the expensive part)
+      tbb::parallel_for(tbb::blocked_range<std::size_t>(0, chunks, 1), [&](const auto& range) {
+        for (std::size_t c = range.begin(); c < range.end(); ++c) {
+          const std::size_t end = std::min(n, (c + 1) * kChunk);
+          for (std::size_t k = c * kChunk; k < end; ++k) {
+            const std::uint32_t i = used[k];
+            const Eigen::Vector3f p = R * source.points[i] + t;
+            const ClassId cls = source.classes[i];
+            const float value = use_value ? source.property[i] : std::numeric_limits<float>::quiet_NaN();
+            const TargetMatch m = target.match(p, cls, value);
+            Corr& cr = corr[k];
+            cr.target = static_cast<std::int32_t>(m.index);
+            if (m.index < 0) continue;
+            // A same-class property pair constrains where the labelled patch is, which a plane
+            // residual would throw away (a patch lies in its wall): it gets a 3-D residual.
+            const bool own_property = config.use_classes && !m.cross_class && is_property[cls];
+            cr.point3 = !plane || (property_point && own_property);
+            cr.group = own_property ? 1 : 0;
+            if (!cr.point3) {
+              const Eigen::Vector3f& nq = normals[m.index];
+              if (nq.isZero()) {  // no normal there: unusable for point-to-plane
+                cr.target = -1;
+                continue;
+              }
+              cr.residual = nq.dot(p - tc.points[m.index]);
+            } else {
+              cr.residual = std::sqrt(m.distance2);
+            }
+            cr.distance2 = m.distance2;
+            cr.cross = m.cross_class;
+            cr.weight = cls < class_weight.size() ? class_weight[cls] : 1.0f;
+            if (m.cross_class) cr.weight *= mismatch_weight;
+          }
+        }
+      });
+      // 2. adaptive robust scale from the observed residuals (median absolute residual), separately
+      //    for ordinary pairs and for property pairs (few, larger residuals, and the ones that
+      //    carry the label's information — one shared scale would silence them).
+      std::size_t matched_now = 0;
+      for (int grp = 0; grp < 2; ++grp) {
+        abs_res.clear();
+        bool p3 = !plane;
+        for (std::size_t k = 0; k < n; ++k)
+          if (corr[k].target >= 0 && corr[k].group == grp) {
+            abs_res.push_back(std::abs(corr[k].residual));
+            p3 = corr[k].point3;
+          }
+        matched_now += abs_res.size();
+        if (abs_res.empty()) continue;
+        const std::size_t mid = abs_res.size() / 2;
+        std::nth_element(abs_res.begin(), abs_res.begin() + mid, abs_res.end());
+        // |r| of a 1-D Gaussian has median 0.6745σ; the norm of a 3-D one 1.5382σ.
+        const double sigma = abs_res[mid] / (p3 ? 1.5382 : 0.6745);
+        kernel[grp] = std::max(config.robust_min_scale, config.robust_scale_factor * sigma);
+      }
+      if (matched_now < config.min_correspondences) {
+        result.reason = "only " + std::to_string(matched_now) + " correspondences at iteration " +
+                        std::to_string(it + 1) + " (min_correspondences = " +
+                        std::to_string(config.min_correspondences) + ")";
+        result.iterations = it + 1;
+        total = Sums{};
+        return;
+      }
+      // 3. weighted normal equations, chunk by chunk
+      tbb::parallel_for(tbb::blocked_range<std::size_t>(0, chunks, 1), [&](const auto& range) {
+        for (std::size_t c = range.begin(); c < range.end(); ++c) {
+          Sums s;
+          const std::size_t end = std::min(n, (c + 1) * kChunk);
+          for (std::size_t k = c * kChunk; k < end; ++k) {
+            const Corr& cr = corr[k];
+            if (cr.target < 0) continue;
+            const double ks = kernel[cr.group];
+            const double w = cr.weight * robustWeight(config.robust_kernel, cr.residual, ks);
+            const Eigen::Vector3d p = T * source.points[used[k]].cast<double>();
+            const Eigen::Vector3d q = tc.points[cr.target].cast<double>();
+            ++s.n;
+            s.d2 += cr.distance2;
+            if (!(w > 0.0)) continue;
+            if (!cr.point3) {
+              const Eigen::Vector3d nq = normals[cr.target].cast<double>();
+              Vector6d J;
+              J << nq, p.cross(nq);  // d r / d ξ for T' = exp(ξ) T, translation first
+              const double r = cr.residual;
+              s.H.noalias() += w * J * J.transpose();
+              s.g.noalias() += w * r * J;
+              s.wr2 += w * r * r;
+              s.r2 += r * r;
+              s.w1 += w;
+            } else {
+              const Eigen::Vector3d r = p - q;
+              Eigen::Matrix<double, 3, 6> J;
+              J << Eigen::Matrix3d::Identity(), -hat(p);
+              const double rn2 = r.squaredNorm();
+              s.H.noalias() += w * (J.transpose() * J);
+              s.g.noalias() += w * (J.transpose() * r);
+              s.wr2 += w * rn2;
+              s.r2 += rn2;
+              s.w3 += w;
+              s.sp += w * p;
+              s.sq += w * q;
+              s.spq.noalias() += w * p * q.transpose();
+            }
+            s.w += w;
+          }
+          partial[c] = s;
+        }
+      });
+      total = Sums{};
+      for (const Sums& s : partial) total.add(s);
+      result.iterations = it + 1;
+      if (!(total.w > 0.0)) {
+        result.reason = "all correspondences were rejected by the robust kernel";
+        return;
+      }
+      // 4. update
+      Eigen::Isometry3d delta = Eigen::Isometry3d::Identity();
+      if (plane) {
+        Matrix6d A = total.H;
+        A.diagonal().array() += 1e-9 * std::max(1.0, A.trace() / 6.0);  // guards exact degeneracy
+        const Vector6d xi = A.ldlt().solve(-total.g);
+        if (!xi.allFinite()) {
+          result.reason = "the Gauss-Newton step was not finite";
+          return;
+        }
+        delta = se3Exp(xi);
+      } else {
+        // Weighted closed form (Horn/Umeyama): q ≈ R p' + t.
+        const Eigen::Vector3d mp = total.sp / total.w, mq = total.sq / total.w;
+        const Eigen::Matrix3d C = total.spq / total.w - mp * mq.transpose();  // Σ w p qᵀ, centred
+        Eigen::JacobiSVD<Eigen::Matrix3d> svd(C, Eigen::ComputeFullU | Eigen::ComputeFullV);
+        Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
+        if ((svd.matrixV() * svd.matrixU().transpose()).determinant() < 0) D(2, 2) = -1;
+        const Eigen::Matrix3d Rd = svd.matrixV() * D * svd.matrixU().transpose();
+        delta.linear() = Rd;
+        delta.translation() = mq - Rd * mp;
+      }
+      T = normalized(delta * T);
+      const double dt = delta.translation().norm();
+      const double dr = rotationAngle(delta);
+      if (!isFinite(T)) {
+        result.reason = "the estimate diverged (non-finite transform)";
+        return;
+      }
+      if (dt < config.translation_tolerance && dr < config.rotation_tolerance) {
+        result.converged = true;
+        return;
+      }
+    }
+    result.reason = "reached max_iterations (" + std::to_string(config.max_iterations) + ")";
+  };
+  runWithThreads(config.threads, run);
+
+  result.transform = isFinite(T) ? T : initial_guess;
+  result.kernel_scale = kernel[0];
+  // Statistics of the last correspondence set.
+  std::size_t matched = 0, cross = 0, prop = 0, prop_matched = 0, wide = 0;
+  const double r0 = config.max_correspondence_distance;
+  for (std::size_t k = 0; k < n; ++k) {
+    const bool is_prop = config.use_classes && classes.isProperty(source.classes[used[k]]);
+    prop += is_prop;
+    if (corr[k].target < 0) continue;
+    ++matched;
+    cross += corr[k].cross;
+    if (is_prop && !corr[k].cross) {
+      ++prop_matched;
+      wide += corr[k].distance2 > r0 * r0;
+    }
+  }
+  result.stats.matched = matched;
+  result.stats.cross_class = cross;
+  result.stats.same_class = matched - cross;
+  result.stats.property_points = prop;
+  result.stats.property_matched = prop_matched;
+  result.stats.wide_matches = wide;
+  result.fitness = static_cast<double>(matched) / static_cast<double>(n);
+  result.inlier_rmse = total.n > 0 ? std::sqrt(total.d2 / static_cast<double>(total.n)) : 0.0;
+  if (total.w > 0.0) {
+    // Covariance pass over the last correspondences (serial: cheap, and it needs per-target sums).
+    // The meat is cluster-robust: residuals that share a target point share that point's noise,
+    // so their score contributions are summed per target point before the outer product.
+    Matrix6d bread = Matrix6d::Zero(), meat = Matrix6d::Zero();
+    std::vector<Vector6d> per_target(tc.size(), Vector6d::Zero());
+    std::vector<char> touched(tc.size(), 0);
+    double wr2 = 0.0, comps = 0.0, pairs = 0.0;
+    for (std::size_t k = 0; k < n; ++k) {
+      const Corr& cr = corr[k];
+      if (cr.target < 0) continue;
+      const double ks = kernel[cr.group];
+      const double w = cr.weight * robustWeight(config.robust_kernel, cr.residual, ks);
+      if (!(w > 0.0)) continue;
+      const Eigen::Vector3d p = T_corr * source.points[used[k]].cast<double>();
+      Vector6d gi;
+      if (!cr.point3) {
+        const Eigen::Vector3d nq = normals[cr.target].cast<double>();
+        Vector6d J;
+        J << nq, p.cross(nq);
+        const double r = cr.residual;
+        bread.noalias() += w * (1.0 + robustSlope(config.robust_kernel, r, ks)) * J * J.transpose();
+        gi = w * r * J;
+        wr2 += w * r * r;
+        comps += w;
+      } else {
+        const Eigen::Vector3d r = p - tc.points[cr.target].cast<double>();
+        Eigen::Matrix<double, 3, 6> J;
+        J << Eigen::Matrix3d::Identity(), -hat(p);
+        const double rn2 = r.squaredNorm();
+        // ψ'(r) for a weight of |r|: w (I + slope · r rᵀ/|r|²)
+        bread.noalias() += w * (J.transpose() * J);
+        if (rn2 > 0.0) {
+          const double slope = robustSlope(config.robust_kernel, std::sqrt(rn2), ks);
+          const Vector6d Jr = J.transpose() * r;
+          bread.noalias() += (w * slope / rn2) * Jr * Jr.transpose();
+        }
+        gi = w * (J.transpose() * r);
+        wr2 += w * rn2;
+        comps += 3.0 * w;
+      }
+      pairs += w;
+      per_target[cr.target] += gi;
+      touched[cr.target] = 1;
+    }
+    for (std::size_t j = 0; j < tc.size(); ++j)
+      if (touched[j]) meat.noalias() += per_target[j] * per_target[j].transpose();
+    const PoseCovariance pc = poseCovariance(total.H, bread, meat, wr2, comps, pairs,
+                                             config.degeneracy_length, config.degeneracy_threshold);
+    result.hessian = total.H;
+    result.covariance = pc.covariance;
+    result.residual_sigma = pc.residual_sigma;
+    result.degenerate_directions = pc.degenerate_directions;
+  }
+  return result;
+}
+
+}  // namespace hazmap

@@ -1,0 +1,164 @@
+#include "hazmap/registration/registration_target.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "hazmap/core/error.hpp"
+#include "hazmap/preprocess/normals.hpp"
+
+namespace hazmap {
+
+namespace {
+
+std::unique_ptr<NeighborIndex> makeIndex(SpatialIndexKind kind, const std::vector<Eigen::Vector3f>& pts,
+                                         const std::vector<std::uint32_t>& ids, float cell,
+                                         float max_radius) {
+  if (kind == SpatialIndexKind::KdTree) return std::make_unique<KdTreeIndex>(pts, ids);
+  return std::make_unique<VoxelHashIndex>(pts, ids, cell, max_radius);
+}
+
+float cellSizeFor(const RegistrationConfig& c) {
+  return static_cast<float>(c.index_cell_size > 0.0 ? c.index_cell_size
+                                                    : c.max_correspondence_distance * 0.5);
+}
+
+}  // namespace
+
+RegistrationTarget::~RegistrationTarget() = default;
+RegistrationTarget::RegistrationTarget(RegistrationTarget&&) noexcept = default;
+RegistrationTarget& RegistrationTarget::operator=(RegistrationTarget&&) noexcept = default;
+
+RegistrationTarget::RegistrationTarget(const LabeledCloud& cloud, const ClassTable& classes,
+                                       const RegistrationConfig& config) {
+  config.validate();
+  cloud.checkConsistent("registration target");
+  use_classes_ = config.use_classes;
+  if (use_classes_) classes.checkCloud(cloud, "registration target");
+  radius_ = static_cast<float>(config.max_correspondence_distance);
+  alpha_ = static_cast<float>(config.effectiveMismatchPenalty(classes));
+  metric_ = config.metric;
+  index_kind_ = config.index;
+  cell_ = cellSizeFor(config);
+  label_mode_ = config.label_mode;
+  confidence_ = static_cast<float>(config.label_confidence);
+  if (use_classes_ && label_mode_ == LabelMode::Soft) alpha_ *= confidence_ * confidence_;
+
+  std::vector<std::size_t> finite;
+  finite.reserve(cloud.size());
+  for (std::size_t i = 0; i < cloud.size(); ++i)
+    if (cloud.points[i].allFinite()) finite.push_back(i);
+  cloud_ = finite.size() == cloud.size() ? cloud : cloud.select(finite);
+  // The continuous-property term needs the channel; without it the term is off.
+  property_weight_ = cloud_.hasProperty() ? static_cast<float>(config.property_weight) : 0.0f;
+
+  // Same-class radius per class id (0 in the table = the default radius).
+  ClassId max_id = 0;
+  for (ClassId id : classes.ids()) max_id = std::max(max_id, id);
+  class_radius_.assign(std::size_t(max_id) + 1, radius_);
+  for (ClassId id : classes.ids()) {
+    const double r = classes.at(id).search_radius;
+    if (r > 0.0) class_radius_[id] = static_cast<float>(r);
+  }
+
+  const bool need_all = !use_classes_ || metric_ == IcpMetric::PointToPlane;
+  if (need_all) {
+    const float max_r = std::max(radius_, static_cast<float>(config.normal_radius));
+    all_ = makeIndex(index_kind_, cloud_.points, {}, cell_, max_r);
+  }
+  if (use_classes_) {
+    std::vector<std::vector<std::uint32_t>> members(std::size_t(max_id) + 1);
+    for (std::size_t i = 0; i < cloud_.size(); ++i) members[cloud_.classes[i]].push_back(std::uint32_t(i));
+    slot_of_class_.assign(std::size_t(max_id) + 1, -1);
+    for (std::size_t c = 0; c < members.size(); ++c) {
+      if (members[c].empty()) continue;
+      const float r_same = class_radius_[c];
+      const float r_max = std::max(r_same, radius_);
+      ClassSlot slot;
+      slot.cls = static_cast<ClassId>(c);
+      slot.radius2 = r_same * r_same;
+      slot.index = makeIndex(index_kind_, cloud_.points, members[c], std::max(cell_, r_max * 0.5f), r_max);
+      slot_of_class_[c] = static_cast<std::int16_t>(slots_.size());
+      slots_.push_back(std::move(slot));
+    }
+  }
+  if (metric_ == IcpMetric::PointToPlane) {
+    NormalConfig nc;
+    nc.neighbors = config.normal_neighbors;
+    nc.radius = config.normal_radius;
+    normals_ = estimateNormals(cloud_, *all_, nc);
+  }
+}
+
+float RegistrationTarget::sameClassRadius(ClassId cls) const {
+  return use_classes_ && cls < class_radius_.size() ? class_radius_[cls] : radius_;
+}
+
+bool RegistrationTarget::compatibleWith(const RegistrationConfig& config, const ClassTable& classes) const {
+  if (config.use_classes != use_classes_ || config.index != index_kind_) return false;
+  if (config.metric == IcpMetric::PointToPlane && metric_ != IcpMetric::PointToPlane) return false;
+  if (static_cast<float>(config.max_correspondence_distance) != radius_) return false;
+  if (cellSizeFor(config) != cell_) return false;
+  const float pw = cloud_.hasProperty() ? static_cast<float>(config.property_weight) : 0.0f;
+  if (pw != property_weight_) return false;
+  if (use_classes_) {
+    float a = static_cast<float>(config.effectiveMismatchPenalty(classes));
+    if (config.label_mode == LabelMode::Soft)
+      a *= static_cast<float>(config.label_confidence * config.label_confidence);
+    if (a != alpha_ || config.label_mode != label_mode_) return false;
+    for (ClassId id : classes.ids()) {
+      const double r = classes.at(id).search_radius;
+      const float expect = r > 0.0 ? static_cast<float>(r) : radius_;
+      if (id >= class_radius_.size() || class_radius_[id] != expect) return false;
+    }
+  }
+  return true;
+}
+
+TargetMatch RegistrationTarget::match(const Eigen::Vector3f& p, ClassId cls, float value) const {
+  TargetMatch m;
+  const float r2 = radius_ * radius_;
+  const auto propertyCost = [&](std::int64_t j) {
+    const float dv = value - cloud_.property[j];
+    return std::isnan(dv) ? 0.0f : property_weight_ * dv * dv;  // NaN value = source has none
+  };
+  if (!use_classes_) {
+    float d2;
+    const std::int64_t j = all_->nearest(p, r2, d2);
+    if (j < 0) return m;
+    m = {j, d2, d2, false};
+    if (property_weight_ > 0.0f) m.cost += propertyCost(j);
+    return m;
+  }
+  // Same class first, within the class's (possibly wider) radius.
+  const std::int16_t own = cls < slot_of_class_.size() ? slot_of_class_[cls] : std::int16_t(-1);
+  float best = std::numeric_limits<float>::infinity();
+  if (own >= 0) {
+    float d2;
+    const std::int64_t j = slots_[own].index->nearest(p, slots_[own].radius2, d2);
+    if (j >= 0) {
+      m = {j, d2, d2, false};
+      best = d2 + (property_weight_ > 0.0f ? propertyCost(j) : 0.0f);
+      m.cost = best;
+    }
+  }
+  // Another class can only win if d² + α < best, i.e. within sqrt(best − α) (and the gate).
+  if (best > alpha_) {
+    for (std::size_t s = 0; s < slots_.size(); ++s) {
+      if (static_cast<std::int16_t>(s) == own) continue;
+      const float limit = std::min(r2, best - alpha_);
+      if (!(limit > 0.0f)) break;
+      float d2;
+      const std::int64_t j = slots_[s].index->nearest(p, limit, d2);
+      if (j < 0) continue;
+      const float cost = d2 + alpha_ + (property_weight_ > 0.0f ? propertyCost(j) : 0.0f);
+      if (cost < best) {
+        best = cost;
+        m = {j, d2, cost, true};
+      }
+    }
+  }
+  return m;
+}
+
+}  // namespace hazmap

@@ -1,0 +1,192 @@
+// Writing a simulated sequence directory (see writeSimulation in simulator.hpp).
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include <chrono>
+#include <cstdio>
+#include <random>
+#include <sstream>
+
+#include "hazmap/core/error.hpp"
+#include "hazmap/io/atomic_file.hpp"
+#include "hazmap/io/ply.hpp"
+#include "hazmap/io/sequence.hpp"
+#include "hazmap/io/trajectory.hpp"
+#include "hazmap/preprocess/voxel_downsample.hpp"
+#include "hazmap/sim/simulator.hpp"
+
+namespace hazmap::sim {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double secondsSince(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+/// A sibling folder of `out` that does not exist yet.
+fs::path temporarySibling(const fs::path& out) {
+  const fs::path parent = out.has_parent_path() ? out.parent_path() : fs::path(".");
+  std::random_device rd;
+  for (int attempt = 0; attempt < 100; ++attempt) {
+    const fs::path candidate =
+        parent / ("." + out.filename().string() + ".partial-" + std::to_string(rd() % 1000000));
+    if (!fs::exists(candidate)) return candidate;
+  }
+  fail(out.string(), "cannot find a free temporary folder name next to it");
+}
+
+/// Removes the temporary folder unless released (any failure leaves nothing behind).
+struct TemporaryFolder {
+  fs::path path;
+  bool keep = false;
+  ~TemporaryFolder() {
+    if (!keep) {
+      std::error_code ec;
+      fs::remove_all(path, ec);
+    }
+  }
+};
+
+/// scene.ply: one vertex triple per triangle so every face can carry its region's colour.
+TriangleMesh coloredSceneMesh(const Scene& scene, const ClassTable& table) {
+  TriangleMesh out;
+  const auto& m = scene.mesh;
+  out.vertices.reserve(3 * m.triangles.size());
+  out.vertex_colors.reserve(3 * m.triangles.size());
+  out.triangles.reserve(m.triangles.size());
+  out.triangle_classes.reserve(m.triangles.size());
+  for (std::size_t t = 0; t < m.triangles.size(); ++t) {
+    const ClassId c = t < m.triangle_classes.size() ? m.triangle_classes[t] : 0;
+    const ClassInfo* info = table.find(c);
+    const Rgb color = info ? info->color : Rgb{160, 160, 160};
+    const int base = static_cast<int>(out.vertices.size());
+    for (int k = 0; k < 3; ++k) {
+      out.vertices.push_back(m.vertices[m.triangles[t][k]]);
+      out.vertex_colors.push_back(color);
+    }
+    out.triangles.emplace_back(base, base + 1, base + 2);
+    out.triangle_classes.push_back(c);
+  }
+  return out;
+}
+
+Trajectory toTrajectory(const PoseList& poses, const std::vector<RouteSample>& samples) {
+  Trajectory t;
+  for (std::size_t i = 0; i < poses.size(); ++i)
+    t.push_back(i < samples.size() ? samples[i].time : static_cast<double>(i), poses[i]);
+  return t;
+}
+
+void writeFloats(const fs::path& path, const std::vector<float>& values) {
+  writeFileAtomically(path, [&](std::ostream& out) {
+    out.write(reinterpret_cast<const char*>(values.data()),
+              static_cast<std::streamsize>(values.size() * sizeof(float)));
+  });
+}
+
+std::string frameName(std::size_t i) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%06zu", i);
+  return buf;
+}
+
+}  // namespace
+
+SimulationSummary writeSimulation(const SimulatorConfig& config, const fs::path& out_dir,
+                                  bool overwrite) {
+  const auto t_start = Clock::now();
+  if (out_dir.empty()) fail("simulate", "no output folder given");
+  // Everything that can be wrong with the input is checked here, before anything is created.
+  Simulator sim(config);
+  if (fs::exists(out_dir)) {
+    if (!fs::is_directory(out_dir)) fail(out_dir.string(), "exists and is not a folder");
+    if (!fs::is_empty(out_dir) && !overwrite)
+      fail(out_dir.string(), "exists and is not empty (pass --overwrite to replace it)");
+  }
+
+  SimulationSummary summary;
+  summary.frames = sim.frames();
+  summary.route_length = sim.routeLength();
+  summary.bvh_seconds = sim.bvhBuildSeconds();
+  summary.drift = odometryDrift(sim.groundTruth(), sim.odometry(), sim.slips());
+
+  TemporaryFolder tmp{temporarySibling(out_dir)};
+  fs::create_directories(tmp.path);
+  const ClassTable& table = sim.classTable();
+  SequenceWriter writer(tmp.path, table, sim.config().sensorYaml());
+  const bool temperature = sim.config().temperature.enabled;
+  if (temperature) fs::create_directories(tmp.path / "temperature");
+
+  // Reference map: every scan placed with its true pose (points + classes only).
+  LabeledCloud reference;
+  const std::size_t n = sim.frames();
+  const std::size_t batch = 32;
+  std::vector<LabeledCloud> scans;
+  for (std::size_t begin = 0; begin < n; begin += batch) {
+    const std::size_t end = std::min(n, begin + batch);
+    scans.assign(end - begin, LabeledCloud{});
+    const auto t_scan = Clock::now();
+    tbb::parallel_for(begin, end, [&](std::size_t i) { scans[i - begin] = sim.scan(i); });
+    summary.scan_seconds += secondsSince(t_scan);
+    for (std::size_t i = begin; i < end; ++i) {
+      const LabeledCloud& scan = scans[i - begin];
+      writer.addFrame(scan);
+      if (temperature) writeFloats(tmp.path / "temperature" / (frameName(i) + ".bin"), scan.property);
+      summary.points += scan.size();
+      const Eigen::Isometry3f T = sim.groundTruth()[i].cast<float>();
+      reference.points.reserve(reference.points.size() + scan.size());
+      for (std::size_t k = 0; k < scan.size(); ++k) {
+        reference.points.push_back(T * scan.points[k]);
+        reference.classes.push_back(scan.classes[k]);
+      }
+    }
+  }
+  writer.writeGroundTruth(toTrajectory(sim.groundTruth(), sim.samples()));
+  writer.writeOdometry(toTrajectory(sim.odometry(), sim.samples()));
+  {
+    std::ostringstream times;
+    times.precision(9);
+    for (std::size_t i = 0; i < n; ++i) times << sim.samples()[i].time << "\n";
+    writeTextAtomically(tmp.path / "times.txt", times.str());
+  }
+  writer.finish();
+
+  VoxelDownsampleConfig voxel;
+  voxel.voxel_size = sim.config().reference_voxel;
+  voxel.vote = ClassVote::Majority;
+  const LabeledCloud map = voxelDownsample(reference, voxel, table);
+  reference = LabeledCloud{};
+  PlyWriteOptions ply;
+  ply.colors.reserve(map.size());
+  for (ClassId c : map.classes) {
+    const ClassInfo* info = table.find(c);
+    ply.colors.push_back(info ? info->color : Rgb{160, 160, 160});
+  }
+  writePly(tmp.path / "reference_map.ply", map, ply);
+  writePlyMesh(tmp.path / "scene.ply", coloredSceneMesh(sim.scene(), table));
+
+  std::ostringstream info;
+  info << "# Effective configuration of `hazmap simulate` that wrote this sequence.\n"
+       << sim.config().toYamlString() << "stats:\n"
+       << "  frames: " << summary.frames << "\n"
+       << "  route_length_m: " << summary.route_length << "\n"
+       << "  points: " << summary.points << "\n"
+       << "  odometry_mean_position_error_m: " << summary.drift.mean_position_error << "\n"
+       << "  odometry_max_position_error_m: " << summary.drift.max_position_error << "\n"
+       << "  odometry_final_position_error_m: " << summary.drift.final_position_error << "\n"
+       << "  odometry_max_frame_translation_error_m: " << summary.drift.max_frame_translation_error << "\n"
+       << "  odometry_max_frame_rotation_error_deg: " << summary.drift.max_frame_rotation_error_deg << "\n"
+       << "  track_slips: " << summary.drift.slips << "\n";
+  writeTextAtomically(tmp.path / "simulation.yaml", info.str());
+
+  if (fs::exists(out_dir)) fs::remove_all(out_dir);
+  fs::rename(tmp.path, out_dir);
+  tmp.keep = true;
+  summary.total_seconds = secondsSince(t_start);
+  return summary;
+}
+
+}  // namespace hazmap::sim

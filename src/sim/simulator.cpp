@@ -1,0 +1,79 @@
+#include "hazmap/sim/simulator.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "hazmap/core/error.hpp"
+#include "hazmap/core/se3.hpp"
+
+namespace hazmap::sim {
+
+Simulator::Simulator(const SimulatorConfig& config, Scene scene, ClassTable table)
+    : config_(config), scene_(std::move(scene)), table_(std::move(table)) {
+  config_.validate();
+  scene_.validate(table_, "scene " + scene_.name);
+  if (scene_.mesh.triangle_classes.size() != scene_.mesh.triangles.size()) scene_.labelTriangles();
+  init();
+}
+
+void Simulator::init() {
+  samples_ = sampleRoute(scene_.route, config_.robot);
+  if (config_.max_frames > 0 && samples_.size() > config_.max_frames) samples_.resize(config_.max_frames);
+  truth_.clear();
+  for (const auto& s : samples_)
+    truth_.push_back(sensorPose(s, scene_.route.floor_z, config_.sensor.mount_height));
+  odometry_ = accumulateOdometry(truth_, config_.odometry, config_.seed, &slips_);
+
+  caster_ = std::make_unique<RayCaster>(scene_.mesh);
+  directions_ = config_.sensor.rayDirections();
+  inputs_.caster = caster_.get();
+  inputs_.scene = &scene_;
+  inputs_.lidar = &config_.sensor;
+  inputs_.labels = &config_.labels;
+  inputs_.temperature = &config_.temperature;
+  inputs_.directions = &directions_;
+  // False property labels are drawn from the property classes the scene uses (a thermal camera
+  // mistakes something for heat, an NIR camera for water), else from the table's.
+  for (ClassId id : scene_.regionClasses())
+    if (table_.isProperty(id)) inputs_.false_classes.push_back(id);
+  if (inputs_.false_classes.empty())
+    for (ClassId id : table_.ids())
+      if (table_.isProperty(id)) inputs_.false_classes.push_back(id);
+  for (ClassId id : table_.ids())
+    if (table_.at(id).kind == PropertyKind::Heat) inputs_.heat_classes.push_back(id);
+}
+
+LabeledCloud Simulator::scan(std::size_t i, std::vector<ClassId>* true_classes) const {
+  if (i >= truth_.size())
+    fail("simulator", "frame " + std::to_string(i) + " out of range (" + std::to_string(truth_.size()) + " frames)");
+  Rng rng(config_.seed, RngStream::Scan, i);
+  Rng temperature_rng(config_.seed, RngStream::Temperature, i);
+  return simulateScan(inputs_, truth_[i], rng, &temperature_rng, true_classes);
+}
+
+OdometryDrift odometryDrift(const PoseList& truth, const PoseList& odometry,
+                            const std::vector<bool>& slips) {
+  OdometryDrift d;
+  const std::size_t n = std::min(truth.size(), odometry.size());
+  if (n == 0) return d;
+  double sum = 0.0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double e = (odometry[i].translation() - truth[i].translation()).norm();
+    sum += e;
+    d.max_position_error = std::max(d.max_position_error, e);
+    if (i > 0) {
+      const Eigen::Isometry3d rel_true = truth[i - 1].inverse() * truth[i];
+      const Eigen::Isometry3d rel_odo = odometry[i - 1].inverse() * odometry[i];
+      const Eigen::Isometry3d err = rel_true.inverse() * rel_odo;
+      d.max_frame_translation_error = std::max(d.max_frame_translation_error, translationNorm(err));
+      d.max_frame_rotation_error_deg =
+          std::max(d.max_frame_rotation_error_deg, rotationAngle(err) * 180.0 / M_PI);
+    }
+  }
+  d.mean_position_error = sum / static_cast<double>(n);
+  d.final_position_error = (odometry[n - 1].translation() - truth[n - 1].translation()).norm();
+  d.slips = static_cast<std::size_t>(std::count(slips.begin(), slips.end(), true));
+  return d;
+}
+
+}  // namespace hazmap::sim

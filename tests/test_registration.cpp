@@ -1,0 +1,371 @@
+// Property-aware ICP: correspondence rule, solvers, determinism, covariance, degeneracy, bad input.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "hazmap/core/error.hpp"
+#include "hazmap/preprocess/normals.hpp"
+#include "hazmap/preprocess/spatial_index.hpp"
+#include "hazmap/registration/registration.hpp"
+#include "hazmap/registration/registration_target.hpp"
+#include "test_registration_scenes.hpp"
+
+using namespace hazmap;
+using hazmap::test::corridorScene;
+using hazmap::test::roomScene;
+using hazmap::test::samplePatches;
+
+namespace {
+
+double transErr(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
+  return (a.inverse() * b).translation().norm();
+}
+double rotErrDeg(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
+  return rotationAngle(a.inverse() * b) * 180.0 / M_PI;
+}
+
+std::string fmtVec(const Vector6d& v) {
+  char buf[160];
+  std::snprintf(buf, sizeof buf, "[%.3f %.3f %.3f %.3f %.3f %.3f]", v(0), v(1), v(2), v(3), v(4), v(5));
+  return buf;
+}
+
+struct Pair {
+  LabeledCloud source, target;
+  Eigen::Isometry3d truth;
+};
+
+Pair roomPair(unsigned seed, double noise, std::size_t n = 20000) {
+  std::mt19937 rng(seed);
+  Pair p;
+  p.truth = fromXyzRpy(0.35, -0.2, 0.05, 0.01, -0.015, 0.08);  // target ← source
+  const auto scene = roomScene();
+  p.target = samplePatches(scene, n, rng, noise);
+  p.source = samplePatches(scene, n, rng, noise, p.truth.inverse());
+  return p;
+}
+
+}  // namespace
+
+TEST(SpatialIndex, VoxelHashMatchesBruteForceAndKdTree) {
+  std::mt19937 rng(3);
+  const auto cloud = samplePatches(roomScene(), 3000, rng, 0.01);
+  const VoxelHashIndex voxel(cloud.points, {}, 0.4f, 1.5f);
+  const KdTreeIndex kd(cloud.points, {});
+  std::uniform_real_distribution<float> u(-11.f, 11.f), uz(-1.f, 5.f);
+  std::vector<Neighbor> knn_v, knn_k;
+  for (int trial = 0; trial < 2000; ++trial) {
+    const Eigen::Vector3f q(u(rng), u(rng) * 0.6f, uz(rng));
+    const float r = trial % 2 ? 1.5f : 0.6f;
+    float best = r * r;
+    std::int64_t brute = -1;
+    for (std::size_t i = 0; i < cloud.size(); ++i) {
+      const float d2 = (cloud.points[i] - q).squaredNorm();
+      if (d2 < best) { best = d2; brute = static_cast<std::int64_t>(i); }
+    }
+    float dv = -1, dk = -1;
+    const auto iv = voxel.nearest(q, r * r, dv);
+    const auto ik = kd.nearest(q, r * r, dk);
+    ASSERT_EQ(iv >= 0, brute >= 0) << trial;
+    ASSERT_EQ(ik >= 0, brute >= 0) << trial;
+    if (brute >= 0) {
+      EXPECT_FLOAT_EQ(dv, best);
+      EXPECT_FLOAT_EQ(dk, best);
+    }
+    voxel.kNearest(q, 8, r * r, knn_v);
+    kd.kNearest(q, 8, r * r, knn_k);
+    ASSERT_EQ(knn_v.size(), knn_k.size()) << trial;
+    for (std::size_t k = 0; k < knn_v.size(); ++k) EXPECT_FLOAT_EQ(knn_v[k].distance2, knn_k[k].distance2);
+  }
+}
+
+TEST(SpatialIndex, SubsetIndexesOnlyItsIds) {
+  LabeledCloud c;
+  c.push_back({0, 0, 0});
+  c.push_back({0.1f, 0, 0});
+  c.push_back({5, 0, 0});
+  const std::vector<std::uint32_t> ids{2};
+  const VoxelHashIndex v(c.points, ids, 0.5f, 10.f);
+  float d2;
+  EXPECT_EQ(v.nearest({0, 0, 0}, 100.f, d2), 2);
+  EXPECT_FLOAT_EQ(d2, 25.f);
+  EXPECT_EQ(v.nearest({0, 0, 0}, 1.f, d2), -1);
+  EXPECT_THROW(VoxelHashIndex(c.points, {}, 0.f, 1.f), Error);
+}
+
+TEST(Normals, PlaneNormalsPointToViewpoint) {
+  std::mt19937 rng(1);
+  LabeledCloud c;
+  std::uniform_real_distribution<float> u(-2, 2);
+  for (int i = 0; i < 500; ++i) c.push_back({u(rng), u(rng), -1.0f});
+  const auto n = estimateNormals(c, NormalConfig{});
+  for (const auto& v : n) EXPECT_NEAR(v.z(), 1.0f, 1e-4);
+}
+
+TEST(PropertyCorrespondence, FollowsEquationTwo) {
+  ClassTable table = ClassTable::defaults();  // heat radius 3 m, α from the table
+  LabeledCloud target;
+  target.push_back({0.1f, 0, 0}, 0);   // 0: none, close
+  target.push_back({0.8f, 0, 0}, 1);   // 1: heat at 0.8 m
+  target.push_back({0, 2.5f, 0}, 2);   // 2: water at 2.5 m
+  RegistrationConfig cfg;
+  cfg.metric = IcpMetric::PointToPoint;
+  cfg.mismatch_penalty = 1.0;
+  {
+    const RegistrationTarget t(target, table, cfg);
+    // heat query: heat at d²=0.64 beats none at 0.01 + α = 1.01
+    auto m = t.match({0, 0, 0}, 1, NAN);
+    EXPECT_EQ(m.index, 1);
+    EXPECT_FALSE(m.cross_class);
+    // none query: the none point
+    m = t.match({0, 0, 0}, 0, NAN);
+    EXPECT_EQ(m.index, 0);
+    // water query: water at 6.25 > none at 1.01 → cross-class none, penalised
+    m = t.match({0, 0, 0}, 2, NAN);
+    EXPECT_EQ(m.index, 0);
+    EXPECT_TRUE(m.cross_class);
+    EXPECT_NEAR(m.cost, 0.01 + 1.0, 1e-5);
+  }
+  cfg.mismatch_penalty = 10.0;  // large α: the wider same-class radius wins
+  {
+    const RegistrationTarget t(target, table, cfg);
+    const auto m = t.match({0, 0, 0}, 2, NAN);
+    EXPECT_EQ(m.index, 2);
+    EXPECT_NEAR(m.distance2, 6.25, 1e-5);
+  }
+  cfg.use_classes = false;  // plain ICP: nearest point whatever its class
+  {
+    const RegistrationTarget t(target, table, cfg);
+    EXPECT_EQ(t.match({0, 0, 0}, 2, NAN).index, 0);
+    EXPECT_EQ(t.match({0, 0, 0}, 1, NAN).index, 0);
+    EXPECT_EQ(t.match({0, 5, 0}, 1, NAN).index, -1);  // beyond 1 m
+  }
+}
+
+class RoomRegistration : public ::testing::TestWithParam<std::tuple<bool, IcpMetric>> {};
+
+TEST_P(RoomRegistration, RecoversTheTransform) {
+  const auto [use_classes, metric] = GetParam();
+  const Pair p = roomPair(7, 0.01);
+  RegistrationConfig cfg;
+  cfg.use_classes = use_classes;
+  cfg.metric = metric;
+  cfg.max_iterations = 150;  // point-to-point between independent samplings converges slowly
+  const auto r = registerClouds(p.source, p.target, Eigen::Isometry3d::Identity(),
+                                ClassTable::defaults(), cfg);
+  EXPECT_TRUE(r.converged) << r.reason;
+  EXPECT_LT(transErr(r.transform, p.truth), 0.01);
+  EXPECT_LT(rotErrDeg(r.transform, p.truth), 0.1);
+  EXPECT_GT(r.fitness, 0.95);
+  EXPECT_LT(r.inlier_rmse, 0.15);
+  EXPECT_TRUE(r.degenerate_directions.empty());
+  EXPECT_TRUE(r.covariance.allFinite());
+  EXPECT_GT(r.covariance.diagonal().minCoeff(), 0.0);
+  EXPECT_NEAR(r.residual_sigma, metric == IcpMetric::PointToPlane ? 0.014 : 0.03, 0.03);
+}
+
+INSTANTIATE_TEST_SUITE_P(All, RoomRegistration,
+                         ::testing::Combine(::testing::Bool(),
+                                            ::testing::Values(IcpMetric::PointToPoint,
+                                                              IcpMetric::PointToPlane)));
+
+TEST(Registration, IdenticalAcrossThreadCountsAndIndexes) {
+  const Pair p = roomPair(11, 0.02);
+  RegistrationConfig cfg;
+  cfg.threads = 1;
+  const auto a = registerClouds(p.source, p.target, Eigen::Isometry3d::Identity(), ClassTable::defaults(), cfg);
+  cfg.threads = 2;
+  const auto b = registerClouds(p.source, p.target, Eigen::Isometry3d::Identity(), ClassTable::defaults(), cfg);
+  EXPECT_EQ(a.iterations, b.iterations);
+  EXPECT_TRUE(a.transform.matrix() == b.transform.matrix());  // bitwise
+  EXPECT_TRUE(a.covariance == b.covariance);
+  cfg.index = SpatialIndexKind::KdTree;
+  const auto c = registerClouds(p.source, p.target, Eigen::Isometry3d::Identity(), ClassTable::defaults(), cfg);
+  EXPECT_EQ(a.iterations, c.iterations);
+  EXPECT_LT(transErr(a.transform, c.transform), 1e-6);
+}
+
+TEST(Registration, PrebuiltTargetGivesTheSameResult) {
+  const Pair p = roomPair(5, 0.01);
+  RegistrationConfig cfg;
+  const auto table = ClassTable::defaults();
+  const RegistrationTarget target(p.target, table, cfg);
+  const auto a = registerClouds(p.source, target, Eigen::Isometry3d::Identity(), table, cfg);
+  const auto b = registerClouds(p.source, p.target, Eigen::Isometry3d::Identity(), table, cfg);
+  EXPECT_TRUE(a.transform.matrix() == b.transform.matrix());
+  RegistrationConfig other = cfg;
+  other.max_correspondence_distance = 2.0;
+  EXPECT_THROW(registerClouds(p.source, target, Eigen::Isometry3d::Identity(), table, other), Error);
+}
+
+// Many noise draws of the same synthetic pair: the spread of the estimates must match the
+// predicted covariance within a factor of two on every axis.
+void monteCarlo(IcpMetric metric, bool resample) {
+  const auto scene = roomScene();
+  const Eigen::Isometry3d truth = fromXyzRpy(0.2, -0.1, 0.02, 0.005, -0.01, 0.05);
+  std::mt19937 base_rng(2024);
+  const double sigma = 0.02;
+  // Fixed underlying sample points (point-to-point: true correspondences exist).
+  const LabeledCloud clean = samplePatches(scene, 2500, base_rng, 0.0);
+  RegistrationConfig cfg;
+  cfg.metric = metric;
+  cfg.use_classes = true;
+  const int draws = 150;
+  std::vector<Vector6d> errors;
+  Matrix6d predicted = Matrix6d::Zero();
+  std::normal_distribution<float> g(0.0f, 1.0f);
+  for (int d = 0; d < draws; ++d) {
+    std::mt19937 rng(1000 + d);
+    LabeledCloud target, source;
+    if (resample) {
+      target = samplePatches(scene, 2500, rng, sigma);
+      source = samplePatches(scene, 2500, rng, sigma, truth.inverse());
+    } else {
+      target = clean;
+      source = clean.transformed(truth.inverse());
+      for (auto& q : target.points) q += sigma * Eigen::Vector3f(g(rng), g(rng), g(rng));
+      for (auto& q : source.points) q += sigma * Eigen::Vector3f(g(rng), g(rng), g(rng));
+    }
+    const auto r = registerClouds(source, target, Eigen::Isometry3d::Identity(), ClassTable::defaults(), cfg);
+    ASSERT_TRUE(r.converged) << r.reason;
+    errors.push_back(se3Log(r.transform * truth.inverse()));  // left perturbation
+    predicted += r.covariance;
+  }
+  predicted /= draws;
+  Vector6d mean = Vector6d::Zero();
+  for (const auto& e : errors) mean += e;
+  mean /= draws;
+  Matrix6d empirical = Matrix6d::Zero();
+  for (const auto& e : errors) empirical += (e - mean) * (e - mean).transpose();
+  empirical /= draws - 1;
+  for (int k = 0; k < 6; ++k) {
+    const double ratio = empirical(k, k) / predicted(k, k);
+    std::printf("axis %d: empirical sd %.3g, predicted sd %.3g, variance ratio %.2f, bias %.2g\n", k,
+                std::sqrt(empirical(k, k)), std::sqrt(predicted(k, k)), ratio, mean(k));
+    EXPECT_GT(ratio, 0.5) << "axis " << k;
+    EXPECT_LT(ratio, 2.0) << "axis " << k;
+  }
+}
+
+TEST(Covariance, MonteCarloPointToPlane) { monteCarlo(IcpMetric::PointToPlane, true); }
+TEST(Covariance, MonteCarloPointToPoint) { monteCarlo(IcpMetric::PointToPoint, false); }
+
+TEST(Degeneracy, CorridorReportsTheAxis) {
+  std::mt19937 rng(9);
+  const auto scene = corridorScene(40.0, false);
+  const Eigen::Isometry3d truth = fromXyzRpy(0.0, 0.05, 0.0, 0.0, 0.0, 0.02);
+  const auto target = samplePatches(scene, 8000, rng, 0.01);
+  const auto source = samplePatches(scene, 8000, rng, 0.01, truth.inverse());
+  RegistrationConfig cfg;
+  cfg.use_classes = false;
+  const auto r = registerClouds(source, target, Eigen::Isometry3d::Identity(), ClassTable::defaults(), cfg);
+  for (const auto& d : r.degenerate_directions) std::printf("degenerate: %s\n", fmtVec(d).c_str());
+  ASSERT_EQ(r.degenerate_directions.size(), 1u);
+  EXPECT_GT(std::abs(r.degenerate_directions[0](0)), 0.99);
+  // the covariance is huge along x and small across
+  EXPECT_GT(r.covariance(0, 0), 100 * r.covariance(1, 1));
+}
+
+TEST(PropertyIcp, PropertyPatchesFixTheCorridor) {
+  // Plain ICP cannot tell where along the corridor it is; the labelled patches can.
+  std::mt19937 rng(4);
+  const auto scene = corridorScene(40.0, true);
+  const Eigen::Isometry3d truth = fromXyzRpy(0.6, 0.0, 0.0, 0.0, 0.0, 0.0);
+  const auto target = samplePatches(scene, 12000, rng, 0.01);
+  const auto source = samplePatches(scene, 12000, rng, 0.01, truth.inverse());
+  RegistrationConfig cfg;
+  cfg.use_classes = false;
+  const auto plain = registerClouds(source, target, Eigen::Isometry3d::Identity(), ClassTable::defaults(), cfg);
+  cfg.use_classes = true;
+  const auto prop = registerClouds(source, target, Eigen::Isometry3d::Identity(), ClassTable::defaults(), cfg);
+  std::printf("corridor: plain ICP error %.3f m, property ICP error %.3f m\n",
+              transErr(plain.transform, truth), transErr(prop.transform, truth));
+  EXPECT_GT(transErr(plain.transform, truth), 0.3);
+  EXPECT_LT(transErr(prop.transform, truth), 0.05);
+  EXPECT_GT(prop.stats.property_matched, 0u);
+}
+
+TEST(BadInput, DefinedResultsAndClearErrors) {
+  const auto table = ClassTable::defaults();
+  const Pair p = roomPair(1, 0.01, 4000);
+  LabeledCloud empty;
+  auto r = registerClouds(empty, p.target, Eigen::Isometry3d::Identity(), table);
+  EXPECT_FALSE(r.converged);
+  EXPECT_EQ(r.reason, "empty source cloud");
+  r = registerClouds(p.source, empty, Eigen::Isometry3d::Identity(), table);
+  EXPECT_FALSE(r.converged);
+  EXPECT_EQ(r.reason, "empty target cloud");
+  LabeledCloud tiny;
+  tiny.push_back({1, 2, 3});
+  r = registerClouds(tiny, p.target, Eigen::Isometry3d::Identity(), table);
+  EXPECT_FALSE(r.converged);
+  EXPECT_NE(r.reason.find("min_correspondences"), std::string::npos);
+  // far away: no correspondences at all
+  r = registerClouds(p.source, p.target, fromXyzRpy(100, 0, 0, 0, 0, 0), table);
+  EXPECT_FALSE(r.converged);
+  EXPECT_NE(r.reason.find("correspondences"), std::string::npos);
+  EXPECT_TRUE(r.transform.isApprox(fromXyzRpy(100, 0, 0, 0, 0, 0)));
+
+  Eigen::Isometry3d nan_guess = Eigen::Isometry3d::Identity();
+  nan_guess(0, 3) = NAN;
+  EXPECT_THROW(registerClouds(p.source, p.target, nan_guess, table), Error);
+  RegistrationConfig bad;
+  bad.max_correspondence_distance = 0.0;
+  EXPECT_THROW(registerClouds(p.source, p.target, Eigen::Isometry3d::Identity(), table, bad), Error);
+  bad = {};
+  bad.max_correspondence_distance = -1.0;
+  EXPECT_THROW(registerClouds(p.source, p.target, Eigen::Isometry3d::Identity(), table, bad), Error);
+  bad = {};
+  bad.label_confidence = 0.0;
+  EXPECT_THROW(registerClouds(p.source, p.target, Eigen::Isometry3d::Identity(), table, bad), Error);
+  // a class missing from the table
+  LabeledCloud odd = p.source;
+  odd.classes[3] = 42;
+  try {
+    registerClouds(odd, p.target, Eigen::Isometry3d::Identity(), table);
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("class 42"), std::string::npos) << e.what();
+  }
+  // plain ICP ignores classes, so an unknown class is fine there
+  RegistrationConfig plain;
+  plain.use_classes = false;
+  EXPECT_NO_THROW(registerClouds(odd, p.target, Eigen::Isometry3d::Identity(), table, plain));
+  // NaN points are skipped
+  LabeledCloud with_nan = p.source;
+  with_nan.points[0] = Eigen::Vector3f(NAN, 0, 0);
+  r = registerClouds(with_nan, p.target, Eigen::Isometry3d::Identity(), table);
+  EXPECT_TRUE(r.converged) << r.reason;
+  // all points of one class
+  LabeledCloud one_class_s = p.source, one_class_t = p.target;
+  std::fill(one_class_s.classes.begin(), one_class_s.classes.end(), 1);
+  std::fill(one_class_t.classes.begin(), one_class_t.classes.end(), 1);
+  r = registerClouds(one_class_s, one_class_t, Eigen::Isometry3d::Identity(), table);
+  EXPECT_TRUE(r.converged) << r.reason;
+  EXPECT_LT(transErr(r.transform, p.truth), 0.05);
+}
+
+TEST(RegistrationConfig, YamlRoundTripAndErrors) {
+  RegistrationConfig c;
+  c.metric = IcpMetric::PointToPoint;
+  c.label_mode = LabelMode::Soft;
+  c.max_correspondence_distance = 1.7;
+  c.index = SpatialIndexKind::KdTree;
+  const auto back = registrationConfigFromYaml(toYamlString(c), "test");
+  EXPECT_EQ(back.metric, IcpMetric::PointToPoint);
+  EXPECT_EQ(back.label_mode, LabelMode::Soft);
+  EXPECT_EQ(back.index, SpatialIndexKind::KdTree);
+  EXPECT_DOUBLE_EQ(back.max_correspondence_distance, 1.7);
+  EXPECT_THROW(registrationConfigFromYaml("max_iterations: 0\n", "cfg.yaml"), Error);
+  EXPECT_THROW(registrationConfigFromYaml("bogus: 1\n", "cfg.yaml"), Error);
+  EXPECT_THROW(registrationConfigFromYaml("metric: triangle\n", "cfg.yaml"), Error);
+  try {
+    registrationConfigFromYaml("mismatch_penalty: [1]\n", "cfg.yaml");
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("cfg.yaml"), std::string::npos);
+  }
+  const auto nested = registrationConfigFromYaml("registration:\n  max_iterations: 7\n", "x");
+  EXPECT_EQ(nested.max_iterations, 7);
+}
