@@ -42,7 +42,7 @@ void run(const RunOptions& o) {
                              summary.map_error->point.mean, summary.map_error->point.median,
                              summary.map_error->point.p95);
   if (summary.trajectory)
-    std::cout << fmt::format("ATE (SE(3)-aligned) rmse {:.3f} m\n", summary.trajectory->ape.rmse);
+    std::cout << fmt::format("ATE (SE(3)-aligned) rmse {:.3f} m\n", summary.trajectory->ape.translation.rmse);
   std::cout << "wrote " << o.out << "/ (trajectory.kitti/.tum, graph.g2o, map.ply/.pcd, hazards.json/.csv, "
                "map_top.png, trajectory.png, run.json)\n";
 }

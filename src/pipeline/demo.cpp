@@ -70,7 +70,7 @@ DemoReport runDemo(const DemoConfig& config, std::ostream& out) {
     row.method = method;
     row.map_error_m = summary.map_error ? summary.map_error->point.mean : 0.0;
     row.map_error_p95_m = summary.map_error ? summary.map_error->point.p95 : 0.0;
-    row.ate_m = summary.trajectory ? summary.trajectory->ape.rmse : 0.0;
+    row.ate_m = summary.trajectory ? summary.trajectory->ape.translation.rmse : 0.0;
     row.frames_per_s = results[m].framesPerSecond();
     row.loops = results[m].loops.size();
     for (const auto& f : results[m].frames) row.fallbacks += (usesIcp(method) && f.index > 0 && !f.icp_used);

@@ -1,6 +1,7 @@
 #include "hazmap/pipeline/slam.hpp"
 
 #include <tbb/global_control.h>
+#include <Eigen/Eigenvalues>
 #include <yaml-cpp/yaml.h>
 
 #include <chrono>
@@ -206,6 +207,7 @@ SlamResult runSlam(const Sequence& sequence, const SlamConfig& config, const Fra
     rec.milliseconds = 1e3 * secondsSince(t_frame);
     result.timings.tracking_s += secondsSince(t_frame);
 
+    result.frames.push_back(rec);
     const Eigen::Isometry3d pose = i == 0 ? start : normalized(tracked.back() * rec.T_prev_curr);
     tracked.push_back(pose);
     // Every method records its graph (graph.g2o); only the PGO methods add loops and optimise.
