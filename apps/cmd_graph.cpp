@@ -38,11 +38,12 @@ void runOptimize(const GraphOptimizeArgs& a, const CLI::App& sub) {
 
   G2oReadInfo info;
   PoseGraph graph = readG2o(a.input, &info);
-  if (a.init == "auto") {
-    // Files without vertex lines only have composed odometry: start from the chordal solution.
-    config.init = info.had_vertices ? PoseGraphInit::AsIs : PoseGraphInit::Chordal;
-  } else if (a.config_file.empty() || sub.count("--init")) {
-    config.init = parsePoseGraphInit(a.init, "--init");
+  if (a.config_file.empty() || sub.count("--init")) {
+    // auto: files without vertex lines only have composed odometry, start from the chordal
+    // solution; otherwise from the file's vertices.
+    config.init = a.init != "auto" ? parsePoseGraphInit(a.init, "--init")
+                  : info.had_vertices ? PoseGraphInit::AsIs
+                                      : PoseGraphInit::Chordal;
   }
   checkOptimisable(graph, a.input);
 

@@ -4,10 +4,47 @@
 #include <iostream>
 
 #include "command.hpp"
+#include "hazmap/io/ply.hpp"
+#include "hazmap/io/sequence.hpp"
+#include "hazmap/map/render.hpp"
+#include "hazmap/preprocess/voxel_downsample.hpp"
 #include "hazmap/sim/simulator.hpp"
 
 namespace hazmap::cli {
 namespace {
+
+/// Top-down PNGs of the written sequence: the reference map (true poses, as the paper's Fig. 6)
+/// and the map built from odometry.txt alone, in one shared view. Points above `clip` (m) are
+/// left out so the corridor's ceiling does not hide its floor.
+void renderPngs(const std::filesystem::path& dir, double voxel, double clip) {
+  const Sequence seq = Sequence::open(dir);
+  const ClassTable& table = seq.classTable();
+  const LabeledCloud reference = readPly(dir / "reference_map.ply", table);
+  LabeledCloud odometry_points;
+  for (std::size_t i = 0; i < seq.size(); ++i) {
+    LabeledCloud scan = seq.frame(i);
+    scan.transform(seq.odometry()->poses[i]);
+    LabeledCloud plain;
+    plain.points = std::move(scan.points);
+    plain.classes = std::move(scan.classes);
+    odometry_points.append(plain);
+  }
+  VoxelDownsampleConfig vc;
+  vc.voxel_size = voxel;
+  const LabeledCloud odometry_map = voxelDownsample(odometry_points, vc, table);
+  const auto truth_xyz = positionsOf(*seq.groundTruth());
+  const auto odo_xyz = positionsOf(*seq.odometry());
+  TopDownConfig config;
+  config.clip_above = clip;
+  config.cell_size = voxel;
+  config.draw_hazard_labels = false;
+  config.pixels_per_metre = 25.0;
+  config.view = unite(viewOf(reference, truth_xyz), viewOf(odometry_map, odo_xyz));
+  config.title = "Reference map (true poses)";
+  writePng(dir / "reference_map.png", renderTopDown(reference, table, truth_xyz, {}, config));
+  config.title = "Map from odometry.txt";
+  writePng(dir / "odometry_map.png", renderTopDown(odometry_map, table, odo_xyz, {}, config));
+}
 
 struct SimulateOptions {
   std::string scenario = "naraha";
@@ -19,6 +56,7 @@ struct SimulateOptions {
   std::string regions;
   bool overwrite = false;
   bool temperature = false;
+  bool png = false;
 };
 
 void setupSimulate(CLI::App& app) {
@@ -36,6 +74,8 @@ void setupSimulate(CLI::App& app) {
   app.add_flag("--overwrite", opt->overwrite, "Replace --out if it exists and is not empty");
   auto* temperature = app.add_flag("--temperature", opt->temperature,
                                    "Also write the temperature channel (temperature/*.bin)");
+  app.add_flag("--png", opt->png,
+               "Also render reference_map.png and odometry_map.png (top-down, classes coloured)");
   app.callback([opt, scenario, seed, frames, scene, regions, temperature]() {
     sim::SimulatorConfig config;
     if (!opt->config.empty()) config = sim::SimulatorConfig::fromYamlFile(opt->config);
@@ -57,6 +97,11 @@ void setupSimulate(CLI::App& app) {
         summary.drift.max_position_error, summary.drift.final_position_error,
         summary.drift.max_frame_translation_error, summary.drift.max_frame_rotation_error_deg,
         summary.drift.slips);
+    if (opt->png) {
+      // Clip 0.5 m below the lowest ceiling of the built-in scenes (3 m) to see inside.
+      renderPngs(opt->out, config.reference_voxel, config.scene_file.empty() ? 2.5 : 1e9);
+      std::cout << "  rendered reference_map.png and odometry_map.png\n";
+    }
   });
 }
 

@@ -18,6 +18,7 @@
 #include "hazmap/map/global_map.hpp"
 #include "hazmap/map/hazards.hpp"
 #include "hazmap/map/image.hpp"
+#include "hazmap/map/outputs.hpp"
 #include "hazmap/map/render.hpp"
 #include "test_helpers.hpp"
 
@@ -518,4 +519,25 @@ TEST(GlobalMapReal, SemanticKittiScanGivesPoleSignTrunkHazards) {
   writeHazardsJson(out / "hazards.json", hazards, map.voxelSize());
   writePng(out / "map_top.png", renderTopDown(map.cloud(), table, {{0, 0, 0}}, hazards));
   EXPECT_GT(std::filesystem::file_size(out / "map_top.png"), 1000u);
+}
+
+TEST(MapOutputs, WritesEveryFileAtomically) {
+  const GlobalMap map = patchesMap();
+  Trajectory est, gt;
+  for (int i = 0; i < 6; ++i) {
+    gt.push_back(i, fromXyYaw(-1.0 + i, -1.0, 0.0));
+    est.push_back(i, fromXyYaw(-1.0 + i, -1.0 + 0.02 * i, 0.0));
+  }
+  const auto dir = test::scratchDir();
+  const MapOutputs out = writeMapOutputs(dir, map, est, &gt, nullptr);
+  EXPECT_EQ(out.hazards.size(), 3u);
+  for (const char* name : {"map.ply", "map.pcd", "hazards.json", "hazards.csv", "map_top.png", "trajectory.png"})
+    EXPECT_TRUE(std::filesystem::is_regular_file(dir / name)) << name;
+  EXPECT_EQ(out.files.size(), 6u);
+  const Decoded top = readPngBack(dir / "map_top.png");
+  EXPECT_GT(top.w, 0);
+  // No temporary files are left behind.
+  for (const auto& entry : std::filesystem::directory_iterator(dir))
+    EXPECT_NE(entry.path().filename().string()[0], '.') << entry.path();
+  EXPECT_THROW(writeMapOutputs(dir / "nope", map, est), Error);
 }

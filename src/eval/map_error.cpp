@@ -7,10 +7,10 @@
 #include <cmath>
 #include <nanoflann.hpp>
 #include <nlohmann/json.hpp>
-#include <unordered_map>
 
 #include "hazmap/core/error.hpp"
 #include "hazmap/core/se3.hpp"
+#include "map/voxel_hash.hpp"
 
 namespace hazmap {
 
@@ -32,14 +32,16 @@ class CentroidGrid {
   }
   std::vector<Eigen::Vector3f> centroids() const {
     // Sorted by key so the result does not depend on hash-table order.
-    std::vector<std::pair<std::uint64_t, const Cell*>> ordered;
+    std::vector<std::pair<std::uint64_t, std::size_t>> ordered;
     ordered.reserve(cells_.size());
-    for (const auto& [k, c] : cells_) ordered.emplace_back(k, &c);
-    std::sort(ordered.begin(), ordered.end(),
-              [](const auto& a, const auto& b) { return a.first < b.first; });
+    for (std::size_t i = 0; i < cells_.size(); ++i) ordered.emplace_back(cells_.keyAt(i), i);
+    std::sort(ordered.begin(), ordered.end());
     std::vector<Eigen::Vector3f> out;
     out.reserve(ordered.size());
-    for (const auto& [k, c] : ordered) out.push_back((c->sum / double(c->count)).cast<float>());
+    for (const auto& [k, i] : ordered) {
+      const Cell& c = cells_.valueAt(i);
+      out.push_back((c.sum / double(c.count)).cast<float>());
+    }
     return out;
   }
   std::size_t size() const { return cells_.size(); }
@@ -50,7 +52,7 @@ class CentroidGrid {
     std::uint32_t count = 0;
   };
   double inv_;
-  std::unordered_map<std::uint64_t, Cell> cells_;
+  detail::VoxelHashMap<Cell> cells_;
 };
 
 struct PointsAdaptor {

@@ -5,10 +5,10 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <unordered_map>
 
 #include "hazmap/core/error.hpp"
 #include "hazmap/core/se3.hpp"
+#include "map/voxel_hash.hpp"
 
 namespace hazmap {
 
@@ -197,40 +197,45 @@ struct GlobalMap::Impl {
   int coarsenings = 0;
   std::size_t frames = 0, points = 0;
   bool any_property_channel = false;
-  std::unordered_map<std::uint64_t, Cell> cells;
-  std::unordered_map<std::uint64_t, FrameRecord> frame_records;
+  detail::VoxelHashMap<Cell> cells;
+  detail::VoxelHashMap<FrameRecord> frame_records;  // only cells that received property points
+
+  static std::uint64_t parentKey(std::uint64_t key) {
+    const Eigen::Vector3i idx = unpackKey(key);
+    return packKey(Eigen::Vector3i(floorDiv2(idx.x()), floorDiv2(idx.y()), floorDiv2(idx.z())));
+  }
 
   void coarsen() {
-    const double new_voxel = voxel * 2.0;
-    std::unordered_map<std::uint64_t, Cell> merged;
-    merged.reserve(cells.size() / 3 + 16);
-    std::unordered_map<std::uint64_t, std::uint64_t> key_map;  // old → new, for frame records
-    for (const auto& [key, c] : cells) {
+    // Old cells are drained as they are merged, so the peak stays near one map, not two.
+    detail::VoxelHashMap<Cell> merged;
+    cells.dropIndex();
+    while (!cells.empty()) {
+      auto [key, c] = cells.popBackUnindexed();
       const Eigen::Vector3i idx = unpackKey(key);
       const Eigen::Vector3i nidx(floorDiv2(idx.x()), floorDiv2(idx.y()), floorDiv2(idx.z()));
-      const std::uint64_t nkey = packKey(nidx);
-      Cell& m = merged[nkey];
+      Cell& m = merged[packKey(nidx)];
       // Offsets were relative to the old origin idx·voxel; re-express them relative to the new
-      // origin nidx·2·voxel (differ by 0 or one old voxel per axis).
+      // origin nidx·2·voxel (they differ by 0 or one old voxel per axis).
       const Eigen::Vector3f shift = ((idx - 2 * nidx).cast<double>() * voxel).cast<float>();
       m.offset_sum += c.offset_sum + float(c.count) * shift;
       m.count += c.count;
       for (int s = 0; s < c.used_slots; ++s) m.vote(c.class_ids[s], c.class_counts[s]);
       m.property_sum += c.property_sum;
       m.property_count += c.property_count;
-      if (!frame_records.empty() && frame_records.count(key)) key_map[key] = nkey;
     }
-    std::unordered_map<std::uint64_t, FrameRecord> records;
-    for (auto& [key, rec] : frame_records) {
-      auto& dst = records[key_map.at(key)];
+    detail::VoxelHashMap<FrameRecord> records;
+    frame_records.dropIndex();
+    while (!frame_records.empty()) {
+      auto [key, rec] = frame_records.popBackUnindexed();
+      FrameRecord& dst = records[parentKey(key)];
       if (dst.ranges.empty() && dst.count == 0)
         dst = std::move(rec);
       else
         dst.merge(rec, config.max_frame_ranges);
     }
-    cells = std::move(merged);
-    frame_records = std::move(records);
-    voxel = new_voxel;
+    cells.swap(merged);
+    frame_records.swap(records);
+    voxel *= 2.0;
     ++coarsenings;
   }
 };
@@ -303,25 +308,23 @@ const ClassTable& GlobalMap::classTable() const { return impl_->table; }
 
 std::size_t GlobalMap::memoryBytes() const {
   // Node (key + value + next pointer) plus one bucket pointer per element, and frame lists.
-  std::size_t bytes = impl_->cells.size() * (sizeof(std::uint64_t) + sizeof(Cell) + 2 * sizeof(void*));
-  bytes += impl_->cells.bucket_count() * sizeof(void*);
-  for (const auto& [k, r] : impl_->frame_records)
-    bytes += sizeof(std::uint64_t) + sizeof(FrameRecord) + 2 * sizeof(void*) +
-             r.ranges.capacity() * sizeof(FrameRange);
+  std::size_t bytes = impl_->cells.memoryBytes() + impl_->frame_records.memoryBytes();
+  for (std::size_t i = 0; i < impl_->frame_records.size(); ++i)
+    bytes += impl_->frame_records.valueAt(i).ranges.capacity() * sizeof(FrameRange);
   return bytes;
 }
 
 std::vector<MapCell> GlobalMap::cells() const {
   const Impl& m = *impl_;
-  std::vector<std::uint64_t> keys;
-  keys.reserve(m.cells.size());
-  for (const auto& kv : m.cells) keys.push_back(kv.first);
-  // Sort by (z, y, x)-packed key: deterministic regardless of hash order.
-  std::sort(keys.begin(), keys.end());
+  std::vector<std::pair<std::uint64_t, std::size_t>> order;
+  order.reserve(m.cells.size());
+  for (std::size_t i = 0; i < m.cells.size(); ++i) order.emplace_back(m.cells.keyAt(i), i);
+  // Sort by (z, y, x)-packed key: deterministic regardless of insertion or hash order.
+  std::sort(order.begin(), order.end());
   std::vector<MapCell> out;
-  out.reserve(keys.size());
-  for (std::uint64_t key : keys) {
-    const Cell& c = m.cells.at(key);
+  out.reserve(order.size());
+  for (const auto& [key, index] : order) {
+    const Cell& c = m.cells.valueAt(index);
     MapCell v;
     v.index = unpackKey(key);
     v.centroid = ((v.index.cast<double>() * m.voxel) + (c.offset_sum / float(c.count)).cast<double>()).cast<float>();
@@ -329,9 +332,9 @@ std::vector<MapCell> GlobalMap::cells() const {
     std::tie(v.label, v.label_points) = c.majority();
     v.property_samples = c.property_count;
     v.property_mean = c.property_count ? c.property_sum / float(c.property_count) : 0.0f;
-    if (auto it = m.frame_records.find(key); it != m.frame_records.end()) {
-      v.frames = it->second.ranges;
-      v.frame_count = it->second.count;
+    if (const FrameRecord* rec = m.frame_records.find(key)) {
+      v.frames = rec->ranges;
+      v.frame_count = rec->count;
     }
     out.push_back(std::move(v));
   }

@@ -120,16 +120,19 @@ SimulationSummary writeSimulation(const SimulatorConfig& config, const fs::path&
   const bool temperature = sim.config().temperature.enabled;
   if (temperature) fs::create_directories(tmp.path / "temperature");
 
-  // Reference map: every scan placed with its true pose (points + classes only).
+  // Reference map: every scan placed with its true pose, with the true (noise-free) classes: it is
+  // ground truth, like poses.txt; the scans themselves carry the label noise.
   LabeledCloud reference;
   const std::size_t n = sim.frames();
   const std::size_t batch = 32;
   std::vector<LabeledCloud> scans;
+  std::vector<std::vector<ClassId>> truths;
   for (std::size_t begin = 0; begin < n; begin += batch) {
     const std::size_t end = std::min(n, begin + batch);
     scans.assign(end - begin, LabeledCloud{});
+    truths.assign(end - begin, {});
     const auto t_scan = Clock::now();
-    tbb::parallel_for(begin, end, [&](std::size_t i) { scans[i - begin] = sim.scan(i); });
+    tbb::parallel_for(begin, end, [&](std::size_t i) { scans[i - begin] = sim.scan(i, &truths[i - begin]); });
     summary.scan_seconds += secondsSince(t_scan);
     for (std::size_t i = begin; i < end; ++i) {
       const LabeledCloud& scan = scans[i - begin];
@@ -140,7 +143,7 @@ SimulationSummary writeSimulation(const SimulatorConfig& config, const fs::path&
       reference.points.reserve(reference.points.size() + scan.size());
       for (std::size_t k = 0; k < scan.size(); ++k) {
         reference.points.push_back(T * scan.points[k]);
-        reference.classes.push_back(scan.classes[k]);
+        reference.classes.push_back(truths[i - begin][k]);
       }
     }
   }

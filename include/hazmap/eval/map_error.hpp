@@ -31,11 +31,11 @@ struct MapErrorConfig {
   /// Compute the cloud-to-cloud nearest-neighbour distance as well.
   bool cloud_to_cloud = true;
   /// Points per frame fed into the two C2C maps (even stride; 0 = all points).
-  std::size_t c2c_points_per_frame = 4000;
+  std::size_t c2c_points_per_frame = 2000;
   /// Voxel size (m) of the two C2C maps: one centroid per occupied voxel. Must be > 0.
   double c2c_voxel_size = 0.05;
   /// Upper bound on C2C query points (even stride over the estimated map's voxels).
-  std::size_t c2c_max_queries = 200000;
+  std::size_t c2c_max_queries = 50000;
   /// Scan points farther than this from the sensor are ignored (m; 0 = keep all). Far points
   /// turn a small rotation error into a large distance; the paper's maps are indoor (< 100 m).
   double max_range = 0.0;

@@ -1,0 +1,38 @@
+#pragma once
+// Everything a run writes about its map, in one call: map.ply, map.pcd, hazards.json,
+// hazards.csv, map_top.png and trajectory.png (all atomic), so `hazmap run`, `hazmap demo` and
+// library users produce the same files.
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "hazmap/io/trajectory.hpp"
+#include "hazmap/map/global_map.hpp"
+#include "hazmap/map/hazards.hpp"
+#include "hazmap/map/render.hpp"
+
+namespace hazmap {
+
+struct MapOutputConfig {
+  HazardConfig hazards;
+  TopDownConfig top_down;     ///< cell_size is taken from the map when left at 0
+  TrajectoryPlotConfig plot;
+  bool write_ply = true;
+  bool write_pcd = true;
+  bool write_hazards = true;
+  bool write_pngs = true;
+};
+
+struct MapOutputs {
+  std::vector<Hazard> hazards;
+  std::vector<std::filesystem::path> files;  ///< every file written, in order
+};
+
+/// Writes the map files into `dir` (which must exist). `estimate` is drawn on map_top.png and
+/// in trajectory.png; `ground_truth` and `odometry` (optional, same length as the estimate)
+/// are added to trajectory.png. Throws hazmap::Error naming the file on failure.
+MapOutputs writeMapOutputs(const std::filesystem::path& dir, const GlobalMap& map,
+                           const Trajectory& estimate, const Trajectory* ground_truth = nullptr,
+                           const Trajectory* odometry = nullptr, const MapOutputConfig& config = {});
+
+}  // namespace hazmap

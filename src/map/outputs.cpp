@@ -1,0 +1,45 @@
+#include "hazmap/map/outputs.hpp"
+
+#include "hazmap/core/error.hpp"
+#include "hazmap/map/export.hpp"
+
+namespace hazmap {
+
+MapOutputs writeMapOutputs(const std::filesystem::path& dir, const GlobalMap& map,
+                           const Trajectory& estimate, const Trajectory* ground_truth,
+                           const Trajectory* odometry, const MapOutputConfig& config) {
+  std::error_code ec;
+  if (!std::filesystem::is_directory(dir, ec)) fail(dir.string(), "output folder does not exist");
+  MapOutputs out;
+  const LabeledCloud cloud = map.cloud();
+  const ClassTable& table = map.classTable();
+  if (config.write_ply) {
+    writeMapPly(dir / "map.ply", cloud, table, config.top_down.colors);
+    out.files.push_back(dir / "map.ply");
+  }
+  if (config.write_pcd) {
+    writeMapPcd(dir / "map.pcd", cloud);
+    out.files.push_back(dir / "map.pcd");
+  }
+  out.hazards = findHazards(map, config.hazards);
+  if (config.write_hazards) {
+    writeHazardsJson(dir / "hazards.json", out.hazards, map.voxelSize());
+    writeHazardsCsv(dir / "hazards.csv", out.hazards);
+    out.files.push_back(dir / "hazards.json");
+    out.files.push_back(dir / "hazards.csv");
+  }
+  if (config.write_pngs) {
+    TopDownConfig top = config.top_down;
+    if (top.cell_size <= 0) top.cell_size = map.voxelSize();
+    writePng(dir / "map_top.png", renderTopDown(cloud, table, positionsOf(estimate), out.hazards, top));
+    out.files.push_back(dir / "map_top.png");
+    if (!estimate.empty()) {
+      writePng(dir / "trajectory.png",
+               renderTrajectoryComparison(estimate, ground_truth, odometry, config.plot));
+      out.files.push_back(dir / "trajectory.png");
+    }
+  }
+  return out;
+}
+
+}  // namespace hazmap
