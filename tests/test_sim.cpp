@@ -8,6 +8,7 @@
 
 #include "hazmap/core/error.hpp"
 #include "hazmap/core/se3.hpp"
+#include "hazmap/io/atomic_file.hpp"
 #include "hazmap/sim/mesh_builder.hpp"
 #include "hazmap/sim/simulator.hpp"
 
@@ -574,4 +575,21 @@ TEST(SimConfig, EmptySceneAndUnknownRegionClassFail) {
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("region 'alien' has unknown class 42"), std::string::npos);
   }
+}
+
+TEST(SimConfig, ShippedFilesMatchTheCode) {
+  // config/scenarios/simulator_defaults.yaml documents every key with the default of the code.
+  const SimulatorConfig file = SimulatorConfig::fromYamlFile(
+      std::filesystem::path(HAZMAP_SOURCE_DIR) / "config/scenarios/simulator_defaults.yaml");
+  EXPECT_EQ(file.toYamlString(), SimulatorConfig{}.toYamlString());
+  // config/scenarios/room_regions.yaml parses, with its two regions and a closed route.
+  Scene room = roomScene();
+  room.regions.clear();
+  parseRegionsYaml(readTextFile(std::filesystem::path(HAZMAP_SOURCE_DIR) / "config/scenarios/room_regions.yaml"),
+                   "room_regions.yaml", ClassTable::defaults(), room);
+  ASSERT_EQ(room.regions.size(), 2u);
+  EXPECT_EQ(room.route.waypoints.front(), room.route.waypoints.back());
+  EXPECT_EQ(room.route.loop_waypoints, 5u);
+  EXPECT_EQ(room.classAt({8.0, 0.0, 1.0}), 1);
+  EXPECT_EQ(room.classAt({-2.0, -0.5, 0.0}), 2);
 }

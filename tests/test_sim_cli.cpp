@@ -214,3 +214,25 @@ TEST(SimCli, UserSceneWithRegionsAndTemperature) {
   EXPECT_GT(hot / nh, 50.0);
   EXPECT_LT(cold / nc, 25.0);
 }
+
+TEST(SimCli, SceneAndRegionsFilesReproduceTheBuiltinScene) {
+  const fs::path dir = scratchDir();
+  ASSERT_EQ(runCli("simulate --scenario naraha --frames 3 --out " + (dir / "a").string()).exit_code, 0);
+  ASSERT_TRUE(fs::exists(dir / "a/regions.yaml"));
+  const auto r = runCli("simulate --scene " + (dir / "a/scene.ply").string() + " --regions " +
+                        (dir / "a/regions.yaml").string() + " --frames 3 --out " + (dir / "b").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_EQ(bytes(dir / "a/poses.txt"), bytes(dir / "b/poses.txt"));
+  EXPECT_EQ(bytes(dir / "a/odometry.txt"), bytes(dir / "b/odometry.txt"));
+  const Sequence a = Sequence::open(dir / "a"), b = Sequence::open(dir / "b");
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    const LabeledCloud sa = a.frame(i), sb = b.frame(i);
+    ASSERT_EQ(sa.size(), sb.size());
+    std::size_t label_diff = 0;
+    for (std::size_t k = 0; k < sa.size(); ++k) {
+      EXPECT_LT((sa.points[k] - sb.points[k]).norm(), 1e-3f);
+      label_diff += sa.classes[k] != sb.classes[k];
+    }
+    EXPECT_LE(label_diff, sa.size() / 10000);
+  }
+}

@@ -54,13 +54,14 @@ LabeledCloud simulateScan(const ScanInputs& in, const Eigen::Isometry3d& T_world
   const double min_range = in.lidar->min_range, max_range = in.lidar->max_range;
   for (std::size_t i = 0; i < hits.size(); ++i) {
     const RayHit& h = hits[i];
-    if (!h.hit() || h.distance < min_range || h.distance > max_range) continue;
-    // Draws happen in a fixed order per returned ray, so a frame's bytes depend only on its seed.
+    // The same draws for every ray, hit or not, in a fixed order: ray k's noise depends only on
+    // (seed, frame, k), not on whether some other ray happened to graze an edge.
     const bool dropped = rng.bernoulli(dropout);
     const double noise = rng.normal(sigma);
     const double u_label = rng.uniform();
     const std::uint64_t pick = rng.next();
-    if (dropped) continue;
+    const double temperature_noise = temperature ? temperature_rng->normal() : 0.0;
+    if (!h.hit() || h.distance < min_range || h.distance > max_range || dropped) continue;
     const double range = std::max(static_cast<double>(h.distance) + noise, 0.0);
     const Eigen::Vector3d surface =
         origin.cast<double>() + static_cast<double>(h.distance) * dirs_world[i].cast<double>();
@@ -77,7 +78,7 @@ LabeledCloud simulateScan(const ScanInputs& in, const Eigen::Isometry3d& T_world
       const bool hot = std::find(in.heat_classes.begin(), in.heat_classes.end(), truth) !=
                        in.heat_classes.end();
       temp = static_cast<float>((hot ? in.temperature->hot_c : in.temperature->ambient_c) +
-                                temperature_rng->normal(in.temperature->noise_sigma_c));
+                                in.temperature->noise_sigma_c * temperature_noise);
     }
     cloud.push_back((range * dirs_sensor[i].cast<double>()).cast<float>(), observed,
                     std::clamp(cos_incidence, 0.0f, 1.0f), 0.0, temp);

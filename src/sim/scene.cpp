@@ -3,8 +3,10 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <set>
+#include <sstream>
 
 #include "hazmap/core/error.hpp"
 
@@ -227,6 +229,48 @@ void parseRegionsYaml(const std::string& yaml, const std::string& where, const C
       scene.route.loop_waypoints = static_cast<std::size_t>(n);
     }
   }
+}
+
+namespace {
+
+/// Shortest text that reads back as exactly `v`.
+std::string num(double v) {
+  char buf[64];
+  const auto r = std::to_chars(buf, buf + sizeof buf, v);
+  return std::string(buf, r.ptr);
+}
+
+std::string point(const Eigen::Vector2d& p) { return "[" + num(p.x()) + ", " + num(p.y()) + "]"; }
+std::string point(const Eigen::Vector3d& p) {
+  return "[" + num(p.x()) + ", " + num(p.y()) + ", " + num(p.z()) + "]";
+}
+
+}  // namespace
+
+std::string regionsToYaml(const Scene& scene, const ClassTable& table) {
+  std::ostringstream out;
+  out << "# Property regions and route of scene '" << scene.name << "' (hazmap simulate --scene "
+      << "scene.ply --regions regions.yaml reproduces it).\n";
+  out << "regions:\n";
+  for (const auto& r : scene.regions) {
+    const ClassInfo* info = table.find(r.class_id);
+    const std::string cls = info ? info->name : std::to_string(r.class_id);
+    out << "  - {name: \"" << r.name << "\", class: " << cls << ", ";
+    if (r.shape == PropertyRegion::Shape::Box) {
+      out << "box: {min: " << point(r.box_min) << ", max: " << point(r.box_max) << "}}\n";
+    } else {
+      out << "polygon: [";
+      for (std::size_t i = 0; i < r.polygon.size(); ++i) out << (i ? ", " : "") << point(r.polygon[i]);
+      out << "], z: [" << num(r.z_min) << ", " << num(r.z_max) << "]}\n";
+    }
+  }
+  if (scene.regions.empty()) out << "  []\n";
+  out << "route:\n  waypoints: [";
+  for (std::size_t i = 0; i < scene.route.waypoints.size(); ++i)
+    out << (i ? ", " : "") << point(scene.route.waypoints[i]);
+  out << "]\n  corner_radius: " << num(scene.route.corner_radius) << "\n  floor_z: "
+      << num(scene.route.floor_z) << "\n  loop_waypoints: " << scene.route.loop_waypoints << "\n";
+  return out.str();
 }
 
 }  // namespace hazmap::sim

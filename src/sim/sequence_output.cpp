@@ -170,6 +170,7 @@ SimulationSummary writeSimulation(const SimulatorConfig& config, const fs::path&
   }
   writePly(tmp.path / "reference_map.ply", map, ply);
   writePlyMesh(tmp.path / "scene.ply", coloredSceneMesh(sim.scene(), table));
+  writeTextAtomically(tmp.path / "regions.yaml", regionsToYaml(sim.scene(), table));
 
   std::ostringstream info;
   info << "# Effective configuration of `hazmap simulate` that wrote this sequence.\n"

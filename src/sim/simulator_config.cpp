@@ -188,6 +188,7 @@ void SimulatorConfig::validate(const std::string& where) const {
 
 std::string SimulatorConfig::toYamlString() const {
   YAML::Emitter e;
+  e.SetDoublePrecision(15);  // 0.2, not 0.20000000000000001
   e << YAML::BeginMap;
   if (scene_file.empty()) {
     e << YAML::Key << "scenario" << YAML::Value << scenario;
@@ -238,6 +239,7 @@ std::string SimulatorConfig::toYamlString() const {
 
 std::string SimulatorConfig::sensorYaml() const {
   YAML::Emitter e;
+  e.SetDoublePrecision(15);  // 0.2, not 0.20000000000000001
   e << YAML::BeginMap;
   e << YAML::Key << "model" << YAML::Value << (sensor.channels == 16 ? "VLP-16 (simulated)" : "simulated spinning LiDAR");
   e << YAML::Key << "channels" << YAML::Value << sensor.channels;

@@ -86,6 +86,9 @@ Scene builtinScene(const std::string& name);
 /// `class` is a class name or id of `table`. Errors name the file and the entry.
 Scene loadScene(const std::filesystem::path& mesh_ply, const std::filesystem::path& regions_yaml,
                 const ClassTable& table);
+/// The scene's regions and route in the format loadScene() reads (class names from `table`,
+/// numbers written so they read back exactly): with scene.ply it reproduces the scene.
+std::string regionsToYaml(const Scene& scene, const ClassTable& table);
 /// Parses only the regions/route YAML text (`where` names it in errors).
 void parseRegionsYaml(const std::string& yaml, const std::string& where, const ClassTable& table,
                       Scene& scene);
