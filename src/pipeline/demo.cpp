@@ -86,7 +86,7 @@ DemoReport runDemo(const DemoConfig& config, std::ostream& out) {
                        toString(method), row.map_error_m, row.ate_m, row.frames_per_s, row.loops);
   }
   for (std::size_t m = 0; m < config.methods.size(); ++m)
-    panels.push_back({fmt::format("{} — map error {:.3f} m", toString(config.methods[m]),
+    panels.push_back({fmt::format("{} - map error {:.3f} m", toString(config.methods[m]),
                                   report.rows[m].map_error_m),
                       &artifacts[m].map, positionsOf(results[m].estimate), artifacts[m].hazards});
   TopDownConfig top;

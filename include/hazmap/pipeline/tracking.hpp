@@ -24,7 +24,14 @@ struct TrackingConfig {
   /// hold at least `property_share` of a voxel (they are rare and carry the signal).
   double voxel_size = 0.2;
   double property_share = 0.25;
-  RegistrationConfig registration;
+  /// Huber rather than a redescending kernel: a slipping crawler starts ICP 0.2–0.5 m off, and
+  /// the paper's wide same-class matches then carry the largest residuals — the very ones that
+  /// fix the slip; Geman–McClure silences them in the first iterations (measured on `naraha`).
+  RegistrationConfig registration = [] {
+    RegistrationConfig r;
+    r.robust_kernel = RobustKernel::Huber;
+    return r;
+  }();
   // --- failure detection: fall back to the odometry increment ---
   double min_fitness = 0.3;                ///< fraction of matched source points
   double max_rmse = 0.3;                   ///< m
