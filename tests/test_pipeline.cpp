@@ -1,6 +1,8 @@
 #include <gtest/gtest.h>
 
+#include <Eigen/Eigenvalues>
 #include <fstream>
+#include <unistd.h>
 #include <nlohmann/json.hpp>
 
 #include "hazmap/core/error.hpp"
@@ -16,11 +18,13 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// A short simulated corridor sequence, made once per test binary.
+// A short simulated corridor sequence, made once per test process (CTest runs the tests of this
+// file as parallel processes, so each makes its own).
 const fs::path& corridorSequence() {
   static const fs::path dir = [] {
     const char* base = std::getenv("HAZMAP_TEST_TMP");
-    const fs::path d = fs::path(base ? base : "/tmp/hazmap-test") / "pipeline-corridor-seq";
+    const fs::path d = fs::path(base ? base : "/tmp/hazmap-test") /
+                       ("pipeline-corridor-seq-" + std::to_string(::getpid()));
     sim::SimulatorConfig c;
     c.scenario = "corridor";
     c.seed = 7;

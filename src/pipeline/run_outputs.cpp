@@ -106,7 +106,17 @@ RunSummary writeRunOutputs(const Sequence& sequence, const SlamResult& result,
   summary.map_memory_bytes = map.memoryBytes();
   summary.hazards = hazards.size();
   if (error) summary.map_error = error->result();
-  if (with_truth) summary.trajectory = evaluateTrajectory(*truth, result.estimate);
+  if (with_truth) {
+    // SE(3)-aligned APE as evo reports it; a straight-line run (a corridor) cannot be aligned
+    // rotationally, and then — estimate and truth share the start pose — no alignment is used.
+    try {
+      summary.trajectory = evaluateTrajectory(*truth, result.estimate);
+    } catch (const Error&) {
+      TrajectoryEvalConfig unaligned;
+      unaligned.ape_alignment = Alignment::None;
+      summary.trajectory = evaluateTrajectory(*truth, result.estimate, unaligned);
+    }
+  }
 
   writeKittiTrajectory(out_dir / "trajectory.kitti", result.estimate);
   writeTumTrajectory(out_dir / "trajectory.tum", result.estimate);
