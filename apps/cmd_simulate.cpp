@@ -64,8 +64,10 @@ void setupSimulate(CLI::App& app) {
   auto* scenario = app.add_option("--scenario", opt->scenario,
                                   "Built-in scene: naraha (the paper's experiment), corridor, tanks");
   app.add_option("--out", opt->out, "Output sequence folder (must not exist or be empty)")->required();
-  auto* seed = app.add_option("--seed", opt->seed, "Random seed; same seed, same bytes");
-  auto* frames = app.add_option("--frames", opt->frames, "Write only the first N frames (0 = whole route)");
+  auto* seed = app.add_option("--seed", opt->seed, "Random seed; same seed, same bytes")
+                   ->check(CLI::NonNegativeNumber);
+  auto* frames = app.add_option("--frames", opt->frames, "Write only the first N frames (0 = whole route)")
+                     ->check(CLI::NonNegativeNumber);
   app.add_option("--config", opt->config,
                  "Simulator config YAML (sensor, labels, temperature, robot, odometry sections; "
                  "command-line options given explicitly override it)");

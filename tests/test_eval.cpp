@@ -366,6 +366,25 @@ TEST(EvalCli, JsonReproducesEvoAndBadInputFailsCleanly) {
   EXPECT_NE(nan.exit_code, 0);
   EXPECT_NE(nan.output.find("hazmap: error:"), std::string::npos) << nan.output;
   EXPECT_EQ(std::count(nan.output.begin(), nan.output.end(), '\n'), 1) << nan.output;
+  // TUM files are associated by time stamp: an estimate with every other pose and a time
+  // offset of 2 ms matches half of the ground truth.
+  Trajectory tum_gt, tum_est;
+  const Trajectory kgt = readKittiTrajectory(gt), kest = readKittiTrajectory(est);
+  for (std::size_t i = 0; i < kgt.size(); ++i) {
+    tum_gt.push_back(0.1 * double(i), kgt.poses[i]);
+    if (i % 2 == 0) tum_est.push_back(0.1 * double(i) + 0.002, kest.poses[i]);
+  }
+  writeTumTrajectory(dir / "gt.tum", tum_gt);
+  writeTumTrajectory(dir / "est.tum", tum_est);
+  const auto tum = test::runCli("eval --gt '" + (dir / "gt.tum").string() + "' --est '" +
+                                (dir / "est.tum").string() + "' --format tum --json");
+  ASSERT_EQ(tum.exit_code, 0) << tum.output;
+  EXPECT_NE(tum.output.find("\"poses\": 2271"), std::string::npos) << tum.output;
+  const auto strict = test::runCli("eval --gt '" + (dir / "gt.tum").string() + "' --est '" +
+                                   (dir / "est.tum").string() + "' --max-dt 0.001");
+  EXPECT_NE(strict.exit_code, 0);
+  EXPECT_NE(strict.output.find("no time stamps"), std::string::npos) << strict.output;
+
   const auto align = test::runCli("eval --gt '" + gt + "' --est '" + est + "' --align affine");
   EXPECT_NE(align.exit_code, 0);
   EXPECT_NE(align.output.find("--align"), std::string::npos) << align.output;

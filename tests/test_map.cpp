@@ -419,7 +419,13 @@ TEST(MapRender, TopDownPngShowsHazardsAndTrajectory) {
   EXPECT_GT(countColor(d, cfg.colors.heat), 1000u);
   EXPECT_GT(countColor(d, cfg.colors.water), 3000u);
   EXPECT_GT(countColor(d, cfg.trajectory), 100u);
-  EXPECT_GT(countColor(d, cfg.colors.radiation), 0u);  // the lone point is drawn, just not ringed
+  // The lone radiation point is no hazard: drawn like a plain cell unless asked otherwise.
+  EXPECT_EQ(countColor(d, cfg.colors.radiation), 0u);
+  TopDownConfig all_cells = cfg;
+  all_cells.hazard_cells_only = false;
+  const Image speckled = renderTopDown(map.cloud(), map.classTable(), traj, hazards, all_cells);
+  writePng(dir / "speckled.png", speckled);
+  EXPECT_GT(countColor(readPngBack(dir / "speckled.png"), cfg.colors.radiation), 0u);
   // The pixel at the heat patch centre is heat red.
   const double ppm = 40;
   const ViewBox v = viewOf(map.cloud(), traj, 1.0);

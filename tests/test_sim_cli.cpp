@@ -11,6 +11,8 @@
 #include "hazmap/io/sequence.hpp"
 #include "hazmap/sim/mesh_builder.hpp"
 #include "hazmap/sim/scene.hpp"
+#include "hazmap/sim/simulator.hpp"
+#include "hazmap/core/error.hpp"
 #include "test_helpers.hpp"
 
 namespace fs = std::filesystem;
@@ -166,16 +168,55 @@ TEST(SimCli, BadConfigurationFailsBeforeWritingAnything) {
                       "route: {waypoints: [[0, 0], [2, 0]]}\n");
   expectFailure("--scene " + (dir / "room.ply").string() + " --regions " + (dir / "alien.yaml").string(),
                 "region 'goo' has unknown class 'plasma'");
-  // An existing, non-empty output folder is not replaced without --overwrite.
+  {
+    const auto neg = runCli("simulate --scenario corridor --frames -1 --out " + out.string());
+    EXPECT_NE(neg.exit_code, 0);
+    EXPECT_NE(neg.output.find("--frames"), std::string::npos) << neg.output;
+    EXPECT_FALSE(fs::exists(out));
+  }
+  // An existing, non-empty folder is never replaced unless it is a sequence and --overwrite is
+  // given.
   fs::create_directories(out);
   writeTextAtomically(out / "keep.txt", "mine");
-  const auto r = runCli("simulate --scenario corridor --frames 2 --out " + out.string());
+  auto r = runCli("simulate --scenario corridor --frames 2 --out " + out.string());
   EXPECT_NE(r.exit_code, 0);
   EXPECT_NE(r.output.find("not empty"), std::string::npos);
+  r = runCli("simulate --scenario corridor --frames 2 --overwrite --out " + out.string());
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("is not a hazmap sequence"), std::string::npos) << r.output;
   EXPECT_TRUE(fs::exists(out / "keep.txt"));
-  ASSERT_EQ(runCli("simulate --scenario corridor --frames 2 --overwrite --out " + out.string()).exit_code, 0);
-  EXPECT_FALSE(fs::exists(out / "keep.txt"));
-  EXPECT_TRUE(fs::exists(out / "velodyne/000001.bin"));
+  const fs::path seq = dir / "seq";
+  ASSERT_EQ(runCli("simulate --scenario corridor --frames 4 --out " + seq.string() + "/").exit_code, 0);
+  EXPECT_TRUE(fs::exists(seq / "velodyne/000003.bin"));
+  ASSERT_EQ(runCli("simulate --scenario corridor --frames 2 --overwrite --out " + seq.string()).exit_code, 0);
+  EXPECT_TRUE(fs::exists(seq / "velodyne/000001.bin"));
+  EXPECT_FALSE(fs::exists(seq / "velodyne/000003.bin"));  // no stale frames from the last run
+  // seq/velodyne/.. is seq itself.
+  r = runCli("simulate --scenario corridor --frames 3 --overwrite --out " + seq.string() + "/velodyne/..");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_TRUE(fs::exists(seq / "velodyne/000002.bin"));
+}
+
+TEST(SimCli, NeverReplacesTheCurrentFolder) {
+  // Even a folder that looks like a sequence is not replaced when it is (or contains) the
+  // current folder.
+  const fs::path victim = scratchDir() / "victim";
+  fs::create_directories(victim / "velodyne");
+  writeTextAtomically(victim / "hazmap.yaml", "frames: 0\n");
+  const fs::path before = fs::current_path();
+  sim::SimulatorConfig config;
+  config.scenario = "corridor";
+  config.max_frames = 1;
+  fs::current_path(victim / "velodyne");
+  std::string message;
+  try {
+    sim::writeSimulation(config, "..", /*overwrite=*/true);
+  } catch (const Error& e) {
+    message = e.what();
+  }
+  fs::current_path(before);
+  EXPECT_NE(message.find("current folder"), std::string::npos) << message;
+  EXPECT_TRUE(fs::exists(victim / "hazmap.yaml"));
 }
 
 TEST(SimCli, UserSceneWithRegionsAndTemperature) {

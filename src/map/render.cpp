@@ -112,6 +112,19 @@ Image renderTopDown(const LabeledCloud& map, const ClassTable& table,
   const auto visible = [&](const Eigen::Vector3f& p) {
     return p.allFinite() && (!config.clip_above || p.z() <= *config.clip_above);
   };
+  // Property cells drawn in colour: all of them, or (when hazards are given and
+  // hazard_cells_only is set) those inside a hazard of their class; the rest are drawn like
+  // plain cells, so isolated false labels do not speckle the map.
+  const auto highlighted = [&](std::size_t i) {
+    if (!table.isProperty(map.classes[i])) return false;
+    if (hazards.empty() || !config.hazard_cells_only) return true;
+    const Eigen::Vector3d p = map.points[i].cast<double>();
+    for (const auto& h : hazards)
+      if (h.label == map.classes[i] && (p.array() >= h.min.array() - 1e-6).all() &&
+          (p.array() <= h.max.array() + 1e-6).all())
+        return true;
+    return false;
+  };
   ViewBox view;
   if (config.view) {
     view = sane(*config.view);
@@ -132,7 +145,7 @@ Image renderTopDown(const LabeledCloud& map, const ClassTable& table,
   // them with the scale bar, below the map so that nothing covers map content.
   std::vector<ClassId> seen;
   for (std::size_t i = 0; i < map.size(); ++i)
-    if (table.isProperty(map.classes[i]) && visible(map.points[i]) &&
+    if (visible(map.points[i]) && highlighted(i) &&
         std::find(seen.begin(), seen.end(), map.classes[i]) == seen.end())
       seen.push_back(map.classes[i]);
   std::sort(seen.begin(), seen.end());
@@ -192,7 +205,7 @@ Image renderTopDown(const LabeledCloud& map, const ClassTable& table,
   };
   for (std::size_t i = 0; i < map.size(); ++i) {
     const Eigen::Vector3f& p = map.points[i];
-    if (!visible(p) || table.isProperty(map.classes[i])) continue;
+    if (!visible(p) || highlighted(i)) continue;
     const auto [x0, y0, x1, y1] = footprint(p, 1);
     bool inside = false;
     for (int y = std::max(0, y0); y < std::min(map_h, y1); ++y)
@@ -228,7 +241,7 @@ Image renderTopDown(const LabeledCloud& map, const ClassTable& table,
   for (std::size_t i = 0; i < map.size(); ++i) {
     const Eigen::Vector3f& p = map.points[i];
     const ClassInfo* info = table.find(map.classes[i]);
-    if (!visible(p) || !info || info->kind == PropertyKind::None) continue;
+    if (!visible(p) || !info || !highlighted(i)) continue;
     const Rgb c = propertyColor(*info, config.colors);
     const auto [x0, y0, x1, y1] = footprint(p, min_px);
     fillRect(img, std::max(0, x0) + m, std::max(0, y0) + title_h + m, std::min(map_w, x1) + m,

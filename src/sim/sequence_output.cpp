@@ -95,16 +95,30 @@ std::string frameName(std::size_t i) {
 
 }  // namespace
 
-SimulationSummary writeSimulation(const SimulatorConfig& config, const fs::path& out_dir,
+SimulationSummary writeSimulation(const SimulatorConfig& config, const fs::path& out_dir_arg,
                                   bool overwrite) {
   const auto t_start = Clock::now();
-  if (out_dir.empty()) fail("simulate", "no output folder given");
+  if (out_dir_arg.empty()) fail("simulate", "no output folder given");
+  // "seq/", "./seq" and "seq" are the same folder; its name must be a real name.
+  fs::path out_dir = fs::absolute(out_dir_arg).lexically_normal();
+  if (!out_dir.has_filename()) out_dir = out_dir.parent_path();
+  const std::string shown = out_dir_arg.string();
   // Everything that can be wrong with the input is checked here, before anything is created.
   Simulator sim(config);
+  bool replace = false;
   if (fs::exists(out_dir)) {
-    if (!fs::is_directory(out_dir)) fail(out_dir.string(), "exists and is not a folder");
-    if (!fs::is_empty(out_dir) && !overwrite)
-      fail(out_dir.string(), "exists and is not empty (pass --overwrite to replace it)");
+    if (!fs::is_directory(out_dir)) fail(shown, "exists and is not a folder");
+    const fs::path cwd = fs::current_path().lexically_normal();
+    const auto rel = cwd.lexically_relative(out_dir);
+    if (!rel.empty() && *rel.begin() != "..")
+      fail(shown, "is the current folder or contains it; choose another output folder");
+    if (!fs::is_empty(out_dir)) {
+      if (!overwrite) fail(shown, "exists and is not empty (pass --overwrite to replace it)");
+      // Only ever replace a previous sequence, never an arbitrary folder.
+      if (!fs::exists(out_dir / "hazmap.yaml") && !fs::exists(out_dir / "velodyne"))
+        fail(shown, "exists, is not empty and is not a hazmap sequence; refusing to replace it");
+    }
+    replace = true;
   }
 
   SimulationSummary summary;
@@ -186,8 +200,10 @@ SimulationSummary writeSimulation(const SimulatorConfig& config, const fs::path&
        << "  track_slips: " << summary.drift.slips << "\n";
   writeTextAtomically(tmp.path / "simulation.yaml", info.str());
 
-  if (fs::exists(out_dir)) fs::remove_all(out_dir);
-  fs::rename(tmp.path, out_dir);
+  if (replace) fs::remove_all(out_dir);
+  std::error_code ec;
+  fs::rename(tmp.path, out_dir, ec);
+  if (ec) fail(shown, "cannot move the finished sequence into place: " + ec.message());
   tmp.keep = true;
   summary.total_seconds = secondsSince(t_start);
   return summary;

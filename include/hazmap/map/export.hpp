@@ -14,7 +14,7 @@ struct MapColorConfig {
   Rgb heat{230, 25, 25};
   Rgb water{25, 90, 235};
   Rgb radiation{245, 215, 0};
-  Rgb grey_low{60, 60, 60};     ///< plain points at the low height percentile
+  Rgb grey_low{110, 110, 110};  ///< plain points at the low height percentile
   Rgb grey_high{220, 220, 220};  ///< plain points at the high height percentile
   double low_percentile = 0.02;  ///< heights below/above these percentiles saturate
   double high_percentile = 0.98;

@@ -22,7 +22,7 @@ struct ViewBox {
 };
 
 struct TopDownConfig {
-  double pixels_per_metre = 10.0;  ///< reduced automatically to respect max_size_px
+  double pixels_per_metre = 20.0;  ///< reduced automatically to respect max_size_px
   int max_size_px = 1600;          ///< longest image side of the map area
   int margin_px = 24;
   /// Points with world z above this are not drawn (e.g. ceilings hiding an indoor map);
@@ -32,6 +32,9 @@ struct TopDownConfig {
   /// footprint, so the render has no holes at high zoom. 0 = one pixel per point.
   double cell_size = 0.0;
   int property_point_px = 2;   ///< property points are drawn at least (2·this − 1) px wide
+  /// With hazards given, only property cells inside a hazard are coloured; isolated ones (too
+  /// small to be a hazard, usually false labels) are drawn like plain cells.
+  bool hazard_cells_only = true;
   bool draw_hazard_labels = true;
   bool draw_legend = true;
   bool draw_scale_bar = true;

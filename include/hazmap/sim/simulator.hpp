@@ -118,8 +118,9 @@ struct SimulationSummary {
 /// odometry.txt, times.txt, hazmap.yaml, reference_map.ply, scene.ply, simulation.yaml (the
 /// effective config) and, with the temperature channel on, temperature/*.bin. Everything is
 /// written into a temporary sibling folder that is renamed to `out_dir` at the end, so a
-/// failure leaves no half-written sequence. `out_dir` must not exist or be empty unless
-/// `overwrite` is set. Validation happens before anything is created.
+/// failure leaves no half-written sequence. `out_dir` must not exist or be empty; with
+/// `overwrite` a previous sequence (a folder with hazmap.yaml or velodyne/) is replaced, never
+/// any other folder. Validation happens before anything is created.
 SimulationSummary writeSimulation(const SimulatorConfig& config, const std::filesystem::path& out_dir,
                                   bool overwrite = false);
 
