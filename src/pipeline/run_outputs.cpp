@@ -58,8 +58,8 @@ nlohmann::json runJson(const Sequence& sequence, const SlamResult& r, const Slam
                    {"iterations", o.iterations}, {"seconds", o.total_seconds}});
   j["pose_graph"] = {{"nodes", r.graph.numNodes()}, {"edges", r.graph.numEdges()},
                      {"loop_edges", r.graph.numLoopEdges()}, {"optimisations", opt}};
-  j["parameters"] = {{"registration", toYamlString(config.tracking.registration)},
-                     {"tracking", config.tracking.toYamlString()},
+  j["parameters"] = {{"registration", toYamlString(config.odometry.registration)},
+                     {"odometry_mode", toString(config.odometry.mode)},
                      {"loop_closure", config.loop_closure.toYamlString()},
                      {"keyframe_distance", config.keyframe_distance},
                      {"keyframe_angle", config.keyframe_angle}};

@@ -49,7 +49,7 @@ Matrix6d WheelOdometryNoise::information() const {
 SlamConfig SlamConfig::forMethod(SlamMethod method) {
   SlamConfig c;
   c.method = method;
-  c.tracking.registration.use_classes = usesClasses(method);
+  c.odometry.registration.use_classes = usesClasses(method);
   c.loop_closure.verification.registration.use_classes = usesClasses(method);
   c.loop_closure.method =
       usesClasses(method) ? CandidateMethod::Constellation : CandidateMethod::Distance;
@@ -72,11 +72,11 @@ void SlamConfig::applyYamlFile(const std::filesystem::path& path) {
   };
   for (const auto& kv : root) {
     const auto key = kv.first.as<std::string>();
-    if (key != "tracking" && key != "loop_closure" && key != "graph" && key != "slam" &&
+    if (key != "odometry" && key != "loop_closure" && key != "graph" && key != "slam" &&
         key != "wheel_noise")
       fail(path.string(), "unknown section '" + key + "'");
   }
-  if (root["tracking"]) tracking = TrackingConfig::fromYamlString(section("tracking"), path.string(), tracking);
+  if (root["odometry"]) odometry = odometryConfigFromYaml(section("odometry"), path.string(), odometry);
   if (root["loop_closure"]) {
     YAML::Node wrapped;
     wrapped["loop_closure"] = root["loop_closure"];
@@ -96,11 +96,14 @@ void SlamConfig::applyYamlFile(const std::filesystem::path& path) {
   if (const YAML::Node s = root["slam"]) {
     for (const auto& kv : s) {
       const auto key = kv.first.as<std::string>();
-      if (key != "keyframe_distance" && key != "keyframe_angle" && key != "optimise_online")
+      if (key != "keyframe_distance" && key != "keyframe_angle" && key != "optimise_online" &&
+          key != "min_translation_sigma" && key != "min_rotation_sigma")
         fail(path.string(), "slam: unknown key '" + key + "'");
     }
     number(s, "keyframe_distance", keyframe_distance);
     number(s, "keyframe_angle", keyframe_angle);
+    number(s, "min_translation_sigma", min_translation_sigma);
+    number(s, "min_rotation_sigma", min_rotation_sigma);
     if (s["optimise_online"]) optimise_online = s["optimise_online"].as<bool>();
   }
   if (const YAML::Node w = root["wheel_noise"]) {
@@ -122,7 +125,9 @@ void SlamConfig::validate() const {
   positive(wheel_noise.vertical_sigma, "wheel_noise.vertical_sigma");
   positive(wheel_noise.yaw_sigma, "wheel_noise.yaw_sigma");
   positive(wheel_noise.tilt_sigma, "wheel_noise.tilt_sigma");
-  tracking.validate();
+  positive(min_translation_sigma, "min_translation_sigma");
+  positive(min_rotation_sigma, "min_rotation_sigma");
+  odometry.validate();
   loop_closure.validate();
 }
 
@@ -168,7 +173,7 @@ SlamResult runSlam(const Sequence& sequence, const SlamConfig& config, const Fra
   std::unique_ptr<LoopDetector> loops;
   std::vector<std::size_t> keyframe_frames;  // keyframe index → frame index
   if (pgo) loops = std::make_unique<LoopDetector>(sequence.classTable(), config.loop_closure);
-  FrameTracker tracker(sequence.classTable(), config.tracking);
+  Odometry tracker(sequence.classTable(), config.odometry, start);
   Eigen::Isometry3d last_keyframe_pose = Eigen::Isometry3d::Identity();
 
   const auto keyframeEstimate = [&] {
@@ -191,16 +196,16 @@ SlamResult runSlam(const Sequence& sequence, const SlamConfig& config, const Fra
     LabeledCloud scan;
     if (usesIcp(config.method)) {
       scan = sequence.frame(i);
-      const TrackedFrame tf = tracker.track(scan, odom_increment);
-      rec.T_prev_curr = tf.T_prev_curr;
-      rec.covariance = tf.covariance;
-      rec.icp_used = tf.icp_used;
-      rec.fallback_reason = tf.fallback_reason;
-      rec.fitness = tf.fitness;
-      rec.rmse = tf.rmse;
-      rec.iterations = tf.iterations;
-      rec.points = tf.points;
-      scan = tf.preprocessed;  // keyframes keep the downsampled cloud
+      const OdometryFrame& f = tracker.addFrame(scan, odom_increment, static_cast<double>(i));
+      rec.T_prev_curr = f.increment;
+      rec.covariance = f.covariance;
+      rec.icp_used = f.status == FrameStatus::Registered || f.status == FrameStatus::Degenerate ||
+                     f.status == FrameStatus::First;
+      rec.fallback_reason = f.reason;
+      rec.fitness = f.registration.fitness;
+      rec.rmse = f.registration.inlier_rmse;
+      rec.iterations = f.registration.iterations;
+      rec.points = f.source_points;
     } else if (odom_increment) {
       rec.T_prev_curr = *odom_increment;
     }
@@ -215,8 +220,8 @@ SlamResult runSlam(const Sequence& sequence, const SlamConfig& config, const Fra
     graph.addNode(i == 0 ? start : normalized(graph.poses.back() * rec.T_prev_curr));
     if (i > 0) {
       const Matrix6d info = rec.icp_used
-                                ? flooredInformation(rec.covariance, config.tracking.min_translation_sigma,
-                                                     config.tracking.min_rotation_sigma)
+                                ? flooredInformation(rec.covariance, config.min_translation_sigma,
+                                                     config.min_rotation_sigma)
                                 : config.wheel_noise.information();
       graph.addEdge(static_cast<int>(i - 1), static_cast<int>(i), rec.T_prev_curr, info,
                     EdgeKind::Odometry);

@@ -14,7 +14,7 @@
 #include "hazmap/io/sequence.hpp"
 #include "hazmap/loop/loop_closure.hpp"
 #include "hazmap/pipeline/slam_method.hpp"
-#include "hazmap/pipeline/tracking.hpp"
+#include "hazmap/odometry/odometry.hpp"
 
 namespace hazmap {
 
@@ -30,7 +30,13 @@ struct WheelOdometryNoise {
 
 struct SlamConfig {
   SlamMethod method = SlamMethod::PropertyIcpPgo;
-  TrackingConfig tracking;        ///< preprocessing + registration + failure detection
+  /// Tracking: preprocessing, (property-)ICP, local map, failure detection. The paper registers
+  /// frame to frame; hazmap's default is frame to local map (see forMethod).
+  OdometryConfig odometry = OdometryConfig::defaults();
+  /// Floors on an ICP increment's standard deviations before its covariance is inverted into an
+  /// odometry-edge information (m, rad): an over-confident covariance must not make edges rigid.
+  double min_translation_sigma = 0.005;
+  double min_rotation_sigma = 0.0005;
   LoopClosureConfig loop_closure; ///< PGO methods only; candidate method follows `method`
   PoseGraphConfig graph;          ///< geodesic cost, Cauchy loss on loop edges
   WheelOdometryNoise wheel_noise;
@@ -44,7 +50,7 @@ struct SlamConfig {
   /// Defaults for a method: classes on/off in tracking and verification, loop candidates by
   /// property constellations (property methods) or by distance (conventional baseline).
   static SlamConfig forMethod(SlamMethod method);
-  /// Applies a YAML file with optional sections `tracking:`, `loop_closure:`, `graph:`,
+  /// Applies a YAML file with optional sections `odometry:`, `loop_closure:`, `graph:`,
   /// `wheel_noise:`, `slam:` (keyframe_distance, keyframe_angle, optimise_online) on top of the
   /// method defaults. Errors name the file and key.
   void applyYamlFile(const std::filesystem::path& path);
