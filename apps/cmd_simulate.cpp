@@ -91,11 +91,12 @@ void setupSimulate(CLI::App& app) {
     const double fps = summary.scan_seconds > 0.0 ? summary.frames / summary.scan_seconds : 0.0;
     std::cout << fmt::format(
         "wrote {}: {} frames, {:.1f} m route, {} points\n"
-        "  BVH build {:.3f} s, scans {:.2f} s ({:.1f} frames/s), total {:.2f} s\n"
+        "  BVH build {:.3f} s, scans {:.2f} s ({:.1f} frames/s), files {:.2f} s, reference map {:.2f} s, "
+        "total {:.2f} s\n"
         "  odometry vs truth: mean position error {:.3f} m, max {:.3f} m, final {:.3f} m; "
         "worst frame {:.3f} m / {:.2f} deg; {} track slips\n",
         opt->out, summary.frames, summary.route_length, summary.points, summary.bvh_seconds,
-        summary.scan_seconds, fps, summary.total_seconds, summary.drift.mean_position_error,
+        summary.scan_seconds, fps, summary.write_seconds, summary.reference_seconds, summary.total_seconds, summary.drift.mean_position_error,
         summary.drift.max_position_error, summary.drift.final_position_error,
         summary.drift.max_frame_translation_error, summary.drift.max_frame_rotation_error_deg,
         summary.drift.slips);

@@ -123,7 +123,7 @@ TEST(SimLidar, WallRangesWithinNoiseAndDropoutRate) {
   for (std::size_t f = 0; f < 2; ++f) {
     expected_hits += quiet.scan(f).size();
     const LabeledCloud scan = sim.scan(f);
-    const Eigen::Isometry3d T = sim.groundTruth()[f];
+    const Eigen::Isometry3d T = sim.worldPoses()[f];
     returned += scan.size();
     for (const auto& p : scan.points) {
       // True range along this point's ray to the plane x = 10 in the world.
@@ -162,7 +162,7 @@ TEST(SimLabels, PointsInsideRegionsCarryTheirClassOutsideDoNot) {
   std::size_t heat = 0, water = 0, none = 0;
   for (std::size_t f = 0; f < sim.frames(); ++f) {
     const LabeledCloud scan = sim.scan(f);
-    const Eigen::Isometry3d T = sim.groundTruth()[f];
+    const Eigen::Isometry3d T = sim.worldPoses()[f];
     for (std::size_t i = 0; i < scan.size(); ++i) {
       const Eigen::Vector3d w = T * scan.points[i].cast<double>();
       // Skip points within 1 cm of a region boundary (float rounding decides those).

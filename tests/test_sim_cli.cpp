@@ -3,6 +3,8 @@
 // configuration fails before anything is written.
 #include <gtest/gtest.h>
 
+#include <yaml-cpp/yaml.h>
+
 #include <fstream>
 #include <sstream>
 
@@ -37,6 +39,18 @@ std::vector<fs::path> filesUnder(const fs::path& dir) {
   return out;
 }
 
+/// simulation.yaml's world_from_first_frame: maps poses.txt / reference_map.ply to the scene.
+Eigen::Isometry3d worldFromFirst(const fs::path& seq) {
+  const YAML::Node n = YAML::LoadFile((seq / "simulation.yaml").string())["world_from_first_frame"];
+  EXPECT_TRUE(n && n.size() == 12);
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  for (int r = 0; r < 3; ++r) {
+    for (int k = 0; k < 3; ++k) T.linear()(r, k) = n[4 * r + k].as<double>();
+    T.translation()(r) = n[4 * r + 3].as<double>();
+  }
+  return T;
+}
+
 /// RMS and 99th-percentile distance to the plane y = y0 of the given world points.
 std::pair<double, double> planeSpread(const std::vector<Eigen::Vector3d>& pts, double y0) {
   std::vector<double> d;
@@ -65,7 +79,10 @@ TEST(SimCli, WritesAReadableSequence) {
   ASSERT_TRUE(seq.groundTruth() && seq.odometry());
   ASSERT_EQ(seq.groundTruth()->size(), 4u);
   EXPECT_TRUE(seq.groundTruth()->poses[0].isApprox(seq.odometry()->poses[0], 1e-12));
-  EXPECT_NEAR(seq.groundTruth()->poses[0].translation().z(), 0.5, 1e-12);  // mount height
+  // KITTI convention: poses in the first scan's frame; simulation.yaml says where that is.
+  EXPECT_TRUE(seq.groundTruth()->poses[0].isApprox(Eigen::Isometry3d::Identity(), 1e-12));
+  const Eigen::Isometry3d W = worldFromFirst(out);
+  EXPECT_TRUE(W.translation().isApprox(Eigen::Vector3d(5.0, 2.5, 0.5), 1e-12));  // naraha start, mount height
   EXPECT_NE(seq.sensorYaml().find("elevations_deg"), std::string::npos);
   const LabeledCloud scan = seq.frame(0);
   EXPECT_GT(scan.size(), 20000u);
@@ -88,7 +105,7 @@ TEST(SimCli, WritesAReadableSequence) {
     for (int dx = -1; dx <= 1 && !found; ++dx)
       for (int dy = -1; dy <= 1 && !found; ++dy)
         for (int dz = -1; dz <= 1 && !found; ++dz)
-          found = naraha.classAt(map.points[i].cast<double>() + 0.1 * Eigen::Vector3d(dx, dy, dz)) == map.classes[i];
+          found = naraha.classAt(W * map.points[i].cast<double>() + 0.1 * Eigen::Vector3d(dx, dy, dz)) == map.classes[i];
     EXPECT_TRUE(found) << "map point " << map.points[i].transpose() << " class " << map.classes[i];
   }
   EXPECT_GT(labelled, 50u);
@@ -112,11 +129,12 @@ TEST(SimCli, ReferenceMapFromPosesIsSharpOdometryMapIsNot) {
   const fs::path out = scratchDir() / "corridor";
   ASSERT_EQ(runCli("simulate --scenario corridor --frames 14 --seed 3 --out " + out.string()).exit_code, 0);
   const Sequence seq = Sequence::open(out);
+  const Eigen::Isometry3d W = worldFromFirst(out);
   std::vector<Eigen::Vector3d> truth_wall, odo_wall;
   for (std::size_t i = 0; i < seq.size(); ++i) {
     const LabeledCloud scan = seq.frame(i);
-    const Eigen::Isometry3d& T = seq.groundTruth()->poses[i];
-    const Eigen::Isometry3d& O = seq.odometry()->poses[i];
+    const Eigen::Isometry3d T = W * seq.groundTruth()->poses[i];
+    const Eigen::Isometry3d O = W * seq.odometry()->poses[i];
     for (const auto& p : scan.points) {
       const Eigen::Vector3d w = T * p.cast<double>();
       // North-wall points by their true position (away from floor, ceiling and panels).

@@ -206,7 +206,7 @@ RegistrationResult registerClouds(const LabeledCloud& source, const Registration
             cr.distance2 = m.distance2;
             cr.cross = m.cross_class;
             cr.weight = cls < class_weight.size() ? class_weight[cls] : 1.0f;
-            if (m.cross_class) cr.weight *= mismatch_weight;
+            if (m.cross_class && soft) cr.weight *= mismatch_weight;
           }
         }
       });
@@ -333,7 +333,7 @@ RegistrationResult registerClouds(const LabeledCloud& source, const Registration
   std::size_t matched = 0, cross = 0, prop = 0, prop_matched = 0, wide = 0;
   const double r0 = config.max_correspondence_distance;
   for (std::size_t k = 0; k < n; ++k) {
-    const bool is_prop = config.use_classes && classes.isProperty(source.classes[used[k]]);
+    const bool is_prop = classes.isProperty(source.classes[used[k]]);
     prop += is_prop;
     if (corr[k].target < 0) continue;
     ++matched;

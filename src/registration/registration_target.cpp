@@ -126,7 +126,8 @@ TargetMatch RegistrationTarget::match(const Eigen::Vector3f& p, ClassId cls, flo
     float d2;
     const std::int64_t j = all_->nearest(p, r2, d2);
     if (j < 0) return m;
-    m = {j, d2, d2, false};
+    // Reported (not penalised) so that plain ICP's class agreement can be compared.
+    m = {j, d2, d2, cloud_.classes[j] != cls};
     if (property_weight_ > 0.0f) m.cost += propertyCost(j);
     return m;
   }

@@ -2,6 +2,7 @@
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
+#include <charconv>
 #include <chrono>
 #include <cstdio>
 #include <random>
@@ -148,6 +149,7 @@ SimulationSummary writeSimulation(const SimulatorConfig& config, const fs::path&
     const auto t_scan = Clock::now();
     tbb::parallel_for(begin, end, [&](std::size_t i) { scans[i - begin] = sim.scan(i, &truths[i - begin]); });
     summary.scan_seconds += secondsSince(t_scan);
+    const auto t_write = Clock::now();
     for (std::size_t i = begin; i < end; ++i) {
       const LabeledCloud& scan = scans[i - begin];
       writer.addFrame(scan);
@@ -160,7 +162,9 @@ SimulationSummary writeSimulation(const SimulatorConfig& config, const fs::path&
         reference.classes.push_back(truths[i - begin][k]);
       }
     }
+    summary.write_seconds += secondsSince(t_write);
   }
+  const auto t_trajectories = Clock::now();
   writer.writeGroundTruth(toTrajectory(sim.groundTruth(), sim.samples()));
   writer.writeOdometry(toTrajectory(sim.odometry(), sim.samples()));
   {
@@ -170,6 +174,8 @@ SimulationSummary writeSimulation(const SimulatorConfig& config, const fs::path&
     writeTextAtomically(tmp.path / "times.txt", times.str());
   }
   writer.finish();
+  summary.write_seconds += secondsSince(t_trajectories);
+  const auto t_reference = Clock::now();
 
   VoxelDownsampleConfig voxel;
   voxel.voxel_size = sim.config().reference_voxel;
@@ -183,6 +189,7 @@ SimulationSummary writeSimulation(const SimulatorConfig& config, const fs::path&
     ply.colors.push_back(info ? info->color : Rgb{160, 160, 160});
   }
   writePly(tmp.path / "reference_map.ply", map, ply);
+  summary.reference_seconds = secondsSince(t_reference);
   writePlyMesh(tmp.path / "scene.ply", coloredSceneMesh(sim.scene(), table));
   writeTextAtomically(tmp.path / "regions.yaml", regionsToYaml(sim.scene(), table));
 
@@ -197,7 +204,21 @@ SimulationSummary writeSimulation(const SimulatorConfig& config, const fs::path&
        << "  odometry_final_position_error_m: " << summary.drift.final_position_error << "\n"
        << "  odometry_max_frame_translation_error_m: " << summary.drift.max_frame_translation_error << "\n"
        << "  odometry_max_frame_rotation_error_deg: " << summary.drift.max_frame_rotation_error_deg << "\n"
-       << "  track_slips: " << summary.drift.slips << "\n";
+       << "  track_slips: " << summary.drift.slips << "\n"
+       << "# Pose of the first scan in scene.ply's frame (row-major 3x4, like a poses.txt line):\n"
+       << "# poses.txt and reference_map.ply are in the first scan's frame (KITTI convention).\n"
+       << "world_from_first_frame: [";
+  {
+    const Eigen::Isometry3d& W = sim.worldFromFirst();
+    char buf[64];
+    for (int r = 0; r < 3; ++r)
+      for (int k = 0; k < 4; ++k) {
+        const double v = k < 3 ? W.linear()(r, k) : W.translation()(r);
+        const auto res = std::to_chars(buf, buf + sizeof buf, v);
+        info << (r || k ? ", " : "") << std::string(buf, res.ptr);
+      }
+  }
+  info << "]\n";
   writeTextAtomically(tmp.path / "simulation.yaml", info.str());
 
   if (replace) fs::remove_all(out_dir);

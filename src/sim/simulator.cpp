@@ -19,9 +19,13 @@ Simulator::Simulator(const SimulatorConfig& config, Scene scene, ClassTable tabl
 void Simulator::init() {
   samples_ = sampleRoute(scene_.route, config_.robot);
   if (config_.max_frames > 0 && samples_.size() > config_.max_frames) samples_.resize(config_.max_frames);
+  world_.clear();
   truth_.clear();
   for (const auto& s : samples_)
-    truth_.push_back(sensorPose(s, scene_.route.floor_z, config_.sensor.mount_height));
+    world_.push_back(sensorPose(s, scene_.route.floor_z, config_.sensor.mount_height));
+  // KITTI convention: poses relative to the first scan (what an odometry / SLAM run produces).
+  const Eigen::Isometry3d first_inv = world_.front().inverse();
+  for (const auto& T : world_) truth_.push_back(normalized(first_inv * T));
   odometry_ = accumulateOdometry(truth_, config_.odometry, config_.seed, &slips_);
 
   caster_ = std::make_unique<RayCaster>(scene_.mesh);
@@ -48,7 +52,7 @@ LabeledCloud Simulator::scan(std::size_t i, std::vector<ClassId>* true_classes) 
     fail("simulator", "frame " + std::to_string(i) + " out of range (" + std::to_string(truth_.size()) + " frames)");
   Rng rng(config_.seed, RngStream::Scan, i);
   Rng temperature_rng(config_.seed, RngStream::Temperature, i);
-  return simulateScan(inputs_, truth_[i], rng, &temperature_rng, true_classes);
+  return simulateScan(inputs_, world_[i], rng, &temperature_rng, true_classes);
 }
 
 OdometryDrift odometryDrift(const PoseList& truth, const PoseList& odometry,

@@ -126,7 +126,8 @@ SimulatorConfig SimulatorConfig::fromYamlString(const std::string& yaml, const s
   const auto& top = table.at("");
   for (const auto& kv : root) {
     const std::string key = kv.first.as<std::string>("");
-    if (key == "stats") continue;  // written by `hazmap simulate` into simulation.yaml; informative
+    // Written by `hazmap simulate` into simulation.yaml for information; not settings.
+    if (key == "stats" || key == "world_from_first_frame") continue;
     if (auto it = top.find(key); it != top.end()) {
       it->second(c, kv.second, where, key);
       continue;

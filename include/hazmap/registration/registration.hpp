@@ -104,7 +104,8 @@ RegistrationConfig loadRegistrationConfig(const std::string& path,
                                           const RegistrationConfig& base = {});
 std::string toYamlString(const RegistrationConfig& config);
 
-/// How the labels shaped the final correspondences (beyond the paper; for reports).
+/// How the labels shaped the final correspondences (beyond the paper; for reports). Counted for
+/// plain ICP too (classes looked at, not used), so the two can be compared.
 struct CorrespondenceStats {
   std::size_t source_points = 0;     ///< points used (after max_source_points)
   std::size_t matched = 0;           ///< with a correspondence

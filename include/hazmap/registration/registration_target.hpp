@@ -20,7 +20,7 @@ struct TargetMatch {
   std::int64_t index = -1;  ///< target point index, -1 = none within the gates
   float distance2 = 0.0f;   ///< squared Euclidean distance (m²)
   float cost = 0.0f;        ///< distance2 + penalty (what the rule minimised)
-  bool cross_class = false;
+  bool cross_class = false;  ///< classes differ (plain ICP reports it too, without penalty)
 };
 
 class RegistrationTarget {

@@ -65,10 +65,16 @@ class Simulator {
   /// Scan i in the sensor frame (thread-safe; same bytes for the same seed and index).
   /// `true_classes` receives the noise-free classes.
   LabeledCloud scan(std::size_t i, std::vector<ClassId>* true_classes = nullptr) const;
-  /// True sensor poses in the world frame (KITTI poses.txt), one per frame.
+  /// True sensor poses (poses.txt), KITTI convention: in the frame of the first scan, so
+  /// groundTruth()[0] is the identity.
   const PoseList& groundTruth() const { return truth_; }
-  /// Accumulated encoder odometry (odometry.txt), starting at groundTruth()[0].
+  /// Accumulated encoder odometry (odometry.txt) in the same frame, also starting at identity.
   const PoseList& odometry() const { return odometry_; }
+  /// True sensor poses in the scene's (world) frame: worldPoses()[i] = worldFromFirst() ·
+  /// groundTruth()[i].
+  const PoseList& worldPoses() const { return world_; }
+  /// The first scan's pose in the scene frame (maps poses.txt / reference_map.ply to scene.ply).
+  const Eigen::Isometry3d& worldFromFirst() const { return world_.front(); }
   /// Whether a track slip happened between frame i-1 and i.
   const std::vector<bool>& slips() const { return slips_; }
   const std::vector<RouteSample>& samples() const { return samples_; }
@@ -87,7 +93,7 @@ class Simulator {
   std::unique_ptr<RayCaster> caster_;
   std::vector<Eigen::Vector3f> directions_;
   std::vector<RouteSample> samples_;
-  PoseList truth_, odometry_;
+  PoseList world_, truth_, odometry_;
   std::vector<bool> slips_;
   ScanInputs inputs_;
 };
@@ -110,6 +116,8 @@ struct SimulationSummary {
   double route_length = 0.0;
   double bvh_seconds = 0.0;
   double scan_seconds = 0.0;  ///< generating the scans (excluding the BVH and file writing)
+  double write_seconds = 0.0;      ///< writing scans, labels and trajectories
+  double reference_seconds = 0.0;  ///< building and writing reference_map.ply
   double total_seconds = 0.0;
   OdometryDrift drift;
 };
