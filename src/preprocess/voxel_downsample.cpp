@@ -31,20 +31,53 @@ LabeledCloud voxelDownsample(const LabeledCloud& cloud, const VoxelDownsampleCon
     fail("voxel downsample", "property_share must be in [0, 1]");
   const double inv = 1.0 / config.voxel_size;
   const std::size_t n = cloud.size();
-  std::vector<std::pair<std::uint64_t, std::uint32_t>> keyed(n);
-  for (std::size_t i = 0; i < n; ++i) keyed[i] = {voxelKey(cloud.points[i], inv), std::uint32_t(i)};
-  std::sort(keyed.begin(), keyed.end());
+  // Group points by voxel without sorting all points: an open-addressing table gives each voxel an
+  // id, a counting sort groups the points (stable: original order inside a voxel), and only the
+  // voxels are sorted by key — same output as sorting (key, index) pairs, several times faster.
+  std::size_t table_size = 16;
+  while (table_size < 2 * n) table_size <<= 1;
+  const std::size_t mask = table_size - 1;
+  constexpr std::uint64_t kEmpty = ~std::uint64_t{0};
+  std::vector<std::uint64_t> table_keys(table_size, kEmpty);
+  std::vector<std::uint32_t> table_ids(table_size, 0);
+  std::vector<std::uint64_t> voxel_keys;
+  std::vector<std::uint32_t> point_voxel(n), counts;
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::uint64_t key = voxelKey(cloud.points[i], inv);
+    std::uint64_t h = key * 0x9E3779B97F4A7C15ull;
+    std::size_t slot = (h ^ (h >> 29)) & mask;
+    while (table_keys[slot] != kEmpty && table_keys[slot] != key) slot = (slot + 1) & mask;
+    if (table_keys[slot] == kEmpty) {
+      table_keys[slot] = key;
+      table_ids[slot] = static_cast<std::uint32_t>(voxel_keys.size());
+      voxel_keys.push_back(key);
+      counts.push_back(0);
+    }
+    point_voxel[i] = table_ids[slot];
+    ++counts[point_voxel[i]];
+  }
+  std::vector<std::uint32_t> start(voxel_keys.size() + 1, 0);
+  for (std::size_t v = 0; v < voxel_keys.size(); ++v) start[v + 1] = start[v] + counts[v];
+  std::vector<std::uint32_t> grouped(n);
+  {
+    std::vector<std::uint32_t> fill(start.begin(), start.end() - 1);
+    for (std::size_t i = 0; i < n; ++i) grouped[fill[point_voxel[i]]++] = static_cast<std::uint32_t>(i);
+  }
+  std::vector<std::uint32_t> order(voxel_keys.size());
+  std::iota(order.begin(), order.end(), 0u);
+  std::sort(order.begin(), order.end(),
+            [&](std::uint32_t a, std::uint32_t b) { return voxel_keys[a] < voxel_keys[b]; });
 
   LabeledCloud out = LabeledCloud::withLayoutOf(cloud);
   out.reserve(n / 4 + 1);
   std::vector<std::pair<ClassId, std::uint32_t>> votes;  // small: few classes per voxel
-  for (std::size_t begin = 0; begin < n;) {
-    std::size_t end = begin;
+  for (const std::uint32_t v : order) {
+    const std::size_t begin = start[v], end = start[v + 1];
     Eigen::Vector3d sum = Eigen::Vector3d::Zero();
     double si = 0, st = 0, sp = 0;
     votes.clear();
-    while (end < n && keyed[end].first == keyed[begin].first) {
-      const std::uint32_t i = keyed[end].second;
+    for (std::size_t k = begin; k < end; ++k) {
+      const std::uint32_t i = grouped[k];
       sum += cloud.points[i].cast<double>();
       if (cloud.hasIntensity()) si += cloud.intensity[i];
       if (cloud.hasTimestamps()) st += cloud.timestamps[i];
@@ -52,7 +85,6 @@ LabeledCloud voxelDownsample(const LabeledCloud& cloud, const VoxelDownsampleCon
       const ClassId c = cloud.classes[i];
       auto it = std::find_if(votes.begin(), votes.end(), [c](const auto& v) { return v.first == c; });
       if (it == votes.end()) votes.push_back({c, 1}); else ++it->second;
-      ++end;
     }
     const double count = static_cast<double>(end - begin);
     std::sort(votes.begin(), votes.end(), [](const auto& a, const auto& b) {
@@ -66,7 +98,6 @@ LabeledCloud voxelDownsample(const LabeledCloud& cloud, const VoxelDownsampleCon
     }
     out.push_back((sum / count).cast<float>(), cls, static_cast<float>(si / count), st / count,
                   static_cast<float>(sp / count));
-    begin = end;
   }
   return out;
 }

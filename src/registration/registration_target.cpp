@@ -19,8 +19,7 @@ std::unique_ptr<NeighborIndex> makeIndex(SpatialIndexKind kind, const std::vecto
 }
 
 float cellSizeFor(const RegistrationConfig& c) {
-  return static_cast<float>(c.index_cell_size > 0.0 ? c.index_cell_size
-                                                    : c.max_correspondence_distance * 0.5);
+  return static_cast<float>(c.index_cell_size > 0.0 ? c.index_cell_size : c.max_correspondence_distance);
 }
 
 }  // namespace
@@ -77,7 +76,7 @@ RegistrationTarget::RegistrationTarget(const LabeledCloud& cloud, const ClassTab
       ClassSlot slot;
       slot.cls = static_cast<ClassId>(c);
       slot.radius2 = r_same * r_same;
-      slot.index = makeIndex(index_kind_, cloud_.points, members[c], std::max(cell_, r_max * 0.5f), r_max);
+      slot.index = makeIndex(index_kind_, cloud_.points, members[c], std::max(cell_, r_max * 0.5f), r_max);  // wide property radii: coarser cells
       slot_of_class_[c] = static_cast<std::int16_t>(slots_.size());
       slots_.push_back(std::move(slot));
     }

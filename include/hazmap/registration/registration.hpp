@@ -77,7 +77,8 @@ struct RegistrationConfig {
 
   // --- speed ---
   SpatialIndexKind index = SpatialIndexKind::VoxelHash;
-  /// Voxel edge of the hash index for unlabelled points (m); 0 = max_correspondence_distance/2.
+  /// Voxel edge of the hash index for unlabelled points (m); 0 = max_correspondence_distance
+  /// (measured fastest on the scan pair; see docs/registration.md).
   double index_cell_size = 0.0;
   /// Use at most this many source points (evenly strided, deterministic); 0 = all.
   std::size_t max_source_points = 0;
