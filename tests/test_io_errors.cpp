@@ -390,3 +390,14 @@ TEST(IoCli, InfoOnASequenceDirectory) {
   EXPECT_NE(r.output.find("\"points\": 745811"), std::string::npos);  // sum of the six scans
   EXPECT_NE(r.output.find("\"file\": \"000005.bin\""), std::string::npos);
 }
+
+TEST(IoErrors, ClassTableWithRawLabelsNeedsAnExistingUnmappedClass) {
+  // Found by fuzz_class_table: this table parsed, but hazmap could not read back what it wrote.
+  const std::string yaml =
+      "classes:\n  - {id: 5, name: none}\n  - {id: 1, name: heat, kind: heat}\nraw_labels: {80: 1}\n";
+  expectFileError([&] { (void)ClassTable::fromYamlString(yaml, "t.yaml"); }, "t.yaml",
+                  "unmapped_class 0 is not a class in the table");
+  const auto ok = ClassTable::fromYamlString(yaml + "unmapped_class: 5\n", "t.yaml");
+  EXPECT_EQ(ok.mapRaw(12), 5);
+  EXPECT_EQ(ClassTable::fromYamlString(ok.toYamlString(), "again").mapRaw(12), 5);
+}

@@ -139,6 +139,10 @@ ClassTable ClassTable::fromYamlString(const std::string& yaml, const std::string
       fail(where, "unmapped_class " + std::to_string(u) + " is not a class in the table");
     t.unmapped_class = static_cast<ClassId>(u);
   }
+  // Raw labels without an entry map to unmapped_class, so it must exist (found by fuzzing).
+  if (t.hasRawMapping() && !t.contains(t.unmapped_class))
+    fail(where, "unmapped_class " + std::to_string(t.unmapped_class) +
+                    " is not a class in the table (set 'unmapped_class' when using 'raw_labels')");
   return t;
 }
 

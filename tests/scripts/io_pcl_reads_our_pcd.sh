@@ -11,7 +11,7 @@ tmp=$(mktemp -d "$bin/io_pcl.XXXXXX")
 trap 'rm -rf "$tmp"' EXIT
 
 points_of() {  # hazmap's point count of a cloud file
-  "$hazmap" info --json "$1" | python3 -c 'import json,sys; print(json.load(sys.stdin)["points"])'
+  "$hazmap" info --json "$1" | sed -n 's/^  "points": \([0-9]*\),\{0,1\}$/\1/p'
 }
 
 scan="$data/kitti-semantic-sample/velodyne/000000.bin"
@@ -29,7 +29,7 @@ for enc in binary ascii binary_compressed; do
 done
 
 # PCL's own binary_compressed writer → hazmap.
-pcl_convert_pcd_ascii_binary "$data/scan-pair/251370668.pcd" "$tmp/pcl_compressed.pcd" 2 > /dev/null
+pcl_convert_pcd_ascii_binary "$data/scan-pair/251370668.pcd" "$tmp/pcl_compressed.pcd" 2 > /dev/null 2>&1
 grep -a -q "DATA binary_compressed" "$tmp/pcl_compressed.pcd" || { echo "FAIL: PCL did not compress"; exit 1; }
 n=$(points_of "$tmp/pcl_compressed.pcd")
 [[ "$n" == 69088 ]] || { echo "FAIL: hazmap read $n points from PCL's binary_compressed PCD"; exit 1; }

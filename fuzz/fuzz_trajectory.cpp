@@ -1,0 +1,29 @@
+// libFuzzer target: KITTI and TUM trajectory readers (and the format guess).
+#include <cmath>
+
+#include "fuzz_input.hpp"
+#include "hazmap/core/error.hpp"
+#include "hazmap/io/trajectory.hpp"
+
+namespace {
+void check(const hazmap::Trajectory& t) {
+  if (t.stamps.size() != t.poses.size()) std::abort();
+  for (const auto& T : t.poses)
+    if (!T.matrix().allFinite()) std::abort();
+}
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  static hazmap::fuzz::MemFile file("fuzz.txt");
+  const std::string& path = file.set(data, size);
+  try { check(hazmap::readTrajectoryAuto(path)); } catch (const hazmap::Error&) {}
+  try { check(hazmap::readKittiTrajectory(path)); } catch (const hazmap::Error&) {}
+  try {
+    const auto t = hazmap::readTumTrajectory(path);
+    check(t);
+    for (const auto& T : t.poses)  // TUM quaternions are normalised on read
+      if (std::abs(T.linear().determinant() - 1.0) > 1e-6) std::abort();
+  } catch (const hazmap::Error&) {
+  }
+  return 0;
+}

@@ -1,0 +1,96 @@
+// Builds the fuzz seed corpus from the real shared data: small slices of the real KITTI scan
+// (with its SemanticKITTI labels) and of the real PCD scan written in every format hazmap
+// reads, the first poses of the real KITTI 00 ground truth as KITTI and TUM, the shipped class
+// tables. Usage: hazmap_fuzz_seeds SHARED_DATA_DIR SOURCE_DIR OUT_DIR
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+
+#include "hazmap/io/atomic_file.hpp"
+#include "hazmap/io/kitti.hpp"
+#include "hazmap/io/pcd.hpp"
+#include "hazmap/io/ply.hpp"
+#include "hazmap/io/trajectory.hpp"
+
+namespace fs = std::filesystem;
+using namespace hazmap;
+
+int main(int argc, char** argv) {
+  if (argc != 4) {
+    std::cerr << "usage: hazmap_fuzz_seeds SHARED_DATA_DIR SOURCE_DIR OUT_DIR\n";
+    return 2;
+  }
+  const fs::path data = argv[1], source = argv[2], out = argv[3];
+  try {
+    for (const char* d : {"pcd", "ply", "kitti", "trajectory", "class_table"}) fs::create_directories(out / d);
+    const auto scan = readKittiScan(data / "kitti-semantic-sample/velodyne/000000.bin",
+                                    data / "kitti-semantic-sample/labels/000000.label", ClassTable::defaults());
+    const auto pair = readPcd(data / "scan-pair/251370668.pcd");
+    // Slices from the middle of the scans, where points carry classes.
+    const LabeledCloud small = scan.slice(60000, 60064);
+    LabeledCloud timed = pair.slice(1000, 1048);
+    timed.enableTimestamps();
+    timed.enableProperty();
+    for (std::size_t i = 0; i < timed.size(); ++i) timed.timestamps[i] = 0.001 * double(i), timed.property[i] = 20.0f + i;
+
+    writePcd(out / "pcd/ascii.pcd", small, PcdEncoding::Ascii);
+    writePcd(out / "pcd/binary.pcd", small, PcdEncoding::Binary);
+    writePcd(out / "pcd/compressed.pcd", small, PcdEncoding::BinaryCompressed);
+    writePcd(out / "pcd/timed_compressed.pcd", timed, PcdEncoding::BinaryCompressed);
+    writePcd(out / "pcd/timed_ascii.pcd", timed, PcdEncoding::Ascii);
+    {  // the real file's own header with the first 32 points
+      const std::string real = readTextFile(data / "scan-pair/251370668.pcd");
+      std::string head = real.substr(0, real.find("DATA binary\n") + 12);
+      for (const char* key : {"WIDTH 69088", "POINTS 69088"}) {
+        const auto at = head.find(key);
+        if (at != std::string::npos) head.replace(at, std::string(key).size(), std::string(key).substr(0, std::string(key).size() - 5) + "32");
+      }
+      writeTextAtomically(out / "pcd/real_header.pcd", head + real.substr(real.find("DATA binary\n") + 12, 32 * 16));
+    }
+
+    PlyWriteOptions opt;
+    opt.binary = false;
+    writePly(out / "ply/ascii.ply", small, opt);
+    opt.binary = true;
+    writePly(out / "ply/binary.ply", timed, opt);
+    TriangleMesh mesh;
+    for (int i = 0; i < 6; ++i) mesh.vertices.push_back(small.points[i]);
+    mesh.triangles = {{0, 1, 2}, {2, 3, 4}, {3, 4, 5}};
+    mesh.triangle_classes = {0, 1, 3};
+    mesh.vertex_colors.assign(6, Rgb{10, 20, 30});
+    writePlyMesh(out / "ply/mesh_ascii.ply", mesh, false);
+    writePlyMesh(out / "ply/mesh_binary.ply", mesh, true);
+
+    // KITTI pair in the fuzz target's framing: mode byte 1, then .bin, then .label.
+    const auto pieceBin = out / "kitti/tmp.bin";
+    const auto pieceLabel = out / "kitti/tmp.label";
+    const LabeledCloud tiny = scan.slice(62000, 62032);
+    writeKittiBin(pieceBin, tiny);
+    writeSemanticKittiLabels(pieceLabel, tiny);
+    const std::string b = readTextFile(pieceBin), l = readTextFile(pieceLabel);
+    writeTextAtomically(out / "kitti/pair", std::string(1, '\x01') + b + l);
+    writeTextAtomically(out / "kitti/bin", std::string(1, '\x00') + b);
+    writeTextAtomically(out / "kitti/label", std::string(1, '\x02') + l);
+    fs::remove(pieceBin);
+    fs::remove(pieceLabel);
+
+    Trajectory gt = readKittiTrajectory(data / "trajectories/KITTI_00_gt.txt");
+    gt.poses.resize(8);
+    gt.stamps.resize(8);
+    writeKittiTrajectory(out / "trajectory/kitti.txt", gt);
+    writeTumTrajectory(out / "trajectory/tum.txt", gt);
+    {
+      const std::string real = readTextFile(data / "trajectories/KITTI_00_gt.txt");
+      std::size_t at = 0;
+      for (int k = 0; k < 5; ++k) at = real.find('\n', at) + 1;
+      writeTextAtomically(out / "trajectory/real.txt", real.substr(0, at));
+    }
+
+    for (const auto& e : fs::directory_iterator(source / "config/classes"))
+      fs::copy_file(e.path(), out / "class_table" / e.path().filename(), fs::copy_options::overwrite_existing);
+  } catch (const std::exception& e) {
+    std::cerr << "hazmap_fuzz_seeds: " << e.what() << "\n";
+    return 1;
+  }
+  return 0;
+}

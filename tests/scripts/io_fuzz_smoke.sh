@@ -1,0 +1,47 @@
+#!/usr/bin/env bash
+# CI-sized fuzz smoke run: builds the libFuzzer targets (fuzz/) with clang in a separate build
+# folder and runs each for a few seconds on a seed corpus made from the real shared data.
+# Skips (passes with a message) when clang or its fuzzer runtime is missing.
+# Args: SOURCE_DIR BINARY_DIR HAZMAP_CLI. Env: HAZMAP_FUZZ_SECONDS (per target, default 8).
+set -euo pipefail
+src=$1; bin=$2
+seconds=${HAZMAP_FUZZ_SECONDS:-8}
+cc=$(command -v clang || command -v clang-14 || true)
+cxx=$(command -v clang++ || command -v clang++-14 || true)
+if [[ -z "$cc" || -z "$cxx" ]]; then
+  echo "SKIP: clang not found (install clang and libclang-rt-14-dev to fuzz)"; exit 0
+fi
+if ! echo 'extern "C" int LLVMFuzzerTestOneInput(const char*, unsigned long) { return 0; }' |
+     "$cxx" -x c++ -fsanitize=fuzzer -o /dev/null - 2> /dev/null; then
+  echo "SKIP: clang has no libFuzzer runtime (install libclang-rt-14-dev)"; exit 0
+fi
+if grep -q "^HAZMAP_SANITIZE:BOOL=ON" "$bin/CMakeCache.txt" 2> /dev/null; then
+  echo "SKIP: the fuzz smoke run belongs to the normal build (the fuzzers already use ASan + UBSan)"; exit 0
+fi
+fuzz_build="$bin/io-fuzz"
+log="$fuzz_build/smoke.log"
+mkdir -p "$fuzz_build"
+CC="$cc" CXX="$cxx" cmake -S "$src" -B "$fuzz_build" -DHAZMAP_FUZZ=ON -DHAZMAP_BUILD_TESTS=OFF \
+  -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -gline-tables-only" \
+  -DHAZMAP_SANITIZE=OFF > "$log" 2>&1 || { cat "$log"; exit 1; }
+targets=(fuzz_pcd fuzz_ply fuzz_kitti fuzz_trajectory fuzz_class_table)
+cmake --build "$fuzz_build" -j 2 --target "${targets[@]}" hazmap_fuzz_seeds >> "$log" 2>&1 || { tail -50 "$log"; exit 1; }
+seeds="$fuzz_build/seeds"
+rm -rf "$seeds"
+"$fuzz_build/fuzz/hazmap_fuzz_seeds" "$src/../shared/data" "$src" "$seeds"
+status=0
+for t in "${targets[@]}"; do
+  name=${t#fuzz_}
+  corpus="$fuzz_build/corpus/$name"   # grows across runs; the seeds are re-read every time
+  mkdir -p "$corpus"
+  if ! (cd "$fuzz_build" && "$fuzz_build/fuzz/$t" -max_total_time="$seconds" -rss_limit_mb=2048 \
+         -malloc_limit_mb=1024 -timeout=10 -max_len=65536 -print_final_stats=1 \
+         -artifact_prefix="$fuzz_build/crash-$name-" "$corpus" "$seeds/$name" > "$fuzz_build/$name.log" 2>&1); then
+    echo "FAIL: $t found a problem (log: $fuzz_build/$name.log)"
+    grep -E "ERROR|SUMMARY|==[0-9]+==|Test unit written" "$fuzz_build/$name.log" | head -20
+    status=1
+  else
+    echo "OK: $t $(grep -E '^stat::number_of_executed_units' "$fuzz_build/$name.log" | awk '{print $2}') runs in ${seconds}s, $(grep -oE 'cov: [0-9]+' "$fuzz_build/$name.log" | tail -1)"
+  fi
+done
+exit $status
