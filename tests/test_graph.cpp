@@ -508,6 +508,21 @@ TEST(GraphCli, OptimizePrintsBothCostsAndWritesGraph) {
   EXPECT_LT(rep.initial_chordal - rep.final_chordal, 1e-4 * rep.initial_chordal);
 }
 
+TEST(GraphCli, YamlConfigIsUsedAndFlagsOverrideIt) {
+  const auto dir = test::scratchDir();
+  std::ofstream(dir / "c.yaml") << "graph:\n  cost: chordal\n  init: odometry\n  loop_loss: dcs\n";
+  const std::string in = sharedData("pose-graphs/tinyGrid3D.g2o").string();
+  const auto r = test::runCli("graph optimize " + in + " --config " + (dir / "c.yaml").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("cost: chordal, init: odometry, loop loss: dcs"), std::string::npos)
+      << r.output;
+  const auto o = test::runCli("graph optimize " + in + " --config " + (dir / "c.yaml").string() +
+                              " --init chordal --cost geodesic");
+  ASSERT_EQ(o.exit_code, 0) << o.output;
+  EXPECT_NE(o.output.find("cost: geodesic, init: chordal, loop loss: dcs"), std::string::npos)
+      << o.output;
+}
+
 TEST(GraphCli, BadInputGivesOneLineErrorAndNoOutput) {
   const auto dir = test::scratchDir();
   std::ofstream(dir / "bad.g2o") << "VERTEX_SE3:QUAT 0 0 0 0 0 0 0 1\nVERTEX_SE3:QUAT 1 0 0\n";

@@ -78,6 +78,32 @@ TEST(LoopLandmarks, ToleranceSplitsOrJoinsAndRangeFilters) {
   EXPECT_TRUE(extractLandmarks(LabeledCloud{}, table, {}).empty());
 }
 
+TEST(LoopLandmarks, PurityDropsLabelNoiseOnDenseSurfaces) {
+  const ClassTable table = ClassTable::defaults();
+  // A wall 2 m away sampled every 1 cm (a VLP-16 is that dense at close range), with 0.5 %-like
+  // label noise concentrated in one spot (40 heat points among ~10k), and a real heat panel
+  // elsewhere on the same wall.
+  LabeledCloud cloud;
+  std::mt19937 rng(2);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  for (int i = 0; i < 300; ++i)
+    for (int j = 0; j < 150; ++j) {
+      const Eigen::Vector3f p(-1.5f + 0.01f * i, 2.0f, 0.01f * j);
+      const bool panel = p.x() > 0.5f && p.x() < 1.3f && p.z() > 0.3f && p.z() < 1.1f;
+      const bool noise = !panel && p.x() < -0.5f && p.z() < 0.6f && u(rng) < 0.004;
+      cloud.push_back(p, (panel || noise) ? 1 : 0);
+    }
+  LandmarkConfig c;
+  const auto lms = extractLandmarks(cloud, table, c);
+  ASSERT_EQ(lms.size(), 1u);
+  EXPECT_NEAR(lms[0].centroid.x(), 0.9, 0.02);
+  EXPECT_GT(lms[0].purity, 0.3);
+  c.min_purity = 0.0;  // off: the noise becomes a landmark too
+  const auto all = extractLandmarks(cloud, table, c);
+  ASSERT_EQ(all.size(), 2u);
+  EXPECT_DOUBLE_EQ(all[0].purity, 1.0);
+}
+
 TEST(LoopLandmarks, MergeAWindowOfKeyframesIntoOnePlace) {
   const LabeledCloud world = test::samplePatches(test::routePatches());
   const PoseList truth = test::rectangleRoute();
@@ -237,6 +263,32 @@ TEST(LoopConstellation, RejectsDifferentPlacesAndSymmetricConstellations) {
   frames[0] = square;
   frames[19] = square;
   for (const auto& c : findConstellationCandidates(19, frames, {})) EXPECT_NE(c.match, 0u);
+}
+
+TEST(LoopConstellation, FacingBreaksTheFlipOfTwoSameClassPanels) {
+  // Two identical heat panels on one wall (y = 3, facing south): from two keyframes south of
+  // the wall, the pair alone fits the true pose and its 180° flip equally well.
+  const std::vector<Patch> patches = {test::wallPatch(1, 0.0, 3.0, 1.0, 0.5, 0.0),
+                                      test::wallPatch(1, 4.0, 3.0, 1.0, 0.5, 0.0)};
+  const LabeledCloud world = test::samplePatches(patches, 0.05);
+  std::mt19937 rng(4);
+  const Eigen::Isometry3d Ta = fromXyzRpy(1.0, -1.0, 0.5, 0, 0, 0.2);
+  const Eigen::Isometry3d Tb = fromXyzRpy(3.0, -2.0, 0.5, 0, 0, 1.1);
+  const auto la = landmarksSeenFrom(world, Ta, 15.0, rng);
+  const auto lb = landmarksSeenFrom(world, Tb, 15.0, rng);
+  ASSERT_EQ(la.size(), 2u);
+  ASSERT_EQ(lb.size(), 2u);
+  ConstellationConfig off;
+  off.facing_tolerance = 0.0;
+  const auto flip = matchConstellations(lb, la, off);
+  ASSERT_TRUE(flip.has_value());
+  EXPECT_TRUE(flip->ambiguous);
+  const auto m = matchConstellations(lb, la, {});
+  ASSERT_TRUE(m.has_value());
+  EXPECT_FALSE(m->ambiguous);
+  const Eigen::Isometry3d err = (Ta.inverse() * Tb).inverse() * m->T_match_query;
+  EXPECT_LT(translationNorm(err), 0.1);
+  EXPECT_LT(yawDeg(err), 1.0);
 }
 
 // ------------------------------------------------------------------------------ verification

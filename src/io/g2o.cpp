@@ -230,20 +230,25 @@ std::string formatG2o(const PoseGraph& graph) {
     }
   }
   for (const auto& e : graph.edges) {
-    const Matrix6d info = informationLeftToRight(e.T_from_to, e.information);
+    // Back to the file's (right-perturbation) form. The left↔right conversion is exact up to
+    // rounding: print 15 digits and drop entries at the rounding level of the matrix, so a file
+    // read and written again keeps its clean numbers (10, not 9.999999999999998 and 4e-16).
+    Matrix6d info = informationLeftToRight(e.T_from_to, e.information);
+    const double noise = 1e-13 * info.cwiseAbs().maxCoeff();
+    info = info.unaryExpr([noise](double v) { return std::abs(v) < noise ? 0.0 : v; });
     const Eigen::Vector3d t = e.T_from_to.translation();
     if (planar) {
       fmt::format_to(it, "EDGE_SE2 {} {} {} {} {}", graph.ids[e.from], graph.ids[e.to], t.x(),
                      t.y(), yawOf(e.T_from_to));
       for (int r = 0; r < 3; ++r)
         for (int c = r; c < 3; ++c)
-          fmt::format_to(it, " {}", info(kPlanarIndex[r], kPlanarIndex[c]));
+          fmt::format_to(it, " {:.15g}", info(kPlanarIndex[r], kPlanarIndex[c]));
     } else {
       const Eigen::Quaterniond q(e.T_from_to.linear());
       fmt::format_to(it, "EDGE_SE3:QUAT {} {} {} {} {} {} {} {} {}", graph.ids[e.from],
                      graph.ids[e.to], t.x(), t.y(), t.z(), q.x(), q.y(), q.z(), q.w());
       for (int r = 0; r < 6; ++r)
-        for (int c = r; c < 6; ++c) fmt::format_to(it, " {}", info(r, c));
+        for (int c = r; c < 6; ++c) fmt::format_to(it, " {:.15g}", info(r, c));
     }
     fmt::format_to(it, "\n");
   }

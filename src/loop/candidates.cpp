@@ -33,6 +33,12 @@ void validate(const CandidateSearchConfig& c) {
     fail(where, "max_extent_ratio must be 0 (off) or >= 1");
   if (!(k.property_value_tolerance >= 0.0)) fail(where, "property_value_tolerance must be >= 0");
   if (k.max_hypotheses < 1) fail(where, "max_hypotheses must be >= 1");
+  if (!(k.visibility_range >= 0.0) || !std::isfinite(k.visibility_range))
+    fail(where, "visibility_range must be >= 0 (0 = off)");
+  if (!(k.miss_penalty >= 0.0) || !std::isfinite(k.miss_penalty)) fail(where, "miss_penalty must be >= 0");
+  if (!(k.min_overlap >= 0.0 && k.min_overlap <= 1.0)) fail(where, "min_overlap must be in [0, 1]");
+  if (!(k.facing_tolerance >= 0.0 && k.facing_tolerance <= M_PI))
+    fail(where, "facing_tolerance must be in [0, pi] rad (0 = off)");
   positive(c.search_radius, "search_radius");
   if (c.max_candidates < 1) fail(where, "max_candidates must be >= 1");
 }
@@ -87,20 +93,44 @@ struct Scored {
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
   std::vector<Corr> inliers;
   double rmse = 0.0;
+  std::size_t misses = 0;  // landmarks the other keyframe should have seen but did not
+  double value = 0.0;      // inliers − miss_penalty · misses
   bool better(const Scored& o) const {
+    if (value != o.value) return value > o.value;
     if (inliers.size() != o.inliers.size()) return inliers.size() > o.inliers.size();
     return rmse < o.rmse;
   }
 };
+
+// The facing direction of a flat, upright landmark (a heat panel on a wall): the normal of its
+// PCA plane, turned toward the sensor that saw it. nullopt for floor patches, blobs and lines,
+// whose orientation says nothing about yaw.
+std::optional<Eigen::Vector3d> facing(const PropertyLandmark& l) {
+  if (l.extent(1) < 0.05 || !(l.extent(2) < 0.3 * l.extent(1))) return std::nullopt;
+  Eigen::Vector3d n = l.axes.col(2);
+  if (std::abs(n.z()) > 0.7) return std::nullopt;
+  if (n.dot(-l.centroid) < 0) n = -n;
+  return n;
+}
 
 // One-to-one inlier assignment: greedy by residual over all compatible correspondences.
 Scored score(const Eigen::Isometry3d& T, const std::vector<Corr>& corrs,
              const std::vector<PropertyLandmark>& q, const std::vector<PropertyLandmark>& m,
              const ConstellationConfig& c) {
   std::vector<std::pair<double, std::size_t>> close;
+  const double cos_tol = std::cos(c.facing_tolerance);
   for (std::size_t k = 0; k < corrs.size(); ++k) {
-    const double r = (T * q[corrs[k].first].centroid - m[corrs[k].second].centroid).norm();
-    if (r <= c.inlier_distance) close.emplace_back(r, k);
+    const PropertyLandmark& a = q[corrs[k].first];
+    const PropertyLandmark& b = m[corrs[k].second];
+    const double r = (T * a.centroid - b.centroid).norm();
+    if (r > c.inlier_distance) continue;
+    // A panel seen from its front in one keyframe cannot face away in the other: this breaks
+    // the 180° ambiguity of two same-class sources.
+    if (c.facing_tolerance > 0.0) {
+      const auto na = facing(a), nb = facing(b);
+      if (na && nb && (T.linear() * *na).dot(*nb) < cos_tol) continue;
+    }
+    close.emplace_back(r, k);
   }
   std::sort(close.begin(), close.end());
   std::vector<char> used_q(q.size(), 0), used_m(m.size(), 0);
@@ -115,6 +145,16 @@ Scored score(const Eigen::Isometry3d& T, const std::vector<Corr>& corrs,
     sq += r * r;
   }
   s.rmse = s.inliers.empty() ? 0.0 : std::sqrt(sq / static_cast<double>(s.inliers.size()));
+  // Negative evidence: an unmatched landmark that the hypothesis puts within the other
+  // keyframe's sensing range should have been seen there.
+  if (c.visibility_range > 0.0) {
+    const Eigen::Isometry3d Ti = T.inverse();
+    for (std::size_t i = 0; i < q.size(); ++i)
+      if (!used_q[i] && (T * q[i].centroid).norm() <= c.visibility_range) ++s.misses;
+    for (std::size_t j = 0; j < m.size(); ++j)
+      if (!used_m[j] && (Ti * m[j].centroid).norm() <= c.visibility_range) ++s.misses;
+  }
+  s.value = static_cast<double>(s.inliers.size()) - c.miss_penalty * static_cast<double>(s.misses);
   return s;
 }
 
@@ -220,13 +260,17 @@ std::optional<ConstellationMatch> matchConstellations(const std::vector<Property
   out.T_match_query = result.T;
   out.inliers = result.inliers;
   out.rmse = result.rmse;
+  out.misses = result.misses;
+  out.overlap = 2.0 * static_cast<double>(result.inliers.size()) /
+                static_cast<double>(2 * result.inliers.size() + result.misses);
+  if (out.overlap < c.min_overlap) return std::nullopt;
   // Ambiguity: another hypothesis explaining as many landmarks with a clearly different pose
   // (e.g. a symmetric arrangement of same-class sources).
   Eigen::Vector3d q_mean = Eigen::Vector3d::Zero();
   for (const auto& lm : q) q_mean += lm.centroid;
   q_mean /= static_cast<double>(q.size());
   for (const auto& h : hypotheses) {
-    if (h.inliers.size() < result.inliers.size()) continue;
+    if (h.inliers.size() < result.inliers.size() || h.value < result.value) continue;
     const double dt = (h.T * q_mean - result.T * q_mean).norm();
     const double dr = rotationAngle(h.T.inverse() * result.T);
     if (dt > 2.0 * c.inlier_distance || dr > 0.5) {
@@ -254,7 +298,9 @@ std::vector<LoopCandidate> findConstellationCandidates(
     cand.source = CandidateSource::Constellation;
     cand.inliers = match->inliers.size();
     cand.rmse = match->rmse;
-    cand.score = static_cast<double>(cand.inliers) - match->rmse / config.constellation.inlier_distance;
+    cand.score = static_cast<double>(cand.inliers) -
+                 config.constellation.miss_penalty * static_cast<double>(match->misses) -
+                 match->rmse / config.constellation.inlier_distance;
     out.push_back(cand);
   }
   std::stable_sort(out.begin(), out.end(),

@@ -89,6 +89,7 @@ void validate(const LandmarkConfig& c) {
   if (!(c.cluster_tolerance > 0.0) || !std::isfinite(c.cluster_tolerance))
     fail(where, "cluster_tolerance must be a finite number > 0");
   if (c.min_points < 1) fail(where, "min_points must be >= 1");
+  if (!(c.min_purity >= 0.0 && c.min_purity <= 1.0)) fail(where, "min_purity must be in [0, 1]");
   if (!(c.max_range >= 0.0) || !std::isfinite(c.max_range))
     fail(where, "max_range must be >= 0 (0 = no limit)");
 }
@@ -174,9 +175,44 @@ std::vector<PropertyLandmark> extractLandmarks(const LabeledCloud& cloud, const 
     if (inserted) clusters.emplace_back();
     clusters[it->second].push_back(idx[k]);
   }
+  // Purity: the share of the cluster among all points (any class) in the grid cells it
+  // occupies. A real source is mostly labelled where it is seen; label noise on a dense nearby
+  // wall chains into clusters whose cells hold hundreds of unlabelled points.
+  std::unordered_map<CellKey, std::uint32_t, CellHash> all_counts;
+  if (config.min_purity > 0.0) {
+    std::unordered_map<CellKey, char, CellHash> wanted;
+    for (const auto& members : clusters)
+      if (members.size() >= config.min_points)
+        for (std::size_t i : members) {
+          CellKey k = keyOf(i);
+          k.c = 0;
+          wanted.emplace(k, 1);
+        }
+    for (std::size_t i = 0; i < cloud.size(); ++i) {
+      if (!cloud.points[i].allFinite()) continue;
+      CellKey k = keyOf(i);
+      k.c = 0;
+      if (wanted.count(k)) ++all_counts[k];
+    }
+  }
   std::vector<PropertyLandmark> out;
-  for (const auto& members : clusters)
-    if (members.size() >= config.min_points) out.push_back(describe(cloud, members));
+  for (const auto& members : clusters) {
+    if (members.size() < config.min_points) continue;
+    PropertyLandmark lm = describe(cloud, members);
+    if (config.min_purity > 0.0) {
+      std::unordered_map<CellKey, char, CellHash> cells;
+      for (std::size_t i : members) {
+        CellKey k = keyOf(i);
+        k.c = 0;
+        cells.emplace(k, 1);
+      }
+      std::size_t total = 0;
+      for (const auto& kv : cells) total += all_counts[kv.first];
+      lm.purity = total > 0 ? static_cast<double>(members.size()) / static_cast<double>(total) : 1.0;
+      if (lm.purity < config.min_purity) continue;
+    }
+    out.push_back(lm);
+  }
   std::stable_sort(out.begin(), out.end(), [](const PropertyLandmark& a, const PropertyLandmark& b) {
     return a.class_id < b.class_id;
   });

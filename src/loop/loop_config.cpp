@@ -125,6 +125,7 @@ LoopClosureConfig LoopClosureConfig::fromYamlString(const std::string& yaml, con
     lm.get("cluster_tolerance", c.landmarks.cluster_tolerance);
     lm.getSize("min_points", c.landmarks.min_points);
     lm.get("max_range", c.landmarks.max_range);
+    lm.get("min_purity", c.landmarks.min_purity);
     lm.finish();
 
     Section cs = top.child("candidates");
@@ -144,6 +145,10 @@ LoopClosureConfig LoopClosureConfig::fromYamlString(const std::string& yaml, con
     co.get("property_value_tolerance", k.property_value_tolerance);
     co.getSize("max_hypotheses", k.max_hypotheses);
     co.get("seed", k.seed);
+    co.get("visibility_range", k.visibility_range);
+    co.get("miss_penalty", k.miss_penalty);
+    co.get("min_overlap", k.min_overlap);
+    co.get("facing_tolerance", k.facing_tolerance);
     co.finish();
     cs.finish();
 
@@ -200,7 +205,8 @@ std::string LoopClosureConfig::toYamlString() const {
   o << YAML::Key << "landmarks" << YAML::Value << YAML::BeginMap;
   o << YAML::Key << "cluster_tolerance" << YAML::Value << landmarks.cluster_tolerance;
   o << YAML::Key << "min_points" << YAML::Value << landmarks.min_points;
-  o << YAML::Key << "max_range" << YAML::Value << landmarks.max_range << YAML::EndMap;
+  o << YAML::Key << "max_range" << YAML::Value << landmarks.max_range;
+  o << YAML::Key << "min_purity" << YAML::Value << landmarks.min_purity << YAML::EndMap;
   const ConstellationConfig& k = candidates.constellation;
   o << YAML::Key << "candidates" << YAML::Value << YAML::BeginMap;
   o << YAML::Key << "min_index_gap" << YAML::Value << candidates.min_index_gap;
@@ -217,6 +223,10 @@ std::string LoopClosureConfig::toYamlString() const {
   o << YAML::Key << "property_value_tolerance" << YAML::Value << k.property_value_tolerance;
   o << YAML::Key << "max_hypotheses" << YAML::Value << k.max_hypotheses;
   o << YAML::Key << "seed" << YAML::Value << k.seed;
+  o << YAML::Key << "visibility_range" << YAML::Value << k.visibility_range;
+  o << YAML::Key << "miss_penalty" << YAML::Value << k.miss_penalty;
+  o << YAML::Key << "min_overlap" << YAML::Value << k.min_overlap;
+  o << YAML::Key << "facing_tolerance" << YAML::Value << k.facing_tolerance;
   o << YAML::EndMap << YAML::EndMap;
   const VerificationConfig& v = verification;
   o << YAML::Key << "verification" << YAML::Value << YAML::BeginMap;

@@ -45,8 +45,12 @@ std::vector<Eigen::Vector3f> estimateNormals(const LabeledCloud& cloud, const Ne
       Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es;
       es.computeDirect(cov);
       Eigen::Vector3f normal = es.eigenvectors().col(0).cast<float>();
-      // Two or more collinear neighbours give no plane.
-      if (!(es.eigenvalues()(1) > 1e-12) || !normal.allFinite()) continue;
+      // Collinear neighbours give no plane: a single scan ring on a wall or floor (VLP-16 rings
+      // are 2° apart, so far surfaces are sampled by isolated lines) has a normal that PCA picks
+      // at random around the line; such a "normal" biases pitch/roll. Require a spread in two
+      // directions.
+      const auto& ev = es.eigenvalues();
+      if (!(ev(1) > 1e-12) || ev(1) < config.min_planarity * ev(2) || !normal.allFinite()) continue;
       if (normal.dot(config.viewpoint - p) < 0.0f) normal = -normal;
       normals[i] = normal.normalized();
     }

@@ -35,7 +35,7 @@ struct ConstellationConfig {
   double inlier_distance = 1.0;
   /// Minimum number of matched landmarks for a candidate. 3 makes the pose unique and a chance
   /// match among repeated classes unlikely; 2 is the planar minimum.
-  std::size_t min_inliers = 3;
+  std::size_t min_inliers = 2;
   /// Landmark pairs closer than this (m) give no reliable yaw and are not used as hypotheses.
   double min_pair_distance = 1.5;
   /// Triples whose smallest triangle height is below this (m) are collinear for Full3D.
@@ -48,6 +48,20 @@ struct ConstellationConfig {
   /// Exhaustive search over all compatible pairs (triples) up to this many hypotheses; beyond it
   /// a deterministic random sample of this size.
   std::size_t max_hypotheses = 4000;
+  /// Negative evidence: under a hypothesis, an unmatched landmark that lands within this range
+  /// (m) of the other keyframe's sensor should have been seen there and counts as a miss
+  /// (0 = off). Keep it at the landmarks' max_range.
+  double visibility_range = 15.0;
+  /// Hypotheses are ranked by inliers − miss_penalty · misses.
+  double miss_penalty = 0.5;
+  /// A match needs overlap = 2·inliers / (2·inliers + misses) >= this: most landmarks both
+  /// keyframes should share must agree. Chance alignments of a few same-class sources leave
+  /// many landmarks unexplained.
+  double min_overlap = 0.7;
+  /// Flat upright landmarks (wall panels) face the sensor that saw them; matched panels must
+  /// face the same way within this angle (rad) under the hypothesis (0 = off). This breaks the
+  /// 180° ambiguity of a pair of same-class sources.
+  double facing_tolerance = 0.8;
   std::uint64_t seed = 1;
 };
 
@@ -70,6 +84,8 @@ struct ConstellationMatch {
   Eigen::Isometry3d T_match_query = Eigen::Isometry3d::Identity();  ///< match ← query
   std::vector<std::pair<std::size_t, std::size_t>> inliers;  ///< (query landmark, match landmark)
   double rmse = 0.0;  ///< of the inlier centroid residuals (m)
+  std::size_t misses = 0;  ///< unmatched landmarks within the other keyframe's visibility range
+  double overlap = 1.0;    ///< 2·inliers / (2·inliers + misses)
   /// True when a clearly different pose explained as many landmarks (a symmetric
   /// constellation); such matches are not returned as candidates.
   bool ambiguous = false;
@@ -80,7 +96,8 @@ struct LoopCandidate {
   std::size_t match = 0;  ///< the past keyframe
   Eigen::Isometry3d initial_guess = Eigen::Isometry3d::Identity();  ///< T_match_query
   CandidateSource source = CandidateSource::Constellation;
-  double score = 0.0;       ///< higher is better (constellation: inliers − rmse/inlier_distance;
+  double score = 0.0;       ///< higher is better (constellation: inliers − miss_penalty·misses
+                            ///< − rmse/inlier_distance;
                             ///< distance: −distance in m)
   std::size_t inliers = 0;  ///< matched landmarks (constellation only)
   double rmse = 0.0;        ///< landmark residual (constellation) or distance (m) (distance)

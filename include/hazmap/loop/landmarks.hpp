@@ -23,9 +23,15 @@ struct LandmarkConfig {
   /// Clusters with fewer points are label noise (the simulator flips 0.5 % of "none" points to a
   /// property class; those are isolated) and are dropped. Must be >= 1.
   std::size_t min_points = 8;
-  /// Points farther than this from the sensor origin are ignored (0 = no limit): far sources are
-  /// hit by one or two rings only and their centroid is biased by which rings hit them.
-  double max_range = 30.0;
+  /// Points farther than this from the sensor origin are ignored (0 = no limit). Beyond ~18 m
+  /// the VLP-16's 2° ring spacing exceeds the cluster tolerance, so a far source breaks into
+  /// one cluster per ring, each with a centroid biased by which rings hit it.
+  double max_range = 15.0;
+  /// A cluster must make up at least this share of all points (any class) in the grid cells
+  /// it occupies (0 = off). Label noise (0.5 % of points, issue 3) on a wall 2 m away, where a
+  /// VLP-16 puts thousands of points per m², chains into "clusters" of 10–30 points among
+  /// thousands of unlabelled ones (purity ~1 %); a real source is mostly labelled (> 30 %).
+  double min_purity = 0.2;
 };
 
 /// One cluster of same-class property points, in the frame of the cloud it came from.
@@ -40,6 +46,8 @@ struct PropertyLandmark {
   Eigen::Vector3d box_min = Eigen::Vector3d::Zero();  ///< axis-aligned bounds
   Eigen::Vector3d box_max = Eigen::Vector3d::Zero();
   std::size_t point_count = 0;
+  /// Share of the cluster among all points in its grid cells (1 when min_purity is off).
+  double purity = 1.0;
   bool has_property_value = false;  ///< the cloud had a `property` channel
   double mean_property = 0.0;       ///< mean of that channel over the cluster (e.g. °C)
 };

@@ -58,7 +58,7 @@ struct LoopClosureConfig {
   /// landmark_merge_distance fuse). 1 = the keyframe's own landmarks only. A VLP-16 sees a floor
   /// puddle only from 2–10 m, so one scan often holds too few landmarks for a distinctive
   /// constellation; a short window of locally accurate odometry gathers them.
-  std::size_t landmark_window = 1;
+  std::size_t landmark_window = 5;
   double landmark_merge_distance = 1.0;  ///< m
   LandmarkConfig landmarks;
   CandidateSearchConfig candidates;

@@ -13,6 +13,9 @@ struct NormalConfig {
   int neighbors = 10;    ///< k nearest points (>= 3)
   double radius = 1.0;   ///< m, farther neighbours are ignored (> 0)
   Eigen::Vector3f viewpoint = Eigen::Vector3f::Zero();
+  /// Middle / largest eigenvalue of the neighbourhood below this = a line, not a plane → no
+  /// normal.
+  double min_planarity = 0.05;
 };
 
 /// `index` must index exactly `cloud.points` (ids = point indices). A point with fewer than 3

@@ -1,0 +1,51 @@
+#pragma once
+// Everything `hazmap run` writes for a finished SLAM run, each file atomically:
+//   trajectory.kitti, trajectory.tum, odometry_only.kitti, graph.g2o,
+//   map.ply, map.pcd, hazards.json, hazards.csv, map_top.png, trajectory.png, run.json.
+// The map is assembled in a second pass over the scans with the final poses; when the sequence
+// has ground truth the same pass measures the paper's map error (Table 2) and the ATE.
+#include <filesystem>
+#include <optional>
+#include <vector>
+
+#include "hazmap/eval/map_error.hpp"
+#include "hazmap/eval/trajectory_metrics.hpp"
+#include "hazmap/map/global_map.hpp"
+#include "hazmap/map/hazards.hpp"
+#include "hazmap/map/render.hpp"
+#include "hazmap/pipeline/slam.hpp"
+
+namespace hazmap {
+
+struct OutputConfig {
+  GlobalMapConfig map;        ///< voxel map with class votes (bounded by max_voxels)
+  HazardConfig hazards;
+  MapErrorConfig map_error;
+  TopDownConfig top_down;
+  /// Top-down renders hide points more than this far above the mean sensor height (m), so an
+  /// indoor map is not covered by its ceiling; <= 0 draws everything.
+  double render_clip_above_sensor = 1.5;
+  bool write_pngs = true;
+};
+
+struct RunSummary {
+  std::size_t frames = 0;
+  std::size_t map_cells = 0;
+  std::size_t map_memory_bytes = 0;
+  std::size_t hazards = 0;
+  std::optional<MapErrorResult> map_error;          ///< when poses.txt exists
+  std::optional<TrajectoryEvaluation> trajectory;   ///< when poses.txt exists
+  double output_seconds = 0.0;
+};
+
+/// What the demo needs to draw its side-by-side montage.
+struct RunArtifacts {
+  LabeledCloud map;
+  std::vector<Hazard> hazards;
+};
+
+RunSummary writeRunOutputs(const Sequence& sequence, const SlamResult& result,
+                           const SlamConfig& config, const OutputConfig& output,
+                           const std::filesystem::path& out_dir, RunArtifacts* artifacts = nullptr);
+
+}  // namespace hazmap

@@ -1,0 +1,105 @@
+#pragma once
+// The whole SLAM run over a sequence directory (paper Fig. 1): wheel-odometry guess →
+// (property-)ICP tracking → property-landmark (or distance) loop closure → pose-graph
+// optimisation with information = inverse ICP covariance (eq. 3). Plain data in, plain data out;
+// writing files is run_outputs.hpp's job.
+#include <Eigen/Geometry>
+#include <filesystem>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "hazmap/graph/optimizer.hpp"
+#include "hazmap/graph/pose_graph.hpp"
+#include "hazmap/io/sequence.hpp"
+#include "hazmap/loop/loop_closure.hpp"
+#include "hazmap/pipeline/slam_method.hpp"
+#include "hazmap/odometry/odometry.hpp"
+
+namespace hazmap {
+
+/// Uncertainty of a wheel-odometry increment, used for the odometry edges of frames where ICP
+/// failed and the tracker fell back to the encoders. Deliberately loose (crawler tracks slip).
+struct WheelOdometryNoise {
+  double translation_sigma = 0.3;  ///< m, x and y
+  double vertical_sigma = 0.05;    ///< m, z
+  double yaw_sigma = 0.03;         ///< rad
+  double tilt_sigma = 0.02;        ///< rad, roll and pitch
+  Matrix6d information() const;
+};
+
+struct SlamConfig {
+  SlamMethod method = SlamMethod::PropertyIcpPgo;
+  /// Tracking: preprocessing, (property-)ICP, local map, failure detection. The paper registers
+  /// frame to frame; hazmap's default is frame to local map (see forMethod).
+  OdometryConfig odometry = OdometryConfig::defaults();
+  /// Floors on an ICP increment's standard deviations before its covariance is inverted into an
+  /// odometry-edge information (m, rad): an over-confident covariance must not make edges rigid.
+  double min_translation_sigma = 0.005;
+  double min_rotation_sigma = 0.0005;
+  LoopClosureConfig loop_closure; ///< PGO methods only; candidate method follows `method`
+  PoseGraphConfig graph;          ///< geodesic cost, Cauchy loss on loop edges
+  WheelOdometryNoise wheel_noise;
+  /// A frame becomes a loop-closure keyframe after this much travel (m) or turn (rad).
+  double keyframe_distance = 0.9;
+  double keyframe_angle = 0.2;
+  /// Re-optimise the graph as soon as a loop is accepted (online), and once at the end.
+  bool optimise_online = true;
+  int threads = 0;  ///< 0 = TBB default
+
+  /// Defaults for a method: classes on/off in tracking and verification, loop candidates by
+  /// property constellations (property methods) or by distance (conventional baseline).
+  static SlamConfig forMethod(SlamMethod method);
+  /// Applies a YAML file with optional sections `odometry:`, `loop_closure:`, `graph:`,
+  /// `wheel_noise:`, `slam:` (keyframe_distance, keyframe_angle, optimise_online) on top of the
+  /// method defaults. Errors name the file and key.
+  void applyYamlFile(const std::filesystem::path& path);
+  void validate() const;
+};
+
+struct FrameRecord {
+  std::size_t index = 0;
+  Eigen::Isometry3d T_prev_curr = Eigen::Isometry3d::Identity();  ///< tracked increment
+  Matrix6d covariance = Matrix6d::Identity();                     ///< of the increment
+  bool icp_used = false;   ///< false: the wheel-odometry increment was used
+  std::string fallback_reason;
+  double fitness = 0.0, rmse = 0.0;
+  int iterations = 0;
+  double milliseconds = 0.0;  ///< preprocessing + registration of this frame
+  std::size_t points = 0;     ///< after preprocessing
+};
+
+struct LoopRecord {
+  std::size_t from_frame = 0, to_frame = 0;
+  std::string source;  ///< constellation / distance
+  double fitness = 0.0, rmse = 0.0;
+};
+
+struct SlamTimings {
+  double tracking_s = 0.0, loop_s = 0.0, graph_s = 0.0, total_s = 0.0;
+};
+
+struct SlamResult {
+  SlamMethod method = SlamMethod::PropertyIcpPgo;
+  Trajectory estimate;       ///< final (optimised when PGO ran), T_world_sensor per frame
+  Trajectory tracked;        ///< before pose-graph optimisation
+  Trajectory odometry_only;  ///< wheel odometry, same start pose
+  std::vector<FrameRecord> frames;
+  PoseGraph graph;           ///< nodes = frames
+  std::vector<LoopRecord> loops;
+  std::size_t keyframes = 0, loop_candidates = 0, loops_verified = 0;
+  std::vector<PoseGraphReport> optimisations;
+  SlamTimings timings;
+  double framesPerSecond() const;
+};
+
+using FrameProgress = std::function<void(std::size_t done, std::size_t total)>;
+
+/// Runs `config.method` over the sequence. The start pose is the ground truth's first pose when
+/// poses.txt exists (so estimate and truth share a frame, as in the paper), else the odometry's,
+/// else identity. Throws hazmap::Error naming the sequence on unusable input (e.g. the odometry
+/// method without odometry.txt).
+SlamResult runSlam(const Sequence& sequence, const SlamConfig& config,
+                   const FrameProgress& progress = {});
+
+}  // namespace hazmap

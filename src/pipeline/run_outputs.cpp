@@ -1,0 +1,157 @@
+#include "hazmap/pipeline/run_outputs.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <chrono>
+
+#include "hazmap/core/error.hpp"
+#include "hazmap/io/atomic_file.hpp"
+#include "hazmap/io/g2o.hpp"
+#include "hazmap/map/export.hpp"
+#include "hazmap/map/image.hpp"
+
+namespace hazmap {
+
+namespace {
+
+nlohmann::json statsJson(const DistanceStats& s) {
+  return {{"count", s.count}, {"mean", s.mean}, {"median", s.median}, {"p95", s.p95},
+          {"max", s.max}, {"rmse", s.rmse}};
+}
+
+nlohmann::json runJson(const Sequence& sequence, const SlamResult& r, const SlamConfig& config,
+                       const RunSummary& summary) {
+  nlohmann::json j;
+  j["sequence"] = sequence.directory().string();
+  j["method"] = toString(r.method);
+  j["frames"] = r.frames.size();
+  j["frames_per_s"] = r.framesPerSecond();
+  j["timings_s"] = {{"tracking", r.timings.tracking_s}, {"loop_closure", r.timings.loop_s},
+                    {"pose_graph", r.timings.graph_s}, {"slam_total", r.timings.total_s},
+                    {"outputs", summary.output_seconds}};
+  std::size_t fallbacks = 0;
+  nlohmann::json fallback_frames = nlohmann::json::array();
+  double ms_sum = 0;
+  for (const auto& f : r.frames) {
+    ms_sum += f.milliseconds;
+    if (usesIcp(r.method) && f.index > 0 && !f.icp_used) {
+      ++fallbacks;
+      fallback_frames.push_back({{"frame", f.index}, {"reason", f.fallback_reason}});
+    }
+  }
+  j["tracking"] = {{"mean_ms_per_frame", r.frames.empty() ? 0.0 : ms_sum / r.frames.size()},
+                   {"odometry_fallbacks", fallbacks}, {"fallback_frames", fallback_frames}};
+  nlohmann::json loops = nlohmann::json::array();
+  for (const auto& l : r.loops)
+    loops.push_back({{"from", l.from_frame}, {"to", l.to_frame}, {"source", l.source},
+                     {"fitness", l.fitness}, {"rmse", l.rmse}});
+  j["loop_closure"] = {{"enabled", usesPoseGraph(r.method)},
+                       {"candidate_method", toString(config.loop_closure.method)},
+                       {"keyframes", r.keyframes},
+                       {"candidates", r.loop_candidates},
+                       {"verified", r.loops_verified},
+                       {"accepted", r.loops.size()},
+                       {"loops", loops}};
+  nlohmann::json opt = nlohmann::json::array();
+  for (const auto& o : r.optimisations)
+    opt.push_back({{"initial_geodesic", o.initial_geodesic}, {"final_geodesic", o.final_geodesic},
+                   {"iterations", o.iterations}, {"seconds", o.total_seconds}});
+  j["pose_graph"] = {{"nodes", r.graph.numNodes()}, {"edges", r.graph.numEdges()},
+                     {"loop_edges", r.graph.numLoopEdges()}, {"optimisations", opt}};
+  j["parameters"] = {{"registration", toYamlString(config.odometry.registration)},
+                     {"odometry_mode", toString(config.odometry.mode)},
+                     {"loop_closure", config.loop_closure.toYamlString()},
+                     {"keyframe_distance", config.keyframe_distance},
+                     {"keyframe_angle", config.keyframe_angle}};
+  j["map"] = {{"cells", summary.map_cells}, {"memory_bytes", summary.map_memory_bytes},
+              {"hazards", summary.hazards}};
+  if (summary.map_error) {
+    const auto& m = *summary.map_error;
+    j["map_error"] = {{"point", statsJson(m.point)}, {"c2c", statsJson(m.c2c)},
+                      {"c2c_reverse", statsJson(m.c2c_reverse)}};
+  }
+  if (summary.trajectory) j["trajectory_eval"] = nlohmann::json::parse(toJson(*summary.trajectory));
+  return j;
+}
+
+}  // namespace
+
+RunSummary writeRunOutputs(const Sequence& sequence, const SlamResult& result,
+                           const SlamConfig& config, const OutputConfig& output,
+                           const std::filesystem::path& out_dir, RunArtifacts* artifacts) {
+  const auto t0 = std::chrono::steady_clock::now();
+  std::error_code ec;
+  std::filesystem::create_directories(out_dir, ec);
+  if (ec) fail(out_dir.string(), "cannot create output folder: " + ec.message());
+  const std::size_t n = result.estimate.size();
+  if (n != sequence.size()) fail(out_dir.string(), "result does not match the sequence's frame count");
+
+  RunSummary summary;
+  summary.frames = n;
+  const auto& truth = sequence.groundTruth();
+  const bool with_truth = truth && truth->size() == n;
+
+  // Second pass: the map with the final poses (+ the Table 2 map error against the truth).
+  GlobalMap map(output.map, sequence.classTable());
+  std::optional<MapErrorAccumulator> error;
+  if (with_truth) error.emplace(output.map_error);
+  for (std::size_t i = 0; i < n; ++i) {
+    const LabeledCloud scan = sequence.frame(i);
+    map.insert(i, scan, result.estimate.poses[i]);
+    if (error) error->addFrame(scan, result.estimate.poses[i], truth->poses[i]);
+  }
+  const LabeledCloud cloud = map.cloud();
+  const std::vector<Hazard> hazards = findHazards(map, output.hazards);
+  summary.map_cells = map.size();
+  summary.map_memory_bytes = map.memoryBytes();
+  summary.hazards = hazards.size();
+  if (error) summary.map_error = error->result();
+  if (with_truth) {
+    // SE(3)-aligned APE as evo reports it; a straight-line run (a corridor) cannot be aligned
+    // rotationally, and then — estimate and truth share the start pose — no alignment is used.
+    try {
+      summary.trajectory = evaluateTrajectory(*truth, result.estimate);
+    } catch (const Error&) {
+      TrajectoryEvalConfig unaligned;
+      unaligned.ape_alignment = Alignment::None;
+      summary.trajectory = evaluateTrajectory(*truth, result.estimate, unaligned);
+    }
+  }
+
+  writeKittiTrajectory(out_dir / "trajectory.kitti", result.estimate);
+  writeTumTrajectory(out_dir / "trajectory.tum", result.estimate);
+  if (!result.odometry_only.empty())
+    writeKittiTrajectory(out_dir / "odometry_only.kitti", result.odometry_only);
+  writeG2o(out_dir / "graph.g2o", result.graph);
+  writeMapPly(out_dir / "map.ply", cloud, sequence.classTable());
+  writeMapPcd(out_dir / "map.pcd", cloud);
+  writeHazardsJson(out_dir / "hazards.json", hazards, map.voxelSize());
+  writeHazardsCsv(out_dir / "hazards.csv", hazards);
+  if (output.write_pngs) {
+    TopDownConfig top = output.top_down;
+    if (output.render_clip_above_sensor > 0 && !top.clip_above) {
+      double z = 0;
+      for (const auto& p : result.estimate.poses) z += p.translation().z();
+      top.clip_above = z / static_cast<double>(n) + output.render_clip_above_sensor;
+    }
+    if (top.title.empty()) top.title = std::string("hazmap ") + toString(result.method);
+    writePng(out_dir / "map_top.png",
+             renderTopDown(cloud, sequence.classTable(), positionsOf(result.estimate), hazards, top));
+    TrajectoryPlotConfig plot;
+    plot.title = std::string("Trajectory: ") + toString(result.method);
+    writePng(out_dir / "trajectory.png",
+             renderTrajectoryComparison(result.estimate, with_truth ? &*truth : nullptr,
+                                        result.odometry_only.empty() ? nullptr : &result.odometry_only,
+                                        plot));
+  }
+  summary.output_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  writeTextAtomically(out_dir / "run.json", runJson(sequence, result, config, summary).dump(2) + "\n");
+  if (artifacts) {
+    artifacts->map = cloud;
+    artifacts->hazards = hazards;
+  }
+  return summary;
+}
+
+}  // namespace hazmap

@@ -1,0 +1,169 @@
+#include <gtest/gtest.h>
+
+#include <Eigen/Eigenvalues>
+#include <fstream>
+#include <unistd.h>
+#include <nlohmann/json.hpp>
+
+#include "hazmap/core/error.hpp"
+#include "hazmap/io/atomic_file.hpp"
+#include "hazmap/io/trajectory.hpp"
+#include "hazmap/pipeline/run_outputs.hpp"
+#include "hazmap/pipeline/slam.hpp"
+#include "hazmap/sim/simulator.hpp"
+#include "test_helpers.hpp"
+
+using namespace hazmap;
+namespace fs = std::filesystem;
+
+namespace {
+
+// A short simulated corridor sequence, made once per test process (CTest runs the tests of this
+// file as parallel processes, so each makes its own).
+const fs::path& corridorSequence() {
+  static const fs::path dir = [] {
+    const char* base = std::getenv("HAZMAP_TEST_TMP");
+    const fs::path d = fs::path(base ? base : "/tmp/hazmap-test") /
+                       ("pipeline-corridor-seq-" + std::to_string(::getpid()));
+    sim::SimulatorConfig c;
+    c.scenario = "corridor";
+    c.seed = 7;
+    c.max_frames = 25;
+    fs::create_directories(d.parent_path());
+    sim::writeSimulation(c, d, /*overwrite=*/true);
+    return d;
+  }();
+  return dir;
+}
+
+nlohmann::json readJson(const fs::path& p) { return nlohmann::json::parse(readTextFile(p)); }
+
+}  // namespace
+
+TEST(SlamMethod, NamesRoundTripAndUnknownIsAnError) {
+  for (SlamMethod m : kAllSlamMethods) EXPECT_EQ(parseSlamMethod(toString(m)), m);
+  try {
+    parseSlamMethod("magic");
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("unknown method 'magic'"), std::string::npos);
+  }
+  EXPECT_TRUE(usesClasses(SlamMethod::PropertyIcp));
+  EXPECT_FALSE(usesClasses(SlamMethod::IcpPgo));
+  EXPECT_TRUE(usesPoseGraph(SlamMethod::IcpPgo));
+  EXPECT_FALSE(usesIcp(SlamMethod::Odometry));
+}
+
+TEST(SlamRun, OdometryMethodReproducesOdometryTxt) {
+  const Sequence seq = Sequence::open(corridorSequence());
+  const SlamResult r = runSlam(seq, SlamConfig::forMethod(SlamMethod::Odometry));
+  ASSERT_EQ(r.estimate.size(), seq.size());
+  const auto& odo = *seq.odometry();
+  for (std::size_t i = 0; i < seq.size(); ++i)
+    EXPECT_LT((r.estimate.poses[i].translation() - odo.poses[i].translation()).norm(), 1e-6);
+  EXPECT_EQ(r.graph.numNodes(), static_cast<int>(seq.size()));
+  EXPECT_EQ(r.graph.numLoopEdges(), 0);
+}
+
+TEST(SlamRun, PropertyIcpTracksBetterThanOdometryInTheCorridor) {
+  const Sequence seq = Sequence::open(corridorSequence());
+  const auto& truth = *seq.groundTruth();
+  const auto finalError = [&](const Trajectory& t) {
+    return (t.poses.back().translation() - truth.poses.back().translation()).norm();
+  };
+  const SlamResult odo = runSlam(seq, SlamConfig::forMethod(SlamMethod::Odometry));
+  const SlamResult prop = runSlam(seq, SlamConfig::forMethod(SlamMethod::PropertyIcp));
+  ASSERT_EQ(prop.frames.size(), seq.size());
+  EXPECT_LT(finalError(prop.estimate), finalError(odo.estimate));
+  EXPECT_GT(prop.framesPerSecond(), 0.0);
+  // Every ICP edge carries an information matrix from the ICP covariance: symmetric, PD.
+  for (const auto& e : prop.graph.edges) {
+    EXPECT_TRUE(e.information.isApprox(e.information.transpose(), 1e-9));
+    EXPECT_GT(Eigen::SelfAdjointEigenSolver<Matrix6d>(e.information).eigenvalues().minCoeff(), 0.0);
+  }
+}
+
+TEST(SlamRun, WritesEveryOutputAndRunJson) {
+  const Sequence seq = Sequence::open(corridorSequence());
+  const SlamConfig config = SlamConfig::forMethod(SlamMethod::PropertyIcpPgo);
+  const SlamResult r = runSlam(seq, config);
+  const fs::path out = test::scratchDir() / "run";
+  const RunSummary s = writeRunOutputs(seq, r, config, OutputConfig{}, out);
+  for (const char* f : {"trajectory.kitti", "trajectory.tum", "odometry_only.kitti", "graph.g2o",
+                        "map.ply", "map.pcd", "hazards.json", "hazards.csv", "map_top.png",
+                        "trajectory.png", "run.json"})
+    EXPECT_TRUE(fs::exists(out / f)) << f;
+  EXPECT_EQ(readKittiTrajectory(out / "trajectory.kitti").size(), seq.size());
+  const auto j = readJson(out / "run.json");
+  EXPECT_EQ(j["method"], "property-icp+pgo");
+  EXPECT_EQ(j["frames"], seq.size());
+  EXPECT_TRUE(j.contains("map_error"));
+  EXPECT_GT(j["frames_per_s"].get<double>(), 0.0);
+  ASSERT_TRUE(s.map_error.has_value());
+  EXPECT_LT(s.map_error->point.mean, 1.0);
+  EXPECT_GT(s.hazards, 0u);  // the corridor has heat and water patches
+  // No temporary files left behind.
+  for (const auto& e : fs::directory_iterator(out))
+    EXPECT_EQ(e.path().filename().string().find(".tmp"), std::string::npos) << e.path();
+}
+
+TEST(SlamRun, BadInputIsAOneLineError) {
+  const fs::path dir = test::scratchDir();
+  // odometry method on a sequence without odometry.txt
+  fs::create_directories(dir / "seq/velodyne");
+  fs::copy_file(corridorSequence() / "velodyne/000000.bin", dir / "seq/velodyne/000000.bin");
+  const Sequence seq = Sequence::open(dir / "seq");
+  try {
+    runSlam(seq, SlamConfig::forMethod(SlamMethod::Odometry));
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("odometry.txt"), std::string::npos) << e.what();
+  }
+  SlamConfig bad = SlamConfig::forMethod(SlamMethod::Icp);
+  bad.keyframe_distance = -1;
+  EXPECT_THROW(bad.validate(), Error);
+  std::ofstream(dir / "bad.yaml") << "slam: {keyframe_distanse: 2}\n";
+  SlamConfig c;
+  try {
+    c.applyYamlFile(dir / "bad.yaml");
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("keyframe_distanse"), std::string::npos) << e.what();
+  }
+}
+
+TEST(RunCli, RunsAndRejectsBadInput) {
+  const fs::path out = test::scratchDir() / "cli-out";
+  auto r = test::runCli("run " + corridorSequence().string() + " --method property-icp --out " +
+                        out.string());
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_TRUE(fs::exists(out / "run.json"));
+  r = test::runCli("run " + corridorSequence().string() + " --method nope --out " + out.string() + "2");
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("unknown method 'nope'"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(out.string() + "2"));
+  r = test::runCli("run /nonexistent/seq --out " + out.string() + "3");
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("/nonexistent/seq"), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find("terminate"), std::string::npos) << r.output;
+}
+
+TEST(RunCli, KittiSampleGivesAMapAndAHazardInventory) {
+  // Real HDL-64 scans with SemanticKITTI labels (no ground truth, no wheel odometry):
+  // poles, trunks and signs stand in for the hazards.
+  const fs::path out = test::scratchDir() / "kitti";
+  auto r = test::runCli("run " + test::sharedData("kitti-semantic-sample").string() +
+                        " --classes semantic-kitti --method property-icp --quiet --out " + out.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const auto hazards = readJson(out / "hazards.json");
+  ASSERT_GT(hazards["count"].get<int>(), 0);
+  bool pole = false;
+  for (const auto& h : hazards["hazards"]) pole |= h["class"] == "heat";  // poles map to heat
+  EXPECT_TRUE(pole);
+  const auto traj = readKittiTrajectory(out / "trajectory.kitti");
+  ASSERT_EQ(traj.size(), 6u);
+  // KITTI's car moves forward ~0.7 m per frame in these scans.
+  const double step = (traj.poses[1].translation() - traj.poses[0].translation()).norm();
+  EXPECT_GT(step, 0.4);
+  EXPECT_LT(step, 1.2);
+}
