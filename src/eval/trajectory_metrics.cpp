@@ -401,7 +401,9 @@ std::string toText(const TrajectoryEvaluation& e) {
     << a.std << "  min " << a.min << "  max " << a.max << "\n";
   if (e.rpe) {
     const auto& r = e.rpe->translation;
-    s << "RPE (delta " << e.rpe->config.delta
+    std::ostringstream delta;
+    delta << e.rpe->config.delta;  // default float format: "10", "0.5"
+    s << "RPE (delta " << delta.str()
       << (e.rpe->config.unit == DeltaUnit::Metres ? " m" : " frames") << ", " << e.rpe->pairs.size()
       << " pairs) [m]  rmse " << r.rmse << "  mean " << r.mean << "  median " << r.median
       << "  std " << r.std << "  min " << r.min << "  max " << r.max << "  (rot rmse "

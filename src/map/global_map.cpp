@@ -351,8 +351,13 @@ LabeledCloud GlobalMap::cloud() const {
 }
 
 AxisAlignedBox GlobalMap::bounds() const {
+  const Impl& m = *impl_;
   AxisAlignedBox box;
-  for (const auto& c : cells()) box.extend(c.centroid);
+  for (std::size_t i = 0; i < m.cells.size(); ++i) {
+    const Cell& c = m.cells.valueAt(i);
+    const Eigen::Vector3d origin = unpackKey(m.cells.keyAt(i)).cast<double>() * m.voxel;
+    box.extend((origin + (c.offset_sum / float(c.count)).cast<double>()).cast<float>());
+  }
   return box;
 }
 

@@ -77,12 +77,12 @@ std::vector<Hazard> findHazards(const GlobalMap& map, const HazardConfig& config
 
   std::vector<Hazard> out;
   const int L = config.link_cells;
+  std::vector<bool> visited(all.size(), false);  // by index into `all`
   for (const auto& [label, lookup] : by_class) {
     // Seeds in sorted cell order (all is sorted) → deterministic components.
     std::vector<std::size_t> seeds;
     for (const auto& [idx, i] : lookup) seeds.push_back(i);
     std::sort(seeds.begin(), seeds.end());
-    std::unordered_map<std::size_t, bool> visited;
     std::vector<Hazard> regions;
     for (std::size_t seed : seeds) {
       if (visited[seed]) continue;
