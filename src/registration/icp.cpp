@@ -33,21 +33,66 @@ struct Corr {
   float weight = 1.0f;    ///< class / soft-label weight (robust weight applied later)
   bool cross = false;
   bool point3 = false;    ///< 3-D point-to-point residual (point metric, or a property pair)
+  bool anisotropic = false;  ///< property pair with a target normal: in-plane part down-weighted
   std::uint8_t group = 0; ///< 0 ordinary pair, 1 property point matched to its class
 };
 
 // Partial sums of one chunk. Point-to-point also accumulates centroids and the cross-covariance.
 struct Sums {
-  Matrix6d H = Matrix6d::Zero();  ///< Σ w JᵀJ
+  Matrix6d H = Matrix6d::Zero();  ///< Σ w JᵀJ (without property pairs' in-plane parts)
   Vector6d g = Vector6d::Zero();  ///< Σ w Jᵀ r
+  Matrix6d Ht = Matrix6d::Zero();  ///< property pairs' in-plane parts (see TangentMix)
+  Vector6d gt = Vector6d::Zero();
   double wr2 = 0.0, w = 0.0, w1 = 0.0, w3 = 0.0, d2 = 0.0, r2 = 0.0;
   std::size_t n = 0;
   Eigen::Vector3d sp = Eigen::Vector3d::Zero(), sq = Eigen::Vector3d::Zero();
   Eigen::Matrix3d spq = Eigen::Matrix3d::Zero();
   void add(const Sums& o) {
-    H += o.H; g += o.g;
+    H += o.H; g += o.g; Ht += o.Ht; gt += o.gt;
     wr2 += o.wr2; w += o.w; w1 += o.w1; w3 += o.w3; d2 += o.d2; r2 += o.r2; n += o.n;
     sp += o.sp; sq += o.sq; spq += o.spq;
+  }
+};
+
+// A property pair's 3-D residual r = p − q with its in-plane part scaled by `s`:
+// M r, M = n nᵀ + s (I − n nᵀ). Used for the robust weight of the pair.
+Eigen::Vector3f weightedResidual(const Eigen::Vector3f& r, const Eigen::Vector3f& n, double s) {
+  const Eigen::Vector3f along = n * n.dot(r);
+  return along + static_cast<float>(s) * (r - along);
+}
+
+// How a property pair's in-plane information enters the normal equations. In-plane, a labelled
+// point and its same-class partner are apart mostly because the scans sampled the patch at
+// different spots, so that information gets the small weight w_t — except along directions that
+// the rest (plane residuals, along-normal parts) leaves unconstrained, where it is the only
+// information there is and gets full weight. With S = diag(1,1,1,1/L,1/L,1/L) and P the
+// projector on the degenerate eigenvectors of S·H_geometry·S, a tangent block X becomes
+// S⁻¹ (w_t X_s + (1 − w_t) P X_s P) S⁻¹ with X_s = S X S (and g → S⁻¹ (w_t I + (1 − w_t) P) S g).
+struct TangentMix {
+  double w_t = 1.0;
+  Vector6d d = Vector6d::Ones();  ///< diagonal of S
+  Matrix6d P = Matrix6d::Zero();
+  TangentMix() = default;
+  TangentMix(const Matrix6d& H_geometry, double pairs_weight, double w_tangent, double length,
+             double threshold)
+      : w_t(w_tangent) {
+    const double L = length > 0.0 ? length : 1.0;
+    d << 1, 1, 1, 1.0 / L, 1.0 / L, 1.0 / L;
+    const Matrix6d Hs = d.asDiagonal() * H_geometry * d.asDiagonal();
+    const Eigen::SelfAdjointEigenSolver<Matrix6d> es(0.5 * (Hs + Hs.transpose()));
+    for (int i = 0; i < 6; ++i)
+      if (es.eigenvalues()(i) < threshold * pairs_weight)
+        P.noalias() += es.eigenvectors().col(i) * es.eigenvectors().col(i).transpose();
+  }
+  Matrix6d operator()(const Matrix6d& X) const {
+    const Matrix6d Xs = d.asDiagonal() * X * d.asDiagonal();
+    const Matrix6d mixed = w_t * Xs + (1.0 - w_t) * P * Xs * P;
+    const Vector6d di = d.cwiseInverse();
+    return di.asDiagonal() * mixed * di.asDiagonal();
+  }
+  Vector6d operator()(const Vector6d& g) const {
+    const Vector6d gs = d.asDiagonal() * g;
+    return d.cwiseInverse().asDiagonal() * Vector6d(w_t * gs + (1.0 - w_t) * (P * gs));
   }
 };
 
@@ -148,6 +193,7 @@ RegistrationResult registerClouds(const LabeledCloud& source, const Registration
   std::vector<float> class_weight;
   std::vector<char> is_property;
   const bool property_point = config.use_classes && config.property_point_to_point;
+  const double tangent_scale = std::sqrt(config.property_tangent_weight);
   for (ClassId id : classes.ids()) {
     if (is_property.size() <= id) is_property.resize(std::size_t(id) + 1, 0);
     is_property[id] = classes.isProperty(id);
@@ -168,6 +214,7 @@ RegistrationResult registerClouds(const LabeledCloud& source, const Registration
   Eigen::Isometry3d T = initial_guess;
   Eigen::Isometry3d T_corr = T;  // the pose at which `corr` was computed
   Sums total;
+  TangentMix mix;  // of the last iteration (the covariance uses it too)
   double kernel[2] = {0.0, 0.0};
 
   const auto run = [&] {
@@ -192,8 +239,11 @@ RegistrationResult registerClouds(const LabeledCloud& source, const Registration
             // residual would throw away (a patch lies in its wall): it gets a 3-D residual.
             const bool own_property = config.use_classes && !m.cross_class && is_property[cls];
             cr.point3 = !plane || (property_point && own_property);
+            cr.anisotropic = plane && cr.point3 && tangent_scale < 1.0 && !normals[m.index].isZero();
             cr.group = own_property ? 1 : 0;
-            if (!cr.point3) {
+            if (cr.anisotropic) {
+              cr.residual = weightedResidual(p - tc.points[m.index], normals[m.index], tangent_scale).norm();
+            } else if (!cr.point3) {
               const Eigen::Vector3f& nq = normals[m.index];
               if (nq.isZero()) {  // no normal there: unusable for point-to-plane
                 cr.target = -1;
@@ -267,9 +317,21 @@ RegistrationResult registerClouds(const LabeledCloud& source, const Registration
               const Eigen::Vector3d r = p - q;
               Eigen::Matrix<double, 3, 6> J;
               J << Eigen::Matrix3d::Identity(), -hat(p);
-              const double rn2 = r.squaredNorm();
-              s.H.noalias() += w * (J.transpose() * J);
-              s.g.noalias() += w * (J.transpose() * r);
+              double rn2 = r.squaredNorm();
+              if (cr.anisotropic) {
+                const Eigen::Vector3d nq = normals[cr.target].cast<double>();
+                const Vector6d Jn = J.transpose() * nq;
+                const double rn = nq.dot(r);
+                s.H.noalias() += w * Jn * Jn.transpose();
+                s.g.noalias() += w * rn * Jn;
+                const Eigen::Matrix3d Pt = Eigen::Matrix3d::Identity() - nq * nq.transpose();
+                s.Ht.noalias() += w * (J.transpose() * Pt * J);
+                s.gt.noalias() += w * (J.transpose() * (Pt * r));
+                rn2 = rn * rn + config.property_tangent_weight * (rn2 - rn * rn);
+              } else {
+                s.H.noalias() += w * (J.transpose() * J);
+                s.g.noalias() += w * (J.transpose() * r);
+              }
               s.wr2 += w * rn2;
               s.r2 += rn2;
               s.w3 += w;
@@ -292,7 +354,10 @@ RegistrationResult registerClouds(const LabeledCloud& source, const Registration
       // 4. update
       Eigen::Isometry3d delta = Eigen::Isometry3d::Identity();
       if (plane) {
-        Matrix6d A = total.H;
+        mix = TangentMix(total.H, total.w, config.property_tangent_weight, config.degeneracy_length,
+                         config.degeneracy_threshold);
+        Matrix6d A = total.H + mix(total.Ht);
+        total.g += mix(total.gt);
         A.diagonal().array() += 1e-9 * std::max(1.0, A.trace() / 6.0);  // guards exact degeneracy
         const Vector6d xi = A.ldlt().solve(-total.g);
         if (!xi.allFinite()) {
@@ -355,7 +420,7 @@ RegistrationResult registerClouds(const LabeledCloud& source, const Registration
     // Covariance pass over the last correspondences (serial: cheap, and it needs per-target sums).
     // The meat is cluster-robust: residuals that share a target point share that point's noise,
     // so their score contributions are summed per target point before the outer product.
-    Matrix6d bread = Matrix6d::Zero(), meat = Matrix6d::Zero();
+    Matrix6d bread = Matrix6d::Zero(), bread_t = Matrix6d::Zero(), meat = Matrix6d::Zero();
     std::vector<Vector6d> per_target(tc.size(), Vector6d::Zero());
     std::vector<char> touched(tc.size(), 0);
     double wr2 = 0.0, comps = 0.0, pairs = 0.0;
@@ -380,6 +445,23 @@ RegistrationResult registerClouds(const LabeledCloud& source, const Registration
         const Eigen::Vector3d r = p - tc.points[cr.target].cast<double>();
         Eigen::Matrix<double, 3, 6> J;
         J << Eigen::Matrix3d::Identity(), -hat(p);
+        if (cr.anisotropic) {
+          // Along-normal part as a plane residual; the in-plane part mixed as in the solve.
+          const Eigen::Vector3d nq = normals[cr.target].cast<double>();
+          const Vector6d Jn = J.transpose() * nq;
+          const double rn = nq.dot(r);
+          const double rt2 = r.squaredNorm() - rn * rn;
+          const Eigen::Matrix3d Pt = Eigen::Matrix3d::Identity() - nq * nq.transpose();
+          bread.noalias() += w * Jn * Jn.transpose();
+          bread_t.noalias() += w * (J.transpose() * Pt * J);
+          gi = w * rn * Jn + mix(Vector6d(w * (J.transpose() * (Pt * r))));
+          wr2 += w * (rn * rn + config.property_tangent_weight * rt2);
+          comps += w * (1.0 + 2.0 * config.property_tangent_weight);
+          pairs += w;
+          per_target[cr.target] += gi;
+          touched[cr.target] = 1;
+          continue;
+        }
         const double rn2 = r.squaredNorm();
         // ψ'(r) for a weight of |r|: w (I + slope · r rᵀ/|r|²)
         bread.noalias() += w * (J.transpose() * J);
@@ -398,9 +480,11 @@ RegistrationResult registerClouds(const LabeledCloud& source, const Registration
     }
     for (std::size_t j = 0; j < tc.size(); ++j)
       if (touched[j]) meat.noalias() += per_target[j] * per_target[j].transpose();
-    const PoseCovariance pc = poseCovariance(total.H, bread, meat, wr2, comps, pairs,
+    bread += mix(bread_t);
+    const Matrix6d H = total.H + mix(total.Ht);
+    const PoseCovariance pc = poseCovariance(H, bread, meat, wr2, comps, pairs,
                                              config.degeneracy_length, config.degeneracy_threshold);
-    result.hessian = total.H;
+    result.hessian = H;
     result.covariance = pc.covariance;
     result.residual_sigma = pc.residual_sigma;
     result.degenerate_directions = pc.degenerate_directions;

@@ -40,6 +40,8 @@ void RegistrationConfig::validate() const {
   require(std::isfinite(mismatch_penalty), "mismatch_penalty", "must be finite (< 0 = use the class table's)");
   require(label_confidence > 0.0 && label_confidence <= 1.0, "label_confidence", "must be in (0, 1]");
   require(std::isfinite(property_weight) && property_weight >= 0.0, "property_weight", "must be >= 0");
+  require(property_tangent_weight >= 0.0 && property_tangent_weight <= 1.0, "property_tangent_weight",
+          "must be in [0, 1]");
   require(finitePositive(robust_scale_factor), "robust_scale_factor", "must be > 0");
   require(finitePositive(robust_min_scale), "robust_min_scale", "must be > 0");
   require(std::isfinite(translation_tolerance) && translation_tolerance >= 0.0, "translation_tolerance", "must be >= 0");
@@ -107,6 +109,7 @@ RegistrationConfig registrationConfigFromYaml(const std::string& yaml, const std
     else if (key == "use_class_weights") get(c.use_class_weights);
     else if (key == "property_weight") get(c.property_weight);
     else if (key == "property_point_to_point") get(c.property_point_to_point);
+    else if (key == "property_tangent_weight") get(c.property_tangent_weight);
     else if (key == "robust_kernel") {
       const std::string s = text();
       if (s == "none") c.robust_kernel = RobustKernel::None;
@@ -161,6 +164,7 @@ std::string toYamlString(const RegistrationConfig& c) {
   out << YAML::Key << "use_class_weights" << YAML::Value << c.use_class_weights;
   out << YAML::Key << "property_weight" << YAML::Value << c.property_weight;
   out << YAML::Key << "property_point_to_point" << YAML::Value << c.property_point_to_point;
+  out << YAML::Key << "property_tangent_weight" << YAML::Value << c.property_tangent_weight;
   out << YAML::Key << "robust_kernel" << YAML::Value << toString(c.robust_kernel);
   out << YAML::Key << "robust_scale_factor" << YAML::Value << c.robust_scale_factor;
   out << YAML::Key << "robust_min_scale" << YAML::Value << c.robust_min_scale;

@@ -58,6 +58,14 @@ struct RegistrationConfig {
   /// residual — a labelled patch usually lies in its wall, so its plane residual would not say
   /// where along the wall it is, which is exactly what the label tells.
   bool property_point_to_point = true;
+  /// Weight (0…1) of that 3-D residual's in-plane part relative to its along-normal part, when
+  /// the target point has a normal. In-plane, a labelled point and its same-class partner are
+  /// apart mostly because the two scans hit the patch at different spots (σ ≈ 0.2 m against
+  /// ≈ 0.03 m along the normal, hence (0.03/0.2)² ≈ 0.02): at full weight that sampling noise
+  /// biases well-constrained scans. Along directions the rest of the residuals leave degenerate
+  /// (a corridor's axis; same test as degenerate_directions) the in-plane part gets full weight,
+  /// because there it is the only information. 1 = plain 3-D residual everywhere.
+  double property_tangent_weight = 0.02;
 
   // --- robust kernel with adaptive threshold ---
   RobustKernel robust_kernel = RobustKernel::GemanMcClure;
