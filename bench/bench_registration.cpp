@@ -3,7 +3,8 @@
 // (identity), each library doing its own voxel downsampling (0.25 m scan pair, 0.5 m KITTI) and
 // normals/covariances: "preprocessing + registration" per iteration, max correspondence 1.0 m.
 // Counters: iterations, error vs the reference (cm, deg). Arg = threads (PCL is single-threaded).
-// Also: frame-to-map odometry on the six KITTI scans (ms per frame).
+// Also: frame-to-map odometry on the six KITTI scans (ms per frame) and on 60 simulated VLP-16
+// frames of the naraha scenario (frames/s).
 #include <benchmark/benchmark.h>
 #include <tbb/global_control.h>
 
@@ -17,6 +18,7 @@
 #include "hazmap/odometry/odometry.hpp"
 #include "hazmap/preprocess/voxel_downsample.hpp"
 #include "hazmap/registration/registration.hpp"
+#include "hazmap/sim/simulator.hpp"
 
 #ifdef HAZMAP_BENCH_HAVE_PCL
 #include <pcl/filters/voxel_grid.h>
@@ -164,6 +166,55 @@ void BM_KittiOdometry_Frame_Property(benchmark::State& s) { hazmapOdometry(s, Od
 BENCHMARK(BM_KittiOdometry_Map_Property)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->Iterations(3);
 BENCHMARK(BM_KittiOdometry_Map_Plain)->Arg(2)->Unit(benchmark::kMillisecond)->Iterations(3);
 BENCHMARK(BM_KittiOdometry_Frame_Property)->Arg(2)->Unit(benchmark::kMillisecond)->Iterations(3);
+
+// Simulated VLP-16 (naraha scenario, 60 frames, scans generated once in the setup) with the
+// crawler's wheel-odometry increments as the guess, as `hazmap run` does. Times Odometry::addFrame
+// only; frames/s over wall time.
+struct SimFrames {
+  ClassTable table;
+  std::vector<LabeledCloud> scans;
+  std::vector<Eigen::Isometry3d> wheel;  ///< previous ← current, from the simulated encoders
+};
+const SimFrames& simFrames() {
+  static const SimFrames d = [] {
+    sim::SimulatorConfig sc;
+    sc.scenario = "naraha";
+    sc.max_frames = 60;
+    const sim::Simulator simulator(sc);
+    SimFrames f;
+    f.table = simulator.classTable();
+    for (std::size_t i = 0; i < simulator.frames(); ++i) {
+      f.scans.push_back(simulator.scan(i));
+      f.wheel.push_back(i == 0 ? Eigen::Isometry3d::Identity()
+                               : Eigen::Isometry3d(simulator.odometry()[i - 1].inverse() * simulator.odometry()[i]));
+    }
+    return f;
+  }();
+  return d;
+}
+void hazmapSimOdometry(benchmark::State& state, bool classes) {
+  tbb::global_control threads(tbb::global_control::max_allowed_parallelism, state.range(0));
+  const SimFrames& d = simFrames();
+  OdometryConfig cfg = OdometryConfig::defaults();
+  cfg.registration.use_classes = classes;
+  std::size_t frames = 0;
+  double wall_ms = 0.0;
+  for (auto _ : state) {
+    const auto t0 = std::chrono::steady_clock::now();
+    Odometry odo(d.table, cfg);
+    for (std::size_t i = 0; i < d.scans.size(); ++i)
+      odo.addFrame(d.scans[i], i == 0 ? std::nullopt : std::optional(d.wheel[i]));
+    wall_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    frames += d.scans.size();
+    benchmark::DoNotOptimize(odo.frames().back().pose);
+  }
+  state.counters["ms_per_frame"] = frames ? wall_ms / static_cast<double>(frames) : 0.0;
+  state.counters["frames/s"] = wall_ms > 0.0 ? 1e3 * static_cast<double>(frames) / wall_ms : 0.0;
+}
+void BM_SimVlp16Odometry_Map_Property(benchmark::State& s) { hazmapSimOdometry(s, true); }
+void BM_SimVlp16Odometry_Map_Plain(benchmark::State& s) { hazmapSimOdometry(s, false); }
+BENCHMARK(BM_SimVlp16Odometry_Map_Property)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->Iterations(2);
+BENCHMARK(BM_SimVlp16Odometry_Map_Plain)->Arg(2)->Unit(benchmark::kMillisecond)->Iterations(2);
 
 #ifdef HAZMAP_BENCH_HAVE_PCL
 using PclCloud = pcl::PointCloud<pcl::PointXYZ>;

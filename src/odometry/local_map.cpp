@@ -1,9 +1,15 @@
 #include "hazmap/odometry/local_map.hpp"
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <string>
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include "hazmap/core/error.hpp"
+#include "hazmap/preprocess/normals.hpp"
 
 namespace hazmap {
 
@@ -30,6 +36,7 @@ LocalMap::LocalMap(const LocalMapConfig& config) : config_(config) { config_.val
 
 void LocalMap::clear() {
   voxels_.clear();
+  normal_neighbors_ = -1;
   index_.clear();
   points_ = 0;
 }
@@ -47,7 +54,7 @@ void LocalMap::integrate(const LabeledCloud& scan, const Eigen::Vector3d& origin
     const auto z = static_cast<std::int64_t>(std::floor(p.z() * inv));
     const std::uint64_t key = packKey(x, y, z);
     auto [it, inserted] = index_.try_emplace(key, static_cast<std::uint32_t>(voxels_.size()));
-    if (inserted) voxels_.push_back(Voxel{x, y, z, {}, {}, {}, 0});
+    if (inserted) voxels_.push_back(Voxel{x, y, z, {}, {}, {}, 0, {}, false, true});
     Voxel& v = voxels_[it->second];
     const ClassId cls = scan.classes[i];
     const bool prop = table.isProperty(cls);
@@ -63,6 +70,7 @@ void LocalMap::integrate(const LabeledCloud& scan, const Eigen::Vector3d& origin
       v.classes.push_back(cls);
       v.values.push_back(value);
       v.property_points += prop;
+      v.changed = true;
       ++points_;
     } else if (prop && 2 * v.property_points < config_.max_points_per_voxel) {
       // Replace the oldest unlabelled point.
@@ -71,13 +79,16 @@ void LocalMap::integrate(const LabeledCloud& scan, const Eigen::Vector3d& origin
         v.points[k] = p;
         v.classes[k] = cls;
         v.values[k] = value;
+        if (k < v.normals.size()) v.normals[k].setZero();  // estimated anew
         ++v.property_points;
+        v.changed = true;
         break;
       }
     }
   }
   // Bound the map: drop voxels far from the robot (swap-remove keeps it O(1) and deterministic).
   const double max_d2 = config_.max_distance * config_.max_distance;
+  std::vector<std::array<std::int64_t, 3>> dropped;
   for (std::size_t k = 0; k < voxels_.size();) {
     const Voxel& v = voxels_[k];
     const Eigen::Vector3d centre((v.x + 0.5) * config_.voxel_size, (v.y + 0.5) * config_.voxel_size,
@@ -86,6 +97,7 @@ void LocalMap::integrate(const LabeledCloud& scan, const Eigen::Vector3d& origin
       ++k;
       continue;
     }
+    dropped.push_back({v.x, v.y, v.z});
     points_ -= v.points.size();
     index_.erase(packKey(v.x, v.y, v.z));
     if (k + 1 != voxels_.size()) {
@@ -94,6 +106,104 @@ void LocalMap::integrate(const LabeledCloud& scan, const Eigen::Vector3d& origin
     }
     voxels_.pop_back();
   }
+  // Cached normals: a change anywhere within the normal radius makes a voxel's normals stale.
+  for (Voxel& v : voxels_) {
+    if (!v.changed) continue;
+    v.changed = false;
+    invalidateAround(v.x, v.y, v.z);
+  }
+  for (const auto& d : dropped) invalidateAround(d[0], d[1], d[2]);
+}
+
+void LocalMap::invalidateAround(std::int64_t x, std::int64_t y, std::int64_t z) {
+  const int r = normal_ring_;
+  for (std::int64_t dx = -r; dx <= r; ++dx)
+    for (std::int64_t dy = -r; dy <= r; ++dy)
+      for (std::int64_t dz = -r; dz <= r; ++dz) {
+        const auto it = index_.find(packKey(x + dx, y + dy, z + dz));
+        if (it != index_.end()) voxels_[it->second].normals_valid = false;
+      }
+}
+
+RegistrationTarget LocalMap::makeTarget(const ClassTable& classes, const RegistrationConfig& config) {
+  LabeledCloud out;
+  if (has_values_) out.enableProperty();
+  out.reserve(points_);
+  for (const Voxel& v : voxels_)
+    for (std::size_t k = 0; k < v.points.size(); ++k) out.push_back(v.points[k], v.classes[k], 0.0f, 0.0, v.values[k]);
+  if (config.metric != IcpMetric::PointToPlane)
+    return RegistrationTarget(std::move(out), classes, config, {}, {});
+
+  if (config.normal_neighbors != normal_neighbors_ || config.normal_radius != normal_radius_) {
+    for (Voxel& v : voxels_) v.normals_valid = false;
+    normal_neighbors_ = config.normal_neighbors;
+    normal_radius_ = config.normal_radius;
+    normal_ring_ = std::max(1, static_cast<int>(std::ceil(config.normal_radius / config_.voxel_size)));
+  }
+  // Estimate the normals that are missing: a point gets its normal once, from the map around it
+  // when it is first used (its own scan and the map's earlier points), and keeps it — re-estimating
+  // every map point each frame was most of the odometry's time, and a surface's normal hardly
+  // changes as more points of it arrive. A point without a normal yet (too few neighbours, or
+  // only a line of them: a lone scan ring) is retried whenever its neighbourhood changes.
+  // The map's own voxels are the neighbour search: every point of a voxel shares one candidate
+  // set (the voxels within the normal ring), gathered once; the k nearest within normal_radius
+  // are the same as a k-NN query on the whole map would return.
+  std::vector<std::uint32_t> stale;
+  for (std::size_t k = 0; k < voxels_.size(); ++k)
+    if (!voxels_[k].normals_valid) stale.push_back(static_cast<std::uint32_t>(k));
+  NormalConfig nc;
+  nc.neighbors = config.normal_neighbors;
+  nc.radius = config.normal_radius;
+  const float r2 = static_cast<float>(config.normal_radius * config.normal_radius);
+  const int ring = normal_ring_;
+  const std::size_t k_max = static_cast<std::size_t>(std::max(config.normal_neighbors, 1));
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, stale.size(), 8), [&](const auto& range) {
+    std::vector<Eigen::Vector3f> candidates, neighbours;
+    std::vector<std::pair<float, std::uint32_t>> near;
+    for (std::size_t s_i = range.begin(); s_i < range.end(); ++s_i) {
+      Voxel& v = voxels_[stale[s_i]];
+      v.normals.resize(v.points.size(), Eigen::Vector3f::Zero());
+      bool missing = false;
+      for (const auto& n : v.normals) missing = missing || n.isZero();
+      if (!missing) continue;
+      candidates.clear();
+      for (int dx = -ring; dx <= ring; ++dx)
+        for (int dy = -ring; dy <= ring; ++dy)
+          for (int dz = -ring; dz <= ring; ++dz) {
+            const auto it = index_.find(packKey(v.x + dx, v.y + dy, v.z + dz));
+            if (it == index_.end()) continue;
+            const auto& pts = voxels_[it->second].points;
+            candidates.insert(candidates.end(), pts.begin(), pts.end());
+          }
+      for (std::size_t i = 0; i < v.points.size(); ++i) {
+        if (!v.normals[i].isZero()) continue;
+        const Eigen::Vector3f p = v.points[i];
+        near.clear();
+        for (std::uint32_t c = 0; c < candidates.size(); ++c) {
+          const float d2 = (candidates[c] - p).squaredNorm();
+          if (d2 < r2) near.emplace_back(d2, c);
+        }
+        if (near.size() > k_max) {
+          std::nth_element(near.begin(), near.begin() + static_cast<std::ptrdiff_t>(k_max - 1), near.end());
+          near.resize(k_max);
+        }
+        std::sort(near.begin(), near.end());
+        neighbours.clear();
+        for (const auto& [d2, c] : near) neighbours.push_back(candidates[c]);
+        v.normals[i] = planeNormal(p, neighbours, nc);
+      }
+    }
+  });
+  std::vector<Eigen::Vector3f> normals;
+  normals.reserve(points_);
+  for (Voxel& v : voxels_) {
+    v.normals_valid = true;
+    v.normals.resize(v.points.size(), Eigen::Vector3f::Zero());
+    normals.insert(normals.end(), v.normals.begin(), v.normals.end());
+  }
+  RegistrationTarget target(std::move(out), classes, config, std::move(normals),
+                            std::vector<char>(points_, 0));
+  return target;
 }
 
 LabeledCloud LocalMap::cloud() const {

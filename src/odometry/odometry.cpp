@@ -131,7 +131,7 @@ const OdometryFrame& Odometry::addFrame(const LabeledCloud& scan,
     const Eigen::Isometry3d reg_guess = W.inverse() * prev_pose * f.guess;
     RegistrationResult r;
     if (to_map) {
-      const RegistrationTarget target(map_.cloud(), classes_, rc);
+      const RegistrationTarget target = map_.makeTarget(classes_, rc);
       f.map_points = target.size();
       r = registerClouds(source, target, reg_guess, classes_, rc);
     } else {

@@ -22,40 +22,60 @@ void checkConfig(const NormalConfig& config) {
 
 }  // namespace
 
+Eigen::Vector3f planeNormal(const Eigen::Vector3f& p, std::span<const Eigen::Vector3f> neighbors,
+                            const NormalConfig& config) {
+  if (neighbors.size() < 3) return Eigen::Vector3f::Zero();
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const auto& q : neighbors) mean += q.cast<double>();
+  mean /= static_cast<double>(neighbors.size());
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (const auto& q : neighbors) {
+    const Eigen::Vector3d d = q.cast<double>() - mean;
+    cov.noalias() += d * d.transpose();
+  }
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es;
+  es.computeDirect(cov);
+  Eigen::Vector3f normal = es.eigenvectors().col(0).cast<float>();
+  // Collinear neighbours give no plane: a single scan ring on a wall or floor (VLP-16 rings
+  // are 2° apart, so far surfaces are sampled by isolated lines) has a normal that PCA picks
+  // at random around the line; such a "normal" biases pitch/roll. Require a spread in two
+  // directions.
+  const auto& ev = es.eigenvalues();
+  if (!(ev(1) > 1e-12) || ev(1) < config.min_planarity * ev(2) || !normal.allFinite())
+    return Eigen::Vector3f::Zero();
+  if (normal.dot(config.viewpoint - p) < 0.0f) normal = -normal;
+  return normal.normalized();
+}
+
 std::vector<Eigen::Vector3f> estimateNormals(const LabeledCloud& cloud, const NeighborIndex& index,
                                              const NormalConfig& config) {
+  std::vector<Eigen::Vector3f> normals;
+  updateNormals(cloud, index, config, normals, {});
+  return normals;
+}
+
+void updateNormals(const LabeledCloud& cloud, const NeighborIndex& index, const NormalConfig& config,
+                   std::vector<Eigen::Vector3f>& normals, const std::vector<char>& stale) {
   checkConfig(config);
-  std::vector<Eigen::Vector3f> normals(cloud.size(), Eigen::Vector3f::Zero());
+  if (!stale.empty() && stale.size() != cloud.size())
+    fail("normals", "stale mask has " + std::to_string(stale.size()) + " entries for " +
+                        std::to_string(cloud.size()) + " points");
+  normals.resize(cloud.size(), Eigen::Vector3f::Zero());
   const float r2 = static_cast<float>(config.radius * config.radius);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cloud.size(), 256), [&](const auto& range) {
     std::vector<Neighbor> nb;
+    std::vector<Eigen::Vector3f> pts;
     for (std::size_t i = range.begin(); i < range.end(); ++i) {
+      if (!stale.empty() && !stale[i]) continue;
+      normals[i].setZero();
       const Eigen::Vector3f& p = cloud.points[i];
       if (!p.allFinite()) continue;
       index.kNearest(p, config.neighbors, r2, nb);
-      if (nb.size() < 3) continue;
-      Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-      for (const auto& n : nb) mean += cloud.points[n.index].cast<double>();
-      mean /= static_cast<double>(nb.size());
-      Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
-      for (const auto& n : nb) {
-        const Eigen::Vector3d d = cloud.points[n.index].cast<double>() - mean;
-        cov.noalias() += d * d.transpose();
-      }
-      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es;
-      es.computeDirect(cov);
-      Eigen::Vector3f normal = es.eigenvectors().col(0).cast<float>();
-      // Collinear neighbours give no plane: a single scan ring on a wall or floor (VLP-16 rings
-      // are 2° apart, so far surfaces are sampled by isolated lines) has a normal that PCA picks
-      // at random around the line; such a "normal" biases pitch/roll. Require a spread in two
-      // directions.
-      const auto& ev = es.eigenvalues();
-      if (!(ev(1) > 1e-12) || ev(1) < config.min_planarity * ev(2) || !normal.allFinite()) continue;
-      if (normal.dot(config.viewpoint - p) < 0.0f) normal = -normal;
-      normals[i] = normal.normalized();
+      pts.clear();
+      for (const auto& n : nb) pts.push_back(cloud.points[n.index]);
+      normals[i] = planeNormal(p, pts, config);
     }
   });
-  return normals;
 }
 
 std::vector<Eigen::Vector3f> estimateNormals(const LabeledCloud& cloud, const NormalConfig& config) {

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <string>
 
 #include "hazmap/core/error.hpp"
 #include "hazmap/preprocess/normals.hpp"
@@ -32,8 +33,52 @@ RegistrationTarget::RegistrationTarget(const LabeledCloud& cloud, const ClassTab
                                        const RegistrationConfig& config) {
   config.validate();
   cloud.checkConsistent("registration target");
+  if (config.use_classes) classes.checkCloud(cloud, "registration target");
+  std::vector<std::size_t> finite;
+  finite.reserve(cloud.size());
+  for (std::size_t i = 0; i < cloud.size(); ++i)
+    if (cloud.points[i].allFinite()) finite.push_back(i);
+  cloud_ = finite.size() == cloud.size() ? cloud : cloud.select(finite);
+  build(classes, config, {});
+}
+
+RegistrationTarget::RegistrationTarget(LabeledCloud&& cloud, const ClassTable& classes,
+                                       const RegistrationConfig& config,
+                                       std::vector<Eigen::Vector3f> normals,
+                                       const std::vector<char>& stale) {
+  config.validate();
+  cloud.checkConsistent("registration target");
+  if (config.use_classes) classes.checkCloud(cloud, "registration target");
+  if (normals.size() != stale.size() || (!stale.empty() && stale.size() != cloud.size()))
+    fail("registration target", "cached normals/stale mask do not match the cloud (" +
+                                    std::to_string(normals.size()) + "/" + std::to_string(stale.size()) +
+                                    " for " + std::to_string(cloud.size()) + " points)");
+  std::vector<std::size_t> finite;
+  finite.reserve(cloud.size());
+  for (std::size_t i = 0; i < cloud.size(); ++i)
+    if (cloud.points[i].allFinite()) finite.push_back(i);
+  if (finite.size() == cloud.size()) {
+    cloud_ = std::move(cloud);
+    normals_ = std::move(normals);
+    build(classes, config, stale);
+    return;
+  }
+  cloud_ = cloud.select(finite);
+  std::vector<char> kept_stale;
+  if (!stale.empty()) {
+    normals_.resize(finite.size());
+    kept_stale.resize(finite.size());
+    for (std::size_t k = 0; k < finite.size(); ++k) {
+      normals_[k] = normals[finite[k]];
+      kept_stale[k] = stale[finite[k]];
+    }
+  }
+  build(classes, config, kept_stale);
+}
+
+void RegistrationTarget::build(const ClassTable& classes, const RegistrationConfig& config,
+                               const std::vector<char>& stale) {
   use_classes_ = config.use_classes;
-  if (use_classes_) classes.checkCloud(cloud, "registration target");
   radius_ = static_cast<float>(config.max_correspondence_distance);
   alpha_ = static_cast<float>(config.effectiveMismatchPenalty(classes));
   metric_ = config.metric;
@@ -43,11 +88,6 @@ RegistrationTarget::RegistrationTarget(const LabeledCloud& cloud, const ClassTab
   confidence_ = static_cast<float>(config.label_confidence);
   if (use_classes_ && label_mode_ == LabelMode::Soft) alpha_ *= confidence_ * confidence_;
 
-  std::vector<std::size_t> finite;
-  finite.reserve(cloud.size());
-  for (std::size_t i = 0; i < cloud.size(); ++i)
-    if (cloud.points[i].allFinite()) finite.push_back(i);
-  cloud_ = finite.size() == cloud.size() ? cloud : cloud.select(finite);
   // The continuous-property term needs the channel; without it the term is off.
   property_weight_ = cloud_.hasProperty() ? static_cast<float>(config.property_weight) : 0.0f;
 
@@ -60,7 +100,10 @@ RegistrationTarget::RegistrationTarget(const LabeledCloud& cloud, const ClassTab
     if (r > 0.0) class_radius_[id] = static_cast<float>(r);
   }
 
-  const bool need_all = !use_classes_ || metric_ == IcpMetric::PointToPlane;
+  // The all-points index serves plain ICP's search and the normals; with classes and every
+  // normal supplied by the caller it is not needed.
+  const bool all_known = !stale.empty() && std::none_of(stale.begin(), stale.end(), [](char c) { return c != 0; });
+  const bool need_all = !use_classes_ || (metric_ == IcpMetric::PointToPlane && !all_known);
   if (need_all) {
     const float max_r = std::max(radius_, static_cast<float>(config.normal_radius));
     all_ = makeIndex(index_kind_, cloud_.points, {}, cell_, max_r);
@@ -85,7 +128,10 @@ RegistrationTarget::RegistrationTarget(const LabeledCloud& cloud, const ClassTab
     NormalConfig nc;
     nc.neighbors = config.normal_neighbors;
     nc.radius = config.normal_radius;
-    normals_ = estimateNormals(cloud_, *all_, nc);
+    if (stale.empty()) normals_.clear();  // everything estimated
+    if (!all_known) updateNormals(cloud_, *all_, nc, normals_, stale);
+  } else {
+    normals_.clear();
   }
 }
 

@@ -10,6 +10,7 @@
 
 #include "hazmap/core/class_table.hpp"
 #include "hazmap/core/labeled_cloud.hpp"
+#include "hazmap/registration/registration_target.hpp"
 
 namespace hazmap {
 
@@ -32,6 +33,14 @@ class LocalMap {
   void integrate(const LabeledCloud& scan_world, const Eigen::Vector3d& origin, const ClassTable& table);
   /// Every point in the map (classes and property values kept), in a deterministic order.
   LabeledCloud cloud() const;
+  /// The map as a registration target (the same points as cloud(), classes and values kept).
+  /// Point-to-plane normals are cached per point: a point gets its normal (PCA of its k nearest
+  /// map points within normal_radius, as RegistrationTarget does) the first time it is part of
+  /// a target, from the map around it at that time, and keeps it; a point still without one
+  /// (too few neighbours, or only a line of them) is retried whenever a voxel within
+  /// normal_radius changed. Re-estimating every map point each frame was most of the odometry's
+  /// time. Deterministic, independent of the thread count.
+  RegistrationTarget makeTarget(const ClassTable& classes, const RegistrationConfig& config);
   std::size_t size() const { return points_; }
   std::size_t voxels() const { return voxels_.size(); }
   bool empty() const { return points_ == 0; }
@@ -44,12 +53,21 @@ class LocalMap {
     std::vector<ClassId> classes;
     std::vector<float> values;
     int property_points = 0;
+    std::vector<Eigen::Vector3f> normals;  ///< cached, valid when normals_valid
+    bool normals_valid = false;
+    bool changed = false;  ///< modified during the current integrate()
   };
+  /// Marks the normals of every voxel within the normal ring of (x, y, z) stale.
+  void invalidateAround(std::int64_t x, std::int64_t y, std::int64_t z);
   LocalMapConfig config_;
   std::vector<Voxel> voxels_;
   std::unordered_map<std::uint64_t, std::uint32_t> index_;  ///< voxel key → position in voxels_
   std::size_t points_ = 0;
   bool has_values_ = false;
+  // settings the cached normals were estimated with (a change invalidates them all)
+  int normal_neighbors_ = -1;
+  double normal_radius_ = -1.0;
+  int normal_ring_ = 1;  ///< voxels within this Chebyshev distance share normal neighbourhoods
 };
 
 }  // namespace hazmap

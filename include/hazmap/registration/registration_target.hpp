@@ -29,6 +29,13 @@ class RegistrationTarget {
   /// missing from `classes` (only when config.use_classes).
   RegistrationTarget(const LabeledCloud& cloud, const ClassTable& classes,
                      const RegistrationConfig& config);
+  /// For incremental users (the odometry's local map): takes the cloud by value (no copy when
+  /// moved in) and, for point-to-plane, keeps `normals[i]` where `stale[i] == 0` — the caller
+  /// vouches that those points' neighbourhoods (normal_radius) did not change since the normals
+  /// were estimated with the same settings — and estimates the rest. `normals`/`stale` empty =
+  /// estimate all (same result as the constructor above); otherwise both cloud-sized.
+  RegistrationTarget(LabeledCloud&& cloud, const ClassTable& classes, const RegistrationConfig& config,
+                     std::vector<Eigen::Vector3f> normals, const std::vector<char>& stale);
   ~RegistrationTarget();
   RegistrationTarget(RegistrationTarget&&) noexcept;
   RegistrationTarget& operator=(RegistrationTarget&&) noexcept;
@@ -54,6 +61,7 @@ class RegistrationTarget {
   bool usesProperty() const { return property_weight_ > 0.0f; }
 
  private:
+  void build(const ClassTable& classes, const RegistrationConfig& config, const std::vector<char>& stale);
   struct ClassSlot {
     ClassId cls = 0;
     float radius2 = 0.0f;
