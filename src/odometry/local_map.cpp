@@ -26,6 +26,7 @@ void LocalMapConfig::validate() const {
   if (!(voxel_size > 0.0) || !std::isfinite(voxel_size))
     fail("local map", "voxel_size must be > 0 (got " + std::to_string(voxel_size) + ")");
   if (max_points_per_voxel < 1) fail("local map", "max_points_per_voxel must be >= 1");
+  if (normal_updates < 0 || normal_updates > 255) fail("local map", "normal_updates must be in [0, 255]");
   if (!(min_point_distance >= 0.0) || !std::isfinite(min_point_distance))
     fail("local map", "min_point_distance must be >= 0");
   if (!(max_distance > 0.0) || !std::isfinite(max_distance))
@@ -54,7 +55,7 @@ void LocalMap::integrate(const LabeledCloud& scan, const Eigen::Vector3d& origin
     const auto z = static_cast<std::int64_t>(std::floor(p.z() * inv));
     const std::uint64_t key = packKey(x, y, z);
     auto [it, inserted] = index_.try_emplace(key, static_cast<std::uint32_t>(voxels_.size()));
-    if (inserted) voxels_.push_back(Voxel{x, y, z, {}, {}, {}, 0, {}, false, true});
+    if (inserted) voxels_.push_back(Voxel{x, y, z, {}, {}, {}, 0, {}, {}, false, true});
     Voxel& v = voxels_[it->second];
     const ClassId cls = scan.classes[i];
     const bool prop = table.isProperty(cls);
@@ -80,6 +81,7 @@ void LocalMap::integrate(const LabeledCloud& scan, const Eigen::Vector3d& origin
         v.classes[k] = cls;
         v.values[k] = value;
         if (k < v.normals.size()) v.normals[k].setZero();  // estimated anew
+        if (k < v.updates.size()) v.updates[k] = 0;
         ++v.property_points;
         v.changed = true;
         break;
@@ -140,14 +142,10 @@ RegistrationTarget LocalMap::makeTarget(const ClassTable& classes, const Registr
     normal_radius_ = config.normal_radius;
     normal_ring_ = std::max(1, static_cast<int>(std::ceil(config.normal_radius / config_.voxel_size)));
   }
-  // Estimate the normals that are missing: a point gets its normal once, from the map around it
-  // when it is first used (its own scan and the map's earlier points), and keeps it — re-estimating
-  // every map point each frame was most of the odometry's time, and a surface's normal hardly
-  // changes as more points of it arrive. A point without a normal yet (too few neighbours, or
-  // only a line of them: a lone scan ring) is retried whenever its neighbourhood changes.
-  // The map's own voxels are the neighbour search: every point of a voxel shares one candidate
-  // set (the voxels within the normal ring), gathered once; the k nearest within normal_radius
-  // are the same as a k-NN query on the whole map would return.
+  // Re-estimate the normals of stale voxels (their neighbourhood changed). The map's own voxels are
+  // the neighbour search: every point of a voxel shares one candidate set (the voxels within the
+  // normal ring), gathered once; the k nearest within normal_radius are the ones a k-NN query on
+  // the whole map returns. With a normal_updates budget, a point past it keeps its normal.
   std::vector<std::uint32_t> stale;
   for (std::size_t k = 0; k < voxels_.size(); ++k)
     if (!voxels_[k].normals_valid) stale.push_back(static_cast<std::uint32_t>(k));
@@ -156,6 +154,7 @@ RegistrationTarget LocalMap::makeTarget(const ClassTable& classes, const Registr
   nc.radius = config.normal_radius;
   const float r2 = static_cast<float>(config.normal_radius * config.normal_radius);
   const int ring = normal_ring_;
+  const int budget = config_.normal_updates;
   const std::size_t k_max = static_cast<std::size_t>(std::max(config.normal_neighbors, 1));
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, stale.size(), 8), [&](const auto& range) {
     std::vector<Eigen::Vector3f> candidates, neighbours;
@@ -163,9 +162,13 @@ RegistrationTarget LocalMap::makeTarget(const ClassTable& classes, const Registr
     for (std::size_t s_i = range.begin(); s_i < range.end(); ++s_i) {
       Voxel& v = voxels_[stale[s_i]];
       v.normals.resize(v.points.size(), Eigen::Vector3f::Zero());
-      bool missing = false;
-      for (const auto& n : v.normals) missing = missing || n.isZero();
-      if (!missing) continue;
+      v.updates.resize(v.points.size(), 0);
+      const auto due = [&](std::size_t i) {
+        return v.normals[i].isZero() || budget == 0 || v.updates[i] < budget;
+      };
+      bool any = false;
+      for (std::size_t i = 0; i < v.points.size() && !any; ++i) any = due(i);
+      if (!any) continue;
       candidates.clear();
       for (int dx = -ring; dx <= ring; ++dx)
         for (int dy = -ring; dy <= ring; ++dy)
@@ -176,7 +179,7 @@ RegistrationTarget LocalMap::makeTarget(const ClassTable& classes, const Registr
             candidates.insert(candidates.end(), pts.begin(), pts.end());
           }
       for (std::size_t i = 0; i < v.points.size(); ++i) {
-        if (!v.normals[i].isZero()) continue;
+        if (!due(i)) continue;
         const Eigen::Vector3f p = v.points[i];
         near.clear();
         for (std::uint32_t c = 0; c < candidates.size(); ++c) {
@@ -191,6 +194,7 @@ RegistrationTarget LocalMap::makeTarget(const ClassTable& classes, const Registr
         neighbours.clear();
         for (const auto& [d2, c] : near) neighbours.push_back(candidates[c]);
         v.normals[i] = planeNormal(p, neighbours, nc);
+        if (v.updates[i] < 255) ++v.updates[i];
       }
     }
   });

@@ -99,7 +99,7 @@ const OdometryFrame& Odometry::addFrame(const LabeledCloud& scan,
   VoxelDownsampleConfig vd;
   vd.voxel_size = config_.voxel_size;
   vd.vote = ClassVote::PreferProperty;
-  const LabeledCloud frame = voxelDownsample(cropRange(scan, crop), vd, classes_);
+  const LabeledCloud frame = cropAndDownsample(scan, crop, vd, classes_);
   LabeledCloud coarse;
   const bool separate_source = config_.source_voxel_size > config_.voxel_size;
   if (separate_source) {

@@ -63,6 +63,7 @@ OdometryConfig odometryConfigFromYaml(const std::string& yaml, const std::string
         else if (k == "max_points_per_voxel") getm(c.map.max_points_per_voxel);
         else if (k == "min_point_distance") getm(c.map.min_point_distance);
         else if (k == "max_distance") getm(c.map.max_distance);
+        else if (k == "normal_updates") getm(c.map.normal_updates);
         else fail(where, "unknown map setting '" + k + "'");
       }
     } else if (key == "registration") {

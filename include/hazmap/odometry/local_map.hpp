@@ -21,6 +21,11 @@ struct LocalMapConfig {
   /// map from filling with repeated returns of the same surface.
   double min_point_distance = 0.0;
   double max_distance = 100.0;    ///< m; voxels farther from the robot are dropped (> 0)
+  /// Point-to-plane normals of map points are re-estimated whenever a voxel within
+  /// normal_radius changed. > 0 caps how often one point's normal is re-estimated (after that it
+  /// keeps it; a point without a normal is always retried): faster, but measured to cost
+  /// accuracy on the simulated sequences (docs/registration.md), so the default is exact.
+  int normal_updates = 0;
   void validate() const;
 };
 
@@ -33,13 +38,12 @@ class LocalMap {
   void integrate(const LabeledCloud& scan_world, const Eigen::Vector3d& origin, const ClassTable& table);
   /// Every point in the map (classes and property values kept), in a deterministic order.
   LabeledCloud cloud() const;
-  /// The map as a registration target (the same points as cloud(), classes and values kept).
-  /// Point-to-plane normals are cached per point: a point gets its normal (PCA of its k nearest
-  /// map points within normal_radius, as RegistrationTarget does) the first time it is part of
-  /// a target, from the map around it at that time, and keeps it; a point still without one
-  /// (too few neighbours, or only a line of them) is retried whenever a voxel within
-  /// normal_radius changed. Re-estimating every map point each frame was most of the odometry's
-  /// time. Deterministic, independent of the thread count.
+  /// The map as a registration target (the same points as cloud(), classes and values kept),
+  /// equal to RegistrationTarget(cloud(), classes, config) up to ties among equidistant normal
+  /// neighbours. Point-to-plane normals are cached per point and re-estimated only in voxels
+  /// within normal_radius of a voxel that changed since the last call (a point added or
+  /// replaced, a voxel dropped) — see normal_updates. The k nearest neighbours come from the
+  /// map's own voxels (one candidate set per voxel). Deterministic, thread-count independent.
   RegistrationTarget makeTarget(const ClassTable& classes, const RegistrationConfig& config);
   std::size_t size() const { return points_; }
   std::size_t voxels() const { return voxels_.size(); }
@@ -54,6 +58,7 @@ class LocalMap {
     std::vector<float> values;
     int property_points = 0;
     std::vector<Eigen::Vector3f> normals;  ///< cached, valid when normals_valid
+    std::vector<std::uint8_t> updates;     ///< how often each point's normal was estimated
     bool normals_valid = false;
     bool changed = false;  ///< modified during the current integrate()
   };

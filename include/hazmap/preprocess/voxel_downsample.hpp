@@ -3,6 +3,7 @@
 // points, optional channels averaged, and a class chosen by vote.
 #include "hazmap/core/class_table.hpp"
 #include "hazmap/core/labeled_cloud.hpp"
+#include "hazmap/preprocess/crop.hpp"
 
 namespace hazmap {
 
@@ -18,9 +19,16 @@ struct VoxelDownsampleConfig {
   double property_share = 0.25;  ///< for PreferProperty
 };
 
-/// Deterministic: output order follows the voxels' sorted keys. `table` tells which classes are
+/// Deterministic: output order follows the voxels' sorted keys (and does not depend on the number
+/// of threads; key computation and per-voxel averaging run in parallel). `table` tells which classes are
 /// properties (needed for PreferProperty). Throws hazmap::Error on voxel_size <= 0.
 LabeledCloud voxelDownsample(const LabeledCloud& cloud, const VoxelDownsampleConfig& config,
                              const ClassTable& table = ClassTable::defaults());
+
+/// cropRange followed by voxelDownsample in one pass, without the cropped copy: same output as
+/// voxelDownsample(cropRange(cloud, crop), config, table). Throws hazmap::Error on a bad config.
+LabeledCloud cropAndDownsample(const LabeledCloud& cloud, const RangeCropConfig& crop,
+                               const VoxelDownsampleConfig& config,
+                               const ClassTable& table = ClassTable::defaults());
 
 }  // namespace hazmap

@@ -1,0 +1,217 @@
+// Preprocessing used by the odometry's fast path: the fused crop + voxel downsample against the
+// two-step reference, thread-count independence, and the local map's cached normals against the
+// normals a freshly built registration target estimates.
+#include <gtest/gtest.h>
+#include <tbb/global_control.h>
+
+#include <array>
+#include <cstdio>
+#include <map>
+#include <random>
+
+#include "hazmap/core/error.hpp"
+#include "hazmap/io/kitti.hpp"
+#include "hazmap/odometry/local_map.hpp"
+#include "hazmap/preprocess/crop.hpp"
+#include "hazmap/preprocess/normals.hpp"
+#include "hazmap/preprocess/voxel_downsample.hpp"
+#include "hazmap/registration/registration_target.hpp"
+#include "test_helpers.hpp"
+
+using namespace hazmap;
+
+namespace {
+
+LabeledCloud kittiScan(int i, const ClassTable& table) {
+  char name[32];
+  std::snprintf(name, sizeof name, "%06d", i);
+  const auto dir = hazmap::test::sharedData("kitti-semantic-sample");
+  return readKittiScan(dir / "velodyne" / (std::string(name) + ".bin"),
+                       dir / "labels" / (std::string(name) + ".label"), table);
+}
+
+void expectSameCloud(const LabeledCloud& a, const LabeledCloud& b) {
+  ASSERT_EQ(a.size(), b.size());
+  ASSERT_EQ(a.hasIntensity(), b.hasIntensity());
+  ASSERT_EQ(a.hasProperty(), b.hasProperty());
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    ASSERT_EQ(a.points[i], b.points[i]) << i;
+    ASSERT_EQ(a.classes[i], b.classes[i]) << i;
+    if (a.hasIntensity()) ASSERT_EQ(a.intensity[i], b.intensity[i]) << i;
+    if (a.hasProperty()) ASSERT_EQ(a.property[i], b.property[i]) << i;
+  }
+}
+
+}  // namespace
+
+TEST(Preprocess, CropAndDownsampleEqualsTheTwoSteps) {
+  const ClassTable table = ClassTable::semanticKitti();
+  const LabeledCloud scan = kittiScan(0, table);
+  RangeCropConfig crop;
+  crop.min_range = 3.0;
+  crop.max_range = 40.0;
+  VoxelDownsampleConfig vd;
+  vd.voxel_size = 0.5;
+  vd.vote = ClassVote::PreferProperty;
+  const LabeledCloud fused = cropAndDownsample(scan, crop, vd, table);
+  const LabeledCloud reference = voxelDownsample(cropRange(scan, crop), vd, table);
+  EXPECT_GT(fused.size(), 5000u);
+  EXPECT_LT(fused.size(), scan.size() / 4);
+  expectSameCloud(fused, reference);
+  // every point inside the range (a centroid of in-range points stays within the outer bound)
+  for (const auto& p : fused.points) EXPECT_LE(p.norm(), 40.0f + 1e-3f);
+  // property classes survive the vote
+  std::size_t props = 0;
+  for (ClassId c : fused.classes) props += table.isProperty(c);
+  EXPECT_GT(props, 10u);
+}
+
+TEST(Preprocess, DownsampleDoesNotDependOnThreads) {
+  const ClassTable table = ClassTable::semanticKitti();
+  const LabeledCloud scan = kittiScan(1, table);
+  VoxelDownsampleConfig vd;
+  vd.voxel_size = 0.3;
+  vd.vote = ClassVote::PreferProperty;
+  LabeledCloud one, two;
+  {
+    tbb::global_control c(tbb::global_control::max_allowed_parallelism, 1);
+    one = voxelDownsample(scan, vd, table);
+  }
+  {
+    tbb::global_control c(tbb::global_control::max_allowed_parallelism, 2);
+    two = voxelDownsample(scan, vd, table);
+  }
+  expectSameCloud(one, two);
+}
+
+TEST(Preprocess, CropAndDownsampleRejectsBadConfig) {
+  LabeledCloud c;
+  c.push_back({1, 2, 3});
+  RangeCropConfig crop;
+  crop.min_range = 5.0;
+  crop.max_range = 2.0;
+  EXPECT_THROW(cropAndDownsample(c, crop, {}), Error);
+  VoxelDownsampleConfig vd;
+  vd.voxel_size = 0.0;
+  EXPECT_THROW(cropAndDownsample(c, RangeCropConfig{}, vd), Error);
+  // NaN points and an empty cloud are fine
+  c.push_back({std::nanf(""), 0, 0});
+  EXPECT_EQ(cropAndDownsample(c, RangeCropConfig{}, VoxelDownsampleConfig{}).size(), 1u);
+  EXPECT_TRUE(cropAndDownsample(LabeledCloud{}, RangeCropConfig{}, VoxelDownsampleConfig{}).empty());
+}
+
+// The local map's normals come from its own voxels; on a fresh map they must equal what a
+// registration target built from the same cloud estimates with its k-d/voxel index.
+TEST(LocalMapNormals, FreshMapMatchesTheTargetsOwnEstimate) {
+  const ClassTable table = ClassTable::semanticKitti();
+  VoxelDownsampleConfig vd;
+  vd.voxel_size = 0.5;
+  vd.vote = ClassVote::PreferProperty;
+  const LabeledCloud scan = voxelDownsample(kittiScan(0, table), vd, table);
+  LocalMap map(LocalMapConfig{});
+  map.integrate(scan, Eigen::Vector3d::Zero(), table);
+  RegistrationConfig rc;
+  const RegistrationTarget cached = map.makeTarget(table, rc);
+  const RegistrationTarget fresh(map.cloud(), table, rc);
+  ASSERT_EQ(cached.size(), fresh.size());
+  ASSERT_EQ(cached.normals().size(), fresh.normals().size());
+  std::size_t same = 0, with_normal = 0;
+  for (std::size_t i = 0; i < cached.size(); ++i) {
+    ASSERT_EQ(cached.cloud().points[i], fresh.cloud().points[i]);
+    const Eigen::Vector3f a = cached.normals()[i], b = fresh.normals()[i];
+    with_normal += !b.isZero();
+    same += (a.isZero() && b.isZero()) || (!a.isZero() && !b.isZero() && std::abs(a.dot(b)) > 0.9999f);
+  }
+  EXPECT_GT(with_normal, cached.size() / 2);
+  // identical up to ties among equidistant neighbours
+  EXPECT_GE(same, cached.size() - cached.size() / 1000);
+  // and both targets give the same correspondences
+  for (std::size_t i = 0; i < scan.size(); i += 37) {
+    const Eigen::Vector3f q = scan.points[i] + Eigen::Vector3f(0.1f, -0.05f, 0.02f);
+    const TargetMatch m1 = cached.match(q, scan.classes[i], 0.0f), m2 = fresh.match(q, scan.classes[i], 0.0f);
+    EXPECT_EQ(m1.index, m2.index);
+  }
+}
+
+// After more scans arrive (and the robot moves so that far voxels are dropped), the cached normals
+// still equal a from-scratch estimate: the staleness propagation misses nothing. Results do not
+// depend on the thread count.
+TEST(LocalMapNormals, CachedAcrossFramesEqualsFreshAndThreadIndependent) {
+  const ClassTable table = ClassTable::semanticKitti();
+  VoxelDownsampleConfig vd;
+  vd.voxel_size = 0.5;
+  vd.vote = ClassVote::PreferProperty;
+  std::vector<LabeledCloud> scans;
+  for (int i = 0; i < 3; ++i) scans.push_back(voxelDownsample(kittiScan(i, table), vd, table));
+  RegistrationConfig rc;
+  LocalMapConfig mc;
+  mc.max_distance = 30.0;  // small, so that voxels are dropped as the origin moves
+  std::vector<std::vector<Eigen::Vector3f>> runs;
+  for (int threads : {1, 2}) {
+    tbb::global_control c(tbb::global_control::max_allowed_parallelism, threads);
+    LocalMap map(mc);
+    std::vector<Eigen::Vector3f> last;
+    for (int i = 0; i < 3; ++i) {
+      // the scans are close together; shift each a little so new points land between old ones
+      const Eigen::Isometry3d T(Eigen::Translation3d(0.8 * i, 0.1 * i, 0.0));
+      map.integrate(scans[i].transformed(T), T.translation() + Eigen::Vector3d(3.0 * i, 0, 0), table);
+      const RegistrationTarget cached = map.makeTarget(table, rc);
+      const RegistrationTarget fresh(map.cloud(), table, rc);
+      ASSERT_EQ(cached.normals().size(), fresh.normals().size());
+      std::size_t same = 0;
+      for (std::size_t k = 0; k < cached.size(); ++k) {
+        const Eigen::Vector3f a = cached.normals()[k], b = fresh.normals()[k];
+        same += (a.isZero() && b.isZero()) || (!a.isZero() && !b.isZero() && std::abs(a.dot(b)) > 0.9999f);
+      }
+      EXPECT_GE(same, cached.size() - cached.size() / 1000) << "frame " << i;
+      last = cached.normals();
+    }
+    runs.push_back(last);
+  }
+  EXPECT_EQ(runs[0], runs[1]);
+}
+
+// With a re-estimation budget of one, a point keeps the normal it first got.
+TEST(LocalMapNormals, BudgetFreezesNormals) {
+  const ClassTable table = ClassTable::semanticKitti();
+  VoxelDownsampleConfig vd;
+  vd.voxel_size = 0.5;
+  const LabeledCloud s0 = voxelDownsample(kittiScan(0, table), vd, table);
+  const LabeledCloud s1 = voxelDownsample(kittiScan(1, table), vd, table);
+  LocalMapConfig mc;
+  mc.normal_updates = 1;
+  LocalMap map(mc);
+  RegistrationConfig rc;
+  map.integrate(s0, Eigen::Vector3d::Zero(), table);
+  const RegistrationTarget t0 = map.makeTarget(table, rc);
+  map.integrate(s1.transformed(Eigen::Isometry3d(Eigen::Translation3d(0.3, 0.2, 0.0))), Eigen::Vector3d::Zero(), table);
+  const RegistrationTarget t1 = map.makeTarget(table, rc);
+  const RegistrationTarget fresh(map.cloud(), table, rc);
+  // find each of t0's points in t1 (a voxel's new points follow its old ones, so indices shift)
+  std::map<std::array<float, 3>, std::size_t> at;
+  for (std::size_t j = 0; j < t1.size(); ++j) {
+    const auto& p = t1.cloud().points[j];
+    at[{p.x(), p.y(), p.z()}] = j;
+  }
+  std::size_t had = 0, kept = 0, differs_from_fresh = 0, replaced = 0;
+  for (std::size_t i = 0; i < t0.size(); ++i) {
+    const auto& p = t0.cloud().points[i];
+    const auto it = at.find({p.x(), p.y(), p.z()});
+    if (it == at.end()) {  // a property point replaced it in a full voxel
+      ++replaced;
+      continue;
+    }
+    const std::size_t j = it->second;
+    if (t0.normals()[i].isZero()) continue;
+    ++had;
+    kept += t1.normals()[j] == t0.normals()[i];
+    differs_from_fresh += t1.normals()[j] != fresh.normals()[j];
+  }
+  EXPECT_GT(had, t0.size() / 2);
+  EXPECT_LT(replaced, t0.size() / 100);
+  EXPECT_EQ(kept, had);
+  EXPECT_GT(differs_from_fresh, had / 10);  // the exact default would have re-estimated these
+  LocalMapConfig bad;
+  bad.normal_updates = -1;
+  EXPECT_THROW(bad.validate(), Error);
+}
