@@ -60,7 +60,7 @@ void run(const OdometryOptions& o) {
   Odometry odo(seq.classTable(), cfg);
   std::ostringstream csv, cov;
   csv << "frame,stamp,status,iterations,fitness,rmse,scan_points,source_points,map_points,"
-         "preprocess_ms,registration_ms,total_ms,wheel_guess,reason\n";
+         "preprocess_ms,registration_ms,total_ms,wheel_guess,label_agreement,labels_used,reason\n";
   cov << "# frame, then the 36 entries (row-major) of the increment covariance (previous <- current),"
          " translation first [x y z rx ry rz]\n";
   std::size_t fallbacks = 0, degenerate = 0;
@@ -78,10 +78,11 @@ void run(const OdometryOptions& o) {
     for (char& c : reason)
       if (c == ',' || c == '\n') c = ';';
     char line[512];
-    std::snprintf(line, sizeof line, "%zu,%.6f,%s,%d,%.4f,%.4f,%zu,%zu,%zu,%.3f,%.3f,%.3f,%d,%s\n", i, f.stamp,
+    std::snprintf(line, sizeof line, "%zu,%.6f,%s,%d,%.4f,%.4f,%zu,%zu,%zu,%.3f,%.3f,%.3f,%d,%.3f,%d,%s\n", i, f.stamp,
                   toString(f.status), f.registration.iterations, f.registration.fitness,
                   f.registration.inlier_rmse, f.scan_points, f.source_points, f.map_points,
-                  f.preprocess_ms, f.registration_ms, f.total_ms, int(f.wheel_guess), reason.c_str());
+                  f.preprocess_ms, f.registration_ms, f.total_ms, int(f.wheel_guess),
+                  f.registration.label_agreement, int(f.registration.labels_used), reason.c_str());
     csv << line;
     cov << i;
     for (int r = 0; r < 6; ++r)

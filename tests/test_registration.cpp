@@ -286,6 +286,31 @@ TEST(PropertyIcp, PropertyPatchesFixTheCorridor) {
   EXPECT_GT(prop.stats.property_matched, 0u);
 }
 
+TEST(PropertyIcp, LabelGateFallsBackToPlainOnRandomLabels) {
+  // The same corridor with every label replaced by a random class: labels that do not agree with
+  // the target's even after the labelled solve are noise, and the result is plain ICP's.
+  std::mt19937 rng(4);
+  const auto scene = corridorScene(40.0, true);
+  const Eigen::Isometry3d truth = fromXyzRpy(0.3, 0.1, 0.0, 0.0, 0.0, 0.02);
+  auto target = samplePatches(scene, 12000, rng, 0.01);
+  auto source = samplePatches(scene, 12000, rng, 0.01, truth.inverse());
+  std::uniform_int_distribution<int> cls(0, 3);
+  for (auto& c : target.classes) c = static_cast<ClassId>(cls(rng));
+  for (auto& c : source.classes) c = static_cast<ClassId>(cls(rng));
+  RegistrationConfig cfg;
+  cfg.use_classes = false;
+  const auto plain = registerClouds(source, target, Eigen::Isometry3d::Identity(), ClassTable::defaults(), cfg);
+  cfg.use_classes = true;
+  const auto gated = registerClouds(source, target, Eigen::Isometry3d::Identity(), ClassTable::defaults(), cfg);
+  EXPECT_FALSE(gated.labels_used);
+  EXPECT_LT(std::abs(gated.label_agreement), 0.1);
+  EXPECT_TRUE(gated.transform.isApprox(plain.transform, 1e-9));
+  cfg.min_label_agreement = -1.0;  // gate off: the labels are used whatever they say
+  const auto ungated = registerClouds(source, target, Eigen::Isometry3d::Identity(), ClassTable::defaults(), cfg);
+  EXPECT_TRUE(ungated.labels_used);
+  EXPECT_TRUE(std::isnan(ungated.label_agreement));
+}
+
 TEST(BadInput, DefinedResultsAndClearErrors) {
   const auto table = ClassTable::defaults();
   const Pair p = roomPair(1, 0.01, 4000);

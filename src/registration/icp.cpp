@@ -143,16 +143,48 @@ RegistrationResult registerClouds(const LabeledCloud& source, const LabeledCloud
   return result;
 }
 
-RegistrationResult registerClouds(const LabeledCloud& source, const RegistrationTarget& target,
-                                  const Eigen::Isometry3d& initial_guess, const ClassTable& classes,
-                                  const RegistrationConfig& config) {
-  config.validate();
-  if (!isFinite(initial_guess)) fail("registration", "initial guess has a non-finite entry");
-  source.checkConsistent("registration source");
-  if (config.use_classes) classes.checkCloud(source, "registration source");
-  if (!target.compatibleWith(config, classes))
-    fail("registration", "the prebuilt target was built with a different configuration or class table");
+namespace {
 
+std::vector<char> propertyFlags(const ClassTable& classes) {
+  std::vector<char> is_property;
+  for (ClassId id : classes.ids()) {
+    if (is_property.size() <= id) is_property.resize(std::size_t(id) + 1, 0);
+    is_property[id] = classes.isProperty(id);
+  }
+  return is_property;
+}
+
+// Label gate: do the labels agree with the target's where the geometry pairs points up? Each
+// labelled source point (placed with T) is paired with its nearest target point of any class;
+// the agreement rate is corrected for chance (Cohen's κ against the target's class shares).
+// Random labels give κ ≈ 0. NaN with fewer than min_label_pairs pairs.
+double labelAgreement(const LabeledCloud& source, const RegistrationTarget& target,
+                      const Eigen::Isometry3d& T, const std::vector<char>& is_property,
+                      std::size_t min_pairs) {
+  std::vector<double> share;
+  std::size_t paired = 0;
+  double agree = 0.0, chance = 0.0;
+  const Eigen::Matrix3f R = T.linear().cast<float>();
+  const Eigen::Vector3f t = T.translation().cast<float>();
+  for (std::size_t i = 0; i < source.size(); ++i) {
+    const ClassId cls = source.classes[i];
+    if (cls >= is_property.size() || !is_property[cls] || !source.points[i].allFinite()) continue;
+    const TargetMatch m = target.nearestAnyClass(R * source.points[i] + t, cls);
+    if (m.index < 0) continue;
+    if (share.size() <= cls) share.resize(std::size_t(cls) + 1, -1.0);
+    if (share[cls] < 0.0) share[cls] = target.classShare(cls);
+    ++paired;
+    agree += !m.cross_class;
+    chance += share[cls];
+  }
+  if (paired < std::max<std::size_t>(min_pairs, 1)) return std::numeric_limits<double>::quiet_NaN();
+  const double a = agree / static_cast<double>(paired), e = chance / static_cast<double>(paired);
+  return e < 1.0 ? (a - e) / (1.0 - e) : 1.0;
+}
+
+RegistrationResult solve(const LabeledCloud& source, const RegistrationTarget& target,
+                         const Eigen::Isometry3d& initial_guess, const ClassTable& classes,
+                         const RegistrationConfig& config, bool use_labels) {
   RegistrationResult result;
   result.transform = initial_guess;
   result.covariance = Matrix6d::Identity() * 1e6;  // "unknown" until a solution exists
@@ -191,13 +223,9 @@ RegistrationResult registerClouds(const LabeledCloud& source, const Registration
   const float mismatch_weight = soft ? static_cast<float>(1.0 - config.label_confidence * config.label_confidence) : 1.0f;
   // Class weights per source class id (1 when off or unknown).
   std::vector<float> class_weight;
-  std::vector<char> is_property;
-  const bool property_point = config.use_classes && config.property_point_to_point;
+  const std::vector<char> is_property = propertyFlags(classes);
+  const bool property_point = use_labels && config.property_point_to_point;
   const double tangent_scale = std::sqrt(config.property_tangent_weight);
-  for (ClassId id : classes.ids()) {
-    if (is_property.size() <= id) is_property.resize(std::size_t(id) + 1, 0);
-    is_property[id] = classes.isProperty(id);
-  }
   if (config.use_classes && config.use_class_weights) {
     for (ClassId id : classes.ids()) {
       if (class_weight.size() <= id) class_weight.resize(std::size_t(id) + 1, 1.0f);
@@ -206,6 +234,8 @@ RegistrationResult registerClouds(const LabeledCloud& source, const Registration
   }
 
   const std::size_t n = used.size();
+  result.labels_used = use_labels;
+
   const std::size_t chunks = (n + kChunk - 1) / kChunk;
   std::vector<Corr> corr(n);
   std::vector<Sums> partial(chunks);
@@ -231,13 +261,13 @@ RegistrationResult registerClouds(const LabeledCloud& source, const Registration
             const Eigen::Vector3f p = R * source.points[i] + t;
             const ClassId cls = source.classes[i];
             const float value = use_value ? source.property[i] : std::numeric_limits<float>::quiet_NaN();
-            const TargetMatch m = target.match(p, cls, value);
+            const TargetMatch m = use_labels ? target.match(p, cls, value) : target.nearestAnyClass(p, cls);
             Corr& cr = corr[k];
             cr.target = static_cast<std::int32_t>(m.index);
             if (m.index < 0) continue;
             // A same-class property pair constrains where the labelled patch is, which a plane
             // residual would throw away (a patch lies in its wall): it gets a 3-D residual.
-            const bool own_property = config.use_classes && !m.cross_class && is_property[cls];
+            const bool own_property = use_labels && !m.cross_class && is_property[cls];
             cr.point3 = !plane || (property_point && own_property);
             cr.anisotropic = plane && cr.point3 && tangent_scale < 1.0 && !normals[m.index].isZero();
             cr.group = own_property ? 1 : 0;
@@ -255,8 +285,8 @@ RegistrationResult registerClouds(const LabeledCloud& source, const Registration
             }
             cr.distance2 = m.distance2;
             cr.cross = m.cross_class;
-            cr.weight = cls < class_weight.size() ? class_weight[cls] : 1.0f;
-            if (m.cross_class && soft) cr.weight *= mismatch_weight;
+            cr.weight = use_labels && cls < class_weight.size() ? class_weight[cls] : 1.0f;
+            if (m.cross_class && soft && use_labels) cr.weight *= mismatch_weight;
           }
         }
       });
@@ -490,6 +520,38 @@ RegistrationResult registerClouds(const LabeledCloud& source, const Registration
     result.degenerate_directions = pc.degenerate_directions;
   }
   return result;
+}
+
+}  // namespace
+
+// The label gate around the solver. Labels agreeing at the initial guess are trusted outright.
+// Otherwise the guess may simply be off by more than a patch (exactly when labels help), so the
+// labelled solution is checked where it landed: labels that still disagree there are noise, and
+// the registration is redone without them (plain ICP) — property ICP degrades to plain ICP
+// instead of being pulled wherever wrong labels happen to cluster.
+RegistrationResult registerClouds(const LabeledCloud& source, const RegistrationTarget& target,
+                                  const Eigen::Isometry3d& initial_guess, const ClassTable& classes,
+                                  const RegistrationConfig& config) {
+  config.validate();
+  if (!isFinite(initial_guess)) fail("registration", "initial guess has a non-finite entry");
+  source.checkConsistent("registration source");
+  if (config.use_classes) classes.checkCloud(source, "registration source");
+  if (!target.compatibleWith(config, classes))
+    fail("registration", "the prebuilt target was built with a different configuration or class table");
+  if (!config.use_classes) return solve(source, target, initial_guess, classes, config, false);
+  if (config.min_label_agreement <= -1.0) return solve(source, target, initial_guess, classes, config, true);
+
+  const std::vector<char> is_property = propertyFlags(classes);
+  const double before = labelAgreement(source, target, initial_guess, is_property, config.min_label_pairs);
+  RegistrationResult labelled = solve(source, target, initial_guess, classes, config, true);
+  labelled.label_agreement = before;
+  if (std::isnan(before) || before >= config.min_label_agreement) return labelled;
+  const double after = labelAgreement(source, target, labelled.transform, is_property, config.min_label_pairs);
+  labelled.label_agreement = after;
+  if (std::isnan(after) || after >= config.min_label_agreement) return labelled;
+  RegistrationResult plain = solve(source, target, initial_guess, classes, config, false);
+  plain.label_agreement = after;
+  return plain;
 }
 
 }  // namespace hazmap

@@ -42,6 +42,8 @@ void RegistrationConfig::validate() const {
   require(std::isfinite(property_weight) && property_weight >= 0.0, "property_weight", "must be >= 0");
   require(property_tangent_weight >= 0.0 && property_tangent_weight <= 1.0, "property_tangent_weight",
           "must be in [0, 1]");
+  require(std::isfinite(min_label_agreement) && min_label_agreement <= 1.0, "min_label_agreement",
+          "must be finite and <= 1 (<= -1 = never ignore the labels)");
   require(finitePositive(robust_scale_factor), "robust_scale_factor", "must be > 0");
   require(finitePositive(robust_min_scale), "robust_min_scale", "must be > 0");
   require(std::isfinite(translation_tolerance) && translation_tolerance >= 0.0, "translation_tolerance", "must be >= 0");
@@ -110,6 +112,8 @@ RegistrationConfig registrationConfigFromYaml(const std::string& yaml, const std
     else if (key == "property_weight") get(c.property_weight);
     else if (key == "property_point_to_point") get(c.property_point_to_point);
     else if (key == "property_tangent_weight") get(c.property_tangent_weight);
+    else if (key == "min_label_agreement") get(c.min_label_agreement);
+    else if (key == "min_label_pairs") get(c.min_label_pairs);
     else if (key == "robust_kernel") {
       const std::string s = text();
       if (s == "none") c.robust_kernel = RobustKernel::None;
@@ -165,6 +169,8 @@ std::string toYamlString(const RegistrationConfig& c) {
   out << YAML::Key << "property_weight" << YAML::Value << c.property_weight;
   out << YAML::Key << "property_point_to_point" << YAML::Value << c.property_point_to_point;
   out << YAML::Key << "property_tangent_weight" << YAML::Value << c.property_tangent_weight;
+  out << YAML::Key << "min_label_agreement" << YAML::Value << c.min_label_agreement;
+  out << YAML::Key << "min_label_pairs" << YAML::Value << c.min_label_pairs;
   out << YAML::Key << "robust_kernel" << YAML::Value << toString(c.robust_kernel);
   out << YAML::Key << "robust_scale_factor" << YAML::Value << c.robust_scale_factor;
   out << YAML::Key << "robust_min_scale" << YAML::Value << c.robust_min_scale;

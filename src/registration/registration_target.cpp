@@ -207,4 +207,28 @@ TargetMatch RegistrationTarget::match(const Eigen::Vector3f& p, ClassId cls, flo
   return m;
 }
 
+TargetMatch RegistrationTarget::nearestAnyClass(const Eigen::Vector3f& p, ClassId cls) const {
+  TargetMatch m;
+  float best = radius_ * radius_;
+  const auto consider = [&](const NeighborIndex& index) {
+    float d2;
+    const std::int64_t j = index.nearest(p, best, d2);
+    if (j >= 0 && (m.index < 0 || d2 < best)) {
+      best = d2;
+      m = {j, d2, d2, cloud_.classes[j] != cls};
+    }
+  };
+  if (all_) consider(*all_);
+  else
+    for (const ClassSlot& slot : slots_) consider(*slot.index);
+  return m;
+}
+
+double RegistrationTarget::classShare(ClassId cls) const {
+  if (cloud_.empty()) return 0.0;
+  std::size_t n = 0;
+  for (ClassId c : cloud_.classes) n += c == cls;
+  return static_cast<double>(n) / static_cast<double>(cloud_.size());
+}
+
 }  // namespace hazmap

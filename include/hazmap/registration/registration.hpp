@@ -9,6 +9,7 @@
 // max_correspondence_distance. The gate is geometric, the ranking penalised. See
 // docs/registration.md for the details, the beyond-the-paper options and the covariance.
 #include <Eigen/Geometry>
+#include <limits>
 #include <cstddef>
 #include <map>
 #include <memory>
@@ -66,6 +67,14 @@ struct RegistrationConfig {
   /// (a corridor's axis; same test as degenerate_directions) the in-plane part gets full weight,
   /// because there it is the only information. 1 = plain 3-D residual everywhere.
   double property_tangent_weight = 0.02;
+  /// Label gate: at the initial guess, the labelled source points' agreement with the class of
+  /// their nearest target point, corrected for chance (Cohen's κ: 1 = always agree, 0 = no better
+  /// than the target's class shares). Below this the registration ignores the labels (runs as
+  /// plain ICP) and says so in RegistrationResult::labels_used. <= -1 = never ignore them.
+  double min_label_agreement = 0.3;
+  /// The gate decides only with at least this many labelled source points paired (else labels
+  /// are used: a handful cannot pull the estimate far).
+  std::size_t min_label_pairs = 20;
 
   // --- robust kernel with adaptive threshold ---
   RobustKernel robust_kernel = RobustKernel::GemanMcClure;
@@ -140,6 +149,10 @@ struct RegistrationResult {
   Matrix6d hessian = Matrix6d::Zero();  ///< Σ w JᵀJ at the solution (translation-first)
   double residual_sigma = 0.0;          ///< m, estimated residual standard deviation
   double kernel_scale = 0.0;            ///< m, final adaptive robust-kernel scale
+  /// Label gate (see RegistrationConfig::min_label_agreement): chance-corrected agreement, NaN
+  /// when not measured (plain ICP, or too few labelled points), and whether labels were used.
+  double label_agreement = std::numeric_limits<double>::quiet_NaN();
+  bool labels_used = false;
 };
 
 class RegistrationTarget;

@@ -51,6 +51,12 @@ class RegistrationTarget {
   /// value `value` (ignored unless the property term is on).
   TargetMatch match(const Eigen::Vector3f& p, ClassId cls, float value) const;
 
+  /// The nearest target point of any class within the default radius, no penalty (labels
+  /// ignored): what plain ICP would pair `p` with.
+  TargetMatch nearestAnyClass(const Eigen::Vector3f& p, ClassId cls) const;
+  /// Share of target points of class `cls` (0 for an absent class).
+  double classShare(ClassId cls) const;
+
   /// True if `config` asks for the same search structure this target was built with.
   bool compatibleWith(const RegistrationConfig& config, const ClassTable& classes) const;
   /// Search radius (m) for same-class partners of `cls` (the default radius for unknown classes).
