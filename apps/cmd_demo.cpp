@@ -19,6 +19,8 @@ const RegisterCommand registration{{
       app.add_option("--seed", o->seed, "Simulator seed");
       app.add_option("--frames", o->frames, "Use only the first N frames (0 = whole route)");
       app.add_option("--threads", o->threads, "Worker threads (0 = all cores)");
+      app.add_flag("!--paper-only", o->frame_to_map,
+                   "Only the paper's set-up (skip the frame-to-map tracking runs)");
       app.callback([o, out] {
         o->out_dir = *out;
         runDemo(*o, std::cout);

@@ -2,12 +2,14 @@
 
 #include <Eigen/Eigenvalues>
 #include <fstream>
+#include <sstream>
 #include <unistd.h>
 #include <nlohmann/json.hpp>
 
 #include "hazmap/core/error.hpp"
 #include "hazmap/io/atomic_file.hpp"
 #include "hazmap/io/trajectory.hpp"
+#include "hazmap/pipeline/demo.hpp"
 #include "hazmap/pipeline/run_outputs.hpp"
 #include "hazmap/pipeline/slam.hpp"
 #include "hazmap/sim/simulator.hpp"
@@ -166,4 +168,39 @@ TEST(RunCli, KittiSampleGivesAMapAndAHazardInventory) {
   const double step = (traj.poses[1].translation() - traj.poses[0].translation()).norm();
   EXPECT_GT(step, 0.4);
   EXPECT_LT(step, 1.2);
+}
+
+TEST(Demo, BothSetUpsWriteTheTableAndOutputs) {
+  const char* base = std::getenv("HAZMAP_TEST_TMP");
+  const fs::path dir = fs::path(base ? base : "/tmp/hazmap-test") / ("demo-" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  DemoConfig c;
+  c.out_dir = dir;
+  c.scenario = "corridor";
+  c.frames = 12;
+  c.progress = false;
+  std::ostringstream log;
+  const DemoReport report = runDemo(c, log);
+  ASSERT_EQ(report.rows.size(), 5u);
+  ASSERT_EQ(report.map_rows.size(), 5u);
+  EXPECT_EQ(report.rows[1].tracking, OdometryMode::FrameToFrame);
+  EXPECT_EQ(report.map_rows[1].tracking, OdometryMode::FrameToMap);
+  const nlohmann::json t = readJson(dir / "table2.json");
+  for (const char* m : {"odometry", "icp", "icp+pgo", "property-icp", "property-icp+pgo"}) {
+    for (const char* k : {"map_error_m", "ate_m", "frames_per_s"}) {
+      EXPECT_TRUE(t.at(m).at(k).is_number()) << m << " " << k;
+      EXPECT_TRUE(t.at("frame_to_map").at(m).at(k).is_number()) << m << " " << k;
+    }
+    EXPECT_TRUE(fs::exists(dir / m / "map.ply")) << m;
+    EXPECT_TRUE(fs::exists(dir / "frame-to-map" / m / "trajectory.kitti")) << m;
+  }
+  // ICP must beat the drifting encoders on any sequence, in both set-ups
+  EXPECT_LT(report.rows[1].map_error_m, report.rows[0].map_error_m);
+  EXPECT_LT(report.map_rows[3].map_error_m, report.map_rows[0].map_error_m);
+  EXPECT_TRUE(fs::exists(dir / "maps_side_by_side.png"));
+  EXPECT_TRUE(fs::exists(dir / "maps_side_by_side_frame_to_map.png"));
+  const std::string table = formatTable2(report);
+  EXPECT_NE(table.find("paper's set-up"), std::string::npos);
+  EXPECT_NE(table.find("Proposed ICP with pose graph optimization"), std::string::npos);
+  fs::remove_all(dir);
 }

@@ -15,16 +15,48 @@
 
 namespace hazmap {
 
+namespace {
+
+// The odometry row integrates encoder increments: there is no per-frame work to rate.
+std::string rate(const DemoRow& r) {
+  return r.method == SlamMethod::Odometry ? "-" : fmt::format("{:.1f}", r.frames_per_s);
+}
+
+nlohmann::json rowJson(const DemoRow& r) {
+  return {{"map_error_m", r.map_error_m},
+          {"map_error_p95_m", r.map_error_p95_m},
+          {"ate_m", r.ate_m},
+          {"frames_per_s", r.frames_per_s},
+          {"loops", r.loops},
+          {"odometry_fallbacks", r.fallbacks},
+          {"tracking", r.tracking == OdometryMode::FrameToFrame ? "frame-to-frame" : "frame-to-map"},
+          {"paper_map_error_m", paperMapError(r.method)}};
+}
+
+}  // namespace
+
 std::string formatTable2(const DemoReport& report) {
+  const bool both = report.map_rows.size() == report.rows.size();
   std::string s = fmt::format(
       "Table 2 — distance to the map built by the true trajectory ({} frames, {:.0f} m route)\n",
       report.frames, report.route_length_m);
-  s += fmt::format("{:<44} {:>10} {:>11} {:>9} {:>8} {:>10} {:>6}\n", "Method", "paper [m]",
-                   "hazmap [m]", "p95 [m]", "ATE [m]", "frames/s", "loops");
-  for (const auto& r : report.rows)
-    s += fmt::format("{:<44} {:>10.3f} {:>11.3f} {:>9.3f} {:>8.3f} {:>10.1f} {:>6}\n",
-                     paperRowTitle(r.method), paperMapError(r.method), r.map_error_m,
-                     r.map_error_p95_m, r.ate_m, r.frames_per_s, r.loops);
+  if (both)
+    s += fmt::format("{:<44} {:>9}   {:-^44}   {:-^33}\n", "", "",
+                     " paper's set-up: ICP frame to frame ", " hazmap: frame to local map ");
+  s += fmt::format("{:<44} {:>9}   {:>9} {:>8} {:>8} {:>9} {:>6}", "Method", "paper [m]", "map [m]",
+                   "p95 [m]", "ATE [m]", "frames/s", "loops");
+  if (both) s += fmt::format("   {:>9} {:>8} {:>8} {:>5}", "map [m]", "ATE [m]", "frames/s", "loops");
+  s += "\n";
+  for (std::size_t i = 0; i < report.rows.size(); ++i) {
+    const DemoRow& r = report.rows[i];
+    s += fmt::format("{:<44} {:>9.3f}   {:>9.3f} {:>8.3f} {:>8.3f} {:>9} {:>6}", paperRowTitle(r.method),
+                     paperMapError(r.method), r.map_error_m, r.map_error_p95_m, r.ate_m, rate(r), r.loops);
+    if (both) {
+      const DemoRow& m = report.map_rows[i];
+      s += fmt::format("   {:>9.3f} {:>8.3f} {:>8} {:>5}", m.map_error_m, m.ate_m, rate(m), m.loops);
+    }
+    s += "\n";
+  }
   return s;
 }
 
@@ -52,59 +84,69 @@ DemoReport runDemo(const DemoConfig& config, std::ostream& out) {
                      sim.drift.final_position_error, sim.total_seconds);
 
   const Sequence sequence = Sequence::open(seq_dir);
-  std::vector<MapPanel> panels;
-  std::vector<RunArtifacts> artifacts(config.methods.size());
-  std::vector<SlamResult> results(config.methods.size());
-  nlohmann::json table = nlohmann::json::object();
-  for (std::size_t m = 0; m < config.methods.size(); ++m) {
-    const SlamMethod method = config.methods[m];
-    SlamConfig slam = SlamConfig::forMethod(method);
-    slam.threads = config.threads;
-    ProgressBar bar(toString(method), sequence.size(), config.progress ? -1 : 0);
-    results[m] = runSlam(sequence, slam, [&](std::size_t done, std::size_t) { bar.update(done); });
-    bar.finish();
-    const RunSummary summary =
-        writeRunOutputs(sequence, results[m], slam, OutputConfig{}, config.out_dir / toString(method),
-                        &artifacts[m]);
-    DemoRow row;
-    row.method = method;
-    row.map_error_m = summary.map_error ? summary.map_error->point.mean : 0.0;
-    row.map_error_p95_m = summary.map_error ? summary.map_error->point.p95 : 0.0;
-    row.ate_m = summary.trajectory ? summary.trajectory->ape.translation.rmse : 0.0;
-    row.frames_per_s = results[m].framesPerSecond();
-    row.loops = results[m].loops.size();
-    for (const auto& f : results[m].frames) row.fallbacks += (usesIcp(method) && f.index > 0 && !f.icp_used);
-    report.rows.push_back(row);
-    table[toString(method)] = {{"map_error_m", row.map_error_m},
-                               {"map_error_p95_m", row.map_error_p95_m},
-                               {"ate_m", row.ate_m},
-                               {"frames_per_s", row.frames_per_s},
-                               {"loops", row.loops},
-                               {"odometry_fallbacks", row.fallbacks},
-                               {"paper_map_error_m", paperMapError(method)}};
-    out << fmt::format("  {:<18} map error {:.3f} m, ATE {:.3f} m, {:.0f} frames/s, {} loops\n",
-                       toString(method), row.map_error_m, row.ate_m, row.frames_per_s, row.loops);
-  }
-  for (std::size_t m = 0; m < config.methods.size(); ++m)
-    panels.push_back({fmt::format("{} - map error {:.3f} m", toString(config.methods[m]),
-                                  report.rows[m].map_error_m),
-                      &artifacts[m].map, positionsOf(results[m].estimate), artifacts[m].hazards});
   TopDownConfig top;
-  double z = 0;
-  for (const auto& p : sequence.groundTruth() ? sequence.groundTruth()->poses : results[0].estimate.poses)
-    z += p.translation().z();
-  top.clip_above = z / static_cast<double>(sequence.size()) + 1.5;
+  if (const auto& poses = sequence.groundTruth() ? sequence.groundTruth() : sequence.odometry()) {
+    double z = 0;
+    for (const auto& p : poses->poses) z += p.translation().z();
+    top.clip_above = z / static_cast<double>(poses->poses.size()) + 1.5;  // drop the ceiling
+  }
   top.draw_hazard_labels = false;
-  MontageConfig montage;
-  montage.title = "hazmap demo: the five methods of Table 2 (heat red, water blue)";
-  writePng(config.out_dir / "maps_side_by_side.png",
-           renderMapMontage(panels, sequence.classTable(), top, montage));
-  nlohmann::json doc = table;
-  writeTextAtomically(config.out_dir / "table2.json", doc.dump(2) + "\n");
+
+  // One pass over the methods with one tracking mode: outputs, rows, the side-by-side PNG.
+  const auto runAll = [&](OdometryMode mode, const std::filesystem::path& dir, const std::string& png,
+                          const std::string& title, std::vector<DemoRow>& rows) {
+    const std::string tag = mode == OdometryMode::FrameToFrame ? "frame" : "map";
+    std::vector<RunArtifacts> artifacts(config.methods.size());
+    std::vector<SlamResult> results(config.methods.size());
+    for (std::size_t m = 0; m < config.methods.size(); ++m) {
+      const SlamMethod method = config.methods[m];
+      SlamConfig slam = SlamConfig::forMethod(method);
+      slam.odometry.mode = mode;
+      slam.threads = config.threads;
+      ProgressBar bar(fmt::format("{} ({})", toString(method), tag), sequence.size(), config.progress ? -1 : 0);
+      results[m] = runSlam(sequence, slam, [&](std::size_t done, std::size_t) { bar.update(done); });
+      bar.finish();
+      const RunSummary summary =
+          writeRunOutputs(sequence, results[m], slam, OutputConfig{}, dir / toString(method), &artifacts[m]);
+      DemoRow row;
+      row.method = method;
+      row.tracking = mode;
+      row.map_error_m = summary.map_error ? summary.map_error->point.mean : 0.0;
+      row.map_error_p95_m = summary.map_error ? summary.map_error->point.p95 : 0.0;
+      row.ate_m = summary.trajectory ? summary.trajectory->ape.translation.rmse : 0.0;
+      row.frames_per_s = results[m].framesPerSecond();
+      row.loops = results[m].loops.size();
+      for (const auto& f : results[m].frames) row.fallbacks += (usesIcp(method) && f.index > 0 && !f.icp_used);
+      rows.push_back(row);
+      out << fmt::format("  {:<18} {:<5} map error {:.3f} m, ATE {:.3f} m, {} frames/s, {} loops\n",
+                         toString(method), tag, row.map_error_m, row.ate_m, rate(row), row.loops);
+    }
+    std::vector<MapPanel> panels;
+    for (std::size_t m = 0; m < config.methods.size(); ++m)
+      panels.push_back({fmt::format("{} - map error {:.3f} m", toString(config.methods[m]), rows[m].map_error_m),
+                        &artifacts[m].map, positionsOf(results[m].estimate), artifacts[m].hazards});
+    MontageConfig montage;
+    montage.title = title;
+    writePng(config.out_dir / png, renderMapMontage(panels, sequence.classTable(), top, montage));
+  };
+  runAll(OdometryMode::FrameToFrame, config.out_dir, "maps_side_by_side.png",
+         "hazmap demo: Table 2's five methods, the paper's set-up (heat red, water blue)", report.rows);
+  if (config.frame_to_map)
+    runAll(OdometryMode::FrameToMap, config.out_dir / "frame-to-map", "maps_side_by_side_frame_to_map.png",
+           "hazmap demo: the five methods with frame-to-map tracking (heat red, water blue)", report.map_rows);
+
+  nlohmann::json table = nlohmann::json::object();
+  for (const DemoRow& r : report.rows) table[toString(r.method)] = rowJson(r);
+  if (!report.map_rows.empty()) {
+    nlohmann::json f2m = nlohmann::json::object();
+    for (const DemoRow& r : report.map_rows) f2m[toString(r.method)] = rowJson(r);
+    table["frame_to_map"] = f2m;
+  }
+  writeTextAtomically(config.out_dir / "table2.json", table.dump(2) + "\n");
   report.total_seconds = std::chrono::duration<double>(Clock::now() - t0).count();
   out << "\n" << formatTable2(report);
-  out << fmt::format("\nWrote {} (sequence/, one folder per method, maps_side_by_side.png, table2.json) in {:.1f} s\n",
-                     config.out_dir.string(), report.total_seconds);
+  out << fmt::format("\nWrote {} (sequence/, one folder per method{}, maps_side_by_side*.png, table2.json) in {:.1f} s\n",
+                     config.out_dir.string(), config.frame_to_map ? ", frame-to-map/" : "", report.total_seconds);
   return report;
 }
 

@@ -42,7 +42,8 @@ const char* toString(CandidateMethod method);
 ///                    min_translation_sigma: 0.01, min_rotation_sigma: 0.001,
 ///                    registration: {...}}  # the registration stage's keys
 ///                                          # (docs/registration.md); defaults differ in
-///                                          # max_correspondence_distance 1.5, max_iterations 60
+///                                          # max_correspondence_distance 1.5, max_iterations 60,
+///                                          # index kdtree
 ///     consistency:  {translation_drift_per_metre: 0.04, rotation_drift_per_metre: 0.004,
 ///                    translation_sigma_floor: 0.1, rotation_sigma_floor: 0.01,
 ///                    gate_probability: 0.999, use_drift_gate: true, use_pairwise: true}

@@ -24,6 +24,9 @@ struct VerificationConfig {
     r.max_correspondence_distance = 1.5;
     r.max_iterations = 60;
     r.max_source_points = 6000;
+    // Dense keyframes (0.15 m voxels) searched 1.5 m wide: a voxel hash with 1.5 m cells scans
+    // ~100 points per cell; the k-d tree verified the same 16 naraha loops in 58 % of the time.
+    r.index = SpatialIndexKind::KdTree;
     return r;
   }();
   /// Fraction of source points with a correspondence. Keyframes of one place from 1–3 m apart
