@@ -156,9 +156,23 @@ RegistrationTarget LocalMap::makeTarget(const ClassTable& classes, const Registr
   const int ring = normal_ring_;
   const int budget = config_.normal_updates;
   const std::size_t k_max = static_cast<std::size_t>(std::max(config.normal_neighbors, 1));
+  // Neighbour voxels in the order a k-NN search should visit them (nearest first: own voxel,
+  // faces, edges, corners, then the outer rings).
+  std::vector<std::array<int, 3>> offsets;
+  for (int dx = -ring; dx <= ring; ++dx)
+    for (int dy = -ring; dy <= ring; ++dy)
+      for (int dz = -ring; dz <= ring; ++dz) offsets.push_back({dx, dy, dz});
+  std::stable_sort(offsets.begin(), offsets.end(), [](const auto& a, const auto& b) {
+    const auto m = [](const auto& o) {
+      return std::max({std::abs(o[0]), std::abs(o[1]), std::abs(o[2])}) * 8 + std::abs(o[0]) + std::abs(o[1]) + std::abs(o[2]);
+    };
+    return m(a) < m(b);
+  });
+  const float vs = static_cast<float>(config_.voxel_size);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, stale.size(), 8), [&](const auto& range) {
-    std::vector<Eigen::Vector3f> candidates, neighbours;
-    std::vector<std::pair<float, std::uint32_t>> near;
+    std::vector<const Voxel*> around(offsets.size());
+    std::vector<std::pair<float, Eigen::Vector3f>> best;  // sorted by distance, at most k
+    std::vector<Eigen::Vector3f> neighbours;
     for (std::size_t s_i = range.begin(); s_i < range.end(); ++s_i) {
       Voxel& v = voxels_[stale[s_i]];
       v.normals.resize(v.points.size(), Eigen::Vector3f::Zero());
@@ -169,30 +183,44 @@ RegistrationTarget LocalMap::makeTarget(const ClassTable& classes, const Registr
       bool any = false;
       for (std::size_t i = 0; i < v.points.size() && !any; ++i) any = due(i);
       if (!any) continue;
-      candidates.clear();
-      for (int dx = -ring; dx <= ring; ++dx)
-        for (int dy = -ring; dy <= ring; ++dy)
-          for (int dz = -ring; dz <= ring; ++dz) {
-            const auto it = index_.find(packKey(v.x + dx, v.y + dy, v.z + dz));
-            if (it == index_.end()) continue;
-            const auto& pts = voxels_[it->second].points;
-            candidates.insert(candidates.end(), pts.begin(), pts.end());
-          }
+      for (std::size_t o = 0; o < offsets.size(); ++o) {
+        const auto it = index_.find(packKey(v.x + offsets[o][0], v.y + offsets[o][1], v.z + offsets[o][2]));
+        around[o] = it == index_.end() ? nullptr : &voxels_[it->second];
+      }
+      const Eigen::Vector3f lo(static_cast<float>(v.x) * vs, static_cast<float>(v.y) * vs,
+                               static_cast<float>(v.z) * vs);
       for (std::size_t i = 0; i < v.points.size(); ++i) {
         if (!due(i)) continue;
         const Eigen::Vector3f p = v.points[i];
-        near.clear();
-        for (std::uint32_t c = 0; c < candidates.size(); ++c) {
-          const float d2 = (candidates[c] - p).squaredNorm();
-          if (d2 < r2) near.emplace_back(d2, c);
+        const Eigen::Vector3f f = ((p - lo) / vs).cwiseMax(0.0f).cwiseMin(1.0f);  // position in the voxel
+        best.clear();
+        for (std::size_t o = 0; o < offsets.size(); ++o) {
+          const Voxel* w = around[o];
+          if (!w) continue;
+          // lower bound of the distance from p to voxel w's box
+          float lb2 = 0.0f;
+          for (int a = 0; a < 3; ++a) {
+            const int d = offsets[o][a];
+            const float g = d > 0 ? (static_cast<float>(d) - f[a]) : d < 0 ? (f[a] - static_cast<float>(d + 1)) : 0.0f;
+            lb2 += g * g;
+          }
+          lb2 *= vs * vs;
+          const float bound = best.size() == k_max ? best.back().first : r2;
+          if (lb2 >= bound) continue;
+          for (const Eigen::Vector3f& q : w->points) {
+            const float d2 = (q - p).squaredNorm();
+            if (!(d2 < r2)) continue;
+            if (best.size() == k_max) {
+              if (d2 >= best.back().first) continue;
+              best.pop_back();
+            }
+            auto at = std::upper_bound(best.begin(), best.end(), d2,
+                                       [](float x, const auto& e) { return x < e.first; });
+            best.insert(at, {d2, q});
+          }
         }
-        if (near.size() > k_max) {
-          std::nth_element(near.begin(), near.begin() + static_cast<std::ptrdiff_t>(k_max - 1), near.end());
-          near.resize(k_max);
-        }
-        std::sort(near.begin(), near.end());
         neighbours.clear();
-        for (const auto& [d2, c] : near) neighbours.push_back(candidates[c]);
+        for (const auto& e : best) neighbours.push_back(e.second);
         v.normals[i] = planeNormal(p, neighbours, nc);
         if (v.updates[i] < 255) ++v.updates[i];
       }
