@@ -134,7 +134,8 @@ TEST(LocalMapNormals, FreshMapMatchesTheTargetsOwnEstimate) {
 }
 
 // After more scans arrive (and the robot moves so that far voxels are dropped), the cached normals
-// still equal a from-scratch estimate: the staleness propagation misses nothing. Results do not
+// still equal a from-scratch estimate: the change tracking (k-th neighbour reach, dropped voxels)
+// misses nothing. Results do not
 // depend on the thread count.
 TEST(LocalMapNormals, CachedAcrossFramesEqualsFreshAndThreadIndependent) {
   const ClassTable table = ClassTable::semanticKitti();
@@ -163,7 +164,8 @@ TEST(LocalMapNormals, CachedAcrossFramesEqualsFreshAndThreadIndependent) {
         const Eigen::Vector3f a = cached.normals()[k], b = fresh.normals()[k];
         same += (a.isZero() && b.isZero()) || (!a.isZero() && !b.isZero() && std::abs(a.dot(b)) > 0.9999f);
       }
-      EXPECT_GE(same, cached.size() - cached.size() / 1000) << "frame " << i;
+      // exact up to ties among equidistant neighbours (none occurred on these scans)
+      EXPECT_LE(cached.size() - same, cached.size() / 10000) << "frame " << i;
       last = cached.normals();
     }
     runs.push_back(last);

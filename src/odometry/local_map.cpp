@@ -55,7 +55,7 @@ void LocalMap::integrate(const LabeledCloud& scan, const Eigen::Vector3d& origin
     const auto z = static_cast<std::int64_t>(std::floor(p.z() * inv));
     const std::uint64_t key = packKey(x, y, z);
     auto [it, inserted] = index_.try_emplace(key, static_cast<std::uint32_t>(voxels_.size()));
-    if (inserted) voxels_.push_back(Voxel{x, y, z, {}, {}, {}, 0, {}, {}, false, true});
+    if (inserted) voxels_.push_back(Voxel{x, y, z, {}, {}, {}, 0, {}, {}, {}, {}, true, false, true});
     Voxel& v = voxels_[it->second];
     const ClassId cls = scan.classes[i];
     const bool prop = table.isProperty(cls);
@@ -71,17 +71,21 @@ void LocalMap::integrate(const LabeledCloud& scan, const Eigen::Vector3d& origin
       v.classes.push_back(cls);
       v.values.push_back(value);
       v.property_points += prop;
+      v.delta.push_back(p);
       v.changed = true;
       ++points_;
     } else if (prop && 2 * v.property_points < config_.max_points_per_voxel) {
       // Replace the oldest unlabelled point.
       for (std::size_t k = 0; k < v.points.size(); ++k) {
         if (table.isProperty(v.classes[k])) continue;
+        v.delta.push_back(v.points[k]);
+        v.delta.push_back(p);
         v.points[k] = p;
         v.classes[k] = cls;
         v.values[k] = value;
         if (k < v.normals.size()) v.normals[k].setZero();  // estimated anew
         if (k < v.updates.size()) v.updates[k] = 0;
+        if (k < v.reach2.size()) v.reach2[k] = -1.0f;
         ++v.property_points;
         v.changed = true;
         break;
@@ -112,18 +116,20 @@ void LocalMap::integrate(const LabeledCloud& scan, const Eigen::Vector3d& origin
   for (Voxel& v : voxels_) {
     if (!v.changed) continue;
     v.changed = false;
-    invalidateAround(v.x, v.y, v.z);
+    invalidateAround(v.x, v.y, v.z, false);
   }
-  for (const auto& d : dropped) invalidateAround(d[0], d[1], d[2]);
+  for (const auto& d : dropped) invalidateAround(d[0], d[1], d[2], true);
 }
 
-void LocalMap::invalidateAround(std::int64_t x, std::int64_t y, std::int64_t z) {
+void LocalMap::invalidateAround(std::int64_t x, std::int64_t y, std::int64_t z, bool force) {
   const int r = normal_ring_;
   for (std::int64_t dx = -r; dx <= r; ++dx)
     for (std::int64_t dy = -r; dy <= r; ++dy)
       for (std::int64_t dz = -r; dz <= r; ++dz) {
         const auto it = index_.find(packKey(x + dx, y + dy, z + dz));
-        if (it != index_.end()) voxels_[it->second].normals_valid = false;
+        if (it == index_.end()) continue;
+        voxels_[it->second].normals_valid = false;
+        voxels_[it->second].force = voxels_[it->second].force || force;
       }
 }
 
@@ -137,7 +143,10 @@ RegistrationTarget LocalMap::makeTarget(const ClassTable& classes, const Registr
     return RegistrationTarget(std::move(out), classes, config, {}, {});
 
   if (config.normal_neighbors != normal_neighbors_ || config.normal_radius != normal_radius_) {
-    for (Voxel& v : voxels_) v.normals_valid = false;
+    for (Voxel& v : voxels_) {
+      v.normals_valid = false;
+      v.force = true;
+    }
     normal_neighbors_ = config.normal_neighbors;
     normal_radius_ = config.normal_radius;
     normal_ring_ = std::max(1, static_cast<int>(std::ceil(config.normal_radius / config_.voxel_size)));
@@ -177,16 +186,25 @@ RegistrationTarget LocalMap::makeTarget(const ClassTable& classes, const Registr
       Voxel& v = voxels_[stale[s_i]];
       v.normals.resize(v.points.size(), Eigen::Vector3f::Zero());
       v.updates.resize(v.points.size(), 0);
-      const auto due = [&](std::size_t i) {
-        return v.normals[i].isZero() || budget == 0 || v.updates[i] < budget;
-      };
-      bool any = false;
-      for (std::size_t i = 0; i < v.points.size() && !any; ++i) any = due(i);
-      if (!any) continue;
+      v.reach2.resize(v.points.size(), -1.0f);
       for (std::size_t o = 0; o < offsets.size(); ++o) {
         const auto it = index_.find(packKey(v.x + offsets[o][0], v.y + offsets[o][1], v.z + offsets[o][2]));
         around[o] = it == index_.end() ? nullptr : &voxels_[it->second];
       }
+      // Could point i's neighbour set have changed? (exact: a change beyond its k-th neighbour
+      // cannot enter the set, a removed point beyond it was not in it)
+      const auto moved = [&](std::size_t i) {
+        if (v.force || v.reach2[i] < 0.0f) return true;
+        for (const Voxel* w : around)
+          if (w)
+            for (const Eigen::Vector3f& d : w->delta)
+              if ((d - v.points[i]).squaredNorm() <= v.reach2[i]) return true;
+        return false;
+      };
+      const auto due = [&](std::size_t i) {
+        const bool allowed = v.normals[i].isZero() || budget == 0 || v.updates[i] < budget;
+        return allowed && moved(i);
+      };
       const Eigen::Vector3f lo(static_cast<float>(v.x) * vs, static_cast<float>(v.y) * vs,
                                static_cast<float>(v.z) * vs);
       for (std::size_t i = 0; i < v.points.size(); ++i) {
@@ -206,7 +224,7 @@ RegistrationTarget LocalMap::makeTarget(const ClassTable& classes, const Registr
           }
           lb2 *= vs * vs;
           const float bound = best.size() == k_max ? best.back().first : r2;
-          if (lb2 >= bound) continue;
+          if (lb2 * 0.9999f >= bound) continue;  // margin for the float box position
           for (const Eigen::Vector3f& q : w->points) {
             const float d2 = (q - p).squaredNorm();
             if (!(d2 < r2)) continue;
@@ -222,6 +240,7 @@ RegistrationTarget LocalMap::makeTarget(const ClassTable& classes, const Registr
         neighbours.clear();
         for (const auto& e : best) neighbours.push_back(e.second);
         v.normals[i] = planeNormal(p, neighbours, nc);
+        v.reach2[i] = best.size() == k_max ? best.back().first : r2;
         if (v.updates[i] < 255) ++v.updates[i];
       }
     }
@@ -230,6 +249,8 @@ RegistrationTarget LocalMap::makeTarget(const ClassTable& classes, const Registr
   normals.reserve(points_);
   for (Voxel& v : voxels_) {
     v.normals_valid = true;
+    v.force = false;
+    v.delta.clear();
     v.normals.resize(v.points.size(), Eigen::Vector3f::Zero());
     normals.insert(normals.end(), v.normals.begin(), v.normals.end());
   }

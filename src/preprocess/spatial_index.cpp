@@ -60,8 +60,7 @@ VoxelHashIndex::VoxelHashIndex(std::span<const Eigen::Vector3f> points,
   const std::size_t n = ids.empty() ? points.size() : ids.size();
   const std::uint64_t table_size = std::bit_ceil(std::max<std::uint64_t>(16, 2 * n));
   table_mask_ = table_size - 1;
-  table_keys_.assign(table_size, kEmpty);
-  table_cells_.assign(table_size, 0);
+  table_.assign(table_size, Slot{kEmpty, 0});
 
   std::vector<std::uint32_t> cell_of(n, ~0u);
   std::vector<std::uint32_t> counts;
@@ -76,13 +75,13 @@ VoxelHashIndex::VoxelHashIndex(std::span<const Eigen::Vector3f> points,
                  static_cast<std::int64_t>(std::floor(p.z() * inv_cell_)), key))
       continue;  // farther than ~1e6 voxels from the origin: not indexable
     std::uint64_t slot = hashKey(key) & table_mask_;
-    while (table_keys_[slot] != kEmpty && table_keys_[slot] != key) slot = (slot + 1) & table_mask_;
-    if (table_keys_[slot] == kEmpty) {
-      table_keys_[slot] = key;
-      table_cells_[slot] = static_cast<std::uint32_t>(counts.size());
+    while (table_[slot].key != kEmpty && table_[slot].key != key) slot = (slot + 1) & table_mask_;
+    if (table_[slot].key == kEmpty) {
+      table_[slot].key = key;
+      table_[slot].cell = static_cast<std::uint32_t>(counts.size());
       counts.push_back(0);
     }
-    cell_of[i] = table_cells_[slot];
+    cell_of[i] = table_[slot].cell;
     ++counts[cell_of[i]];
   }
   cell_begin_.assign(counts.size() + 1, 0);
@@ -115,13 +114,14 @@ VoxelHashIndex::VoxelHashIndex(std::span<const Eigen::Vector3f> points,
   });
 }
 
-std::int64_t VoxelHashIndex::findCell(std::int64_t x, std::int64_t y, std::int64_t z) const {
+inline std::int64_t VoxelHashIndex::findCell(std::int64_t x, std::int64_t y, std::int64_t z) const {
   std::uint64_t key;
   if (!packKey(x, y, z, key)) return -1;
   std::uint64_t slot = hashKey(key) & table_mask_;
   while (true) {
-    const std::uint64_t k = table_keys_[slot];
-    if (k == key) return table_cells_[slot];
+    const Slot& e = table_[slot];
+    if (e.key == key) return e.cell;
+    const std::uint64_t k = e.key;
     if (k == kEmpty) return -1;
     slot = (slot + 1) & table_mask_;
   }

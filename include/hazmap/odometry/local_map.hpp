@@ -40,10 +40,11 @@ class LocalMap {
   LabeledCloud cloud() const;
   /// The map as a registration target (the same points as cloud(), classes and values kept),
   /// equal to RegistrationTarget(cloud(), classes, config) up to ties among equidistant normal
-  /// neighbours. Point-to-plane normals are cached per point and re-estimated only in voxels
-  /// within normal_radius of a voxel that changed since the last call (a point added or
-  /// replaced, a voxel dropped) — see normal_updates. The k nearest neighbours come from the
-  /// map's own voxels (one candidate set per voxel). Deterministic, thread-count independent.
+  /// neighbours. Point-to-plane normals are cached per point; a point's normal is re-estimated
+  /// only when its k-nearest-neighbour set may have changed since the last call: a point was
+  /// added or removed closer than its k-th neighbour (or within normal_radius when it had fewer),
+  /// or a voxel within normal_radius was dropped (see also normal_updates). The neighbours come
+  /// from the map's own voxels. Deterministic, thread-count independent.
   RegistrationTarget makeTarget(const ClassTable& classes, const RegistrationConfig& config);
   std::size_t size() const { return points_; }
   std::size_t voxels() const { return voxels_.size(); }
@@ -59,11 +60,16 @@ class LocalMap {
     int property_points = 0;
     std::vector<Eigen::Vector3f> normals;  ///< cached, valid when normals_valid
     std::vector<std::uint8_t> updates;     ///< how often each point's normal was estimated
+    /// Squared distance of each point's k-th normal neighbour (normal_radius² when it had fewer;
+    /// < 0 = not estimated yet): a change farther away cannot alter its neighbour set.
+    std::vector<float> reach2;
+    std::vector<Eigen::Vector3f> delta;  ///< points added or removed since the last makeTarget()
+    bool force = false;  ///< re-estimate every point (a neighbouring voxel was dropped)
     bool normals_valid = false;
     bool changed = false;  ///< modified during the current integrate()
   };
   /// Marks the normals of every voxel within the normal ring of (x, y, z) stale.
-  void invalidateAround(std::int64_t x, std::int64_t y, std::int64_t z);
+  void invalidateAround(std::int64_t x, std::int64_t y, std::int64_t z, bool force);
   LocalMapConfig config_;
   std::vector<Voxel> voxels_;
   std::unordered_map<std::uint64_t, std::uint32_t> index_;  ///< voxel key → position in voxels_

@@ -56,8 +56,11 @@ class VoxelHashIndex final : public NeighborIndex {
   std::vector<Eigen::Vector3f> points_;  ///< sorted by voxel
   std::vector<std::uint32_t> ids_;       ///< original index of points_[i]
   std::vector<std::uint32_t> cell_begin_;  ///< voxel v holds points_[cell_begin_[v], cell_begin_[v+1])
-  std::vector<std::uint64_t> table_keys_;  ///< open addressing, kEmpty = unused
-  std::vector<std::uint32_t> table_cells_;
+  struct Slot {
+    std::uint64_t key;   ///< kEmpty = unused
+    std::uint32_t cell;
+  };
+  std::vector<Slot> table_;  ///< open addressing; key and cell side by side (one cache line per probe)
   std::uint64_t table_mask_ = 0;
   std::vector<Offset> offsets_;  ///< sorted by lower_bound2
 };
