@@ -58,7 +58,7 @@ const RegisterCommand registration{{
                      "odometry | icp | icp+pgo | property-icp | property-icp+pgo (the paper's Table 2 rows)");
       app.add_option("--out", o->out, "Output folder (created if missing)")->required();
       app.add_option("--config", o->config,
-                     "YAML with sections tracking:, loop_closure:, graph:, slam:, wheel_noise: "
+                     "YAML with sections odometry:, loop_closure:, graph:, slam:, wheel_noise: "
                      "(overrides the method's defaults)");
       app.add_option("--classes", o->classes,
                      "Class table: 'default', 'semantic-kitti' or a YAML file (overrides hazmap.yaml)");

@@ -132,11 +132,37 @@ TEST(LoopVerify, DetectorClosesTheRouteLoopUnderDrift) {
   dcfg.method = CandidateMethod::Distance;
   LoopDetector dist(table, dcfg);
   for (std::size_t i = 0; i < truth.size(); ++i) {
-    dist.addKeyframe(det.cloud(i));
+    dist.addKeyframe(*det.cloud(i));
     if (i + 6 < truth.size()) continue;
     dist.detect(i, estimate);
   }
   for (const auto& l : dist.acceptedLoops()) EXPECT_FALSE(isTrueLoop(l, truth));
+
+  // Bounded memory: with a loader and 3 resident keyframes, old clouds are dropped and reloaded
+  // when a candidate needs them, and the loops found are exactly the same.
+  std::vector<LabeledCloud> raw;
+  std::mt19937 rng2(9);
+  for (std::size_t i = 0; i < truth.size(); ++i) raw.push_back(test::observe(world, truth[i], 12.0, 0.02, 0.6, rng2));
+  LoopClosureConfig bcfg = cfg;
+  bcfg.resident_keyframes = 3;
+  LoopDetector bounded(table, bcfg);
+  std::size_t loads = 0;
+  bounded.setCloudLoader([&](std::size_t k) {
+    ++loads;
+    return raw.at(k);
+  });
+  for (std::size_t i = 0; i < truth.size(); ++i) {
+    bounded.addKeyframe(raw[i]);
+    EXPECT_LE(bounded.residentClouds(), 3u);
+    if (i + 6 < truth.size()) continue;
+    bounded.detect(i, estimate);
+  }
+  EXPECT_GT(loads, 0u);
+  ASSERT_EQ(bounded.acceptedLoops().size(), accepted.size());
+  for (std::size_t k = 0; k < accepted.size(); ++k) {
+    EXPECT_EQ(bounded.acceptedLoops()[k].from, accepted[k].from);
+    EXPECT_TRUE(bounded.acceptedLoops()[k].T_from_to.isApprox(accepted[k].T_from_to, 1e-9));
+  }
 }
 
 }  // namespace

@@ -29,6 +29,7 @@ void LoopClosureConfig::validate() const {
   if (landmark_window < 1) fail("loop_closure", "landmark_window must be >= 1");
   if (!(landmark_merge_distance > 0.0) || !std::isfinite(landmark_merge_distance))
     fail("loop_closure", "landmark_merge_distance must be a finite number > 0");
+  if (resident_keyframes < 1) fail("loop_closure", "resident_keyframes must be >= 1");
   if (!(keyframe_voxel >= 0.0) || !std::isfinite(keyframe_voxel))
     fail("loop_closure", "keyframe_voxel must be >= 0 (0 = no downsampling)");
 }
@@ -122,6 +123,7 @@ LoopClosureConfig LoopClosureConfig::fromYamlString(const std::string& yaml, con
                                      {"both", CandidateMethod::Both}});
     top.getSize("max_loops_per_keyframe", c.max_loops_per_keyframe);
     top.get("keyframe_voxel", c.keyframe_voxel);
+    top.getSize("resident_keyframes", c.resident_keyframes);
     top.getSize("landmark_window", c.landmark_window);
     top.get("landmark_merge_distance", c.landmark_merge_distance);
 
@@ -201,6 +203,7 @@ std::string LoopClosureConfig::toYamlString() const {
   o << YAML::Key << "method" << YAML::Value << toString(method);
   o << YAML::Key << "max_loops_per_keyframe" << YAML::Value << max_loops_per_keyframe;
   o << YAML::Key << "keyframe_voxel" << YAML::Value << keyframe_voxel;
+  o << YAML::Key << "resident_keyframes" << YAML::Value << resident_keyframes;
   o << YAML::Key << "landmark_window" << YAML::Value << landmark_window;
   o << YAML::Key << "landmark_merge_distance" << YAML::Value << landmark_merge_distance;
   o << YAML::Key << "landmarks" << YAML::Value << YAML::BeginMap;

@@ -10,17 +10,38 @@ LoopDetector::LoopDetector(ClassTable classes, LoopClosureConfig config)
   config_.validate();
 }
 
-std::size_t LoopDetector::addKeyframe(LabeledCloud cloud) {
-  cloud.checkConsistent("loop closure keyframe " + std::to_string(clouds_.size()));
-  landmarks_.push_back(extractLandmarks(cloud, classes_, config_.landmarks));
+LabeledCloud LoopDetector::prepare(LabeledCloud cloud) const {
   if (config_.keyframe_voxel > 0.0) {
     VoxelDownsampleConfig v;
     v.voxel_size = config_.keyframe_voxel;
     v.vote = ClassVote::PreferProperty;
     cloud = voxelDownsample(cloud, v, classes_);
   }
-  clouds_.push_back(std::move(cloud));
+  return cloud;
+}
+
+std::size_t LoopDetector::addKeyframe(LabeledCloud cloud) {
+  cloud.checkConsistent("loop closure keyframe " + std::to_string(clouds_.size()));
+  landmarks_.push_back(extractLandmarks(cloud, classes_, config_.landmarks));
+  clouds_.push_back(std::make_shared<const LabeledCloud>(prepare(std::move(cloud))));
+  // Bound memory: only the newest keyframes stay resident when they can be reloaded.
+  if (loader_ && clouds_.size() > config_.resident_keyframes)
+    clouds_[clouds_.size() - 1 - config_.resident_keyframes].reset();
   return clouds_.size() - 1;
+}
+
+std::shared_ptr<const LabeledCloud> LoopDetector::cloud(std::size_t k) const {
+  if (k >= clouds_.size()) fail("loop closure", "keyframe " + std::to_string(k) + " does not exist");
+  if (clouds_[k]) return clouds_[k];
+  LabeledCloud raw = loader_(k);
+  raw.checkConsistent("loop closure keyframe " + std::to_string(k) + " (reloaded)");
+  return std::make_shared<const LabeledCloud>(prepare(std::move(raw)));
+}
+
+std::size_t LoopDetector::residentClouds() const {
+  std::size_t n = 0;
+  for (const auto& c : clouds_) n += c != nullptr;
+  return n;
 }
 
 std::vector<LoopCandidate> LoopDetector::candidates(std::size_t query, const PoseList& estimate) const {
@@ -70,7 +91,7 @@ LoopDetection LoopDetector::detect(std::size_t query, const PoseList& estimate) 
   for (const auto& cand : det.candidates) {
     if (det.accepted.size() >= config_.max_loops_per_keyframe) break;
     VerificationResult v =
-        verifyCandidate(cand, clouds_[cand.query], clouds_[cand.match], classes_, config_.verification);
+        verifyCandidate(cand, *cloud(cand.query), *cloud(cand.match), classes_, config_.verification);
     det.verifications.push_back(v);
     if (!v.accepted) continue;
     if (gate) {

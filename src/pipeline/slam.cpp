@@ -172,7 +172,11 @@ SlamResult runSlam(const Sequence& sequence, const SlamConfig& config, const Fra
   const bool pgo = usesPoseGraph(config.method);
   std::unique_ptr<LoopDetector> loops;
   std::vector<std::size_t> keyframe_frames;  // keyframe index → frame index
-  if (pgo) loops = std::make_unique<LoopDetector>(sequence.classTable(), config.loop_closure);
+  if (pgo) {
+    loops = std::make_unique<LoopDetector>(sequence.classTable(), config.loop_closure);
+    // Old keyframes are re-read from the sequence when a loop needs them (bounded memory).
+    loops->setCloudLoader([&](std::size_t k) { return sequence.frame(keyframe_frames.at(k)); });
+  }
   Odometry tracker(sequence.classTable(), config.odometry, start);
   Eigen::Isometry3d last_keyframe_pose = Eigen::Isometry3d::Identity();
 

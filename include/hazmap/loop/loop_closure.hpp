@@ -5,6 +5,8 @@
 // See docs/loop_closure.md.
 #include <filesystem>
 #include <string>
+#include <functional>
+#include <memory>
 #include <vector>
 
 #include "hazmap/core/class_table.hpp"
@@ -28,6 +30,7 @@ const char* toString(CandidateMethod method);
 ///     method: constellation          # constellation | distance | both
 ///     max_loops_per_keyframe: 1
 ///     keyframe_voxel: 0.15
+///     resident_keyframes: 64
 ///     landmark_window: 1
 ///     landmark_merge_distance: 1.0
 ///     landmarks:    {cluster_tolerance: 0.7, min_points: 8, max_range: 30}
@@ -55,6 +58,10 @@ struct LoopClosureConfig {
   /// points win their voxel, see preprocess/voxel_downsample.hpp); 0 = keep every point.
   /// Landmarks are always extracted from the full cloud.
   double keyframe_voxel = 0.15;
+  /// With a cloud loader (LoopDetector::setCloudLoader), at most this many of the newest keyframe
+  /// clouds stay in memory; older ones are reloaded when a loop candidate needs them, so a long
+  /// run's memory does not grow with its keyframes' points (landmarks are always kept). >= 1.
+  std::size_t resident_keyframes = 64;
   /// Constellations are built from the landmarks of this many keyframes (the keyframe and the
   /// ones before it, merged into its frame with the pose estimate; same-class landmarks within
   /// landmark_merge_distance fuse). 1 = the keyframe's own landmarks only. A VLP-16 sees a floor
@@ -90,10 +97,18 @@ class LoopDetector {
  public:
   explicit LoopDetector(ClassTable classes, LoopClosureConfig config = {});
 
+  /// Where evicted keyframe clouds come back from: the raw cloud of keyframe k (as given to
+  /// addKeyframe; it is downsampled again). Without a loader every keyframe stays in memory.
+  using CloudLoader = std::function<LabeledCloud(std::size_t keyframe)>;
+  void setCloudLoader(CloudLoader loader) { loader_ = std::move(loader); }
+
   /// Adds a keyframe (cloud in its own sensor frame); returns its index.
   std::size_t addKeyframe(LabeledCloud cloud);
   std::size_t size() const { return clouds_.size(); }
-  const LabeledCloud& cloud(std::size_t k) const { return clouds_.at(k); }
+  /// Keyframe k's verification cloud (downsampled), reloaded through the loader if evicted.
+  std::shared_ptr<const LabeledCloud> cloud(std::size_t k) const;
+  /// Keyframe clouds currently held in memory.
+  std::size_t residentClouds() const;
   const std::vector<PropertyLandmark>& landmarks(std::size_t k) const { return landmarks_.at(k); }
   const std::vector<std::vector<PropertyLandmark>>& allLandmarks() const { return landmarks_; }
   /// The constellation keyframe k is matched with: its landmarks merged over landmark_window.
@@ -117,7 +132,9 @@ class LoopDetector {
  private:
   ClassTable classes_;
   LoopClosureConfig config_;
-  std::vector<LabeledCloud> clouds_;
+  LabeledCloud prepare(LabeledCloud cloud) const;  ///< keyframe_voxel downsampling
+  std::vector<std::shared_ptr<const LabeledCloud>> clouds_;  ///< null = evicted
+  CloudLoader loader_;
   std::vector<std::vector<PropertyLandmark>> landmarks_;
   std::vector<LoopClosure> loops_;
 };
