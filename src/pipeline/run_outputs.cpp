@@ -9,6 +9,7 @@
 #include "hazmap/io/g2o.hpp"
 #include "hazmap/map/export.hpp"
 #include "hazmap/map/image.hpp"
+#include "hazmap/map/outputs.hpp"
 
 namespace hazmap {
 
@@ -100,11 +101,6 @@ RunSummary writeRunOutputs(const Sequence& sequence, const SlamResult& result,
     map.insert(i, scan, result.estimate.poses[i]);
     if (error) error->addFrame(scan, result.estimate.poses[i], truth->poses[i]);
   }
-  const LabeledCloud cloud = map.cloud();
-  const std::vector<Hazard> hazards = findHazards(map, output.hazards);
-  summary.map_cells = map.size();
-  summary.map_memory_bytes = map.memoryBytes();
-  summary.hazards = hazards.size();
   if (error) summary.map_error = error->result();
   if (with_truth) {
     // SE(3)-aligned APE as evo reports it; a straight-line run (a corridor) cannot be aligned
@@ -123,33 +119,30 @@ RunSummary writeRunOutputs(const Sequence& sequence, const SlamResult& result,
   if (!result.odometry_only.empty())
     writeKittiTrajectory(out_dir / "odometry_only.kitti", result.odometry_only);
   writeG2o(out_dir / "graph.g2o", result.graph);
-  writeMapPly(out_dir / "map.ply", cloud, sequence.classTable());
-  writeMapPcd(out_dir / "map.pcd", cloud);
-  writeHazardsJson(out_dir / "hazards.json", hazards, map.voxelSize());
-  writeHazardsCsv(out_dir / "hazards.csv", hazards);
-  if (output.write_pngs) {
-    TopDownConfig top = output.top_down;
-    if (output.render_clip_above_sensor > 0 && !top.clip_above) {
-      double z = 0;
-      for (const auto& p : result.estimate.poses) z += p.translation().z();
-      top.clip_above = z / static_cast<double>(n) + output.render_clip_above_sensor;
-    }
-    if (top.title.empty()) top.title = std::string("hazmap ") + toString(result.method);
-    writePng(out_dir / "map_top.png",
-             renderTopDown(cloud, sequence.classTable(), positionsOf(result.estimate), hazards, top));
-    TrajectoryPlotConfig plot;
-    plot.title = std::string("Trajectory: ") + toString(result.method);
-    writePng(out_dir / "trajectory.png",
-             renderTrajectoryComparison(result.estimate, with_truth ? &*truth : nullptr,
-                                        result.odometry_only.empty() ? nullptr : &result.odometry_only,
-                                        plot));
+  // The map's files (map.ply/.pcd, hazards, map_top.png, trajectory.png): the map stage's job.
+  MapOutputConfig files;
+  files.hazards = output.hazards;
+  files.top_down = output.top_down;
+  files.write_pngs = output.write_pngs;
+  if (output.render_clip_above_sensor > 0 && !files.top_down.clip_above) {
+    double z = 0;
+    for (const auto& p : result.estimate.poses) z += p.translation().z();
+    files.top_down.clip_above = z / static_cast<double>(n) + output.render_clip_above_sensor;
   }
+  if (files.top_down.title.empty()) files.top_down.title = std::string("hazmap ") + toString(result.method);
+  files.plot.title = std::string("Trajectory: ") + toString(result.method);
+  const MapOutputs written =
+      writeMapOutputs(out_dir, map, result.estimate, with_truth ? &*truth : nullptr,
+                      result.odometry_only.empty() ? nullptr : &result.odometry_only, files);
+  summary.map_cells = map.size();
+  summary.map_memory_bytes = map.memoryBytes();
+  summary.hazards = written.hazards.size();
   summary.output_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   writeTextAtomically(out_dir / "run.json", runJson(sequence, result, config, summary).dump(2) + "\n");
   if (artifacts) {
-    artifacts->map = cloud;
-    artifacts->hazards = hazards;
+    artifacts->map = map.cloud();
+    artifacts->hazards = written.hazards;
   }
   return summary;
 }
