@@ -2,14 +2,28 @@
 // Shared test helpers: paths to the shared real data and a fresh scratch folder per test.
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <string>
+
+#include "hazmap/core/class_table.hpp"
+#include "hazmap/io/kitti.hpp"
 
 namespace hazmap::test {
 
 inline std::filesystem::path sharedData(const std::string& rel = "") {
   return std::filesystem::path(HAZMAP_SHARED_DATA_DIR) / rel;
+}
+
+/// Scan i of the SemanticKITTI sample (../shared/data/kitti-semantic-sample), labels mapped by
+/// `table`.
+inline LabeledCloud kittiScan(int i, const ClassTable& table) {
+  char name[32];
+  std::snprintf(name, sizeof name, "%06d", i);
+  const auto dir = sharedData("kitti-semantic-sample");
+  return readKittiScan(dir / "velodyne" / (std::string(name) + ".bin"),
+                       dir / "labels" / (std::string(name) + ".label"), table);
 }
 
 inline std::filesystem::path sourceDir(const std::string& rel = "") {

@@ -457,6 +457,7 @@ TEST(LoopConfig, YamlRoundTripAndErrors) {
   expectError("loop_closure: {landmarks: {cluster_tolerence: 1}}", "unknown key 'cluster_tolerence'");
   expectError("loop_closure: {landmarks: {cluster_tolerance: -1}}", "cluster_tolerance");
   expectError("loop_closure: {method: magic}", "method");
+  expectError("loop_closure: {resident_keyframes: 0}", "resident_keyframes");
   expectError("loop_closure: {candidates: {constellation: {min_inliers: x}}}", "min_inliers");
   expectError("loop_closure: {consistency: {gate_probability: 1.5}}", "gate_probability");
   expectError("loop_closure: [1, 2]", "mapping");

@@ -29,14 +29,6 @@ double rotErrDeg(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
   return rotationAngle(a.inverse() * b) * 180.0 / M_PI;
 }
 
-LabeledCloud kittiScan(int i, const ClassTable& table) {
-  char name[32];
-  std::snprintf(name, sizeof name, "%06d", i);
-  const auto dir = hazmap::test::sharedData("kitti-semantic-sample");
-  return readKittiScan(dir / "velodyne" / (std::string(name) + ".bin"),
-                       dir / "labels" / (std::string(name) + ".label"), table);
-}
-
 }  // namespace
 
 // Property-ICP and plain ICP agree within a few cm on frames 0→1→2, and the labels visibly change
@@ -47,7 +39,7 @@ TEST(KittiSemantic, PropertyAndPlainIcpAgree) {
   vd.voxel_size = 0.5;
   vd.vote = ClassVote::PreferProperty;
   std::vector<LabeledCloud> scans;
-  for (int i = 0; i < 3; ++i) scans.push_back(voxelDownsample(kittiScan(i, table), vd, table));
+  for (int i = 0; i < 3; ++i) scans.push_back(voxelDownsample(test::kittiScan(i, table), vd, table));
   Eigen::Isometry3d chain_plain = Eigen::Isometry3d::Identity(), chain_prop = Eigen::Isometry3d::Identity();
   for (int i = 1; i < 3; ++i) {
     RegistrationConfig cfg;

@@ -171,9 +171,7 @@ TEST(RunCli, KittiSampleGivesAMapAndAHazardInventory) {
 }
 
 TEST(Demo, BothSetUpsWriteTheTableAndOutputs) {
-  const char* base = std::getenv("HAZMAP_TEST_TMP");
-  const fs::path dir = fs::path(base ? base : "/tmp/hazmap-test") / ("demo-" + std::to_string(::getpid()));
-  fs::remove_all(dir);
+  const fs::path dir = test::scratchDir();
   DemoConfig c;
   c.out_dir = dir;
   c.scenario = "corridor";

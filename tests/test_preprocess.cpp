@@ -22,14 +22,6 @@ using namespace hazmap;
 
 namespace {
 
-LabeledCloud kittiScan(int i, const ClassTable& table) {
-  char name[32];
-  std::snprintf(name, sizeof name, "%06d", i);
-  const auto dir = hazmap::test::sharedData("kitti-semantic-sample");
-  return readKittiScan(dir / "velodyne" / (std::string(name) + ".bin"),
-                       dir / "labels" / (std::string(name) + ".label"), table);
-}
-
 void expectSameCloud(const LabeledCloud& a, const LabeledCloud& b) {
   ASSERT_EQ(a.size(), b.size());
   ASSERT_EQ(a.hasIntensity(), b.hasIntensity());
@@ -46,7 +38,7 @@ void expectSameCloud(const LabeledCloud& a, const LabeledCloud& b) {
 
 TEST(Preprocess, CropAndDownsampleEqualsTheTwoSteps) {
   const ClassTable table = ClassTable::semanticKitti();
-  const LabeledCloud scan = kittiScan(0, table);
+  const LabeledCloud scan = test::kittiScan(0, table);
   RangeCropConfig crop;
   crop.min_range = 3.0;
   crop.max_range = 40.0;
@@ -68,7 +60,7 @@ TEST(Preprocess, CropAndDownsampleEqualsTheTwoSteps) {
 
 TEST(Preprocess, DownsampleDoesNotDependOnThreads) {
   const ClassTable table = ClassTable::semanticKitti();
-  const LabeledCloud scan = kittiScan(1, table);
+  const LabeledCloud scan = test::kittiScan(1, table);
   VoxelDownsampleConfig vd;
   vd.voxel_size = 0.3;
   vd.vote = ClassVote::PreferProperty;
@@ -107,7 +99,7 @@ TEST(LocalMapNormals, FreshMapMatchesTheTargetsOwnEstimate) {
   VoxelDownsampleConfig vd;
   vd.voxel_size = 0.5;
   vd.vote = ClassVote::PreferProperty;
-  const LabeledCloud scan = voxelDownsample(kittiScan(0, table), vd, table);
+  const LabeledCloud scan = voxelDownsample(test::kittiScan(0, table), vd, table);
   LocalMap map(LocalMapConfig{});
   map.integrate(scan, Eigen::Vector3d::Zero(), table);
   RegistrationConfig rc;
@@ -143,7 +135,7 @@ TEST(LocalMapNormals, CachedAcrossFramesEqualsFreshAndThreadIndependent) {
   vd.voxel_size = 0.5;
   vd.vote = ClassVote::PreferProperty;
   std::vector<LabeledCloud> scans;
-  for (int i = 0; i < 3; ++i) scans.push_back(voxelDownsample(kittiScan(i, table), vd, table));
+  for (int i = 0; i < 3; ++i) scans.push_back(voxelDownsample(test::kittiScan(i, table), vd, table));
   RegistrationConfig rc;
   LocalMapConfig mc;
   mc.max_distance = 30.0;  // small, so that voxels are dropped as the origin moves
@@ -178,8 +170,8 @@ TEST(LocalMapNormals, BudgetFreezesNormals) {
   const ClassTable table = ClassTable::semanticKitti();
   VoxelDownsampleConfig vd;
   vd.voxel_size = 0.5;
-  const LabeledCloud s0 = voxelDownsample(kittiScan(0, table), vd, table);
-  const LabeledCloud s1 = voxelDownsample(kittiScan(1, table), vd, table);
+  const LabeledCloud s0 = voxelDownsample(test::kittiScan(0, table), vd, table);
+  const LabeledCloud s1 = voxelDownsample(test::kittiScan(1, table), vd, table);
   LocalMapConfig mc;
   mc.normal_updates = 1;
   LocalMap map(mc);

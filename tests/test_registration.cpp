@@ -385,6 +385,9 @@ TEST(RegistrationConfig, YamlRoundTripAndErrors) {
   EXPECT_THROW(registrationConfigFromYaml("max_iterations: 0\n", "cfg.yaml"), Error);
   EXPECT_THROW(registrationConfigFromYaml("bogus: 1\n", "cfg.yaml"), Error);
   EXPECT_THROW(registrationConfigFromYaml("metric: triangle\n", "cfg.yaml"), Error);
+  EXPECT_THROW(registrationConfigFromYaml("property_tangent_weight: 1.5\n", "cfg.yaml"), Error);
+  EXPECT_THROW(registrationConfigFromYaml("min_label_agreement: 2\n", "cfg.yaml"), Error);
+  EXPECT_THROW(registrationConfigFromYaml("min_label_agreement: .nan\n", "cfg.yaml"), Error);
   try {
     registrationConfigFromYaml("mismatch_penalty: [1]\n", "cfg.yaml");
     FAIL();

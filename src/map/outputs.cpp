@@ -11,7 +11,8 @@ MapOutputs writeMapOutputs(const std::filesystem::path& dir, const GlobalMap& ma
   std::error_code ec;
   if (!std::filesystem::is_directory(dir, ec)) fail(dir.string(), "output folder does not exist");
   MapOutputs out;
-  const LabeledCloud cloud = map.cloud();
+  out.cloud = map.cloud();
+  const LabeledCloud& cloud = out.cloud;
   const ClassTable& table = map.classTable();
   if (config.write_ply) {
     writeMapPly(dir / "map.ply", cloud, table, config.top_down.colors);

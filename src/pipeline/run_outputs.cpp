@@ -131,7 +131,7 @@ RunSummary writeRunOutputs(const Sequence& sequence, const SlamResult& result,
   }
   if (files.top_down.title.empty()) files.top_down.title = std::string("hazmap ") + toString(result.method);
   files.plot.title = std::string("Trajectory: ") + toString(result.method);
-  const MapOutputs written =
+  MapOutputs written =
       writeMapOutputs(out_dir, map, result.estimate, with_truth ? &*truth : nullptr,
                       result.odometry_only.empty() ? nullptr : &result.odometry_only, files);
   summary.map_cells = map.size();
@@ -141,8 +141,8 @@ RunSummary writeRunOutputs(const Sequence& sequence, const SlamResult& result,
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   writeTextAtomically(out_dir / "run.json", runJson(sequence, result, config, summary).dump(2) + "\n");
   if (artifacts) {
-    artifacts->map = map.cloud();
-    artifacts->hazards = written.hazards;
+    artifacts->map = std::move(written.cloud);
+    artifacts->hazards = std::move(written.hazards);
   }
   return summary;
 }

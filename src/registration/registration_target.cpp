@@ -91,6 +91,10 @@ void RegistrationTarget::build(const ClassTable& classes, const RegistrationConf
   // The continuous-property term needs the channel; without it the term is off.
   property_weight_ = cloud_.hasProperty() ? static_cast<float>(config.property_weight) : 0.0f;
 
+  for (ClassId c : cloud_.classes) {
+    if (class_count_.size() <= c) class_count_.resize(std::size_t(c) + 1, 0);
+    ++class_count_[c];
+  }
   // Same-class radius per class id (0 in the table = the default radius).
   ClassId max_id = 0;
   for (ClassId id : classes.ids()) max_id = std::max(max_id, id);
@@ -225,10 +229,8 @@ TargetMatch RegistrationTarget::nearestAnyClass(const Eigen::Vector3f& p, ClassI
 }
 
 double RegistrationTarget::classShare(ClassId cls) const {
-  if (cloud_.empty()) return 0.0;
-  std::size_t n = 0;
-  for (ClassId c : cloud_.classes) n += c == cls;
-  return static_cast<double>(n) / static_cast<double>(cloud_.size());
+  if (cloud_.empty() || cls >= class_count_.size()) return 0.0;
+  return static_cast<double>(class_count_[cls]) / static_cast<double>(cloud_.size());
 }
 
 }  // namespace hazmap

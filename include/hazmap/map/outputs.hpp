@@ -24,6 +24,7 @@ struct MapOutputConfig {
 };
 
 struct MapOutputs {
+  LabeledCloud cloud;  ///< the map as written (map.cloud())
   std::vector<Hazard> hazards;
   std::vector<std::filesystem::path> files;  ///< every file written, in order
 };

@@ -79,6 +79,7 @@ class RegistrationTarget {
   std::vector<ClassSlot> slots_;        ///< one per class present in the target (use_classes)
   std::vector<std::int16_t> slot_of_class_;  ///< class id → slot, -1 = absent
   std::vector<float> class_radius_;     ///< class id → same-class radius (m)
+  std::vector<std::size_t> class_count_;  ///< class id → points of that class
   bool use_classes_ = false;
   float radius_ = 1.0f;
   float alpha_ = 0.0f;
