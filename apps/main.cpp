@@ -6,6 +6,7 @@
 
 #include "command.hpp"
 #include "hazmap/core/error.hpp"
+#include "hazmap/core/memory.hpp"
 
 namespace hazmap::cli {
 
@@ -23,6 +24,7 @@ int& exitCode() {
 
 int main(int argc, char** argv) {
   using namespace hazmap::cli;
+  hazmap::retainFreedMemory();  // frames reuse freed scratch memory instead of page-faulting it in
   CLI::App app{"hazmap — LiDAR SLAM that uses physical-property classes (heat, water, radiation)\n"
                "of every point to match scans, close loops and map hazards."};
   app.require_subcommand(1);

@@ -2,6 +2,8 @@
 // the same run (items/s = points/s). Report ratios, not absolute times.
 #include <benchmark/benchmark.h>
 
+#include "bench_main.hpp"
+
 #include <filesystem>
 #include <string>
 
@@ -135,4 +137,4 @@ BENCHMARK(BM_Pcl_WritePcd)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 
-BENCHMARK_MAIN();
+HAZMAP_BENCHMARK_MAIN()

@@ -9,6 +9,8 @@
 // global map (bounded by its voxel cap) is assembled from the final poses afterwards by `hazmap
 // run` and measured separately in bench_map's BM_GlobalMapLongRun.
 #include <benchmark/benchmark.h>
+
+#include "bench_main.hpp"
 #include <sys/resource.h>
 #include <unistd.h>
 
@@ -123,4 +125,4 @@ BENCHMARK(BM_LongRun_PropertyIcpPgo)->Unit(benchmark::kSecond)->Iterations(1);
 
 }  // namespace
 
-BENCHMARK_MAIN();
+HAZMAP_BENCHMARK_MAIN()

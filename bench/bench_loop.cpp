@@ -3,6 +3,8 @@
 // candidate search of one query against a few hundred keyframes.
 #include <benchmark/benchmark.h>
 
+#include "bench_main.hpp"
+
 #include <random>
 
 #include "hazmap/core/class_table.hpp"
@@ -122,4 +124,4 @@ BENCHMARK(BM_ConstellationSearch)->Arg(150)->Arg(600)->Unit(benchmark::kMillisec
 
 }  // namespace
 
-BENCHMARK_MAIN();
+HAZMAP_BENCHMARK_MAIN()

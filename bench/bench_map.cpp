@@ -7,6 +7,8 @@
 //    a 0.1 m voxel map incrementally by GlobalMap (classes voted, frames recorded) and in one
 //    batch by PCL's VoxelGrid over the concatenated cloud (no classes) — the peer.
 #include <benchmark/benchmark.h>
+
+#include "bench_main.hpp"
 #include <sys/resource.h>
 
 #include <cmath>
@@ -177,4 +179,4 @@ BENCHMARK(BM_MapError)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 
-BENCHMARK_MAIN();
+HAZMAP_BENCHMARK_MAIN()

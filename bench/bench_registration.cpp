@@ -6,6 +6,8 @@
 // Also: frame-to-map odometry on the six KITTI scans (ms per frame) and on 60 simulated VLP-16
 // frames of the naraha scenario (frames/s).
 #include <benchmark/benchmark.h>
+
+#include "bench_main.hpp"
 #include <tbb/global_control.h>
 
 #include <chrono>
@@ -299,4 +301,4 @@ BENCHMARK(BM_Kitti_Open3D_P2Plane)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond
 
 }  // namespace
 
-BENCHMARK_MAIN();
+HAZMAP_BENCHMARK_MAIN()

@@ -2,6 +2,8 @@
 // the whole naraha sequence's scans on all cores, and the whole `hazmap simulate` run with its
 // files. Frames/s are reported as the `frames/s` counter.
 #include <benchmark/benchmark.h>
+
+#include "bench_main.hpp"
 #include <tbb/parallel_for.h>
 
 #include <filesystem>
@@ -76,4 +78,4 @@ static void BM_NarahaWriteSequence(benchmark::State& state) {
 }
 BENCHMARK(BM_NarahaWriteSequence)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(2);
 
-BENCHMARK_MAIN();
+HAZMAP_BENCHMARK_MAIN()

@@ -143,6 +143,39 @@ TEST(PropertyCorrespondence, FollowsEquationTwo) {
   }
 }
 
+// ICP bounds each search by the cost of the previous iteration's partner (costBound): the answer
+// must be exactly the unbounded one, for labelled and plain matching, whatever the previous
+// partner was (near, far, another class, outside its gate).
+TEST(PropertyCorrespondence, PreviousPartnerBoundKeepsTheAnswer) {
+  const ClassTable table = ClassTable::defaults();
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> u(-3.0f, 3.0f);
+  std::uniform_int_distribution<int> cls(0, 3);
+  LabeledCloud target;
+  for (int i = 0; i < 3000; ++i)
+    target.push_back({u(rng), u(rng), 0.3f * u(rng)}, static_cast<ClassId>(cls(rng) == 3 ? cls(rng) : 0));
+  std::uniform_int_distribution<int> pick(-1, 2999);
+  for (const bool classes : {true, false}) {
+    RegistrationConfig cfg;
+    cfg.use_classes = classes;
+    cfg.mismatch_penalty = 0.3;
+    const RegistrationTarget t(target, table, cfg);
+    int bounded = 0;
+    for (int q = 0; q < 3000; ++q) {
+      const Eigen::Vector3f p(u(rng), u(rng), 0.3f * u(rng));
+      const auto c = static_cast<ClassId>(cls(rng));
+      const std::int64_t prev = pick(rng);
+      const float bound = t.costBound(p, c, prev, classes);
+      bounded += std::isfinite(bound);
+      const TargetMatch free = classes ? t.match(p, c, NAN) : t.nearestAnyClass(p, c);
+      const TargetMatch tight = classes ? t.match(p, c, NAN, bound) : t.nearestAnyClass(p, c, bound);
+      ASSERT_EQ(free.index, tight.index) << "query " << q << " class " << int(c) << " prev " << prev;
+      if (free.index >= 0) EXPECT_LE(free.cost, bound);
+    }
+    EXPECT_GT(bounded, 100);  // the test exercised the bound
+  }
+}
+
 class RoomRegistration : public ::testing::TestWithParam<std::tuple<bool, IcpMetric>> {};
 
 TEST_P(RoomRegistration, RecoversTheTransform) {

@@ -261,8 +261,11 @@ RegistrationResult solve(const LabeledCloud& source, const RegistrationTarget& t
             const Eigen::Vector3f p = R * source.points[i] + t;
             const ClassId cls = source.classes[i];
             const float value = use_value ? source.property[i] : std::numeric_limits<float>::quiet_NaN();
-            const TargetMatch m = use_labels ? target.match(p, cls, value) : target.nearestAnyClass(p, cls);
             Corr& cr = corr[k];
+            // The previous iteration's partner bounds the search (exact, see costBound).
+            const float bound = target.costBound(p, cls, cr.target, use_labels);
+            const TargetMatch m = use_labels ? target.match(p, cls, value, bound)
+                                             : target.nearestAnyClass(p, cls, bound);
             cr.target = static_cast<std::int32_t>(m.index);
             if (m.index < 0) continue;
             // A same-class property pair constrains where the labelled patch is, which a plane

@@ -164,7 +164,32 @@ bool RegistrationTarget::compatibleWith(const RegistrationConfig& config, const 
   return true;
 }
 
-TargetMatch RegistrationTarget::match(const Eigen::Vector3f& p, ClassId cls, float value) const {
+float RegistrationTarget::costBound(const Eigen::Vector3f& p, ClassId cls, std::int64_t previous,
+                                     bool labels) const {
+  constexpr float kNone = std::numeric_limits<float>::infinity();
+  if (previous < 0 || previous >= static_cast<std::int64_t>(cloud_.size())) return kNone;
+  const float d2 = (cloud_.points[previous] - p).squaredNorm();
+  float cost = d2;
+  if (labels && use_classes_) {
+    // With the property term match() ranks each class's nearest point, not every point, by cost:
+    // a costlier-looking partner can still be the answer, so no bound.
+    if (property_weight_ > 0.0f) return kNone;
+    // Valid only inside its gate: an own-class partner within the class radius, another class
+    // within the default radius (match()'s gates).
+    const bool same = cloud_.classes[previous] == cls;
+    const float gate = same ? sameClassRadius(cls) : radius_;
+    if (!(d2 < gate * gate)) return kNone;
+    if (!same) cost += alpha_;
+  } else if (!(d2 < radius_ * radius_)) {  // plain ICP ranks by distance alone
+    return kNone;
+  }
+  // Inclusive: the searches keep only strictly smaller distances, and the candidate itself must
+  // stay findable.
+  return cost * (1.0f + 1e-5f) + 1e-12f;
+}
+
+TargetMatch RegistrationTarget::match(const Eigen::Vector3f& p, ClassId cls, float value,
+                                      float cost_bound) const {
   TargetMatch m;
   const float r2 = radius_ * radius_;
   const auto propertyCost = [&](std::int64_t j) {
@@ -173,7 +198,7 @@ TargetMatch RegistrationTarget::match(const Eigen::Vector3f& p, ClassId cls, flo
   };
   if (!use_classes_) {
     float d2;
-    const std::int64_t j = all_->nearest(p, r2, d2);
+    const std::int64_t j = all_->nearest(p, std::min(r2, cost_bound), d2);
     if (j < 0) return m;
     // Reported (not penalised) so that plain ICP's class agreement can be compared.
     m = {j, d2, d2, cloud_.classes[j] != cls};
@@ -185,7 +210,7 @@ TargetMatch RegistrationTarget::match(const Eigen::Vector3f& p, ClassId cls, flo
   float best = std::numeric_limits<float>::infinity();
   if (own >= 0) {
     float d2;
-    const std::int64_t j = slots_[own].index->nearest(p, slots_[own].radius2, d2);
+    const std::int64_t j = slots_[own].index->nearest(p, std::min(slots_[own].radius2, cost_bound), d2);
     if (j >= 0) {
       m = {j, d2, d2, false};
       best = d2 + (property_weight_ > 0.0f ? propertyCost(j) : 0.0f);
@@ -193,10 +218,10 @@ TargetMatch RegistrationTarget::match(const Eigen::Vector3f& p, ClassId cls, flo
     }
   }
   // Another class can only win if d² + α < best, i.e. within sqrt(best − α) (and the gate).
-  if (best > alpha_) {
+  if (std::min(best, cost_bound) > alpha_) {
     for (std::size_t s = 0; s < slots_.size(); ++s) {
       if (static_cast<std::int16_t>(s) == own) continue;
-      const float limit = std::min(r2, best - alpha_);
+      const float limit = std::min(r2, std::min(best, cost_bound) - alpha_);
       if (!(limit > 0.0f)) break;
       float d2;
       const std::int64_t j = slots_[s].index->nearest(p, limit, d2);
@@ -211,9 +236,10 @@ TargetMatch RegistrationTarget::match(const Eigen::Vector3f& p, ClassId cls, flo
   return m;
 }
 
-TargetMatch RegistrationTarget::nearestAnyClass(const Eigen::Vector3f& p, ClassId cls) const {
+TargetMatch RegistrationTarget::nearestAnyClass(const Eigen::Vector3f& p, ClassId cls,
+                                                float distance2_bound) const {
   TargetMatch m;
-  float best = radius_ * radius_;
+  float best = std::min(radius_ * radius_, distance2_bound);
   const auto consider = [&](const NeighborIndex& index) {
     float d2;
     const std::int64_t j = index.nearest(p, best, d2);

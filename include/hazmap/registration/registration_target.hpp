@@ -5,6 +5,7 @@
 // or a loop-closure candidate and register many sources against it.
 #include <Eigen/Core>
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <vector>
 
@@ -48,12 +49,23 @@ class RegistrationTarget {
   bool hasNormals() const { return !normals_.empty(); }
 
   /// The paper's rule for one (already transformed) source point of class `cls` with property
-  /// value `value` (ignored unless the property term is on).
-  TargetMatch match(const Eigen::Vector3f& p, ClassId cls, float value) const;
+  /// value `value` (ignored unless the property term is on). `cost_bound`: the caller knows a
+  /// candidate of at most this cost (see costBound); the search skips everything costlier, which
+  /// makes it cheap without changing its answer.
+  TargetMatch match(const Eigen::Vector3f& p, ClassId cls, float value,
+                    float cost_bound = std::numeric_limits<float>::infinity()) const;
 
   /// The nearest target point of any class within the default radius, no penalty (labels
-  /// ignored): what plain ICP would pair `p` with.
-  TargetMatch nearestAnyClass(const Eigen::Vector3f& p, ClassId cls) const;
+  /// ignored): what plain ICP would pair `p` with. `distance2_bound` as cost_bound above.
+  TargetMatch nearestAnyClass(const Eigen::Vector3f& p, ClassId cls,
+                              float distance2_bound = std::numeric_limits<float>::infinity()) const;
+
+  /// An upper bound on the cost of `p`'s best match (match(), or nearestAnyClass() when
+  /// `labels` is false), from a candidate the caller already has — ICP's previous partner
+  /// `previous` (-1 = none). Infinity when that candidate is not within its gates any more (then
+  /// it bounds nothing). Between ICP iterations a point moves little, so the bound is tight and
+  /// the search touches one or two voxels instead of a neighbourhood.
+  float costBound(const Eigen::Vector3f& p, ClassId cls, std::int64_t previous, bool labels) const;
   /// Share of target points of class `cls` (0 for an absent class).
   double classShare(ClassId cls) const;
 
