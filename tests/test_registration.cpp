@@ -300,6 +300,26 @@ TEST(Degeneracy, CorridorReportsTheAxis) {
   EXPECT_GT(r.covariance(0, 0), 100 * r.covariance(1, 1));
 }
 
+// Reweighting steps on reused correspondences (correspondence_reuse_distance) save searches
+// without moving the answer: the robust kernel's slow final crawl happens on fixed partners.
+TEST(PropertyIcp, ReusedCorrespondencesSaveSearchesNotAccuracy) {
+  const Pair p = roomPair(11, 0.01, 8000);
+  for (const IcpMetric metric : {IcpMetric::PointToPlane, IcpMetric::PointToPoint}) {
+    RegistrationConfig cfg;
+    cfg.metric = metric;
+    cfg.max_iterations = 150;
+    cfg.correspondence_reuse_distance = 0.0;
+    const auto every = registerClouds(p.source, p.target, Eigen::Isometry3d::Identity(), ClassTable::defaults(), cfg);
+    cfg.correspondence_reuse_distance = 0.05;
+    const auto reuse = registerClouds(p.source, p.target, Eigen::Isometry3d::Identity(), ClassTable::defaults(), cfg);
+    ASSERT_TRUE(every.converged && reuse.converged) << every.reason << reuse.reason;
+    EXPECT_LT(transErr(every.transform, reuse.transform), 0.002);
+    EXPECT_LT(rotErrDeg(every.transform, reuse.transform), 0.02);
+    EXPECT_LE(reuse.iterations, every.iterations);  // iterations = correspondence searches
+    std::printf("%s: searches %d without reuse, %d with\n", toString(metric), every.iterations, reuse.iterations);
+  }
+}
+
 TEST(PropertyIcp, PropertyPatchesFixTheCorridor) {
   // Plain ICP cannot tell where along the corridor it is; the labelled patches can.
   std::mt19937 rng(4);
@@ -314,7 +334,9 @@ TEST(PropertyIcp, PropertyPatchesFixTheCorridor) {
   const auto prop = registerClouds(source, target, Eigen::Isometry3d::Identity(), ClassTable::defaults(), cfg);
   std::printf("corridor: plain ICP error %.3f m, property ICP error %.3f m\n",
               transErr(plain.transform, truth), transErr(prop.transform, truth));
-  EXPECT_GT(transErr(plain.transform, truth), 0.3);
+  // Plain ICP slides: how far depends on the sampling, so only "much worse" and "knows it".
+  EXPECT_GT(transErr(plain.transform, truth), 0.1);
+  EXPECT_FALSE(plain.degenerate_directions.empty());
   EXPECT_LT(transErr(prop.transform, truth), 0.05);
   EXPECT_GT(prop.stats.property_matched, 0u);
 }

@@ -235,6 +235,10 @@ RegistrationResult solve(const LabeledCloud& source, const RegistrationTarget& t
 
   const std::size_t n = used.size();
   result.labels_used = use_labels;
+  // Farthest used source point from the sensor: a pose change D (source frame) moves every point
+  // by at most |t_D| + angle(D)·reach (bounds how far points moved since the last search).
+  double reach = 0.0;
+  for (const std::uint32_t i : used) reach = std::max(reach, static_cast<double>(source.points[i].norm()));
 
   const std::size_t chunks = (n + kChunk - 1) / kChunk;
   std::vector<Corr> corr(n);
@@ -248,7 +252,16 @@ RegistrationResult solve(const LabeledCloud& source, const RegistrationTarget& t
   double kernel[2] = {0.0, 0.0};
 
   const auto run = [&] {
-    for (int it = 0; it < config.max_iterations; ++it) {
+    // An iteration is one correspondence search followed by Gauss-Newton steps: the first, plus
+    // reweighting steps on the same correspondences while the points have hardly moved
+    // (correspondence_reuse_distance; at most kMaxReuseSteps). max_iterations counts searches.
+    constexpr int kMaxReuseSteps = 10;
+    bool fresh = true;  // search correspondences for this step (else reuse the last ones)
+    int it = -1, reuse_steps = 0;
+    while (true) {
+     if (fresh) {
+      if (++it == config.max_iterations) break;
+      reuse_steps = 0;
       const Eigen::Matrix3f R = T.linear().cast<float>();
       const Eigen::Vector3f t = T.translation().cast<float>();
       T_corr = T;
@@ -321,7 +334,9 @@ RegistrationResult solve(const LabeledCloud& source, const RegistrationTarget& t
         total = Sums{};
         return;
       }
-      // 3. weighted normal equations, chunk by chunk
+     }
+      // 3. weighted normal equations, chunk by chunk (residuals and robust weights at the current
+      //    pose: the same as the searched ones on a fresh iteration, updated when reused)
       tbb::parallel_for(tbb::blocked_range<std::size_t>(0, chunks, 1), [&](const auto& range) {
         for (std::size_t c = range.begin(); c < range.end(); ++c) {
           Sums s;
@@ -330,9 +345,18 @@ RegistrationResult solve(const LabeledCloud& source, const RegistrationTarget& t
             const Corr& cr = corr[k];
             if (cr.target < 0) continue;
             const double ks = kernel[cr.group];
-            const double w = cr.weight * robustWeight(config.robust_kernel, cr.residual, ks);
             const Eigen::Vector3d p = T * source.points[used[k]].cast<double>();
             const Eigen::Vector3d q = tc.points[cr.target].cast<double>();
+            double residual = cr.residual;
+            if (!fresh) {
+              if (cr.anisotropic)
+                residual = weightedResidual((p - q).cast<float>(), normals[cr.target], tangent_scale).norm();
+              else if (!cr.point3)
+                residual = normals[cr.target].cast<double>().dot(p - q);
+              else
+                residual = (p - q).norm();
+            }
+            const double w = cr.weight * robustWeight(config.robust_kernel, residual, ks);
             ++s.n;
             s.d2 += cr.distance2;
             if (!(w > 0.0)) continue;
@@ -340,7 +364,7 @@ RegistrationResult solve(const LabeledCloud& source, const RegistrationTarget& t
               const Eigen::Vector3d nq = normals[cr.target].cast<double>();
               Vector6d J;
               J << nq, p.cross(nq);  // d r / d ξ for T' = exp(ξ) T, translation first
-              const double r = cr.residual;
+              const double r = residual;
               s.H.noalias() += w * J * J.transpose();
               s.g.noalias() += w * r * J;
               s.wr2 += w * r * r;
@@ -417,9 +441,16 @@ RegistrationResult solve(const LabeledCloud& source, const RegistrationTarget& t
         return;
       }
       if (dt < config.translation_tolerance && dr < config.rotation_tolerance) {
-        result.converged = true;
-        return;
+        if (fresh) {
+          result.converged = true;
+          return;
+        }
+        fresh = true;  // converged on reused correspondences: check against fresh ones
+        continue;
       }
+      const Eigen::Isometry3d moved = T_corr.inverse() * T;
+      fresh = ++reuse_steps > kMaxReuseSteps ||
+              !(moved.translation().norm() + rotationAngle(moved) * reach < config.correspondence_reuse_distance);
     }
     result.reason = "reached max_iterations (" + std::to_string(config.max_iterations) + ")";
   };

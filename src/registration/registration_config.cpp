@@ -48,6 +48,8 @@ void RegistrationConfig::validate() const {
   require(finitePositive(robust_min_scale), "robust_min_scale", "must be > 0");
   require(std::isfinite(translation_tolerance) && translation_tolerance >= 0.0, "translation_tolerance", "must be >= 0");
   require(std::isfinite(rotation_tolerance) && rotation_tolerance >= 0.0, "rotation_tolerance", "must be >= 0");
+  require(std::isfinite(correspondence_reuse_distance) && correspondence_reuse_distance >= 0.0,
+          "correspondence_reuse_distance", "must be >= 0");
   require(min_correspondences >= 6, "min_correspondences", "must be >= 6 (six unknowns)");
   require(normal_neighbors >= 3, "normal_neighbors", "must be >= 3");
   require(finitePositive(normal_radius), "normal_radius", "must be > 0");
@@ -124,6 +126,7 @@ RegistrationConfig registrationConfigFromYaml(const std::string& yaml, const std
     else if (key == "robust_min_scale") get(c.robust_min_scale);
     else if (key == "translation_tolerance") get(c.translation_tolerance);
     else if (key == "rotation_tolerance") get(c.rotation_tolerance);
+    else if (key == "correspondence_reuse_distance") get(c.correspondence_reuse_distance);
     else if (key == "min_correspondences") get(c.min_correspondences);
     else if (key == "normal_neighbors") get(c.normal_neighbors);
     else if (key == "normal_radius") get(c.normal_radius);
@@ -176,6 +179,7 @@ std::string toYamlString(const RegistrationConfig& c) {
   out << YAML::Key << "robust_min_scale" << YAML::Value << c.robust_min_scale;
   out << YAML::Key << "translation_tolerance" << YAML::Value << c.translation_tolerance;
   out << YAML::Key << "rotation_tolerance" << YAML::Value << c.rotation_tolerance;
+  out << YAML::Key << "correspondence_reuse_distance" << YAML::Value << c.correspondence_reuse_distance;
   out << YAML::Key << "min_correspondences" << YAML::Value << c.min_correspondences;
   out << YAML::Key << "normal_neighbors" << YAML::Value << c.normal_neighbors;
   out << YAML::Key << "normal_radius" << YAML::Value << c.normal_radius;

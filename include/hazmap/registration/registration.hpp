@@ -86,6 +86,12 @@ struct RegistrationConfig {
   // --- convergence ---
   double translation_tolerance = 1e-4;  ///< m; stop when the update is below both tolerances
   double rotation_tolerance = 1e-4;     ///< rad
+  /// Keep the correspondences for the next iteration while no source point has moved more than
+  /// this (m, summed since they were searched) — only the robust weights and the linearisation
+  /// are redone. The robust kernel's reweighting converges slowly (linearly) in sub-millimetre
+  /// steps whose searches would return the same partners; convergence is only declared on
+  /// fresh correspondences. 0 = search every iteration.
+  double correspondence_reuse_distance = 0.05;
   std::size_t min_correspondences = 10;  ///< fewer → converged=false, reason given
 
   // --- point-to-plane normals (target) ---
