@@ -165,6 +165,35 @@ TEST(LocalMapNormals, CachedAcrossFramesEqualsFreshAndThreadIndependent) {
   EXPECT_EQ(runs[0], runs[1]);
 }
 
+// Lazy normals (what the odometry uses): between frames only some points' normals are asked for,
+// as ICP pairs them; whenever one is asked for, and at the end for all, it equals the eager map's.
+TEST(LocalMapNormals, LazyNormalsEqualEagerOnes) {
+  const ClassTable table = ClassTable::semanticKitti();
+  VoxelDownsampleConfig vd;
+  vd.voxel_size = 0.5;
+  std::vector<LabeledCloud> scans;
+  for (int i = 0; i < 3; ++i) scans.push_back(voxelDownsample(test::kittiScan(i, table), vd, table));
+  RegistrationConfig rc;
+  LocalMapConfig mc;
+  mc.max_distance = 30.0;
+  LocalMap eager(mc), lazy(mc);
+  for (int i = 0; i < 3; ++i) {
+    const Eigen::Isometry3d T(Eigen::Translation3d(0.8 * i, 0.1 * i, 0.0));
+    const Eigen::Vector3d origin = T.translation() + Eigen::Vector3d(3.0 * i, 0, 0);
+    eager.integrate(scans[i].transformed(T), origin, table);
+    lazy.integrate(scans[i].transformed(T), origin, table);
+    const RegistrationTarget e = eager.makeTarget(table, rc);
+    const RegistrationTarget l = lazy.makeTarget(table, rc, /*lazy_normals=*/true);
+    ASSERT_EQ(e.size(), l.size());
+    std::size_t asked = 0, differ = 0;
+    for (std::size_t j = 0; j < l.size(); j += (i == 2 ? 1 : 7)) {  // a subset, then all
+      ++asked;
+      differ += l.normal(j) != e.normals()[j];
+    }
+    EXPECT_EQ(differ, 0u) << "frame " << i << ", " << asked << " normals asked";
+  }
+}
+
 // With a re-estimation budget of one, a point keeps the normal it first got.
 TEST(LocalMapNormals, BudgetFreezesNormals) {
   const ClassTable table = ClassTable::semanticKitti();

@@ -133,7 +133,8 @@ void LocalMap::invalidateAround(std::int64_t x, std::int64_t y, std::int64_t z, 
       }
 }
 
-RegistrationTarget LocalMap::makeTarget(const ClassTable& classes, const RegistrationConfig& config) {
+RegistrationTarget LocalMap::makeTarget(const ClassTable& classes, const RegistrationConfig& config,
+                                        bool lazy_normals) {
   LabeledCloud out;
   if (has_values_) out.enableProperty();
   out.reserve(points_);
@@ -151,112 +152,144 @@ RegistrationTarget LocalMap::makeTarget(const ClassTable& classes, const Registr
     normal_radius_ = config.normal_radius;
     normal_ring_ = std::max(1, static_cast<int>(std::ceil(config.normal_radius / config_.voxel_size)));
   }
-  // Re-estimate the normals of stale voxels (their neighbourhood changed). The map's own voxels are
-  // the neighbour search: every point of a voxel shares one candidate set (the voxels within the
-  // normal ring), gathered once; the k nearest within normal_radius are the ones a k-NN query on
-  // the whole map returns. With a normal_updates budget, a point past it keeps its normal.
-  std::vector<std::uint32_t> stale;
-  for (std::size_t k = 0; k < voxels_.size(); ++k)
-    if (!voxels_[k].normals_valid) stale.push_back(static_cast<std::uint32_t>(k));
-  NormalConfig nc;
-  nc.neighbors = config.normal_neighbors;
-  nc.radius = config.normal_radius;
-  const float r2 = static_cast<float>(config.normal_radius * config.normal_radius);
-  const int ring = normal_ring_;
+  // Which normals are stale (their neighbourhood changed)? Those are not estimated here: the
+  // target estimates them when ICP first pairs a point with them (most never are). The map's own
+  // voxels are the neighbour search (estimateNormal). With a normal_updates budget, a point past
+  // it keeps its normal.
+  if (normal_offsets_.empty() || normal_offsets_ring_ != normal_ring_) {
+    // Neighbour voxels in the order a k-NN search should visit them (nearest first: own voxel,
+    // faces, edges, corners, then the outer rings).
+    const int ring = normal_ring_;
+    normal_offsets_.clear();
+    for (int dx = -ring; dx <= ring; ++dx)
+      for (int dy = -ring; dy <= ring; ++dy)
+        for (int dz = -ring; dz <= ring; ++dz) normal_offsets_.push_back({dx, dy, dz});
+    std::stable_sort(normal_offsets_.begin(), normal_offsets_.end(), [](const auto& a, const auto& b) {
+      const auto m = [](const auto& o) {
+        return std::max({std::abs(o[0]), std::abs(o[1]), std::abs(o[2])}) * 8 + std::abs(o[0]) + std::abs(o[1]) + std::abs(o[2]);
+      };
+      return m(a) < m(b);
+    });
+    normal_offsets_ring_ = normal_ring_;
+  }
   const int budget = config_.normal_updates;
-  const std::size_t k_max = static_cast<std::size_t>(std::max(config.normal_neighbors, 1));
-  // Neighbour voxels in the order a k-NN search should visit them (nearest first: own voxel,
-  // faces, edges, corners, then the outer rings).
-  std::vector<std::array<int, 3>> offsets;
-  for (int dx = -ring; dx <= ring; ++dx)
-    for (int dy = -ring; dy <= ring; ++dy)
-      for (int dz = -ring; dz <= ring; ++dz) offsets.push_back({dx, dy, dz});
-  std::stable_sort(offsets.begin(), offsets.end(), [](const auto& a, const auto& b) {
-    const auto m = [](const auto& o) {
-      return std::max({std::abs(o[0]), std::abs(o[1]), std::abs(o[2])}) * 8 + std::abs(o[0]) + std::abs(o[1]) + std::abs(o[2]);
-    };
-    return m(a) < m(b);
-  });
-  const float vs = static_cast<float>(config_.voxel_size);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, stale.size(), 8), [&](const auto& range) {
-    std::vector<const Voxel*> around(offsets.size());
-    std::vector<std::pair<float, Eigen::Vector3f>> best;  // sorted by distance, at most k
-    std::vector<Eigen::Vector3f> neighbours;
+  std::vector<std::uint32_t> stale_voxels;
+  for (std::size_t k = 0; k < voxels_.size(); ++k) {
+    Voxel& v = voxels_[k];
+    v.normals.resize(v.points.size(), Eigen::Vector3f::Zero());
+    v.updates.resize(v.points.size(), 0);
+    v.reach2.resize(v.points.size(), -1.0f);
+    if (!v.normals_valid) stale_voxels.push_back(static_cast<std::uint32_t>(k));
+  }
+  // Could point i's neighbour set have changed since its normal was estimated? (exact: a change
+  // beyond its k-th neighbour cannot enter the set, a removed point beyond it was not in it)
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, stale_voxels.size(), 8), [&](const auto& range) {
+    std::vector<const Voxel*> around;
     for (std::size_t s_i = range.begin(); s_i < range.end(); ++s_i) {
-      Voxel& v = voxels_[stale[s_i]];
-      v.normals.resize(v.points.size(), Eigen::Vector3f::Zero());
-      v.updates.resize(v.points.size(), 0);
-      v.reach2.resize(v.points.size(), -1.0f);
-      for (std::size_t o = 0; o < offsets.size(); ++o) {
-        const auto it = index_.find(packKey(v.x + offsets[o][0], v.y + offsets[o][1], v.z + offsets[o][2]));
-        around[o] = it == index_.end() ? nullptr : &voxels_[it->second];
+      Voxel& v = voxels_[stale_voxels[s_i]];
+      around.clear();
+      for (const auto& o : normal_offsets_) {
+        const auto it = index_.find(packKey(v.x + o[0], v.y + o[1], v.z + o[2]));
+        if (it != index_.end() && !voxels_[it->second].delta.empty()) around.push_back(&voxels_[it->second]);
       }
-      // Could point i's neighbour set have changed? (exact: a change beyond its k-th neighbour
-      // cannot enter the set, a removed point beyond it was not in it)
-      const auto moved = [&](std::size_t i) {
-        if (v.force || v.reach2[i] < 0.0f) return true;
-        for (const Voxel* w : around)
-          if (w)
-            for (const Eigen::Vector3f& d : w->delta)
-              if ((d - v.points[i]).squaredNorm() <= v.reach2[i]) return true;
-        return false;
-      };
-      const auto due = [&](std::size_t i) {
-        const bool allowed = v.normals[i].isZero() || budget == 0 || v.updates[i] < budget;
-        return allowed && moved(i);
-      };
-      const Eigen::Vector3f lo(static_cast<float>(v.x) * vs, static_cast<float>(v.y) * vs,
-                               static_cast<float>(v.z) * vs);
       for (std::size_t i = 0; i < v.points.size(); ++i) {
-        if (!due(i)) continue;
-        const Eigen::Vector3f p = v.points[i];
-        const Eigen::Vector3f f = ((p - lo) / vs).cwiseMax(0.0f).cwiseMin(1.0f);  // position in the voxel
-        best.clear();
-        for (std::size_t o = 0; o < offsets.size(); ++o) {
-          const Voxel* w = around[o];
-          if (!w) continue;
-          // lower bound of the distance from p to voxel w's box
-          float lb2 = 0.0f;
-          for (int a = 0; a < 3; ++a) {
-            const int d = offsets[o][a];
-            const float g = d > 0 ? (static_cast<float>(d) - f[a]) : d < 0 ? (f[a] - static_cast<float>(d + 1)) : 0.0f;
-            lb2 += g * g;
-          }
-          lb2 *= vs * vs;
-          const float bound = best.size() == k_max ? best.back().first : r2;
-          if (lb2 * 0.9999f >= bound) continue;  // margin for the float box position
-          for (const Eigen::Vector3f& q : w->points) {
-            const float d2 = (q - p).squaredNorm();
-            if (!(d2 < r2)) continue;
-            if (best.size() == k_max) {
-              if (d2 >= best.back().first) continue;
-              best.pop_back();
+        const bool allowed = v.normals[i].isZero() || budget == 0 || v.updates[i] < budget;
+        if (!allowed) continue;
+        bool moved = v.force || v.reach2[i] < 0.0f;
+        for (std::size_t a = 0; a < around.size() && !moved; ++a)
+          for (const Eigen::Vector3f& d : around[a]->delta)
+            if ((d - v.points[i]).squaredNorm() <= v.reach2[i]) {
+              moved = true;
+              break;
             }
-            auto at = std::upper_bound(best.begin(), best.end(), d2,
-                                       [](float x, const auto& e) { return x < e.first; });
-            best.insert(at, {d2, q});
-          }
-        }
-        neighbours.clear();
-        for (const auto& e : best) neighbours.push_back(e.second);
-        v.normals[i] = planeNormal(p, neighbours, nc);
-        v.reach2[i] = best.size() == k_max ? best.back().first : r2;
-        if (v.updates[i] < 255) ++v.updates[i];
+        if (moved) v.reach2[i] = -1.0f;  // pending: estimated on demand (reach2 < 0 = not estimated)
       }
     }
   });
   std::vector<Eigen::Vector3f> normals;
+  std::vector<char> pending;
   normals.reserve(points_);
-  for (Voxel& v : voxels_) {
+  pending.reserve(points_);
+  owner_.clear();
+  owner_.reserve(points_);
+  for (std::size_t k = 0; k < voxels_.size(); ++k) {
+    Voxel& v = voxels_[k];
     v.normals_valid = true;
     v.force = false;
     v.delta.clear();
-    v.normals.resize(v.points.size(), Eigen::Vector3f::Zero());
-    normals.insert(normals.end(), v.normals.begin(), v.normals.end());
+    for (std::size_t i = 0; i < v.points.size(); ++i) {
+      owner_.push_back({static_cast<std::uint32_t>(k), static_cast<std::uint32_t>(i)});
+      pending.push_back(v.reach2[i] < 0.0f);
+      normals.push_back(v.normals[i]);
+    }
   }
-  RegistrationTarget target(std::move(out), classes, config, std::move(normals),
-                            std::vector<char>(points_, 0));
-  return target;
+  NormalConfig nc;
+  nc.neighbors = config.normal_neighbors;
+  nc.radius = config.normal_radius;
+  if (!lazy_normals) {
+    std::vector<std::size_t> todo;
+    for (std::size_t j = 0; j < pending.size(); ++j)
+      if (pending[j]) todo.push_back(j);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, todo.size(), 64), [&](const auto& range) {
+      for (std::size_t t = range.begin(); t < range.end(); ++t) {
+        const auto [k, i] = owner_[todo[t]];
+        normals[todo[t]] = estimateNormal(voxels_[k], i, nc);
+      }
+    });
+    std::vector<char> none_stale(normals.size(), 0);
+    return RegistrationTarget(std::move(out), classes, config, std::move(normals), none_stale);
+  }
+  auto lazy = [this, nc](std::size_t j) {
+    const auto [k, i] = owner_[j];
+    return estimateNormal(voxels_[k], i, nc);
+  };
+  return RegistrationTarget(std::move(out), classes, config, std::move(normals), pending, lazy);
+}
+
+// The k nearest map points within normal_radius (the map's voxels visited nearest first, voxels
+// beyond the current k-th distance skipped), their PCA normal, cached in the voxel with its reach.
+// Called concurrently for different points: it writes only point i's entries.
+Eigen::Vector3f LocalMap::estimateNormal(Voxel& v, std::size_t i, const NormalConfig& nc) const {
+  const float r2 = static_cast<float>(nc.radius * nc.radius);
+  const std::size_t k_max = static_cast<std::size_t>(std::max(nc.neighbors, 1));
+  const float vs = static_cast<float>(config_.voxel_size);
+  thread_local std::vector<std::pair<float, Eigen::Vector3f>> best;  // sorted by distance, <= k
+  thread_local std::vector<Eigen::Vector3f> neighbours;
+  const Eigen::Vector3f p = v.points[i];
+  const Eigen::Vector3f lo(static_cast<float>(v.x) * vs, static_cast<float>(v.y) * vs,
+                           static_cast<float>(v.z) * vs);
+  const Eigen::Vector3f f = ((p - lo) / vs).cwiseMax(0.0f).cwiseMin(1.0f);  // position in the voxel
+  best.clear();
+  for (const auto& o : normal_offsets_) {
+    // lower bound of the distance from p to the neighbour voxel's box
+    float lb2 = 0.0f;
+    for (int a = 0; a < 3; ++a) {
+      const int d = o[a];
+      const float g = d > 0 ? (static_cast<float>(d) - f[a]) : d < 0 ? (f[a] - static_cast<float>(d + 1)) : 0.0f;
+      lb2 += g * g;
+    }
+    lb2 *= vs * vs;
+    const float bound = best.size() == k_max ? best.back().first : r2;
+    if (lb2 * 0.9999f >= bound) continue;  // margin for the float box position
+    const auto it = index_.find(packKey(v.x + o[0], v.y + o[1], v.z + o[2]));
+    if (it == index_.end()) continue;
+    for (const Eigen::Vector3f& q : voxels_[it->second].points) {
+      const float d2 = (q - p).squaredNorm();
+      if (!(d2 < r2)) continue;
+      if (best.size() == k_max) {
+        if (d2 >= best.back().first) continue;
+        best.pop_back();
+      }
+      auto at = std::upper_bound(best.begin(), best.end(), d2, [](float x, const auto& e) { return x < e.first; });
+      best.insert(at, {d2, q});
+    }
+  }
+  neighbours.clear();
+  for (const auto& e : best) neighbours.push_back(e.second);
+  v.normals[i] = planeNormal(p, neighbours, nc);
+  v.reach2[i] = best.size() == k_max ? best.back().first : r2;
+  if (v.updates[i] < 255) ++v.updates[i];
+  return v.normals[i];
 }
 
 LabeledCloud LocalMap::cloud() const {

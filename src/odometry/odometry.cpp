@@ -131,7 +131,8 @@ const OdometryFrame& Odometry::addFrame(const LabeledCloud& scan,
     const Eigen::Isometry3d reg_guess = W.inverse() * prev_pose * f.guess;
     RegistrationResult r;
     if (to_map) {
-      const RegistrationTarget target = map_.makeTarget(classes_, rc);
+      // Lazy normals: ICP estimates only those of the map points it pairs with.
+      const RegistrationTarget target = map_.makeTarget(classes_, rc, /*lazy_normals=*/true);
       f.map_points = target.size();
       r = registerClouds(source, target, reg_guess, classes_, rc);
     } else {

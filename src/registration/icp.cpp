@@ -217,7 +217,9 @@ RegistrationResult solve(const LabeledCloud& source, const RegistrationTarget& t
 
   const bool plane = config.metric == IcpMetric::PointToPlane;
   const LabeledCloud& tc = target.cloud();
-  const auto& normals = target.normals();
+  // Normals are read raw after the correspondence pass, which asked for (and so estimated) every
+  // paired point's normal (target.normal: lazy ones are estimated on first use).
+  const auto& normals = target.normalsComputed();
   const bool use_value = target.usesProperty() && source.hasProperty();
   const bool soft = config.use_classes && config.label_mode == LabelMode::Soft;
   const float mismatch_weight = soft ? static_cast<float>(1.0 - config.label_confidence * config.label_confidence) : 1.0f;
@@ -285,12 +287,12 @@ RegistrationResult solve(const LabeledCloud& source, const RegistrationTarget& t
             // residual would throw away (a patch lies in its wall): it gets a 3-D residual.
             const bool own_property = use_labels && !m.cross_class && is_property[cls];
             cr.point3 = !plane || (property_point && own_property);
-            cr.anisotropic = plane && cr.point3 && tangent_scale < 1.0 && !normals[m.index].isZero();
+            const Eigen::Vector3f& nq = plane ? target.normal(m.index) : p;  // p: unused
+            cr.anisotropic = plane && cr.point3 && tangent_scale < 1.0 && !nq.isZero();
             cr.group = own_property ? 1 : 0;
             if (cr.anisotropic) {
-              cr.residual = weightedResidual(p - tc.points[m.index], normals[m.index], tangent_scale).norm();
+              cr.residual = weightedResidual(p - tc.points[m.index], nq, tangent_scale).norm();
             } else if (!cr.point3) {
-              const Eigen::Vector3f& nq = normals[m.index];
               if (nq.isZero()) {  // no normal there: unusable for point-to-plane
                 cr.target = -1;
                 continue;

@@ -4,6 +4,10 @@
 #include <cmath>
 #include <limits>
 #include <string>
+#include <thread>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 
 #include "hazmap/core/error.hpp"
 #include "hazmap/preprocess/normals.hpp"
@@ -74,6 +78,56 @@ RegistrationTarget::RegistrationTarget(LabeledCloud&& cloud, const ClassTable& c
     }
   }
   build(classes, config, kept_stale);
+}
+
+RegistrationTarget::RegistrationTarget(LabeledCloud&& cloud, const ClassTable& classes,
+                                       const RegistrationConfig& config,
+                                       std::vector<Eigen::Vector3f> normals,
+                                       const std::vector<char>& stale, NormalSource lazy) {
+  config.validate();
+  cloud.checkConsistent("registration target");
+  if (config.use_classes) classes.checkCloud(cloud, "registration target");
+  if (!lazy || config.metric != IcpMetric::PointToPlane) {
+    *this = RegistrationTarget(std::move(cloud), classes, config, std::move(normals), stale);
+    return;
+  }
+  if (normals.size() != cloud.size() || stale.size() != cloud.size())
+    fail("registration target", "lazy normals need cloud-sized normals and stale mask (" +
+                                    std::to_string(normals.size()) + "/" + std::to_string(stale.size()) +
+                                    " for " + std::to_string(cloud.size()) + " points)");
+  for (const auto& p : cloud.points)
+    if (!p.allFinite()) fail("registration target", "lazy normals need a finite cloud");
+  cloud_ = std::move(cloud);
+  normals_ = std::move(normals);
+  lazy_ = std::move(lazy);
+  lazy_state_ = std::make_unique<std::atomic<std::uint8_t>[]>(cloud_.size());
+  for (std::size_t i = 0; i < cloud_.size(); ++i) {
+    lazy_state_[i].store(stale[i] ? 0 : kNormalReady, std::memory_order_relaxed);
+    if (stale[i]) normals_[i].setZero();
+  }
+  // Every normal is accounted for (known or lazy): build() needs no all-points index for them.
+  build(classes, config, std::vector<char>(cloud_.size(), 0));
+}
+
+const Eigen::Vector3f& RegistrationTarget::lazyNormal(std::size_t j) const {
+  std::atomic<std::uint8_t>& state = lazy_state_[j];
+  std::uint8_t expected = 0;
+  if (state.compare_exchange_strong(expected, 1, std::memory_order_acquire)) {
+    normals_[j] = lazy_(j);
+    state.store(kNormalReady, std::memory_order_release);
+  } else {
+    while (state.load(std::memory_order_acquire) != kNormalReady) std::this_thread::yield();
+  }
+  return normals_[j];
+}
+
+const std::vector<Eigen::Vector3f>& RegistrationTarget::normals() const {
+  if (lazy_state_) {
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cloud_.size(), 256), [&](const auto& range) {
+      for (std::size_t j = range.begin(); j < range.end(); ++j) normal(j);
+    });
+  }
+  return normals_;
 }
 
 void RegistrationTarget::build(const ClassTable& classes, const RegistrationConfig& config,

@@ -4,12 +4,14 @@
 // rare and carry the paper's signal, so a full voxel still accepts one by replacing an unlabelled
 // point, as long as property points hold at most half of it.
 #include <Eigen/Core>
+#include <array>
 #include <cstdint>
 #include <unordered_map>
 #include <vector>
 
 #include "hazmap/core/class_table.hpp"
 #include "hazmap/core/labeled_cloud.hpp"
+#include "hazmap/preprocess/normals.hpp"
 #include "hazmap/registration/registration_target.hpp"
 
 namespace hazmap {
@@ -45,7 +47,11 @@ class LocalMap {
   /// added or removed closer than its k-th neighbour (or within normal_radius when it had fewer),
   /// or a voxel within normal_radius was dropped (see also normal_updates). The neighbours come
   /// from the map's own voxels. Deterministic, thread-count independent.
-  RegistrationTarget makeTarget(const ClassTable& classes, const RegistrationConfig& config);
+  /// `lazy_normals`: stale normals are estimated only when ICP first pairs a point with them
+  /// (RegistrationTarget's lazy mode; same values, most never needed). Such a target reads the
+  /// map: use it before the next integrate() or makeTarget(), as the odometry does.
+  RegistrationTarget makeTarget(const ClassTable& classes, const RegistrationConfig& config,
+                                bool lazy_normals = false);
   std::size_t size() const { return points_; }
   std::size_t voxels() const { return voxels_.size(); }
   bool empty() const { return points_ == 0; }
@@ -68,6 +74,7 @@ class LocalMap {
     bool normals_valid = false;
     bool changed = false;  ///< modified during the current integrate()
   };
+  Eigen::Vector3f estimateNormal(Voxel& v, std::size_t i, const NormalConfig& nc) const;
   /// Marks the normals of every voxel within the normal ring of (x, y, z) stale.
   void invalidateAround(std::int64_t x, std::int64_t y, std::int64_t z, bool force);
   LocalMapConfig config_;
@@ -79,6 +86,10 @@ class LocalMap {
   int normal_neighbors_ = -1;
   double normal_radius_ = -1.0;
   int normal_ring_ = 1;  ///< voxels within this Chebyshev distance share normal neighbourhoods
+  std::vector<std::array<int, 3>> normal_offsets_;  ///< the ring's voxels, nearest first
+  int normal_offsets_ring_ = -1;
+  /// Target point j → (voxel, point in voxel), for the last makeTarget()'s lazy normals.
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> owner_;
 };
 
 }  // namespace hazmap

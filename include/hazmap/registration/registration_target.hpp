@@ -4,7 +4,9 @@
 // all-points index, and — for point-to-plane — the target normals. Build it once for a local map
 // or a loop-closure candidate and register many sources against it.
 #include <Eigen/Core>
+#include <atomic>
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <memory>
 #include <vector>
@@ -37,6 +39,16 @@ class RegistrationTarget {
   /// estimate all (same result as the constructor above); otherwise both cloud-sized.
   RegistrationTarget(LabeledCloud&& cloud, const ClassTable& classes, const RegistrationConfig& config,
                      std::vector<Eigen::Vector3f> normals, const std::vector<char>& stale);
+  /// Computes the normal of point i of the (finite) cloud on demand.
+  using NormalSource = std::function<Eigen::Vector3f(std::size_t)>;
+  /// Same, but the stale normals are not estimated here: `lazy(i)` is called the first time ICP
+  /// needs point i's normal (at most once per point, from any thread). ICP touches only the
+  /// points it pairs — a fraction of a local map — so the rest are never estimated. The cloud
+  /// must be all finite (indices are the cloud's), and `lazy` must stay valid while the target
+  /// is used.
+  RegistrationTarget(LabeledCloud&& cloud, const ClassTable& classes, const RegistrationConfig& config,
+                     std::vector<Eigen::Vector3f> normals, const std::vector<char>& stale,
+                     NormalSource lazy);
   ~RegistrationTarget();
   RegistrationTarget(RegistrationTarget&&) noexcept;
   RegistrationTarget& operator=(RegistrationTarget&&) noexcept;
@@ -44,9 +56,17 @@ class RegistrationTarget {
   const LabeledCloud& cloud() const { return cloud_; }
   std::size_t size() const { return cloud_.size(); }
   bool empty() const { return cloud_.empty(); }
-  /// Unit normals (zero = none) when built for point-to-plane, else empty.
-  const std::vector<Eigen::Vector3f>& normals() const { return normals_; }
+  /// Unit normals (zero = none) when built for point-to-plane, else empty. Estimates every
+  /// pending lazy normal first.
+  const std::vector<Eigen::Vector3f>& normals() const;
   bool hasNormals() const { return !normals_.empty(); }
+  /// Normal of point j (estimated now if it is a pending lazy one). Thread-safe.
+  const Eigen::Vector3f& normal(std::size_t j) const {
+    if (!lazy_state_ || lazy_state_[j].load(std::memory_order_acquire) == kNormalReady) return normals_[j];
+    return lazyNormal(j);
+  }
+  /// Normals storage without estimating pending ones: only for points whose normal() was called.
+  const std::vector<Eigen::Vector3f>& normalsComputed() const { return normals_; }
 
   /// The paper's rule for one (already transformed) source point of class `cls` with property
   /// value `value` (ignored unless the property term is on). `cost_bound`: the caller knows a
@@ -80,13 +100,18 @@ class RegistrationTarget {
 
  private:
   void build(const ClassTable& classes, const RegistrationConfig& config, const std::vector<char>& stale);
+  const Eigen::Vector3f& lazyNormal(std::size_t j) const;
+  static constexpr std::uint8_t kNormalReady = 2;
+  // Lazy normals: state per point (0 pending, 1 being estimated, 2 ready).
+  NormalSource lazy_;
+  mutable std::unique_ptr<std::atomic<std::uint8_t>[]> lazy_state_;
   struct ClassSlot {
     ClassId cls = 0;
     float radius2 = 0.0f;
     std::unique_ptr<NeighborIndex> index;
   };
   LabeledCloud cloud_;
-  std::vector<Eigen::Vector3f> normals_;
+  mutable std::vector<Eigen::Vector3f> normals_;
   std::unique_ptr<NeighborIndex> all_;  ///< every point (plain ICP, normals)
   std::vector<ClassSlot> slots_;        ///< one per class present in the target (use_classes)
   std::vector<std::int16_t> slot_of_class_;  ///< class id → slot, -1 = absent
