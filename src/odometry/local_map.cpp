@@ -135,11 +135,22 @@ void LocalMap::invalidateAround(std::int64_t x, std::int64_t y, std::int64_t z, 
 
 RegistrationTarget LocalMap::makeTarget(const ClassTable& classes, const RegistrationConfig& config,
                                         bool lazy_normals) {
+  // The map's points in voxel order, written in parallel (each voxel at its prefix offset).
+  std::vector<std::size_t> first(voxels_.size() + 1, 0);
+  for (std::size_t k = 0; k < voxels_.size(); ++k) first[k + 1] = first[k] + voxels_[k].points.size();
   LabeledCloud out;
   if (has_values_) out.enableProperty();
-  out.reserve(points_);
-  for (const Voxel& v : voxels_)
-    for (std::size_t k = 0; k < v.points.size(); ++k) out.push_back(v.points[k], v.classes[k], 0.0f, 0.0, v.values[k]);
+  out.resize(points_);
+  const auto forEachVoxel = [&](auto&& f) {
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, voxels_.size(), 64), [&](const auto& range) {
+      for (std::size_t k = range.begin(); k < range.end(); ++k) f(k, voxels_[k], first[k]);
+    });
+  };
+  forEachVoxel([&](std::size_t, const Voxel& v, std::size_t at) {
+    std::copy(v.points.begin(), v.points.end(), out.points.begin() + at);
+    std::copy(v.classes.begin(), v.classes.end(), out.classes.begin() + at);
+    if (has_values_) std::copy(v.values.begin(), v.values.end(), out.property.begin() + at);
+  });
   if (config.metric != IcpMetric::PointToPlane)
     return RegistrationTarget(std::move(out), classes, config, {}, {});
 
@@ -206,23 +217,19 @@ RegistrationTarget LocalMap::makeTarget(const ClassTable& classes, const Registr
       }
     }
   });
-  std::vector<Eigen::Vector3f> normals;
-  std::vector<char> pending;
-  normals.reserve(points_);
-  pending.reserve(points_);
-  owner_.clear();
-  owner_.reserve(points_);
-  for (std::size_t k = 0; k < voxels_.size(); ++k) {
-    Voxel& v = voxels_[k];
+  std::vector<Eigen::Vector3f> normals(points_);
+  std::vector<char> pending(points_);
+  owner_.resize(points_);
+  forEachVoxel([&](std::size_t k, Voxel& v, std::size_t at) {
     v.normals_valid = true;
     v.force = false;
     v.delta.clear();
     for (std::size_t i = 0; i < v.points.size(); ++i) {
-      owner_.push_back({static_cast<std::uint32_t>(k), static_cast<std::uint32_t>(i)});
-      pending.push_back(v.reach2[i] < 0.0f);
-      normals.push_back(v.normals[i]);
+      owner_[at + i] = {static_cast<std::uint32_t>(k), static_cast<std::uint32_t>(i)};
+      pending[at + i] = v.reach2[i] < 0.0f;
+      normals[at + i] = v.normals[i];
     }
-  }
+  });
   NormalConfig nc;
   nc.neighbors = config.normal_neighbors;
   nc.radius = config.normal_radius;
