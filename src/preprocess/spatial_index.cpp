@@ -35,15 +35,16 @@ inline std::uint64_t hashKey(std::uint64_t key) {
 
 inline bool finite(const Eigen::Vector3f& p) { return std::isfinite(p.x()) && std::isfinite(p.y()) && std::isfinite(p.z()); }
 
-// Keeps the k best (smallest distance2) neighbours, sorted.
+// Keeps the k best (smallest distance2) neighbours, sorted (a new one goes after equal ones).
 inline void pushBest(std::vector<Neighbor>& best, int k, Neighbor n) {
   if (static_cast<int>(best.size()) == k) {
     if (n.distance2 >= best.back().distance2) return;
-    best.pop_back();
+    best.back() = n;
+  } else {
+    best.push_back(n);
   }
-  auto it = std::upper_bound(best.begin(), best.end(), n,
-                             [](const Neighbor& a, const Neighbor& b) { return a.distance2 < b.distance2; });
-  best.insert(it, n);
+  for (std::size_t i = best.size() - 1; i > 0 && best[i - 1].distance2 > best[i].distance2; --i)
+    std::swap(best[i - 1], best[i]);
 }
 
 }  // namespace
@@ -99,6 +100,7 @@ VoxelHashIndex::VoxelHashIndex(std::span<const Eigen::Vector3f> points,
   }
 
   const int ring = static_cast<int>(std::ceil(max_radius / cell_size));
+  ring_ = ring;
   const float max_lb2 = (max_radius / cell_size) * (max_radius / cell_size);
   for (int dx = -ring; dx <= ring; ++dx)
     for (int dy = -ring; dy <= ring; ++dy)
@@ -140,12 +142,9 @@ std::int64_t VoxelHashIndex::nearest(const Eigen::Vector3f& q, float max_distanc
   const auto gap = [](int d, float f) {
     return d > 0 ? static_cast<float>(d) - f : (d < 0 ? f - static_cast<float>(d + 1) : 0.0f);
   };
-  for (const Offset& o : offsets_) {
-    if (o.lower_bound2 * c2 >= best) break;
-    const float gx = gap(o.dx, fx), gy = gap(o.dy, fy), gz = gap(o.dz, fz);
-    if ((gx * gx + gy * gy + gz * gz) * c2 >= best) continue;
-    const std::int64_t cell = findCell(cx + o.dx, cy + o.dy, cz + o.dz);
-    if (cell < 0) continue;
+  const auto scan = [&](std::int64_t x, std::int64_t y, std::int64_t z) {
+    const std::int64_t cell = findCell(x, y, z);
+    if (cell < 0) return;
     const std::uint32_t end = cell_begin_[cell + 1];
     for (std::uint32_t i = cell_begin_[cell]; i < end; ++i) {
       const float d2 = (points_[i] - q).squaredNorm();
@@ -153,6 +152,31 @@ std::int64_t VoxelHashIndex::nearest(const Eigen::Vector3f& q, float max_distanc
         best = d2;
         best_index = i;
       }
+    }
+  };
+  if (ring_ == 1) {
+    // Radius within one voxel: the own voxel first, then only the neighbours on the sides the
+    // query is close enough to (after the own voxel the bound is usually tight, so that is one
+    // to three voxels instead of testing all 26).
+    scan(cx, cy, cz);
+    const float lim2 = best / c2;  // bound in voxel units²
+    const int lo_x = fx * fx < lim2 ? -1 : 0, hi_x = (1.0f - fx) * (1.0f - fx) < lim2 ? 1 : 0;
+    const int lo_y = fy * fy < lim2 ? -1 : 0, hi_y = (1.0f - fy) * (1.0f - fy) < lim2 ? 1 : 0;
+    const int lo_z = fz * fz < lim2 ? -1 : 0, hi_z = (1.0f - fz) * (1.0f - fz) < lim2 ? 1 : 0;
+    for (int dx = lo_x; dx <= hi_x; ++dx)
+      for (int dy = lo_y; dy <= hi_y; ++dy)
+        for (int dz = lo_z; dz <= hi_z; ++dz) {
+          if (dx == 0 && dy == 0 && dz == 0) continue;
+          const float gx = gap(dx, fx), gy = gap(dy, fy), gz = gap(dz, fz);
+          if ((gx * gx + gy * gy + gz * gz) * c2 >= best) continue;
+          scan(cx + dx, cy + dy, cz + dz);
+        }
+  } else {
+    for (const Offset& o : offsets_) {
+      if (o.lower_bound2 * c2 >= best) break;
+      const float gx = gap(o.dx, fx), gy = gap(o.dy, fy), gz = gap(o.dz, fz);
+      if ((gx * gx + gy * gy + gz * gz) * c2 >= best) continue;
+      scan(cx + o.dx, cy + o.dy, cz + o.dz);
     }
   }
   if (best_index < 0) return -1;

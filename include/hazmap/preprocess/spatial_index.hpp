@@ -63,6 +63,7 @@ class VoxelHashIndex final : public NeighborIndex {
   std::vector<Slot> table_;  ///< open addressing; key and cell side by side (one cache line per probe)
   std::uint64_t table_mask_ = 0;
   std::vector<Offset> offsets_;  ///< sorted by lower_bound2
+  int ring_ = 1;                 ///< voxels within this Chebyshev distance can hold a neighbour
 };
 
 class KdTreeIndex final : public NeighborIndex {
