@@ -59,9 +59,21 @@ VoxelHashIndex::VoxelHashIndex(std::span<const Eigen::Vector3f> points,
   cell_ = cell_size;
   inv_cell_ = 1.0f / cell_size;
   const std::size_t n = ids.empty() ? points.size() : ids.size();
-  const std::uint64_t table_size = std::bit_ceil(std::max<std::uint64_t>(16, 2 * n));
-  table_mask_ = table_size - 1;
-  table_.assign(table_size, Slot{kEmpty, 0});
+  // Sized for the voxels, not the points (several points share a voxel; a small table stays in
+  // cache for the queries): start at n/4 and double whenever it is half full.
+  table_mask_ = std::bit_ceil(std::max<std::uint64_t>(16, n / 4)) - 1;
+  table_.assign(table_mask_ + 1, Slot{kEmpty, 0});
+  const auto grow = [&] {
+    std::vector<Slot> old(2 * (table_mask_ + 1), Slot{kEmpty, 0});
+    old.swap(table_);
+    table_mask_ = table_.size() - 1;
+    for (const Slot& e : old) {
+      if (e.key == kEmpty) continue;
+      std::uint64_t slot = hashKey(e.key) & table_mask_;
+      while (table_[slot].key != kEmpty) slot = (slot + 1) & table_mask_;
+      table_[slot] = e;
+    }
+  };
 
   std::vector<std::uint32_t> cell_of(n, ~0u);
   std::vector<std::uint32_t> counts;
@@ -81,8 +93,11 @@ VoxelHashIndex::VoxelHashIndex(std::span<const Eigen::Vector3f> points,
       table_[slot].key = key;
       table_[slot].cell = static_cast<std::uint32_t>(counts.size());
       counts.push_back(0);
+      cell_of[i] = table_[slot].cell;
+      if (2 * counts.size() > table_mask_ + 1) grow();
+    } else {
+      cell_of[i] = table_[slot].cell;
     }
-    cell_of[i] = table_[slot].cell;
     ++counts[cell_of[i]];
   }
   cell_begin_.assign(counts.size() + 1, 0);
