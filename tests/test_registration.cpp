@@ -307,6 +307,7 @@ TEST(PropertyIcp, ReusedCorrespondencesSaveSearchesNotAccuracy) {
   for (const IcpMetric metric : {IcpMetric::PointToPlane, IcpMetric::PointToPoint}) {
     RegistrationConfig cfg;
     cfg.metric = metric;
+    cfg.use_classes = false;  // with labelled points in play every step searches (next test)
     cfg.max_iterations = 150;
     cfg.correspondence_reuse_distance = 0.0;
     const auto every = registerClouds(p.source, p.target, Eigen::Isometry3d::Identity(), ClassTable::defaults(), cfg);
@@ -317,7 +318,16 @@ TEST(PropertyIcp, ReusedCorrespondencesSaveSearchesNotAccuracy) {
     EXPECT_LT(rotErrDeg(every.transform, reuse.transform), 0.02);
     EXPECT_LE(reuse.iterations, every.iterations);  // iterations = correspondence searches
     std::printf("%s: searches %d without reuse, %d with\n", toString(metric), every.iterations, reuse.iterations);
+    if (metric == IcpMetric::PointToPlane) EXPECT_LT(reuse.iterations, every.iterations);
   }
+  // Property ICP with labelled points: reuse is off, the result is the search-every-step one.
+  RegistrationConfig cfg;
+  cfg.correspondence_reuse_distance = 0.0;
+  const auto every = registerClouds(p.source, p.target, Eigen::Isometry3d::Identity(), ClassTable::defaults(), cfg);
+  cfg.correspondence_reuse_distance = 0.05;
+  const auto reuse = registerClouds(p.source, p.target, Eigen::Isometry3d::Identity(), ClassTable::defaults(), cfg);
+  ASSERT_GT(reuse.stats.property_points, 0u);
+  EXPECT_TRUE(every.transform.matrix() == reuse.transform.matrix());
 }
 
 TEST(PropertyIcp, PropertyPatchesFixTheCorridor) {

@@ -240,7 +240,16 @@ RegistrationResult solve(const LabeledCloud& source, const RegistrationTarget& t
   // Farthest used source point from the sensor: a pose change D (source frame) moves every point
   // by at most |t_D| + angle(D)·reach (bounds how far points moved since the last search).
   double reach = 0.0;
-  for (const std::uint32_t i : used) reach = std::max(reach, static_cast<double>(source.points[i].norm()));
+  bool labelled_points = false;
+  for (const std::uint32_t i : used) {
+    reach = std::max(reach, static_cast<double>(source.points[i].norm()));
+    const ClassId c = source.classes[i];
+    labelled_points = labelled_points || (c < is_property.size() && is_property[c]);
+  }
+  // Reused correspondences only without labels in play: the labelled pairs' wide same-class
+  // search reacts to small moves, and freezing it cost property ICP accuracy on the simulated
+  // tanks run (map error 0.077 → 0.140 m; re-searching just the labelled points oscillated).
+  const bool reuse_allowed = !(use_labels && labelled_points);
 
   const std::size_t chunks = (n + kChunk - 1) / kChunk;
   std::vector<Corr> corr(n);
@@ -451,7 +460,7 @@ RegistrationResult solve(const LabeledCloud& source, const RegistrationTarget& t
         continue;
       }
       const Eigen::Isometry3d moved = T_corr.inverse() * T;
-      fresh = ++reuse_steps > kMaxReuseSteps ||
+      fresh = !reuse_allowed || ++reuse_steps > kMaxReuseSteps ||
               !(moved.translation().norm() + rotationAngle(moved) * reach < config.correspondence_reuse_distance);
     }
     result.reason = "reached max_iterations (" + std::to_string(config.max_iterations) + ")";
