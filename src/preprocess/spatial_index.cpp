@@ -35,16 +35,15 @@ inline std::uint64_t hashKey(std::uint64_t key) {
 
 inline bool finite(const Eigen::Vector3f& p) { return std::isfinite(p.x()) && std::isfinite(p.y()) && std::isfinite(p.z()); }
 
-// Keeps the k best (smallest distance2) neighbours, sorted (a new one goes after equal ones).
+// Keeps the k best (smallest distance2) neighbours, sorted.
 inline void pushBest(std::vector<Neighbor>& best, int k, Neighbor n) {
   if (static_cast<int>(best.size()) == k) {
     if (n.distance2 >= best.back().distance2) return;
-    best.back() = n;
-  } else {
-    best.push_back(n);
+    best.pop_back();
   }
-  for (std::size_t i = best.size() - 1; i > 0 && best[i - 1].distance2 > best[i].distance2; --i)
-    std::swap(best[i - 1], best[i]);
+  auto it = std::upper_bound(best.begin(), best.end(), n,
+                             [](const Neighbor& a, const Neighbor& b) { return a.distance2 < b.distance2; });
+  best.insert(it, n);
 }
 
 }  // namespace

@@ -84,13 +84,13 @@ RegistrationTarget::RegistrationTarget(LabeledCloud&& cloud, const ClassTable& c
                                        const RegistrationConfig& config,
                                        std::vector<Eigen::Vector3f> normals,
                                        const std::vector<char>& stale, NormalSource lazy) {
-  config.validate();
-  cloud.checkConsistent("registration target");
-  if (config.use_classes) classes.checkCloud(cloud, "registration target");
-  if (!lazy || config.metric != IcpMetric::PointToPlane) {
+  if (!lazy || config.metric != IcpMetric::PointToPlane) {  // nothing to estimate lazily
     *this = RegistrationTarget(std::move(cloud), classes, config, std::move(normals), stale);
     return;
   }
+  config.validate();
+  cloud.checkConsistent("registration target");
+  if (config.use_classes) classes.checkCloud(cloud, "registration target");
   if (normals.size() != cloud.size() || stale.size() != cloud.size())
     fail("registration target", "lazy normals need cloud-sized normals and stale mask (" +
                                     std::to_string(normals.size()) + "/" + std::to_string(stale.size()) +

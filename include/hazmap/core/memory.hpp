@@ -4,14 +4,14 @@
 namespace hazmap {
 
 /// Asks glibc's malloc to keep freed memory for reuse instead of returning it to the system
-/// (blocks up to 32 MiB come from the heap, and the heap is trimmed only above 1 GiB). Every frame allocates and frees the same
-/// few megabytes (voxel tables, correspondences); by default glibc serves blocks over 128 KiB with
-/// fresh mmap()s and unmaps them on free, so each frame pays a page fault per 4 KiB touched. On
-/// the virtual machines we measured on a page fault costs microseconds, which made voxel
-/// downsampling of the scan pair 13× slower (53 → 4 ms) and registration about 2× slower
-/// (see docs/registration.md, "Allocator"). Resident memory then stays at its peak instead of
-/// shrinking between frames. Call once at start-up, before threads are started; a no-op
-/// returning false where glibc's mallopt is unavailable.
+/// (blocks up to 32 MiB come from the heap, and the heap is trimmed only above 1 GiB). Every
+/// frame allocates and frees the same few megabytes (voxel tables, correspondences); by default
+/// glibc serves blocks over 128 KiB with fresh mmap()s and unmaps them on free, so each frame
+/// pays a page fault per 4 KiB touched. On the virtual machines we measured on a page fault costs
+/// microseconds, which made voxel downsampling of the scan pair 13× slower (27 → 2 ms per cloud)
+/// and registration about 2× slower (docs/registration.md, "What made it faster"). Resident
+/// memory then stays at its peak instead of shrinking between frames. Call once at start-up,
+/// before threads are started; a no-op returning false where glibc's mallopt is unavailable.
 bool retainFreedMemory();
 
 }  // namespace hazmap
