@@ -453,6 +453,10 @@ TEST(RegistrationConfig, YamlRoundTripAndErrors) {
   EXPECT_THROW(registrationConfigFromYaml("property_tangent_weight: 1.5\n", "cfg.yaml"), Error);
   EXPECT_THROW(registrationConfigFromYaml("min_label_agreement: 2\n", "cfg.yaml"), Error);
   EXPECT_THROW(registrationConfigFromYaml("min_label_agreement: .nan\n", "cfg.yaml"), Error);
+  EXPECT_THROW(registrationConfigFromYaml("correspondence_reuse_distance: -0.1\n", "cfg.yaml"), Error);
+  EXPECT_THROW(registrationConfigFromYaml("correspondence_reuse_distance: .nan\n", "cfg.yaml"), Error);
+  c.correspondence_reuse_distance = 0.02;
+  EXPECT_DOUBLE_EQ(registrationConfigFromYaml(toYamlString(c), "test").correspondence_reuse_distance, 0.02);
   try {
     registrationConfigFromYaml("mismatch_penalty: [1]\n", "cfg.yaml");
     FAIL();
