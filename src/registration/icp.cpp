@@ -25,6 +25,7 @@ namespace hazmap {
 namespace {
 
 constexpr std::size_t kChunk = 512;
+constexpr std::size_t kSearchGrain = 64;
 
 struct Corr {
   std::int32_t target = -1;
@@ -276,45 +277,43 @@ RegistrationResult solve(const LabeledCloud& source, const RegistrationTarget& t
       const Eigen::Matrix3f R = T.linear().cast<float>();
       const Eigen::Vector3f t = T.translation().cast<float>();
       T_corr = T;
-      // 1. correspondences (the expensive part)
-      tbb::parallel_for(tbb::blocked_range<std::size_t>(0, chunks, 1), [&](const auto& range) {
-        for (std::size_t c = range.begin(); c < range.end(); ++c) {
-          const std::size_t end = std::min(n, (c + 1) * kChunk);
-          for (std::size_t k = c * kChunk; k < end; ++k) {
-            const std::uint32_t i = used[k];
-            const Eigen::Vector3f p = R * source.points[i] + t;
-            const ClassId cls = source.classes[i];
-            const float value = use_value ? source.property[i] : std::numeric_limits<float>::quiet_NaN();
-            Corr& cr = corr[k];
-            // The previous iteration's partner bounds the search (exact, see costBound).
-            const float bound = target.costBound(p, cls, cr.target, use_labels);
-            const TargetMatch m = use_labels ? target.match(p, cls, value, bound)
-                                             : target.nearestAnyClass(p, cls, bound);
-            cr.target = static_cast<std::int32_t>(m.index);
-            if (m.index < 0) continue;
-            // A same-class property pair constrains where the labelled patch is, which a plane
-            // residual would throw away (a patch lies in its wall): it gets a 3-D residual.
-            const bool own_property = use_labels && !m.cross_class && is_property[cls];
-            cr.point3 = !plane || (property_point && own_property);
-            const Eigen::Vector3f& nq = plane ? target.normal(m.index) : p;  // p: unused
-            cr.anisotropic = plane && cr.point3 && tangent_scale < 1.0 && !nq.isZero();
-            cr.group = own_property ? 1 : 0;
-            if (cr.anisotropic) {
-              cr.residual = weightedResidual(p - tc.points[m.index], nq, tangent_scale).norm();
-            } else if (!cr.point3) {
-              if (nq.isZero()) {  // no normal there: unusable for point-to-plane
-                cr.target = -1;
-                continue;
-              }
-              cr.residual = nq.dot(p - tc.points[m.index]);
-            } else {
-              cr.residual = std::sqrt(m.distance2);
+      // 1. correspondences (the expensive part; each point on its own, so finer grains than the
+      //    sums' chunks balance the threads better on small sources without changing a bit)
+      tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, kSearchGrain), [&](const auto& range) {
+        for (std::size_t k = range.begin(); k < range.end(); ++k) {
+          const std::uint32_t i = used[k];
+          const Eigen::Vector3f p = R * source.points[i] + t;
+          const ClassId cls = source.classes[i];
+          const float value = use_value ? source.property[i] : std::numeric_limits<float>::quiet_NaN();
+          Corr& cr = corr[k];
+          // The previous iteration's partner bounds the search (exact, see costBound).
+          const float bound = target.costBound(p, cls, cr.target, use_labels);
+          const TargetMatch m = use_labels ? target.match(p, cls, value, bound)
+                                           : target.nearestAnyClass(p, cls, bound);
+          cr.target = static_cast<std::int32_t>(m.index);
+          if (m.index < 0) continue;
+          // A same-class property pair constrains where the labelled patch is, which a plane
+          // residual would throw away (a patch lies in its wall): it gets a 3-D residual.
+          const bool own_property = use_labels && !m.cross_class && is_property[cls];
+          cr.point3 = !plane || (property_point && own_property);
+          const Eigen::Vector3f& nq = plane ? target.normal(m.index) : p;  // p: unused
+          cr.anisotropic = plane && cr.point3 && tangent_scale < 1.0 && !nq.isZero();
+          cr.group = own_property ? 1 : 0;
+          if (cr.anisotropic) {
+            cr.residual = weightedResidual(p - tc.points[m.index], nq, tangent_scale).norm();
+          } else if (!cr.point3) {
+            if (nq.isZero()) {  // no normal there: unusable for point-to-plane
+              cr.target = -1;
+              continue;
             }
-            cr.distance2 = m.distance2;
-            cr.cross = m.cross_class;
-            cr.weight = use_labels && cls < class_weight.size() ? class_weight[cls] : 1.0f;
-            if (m.cross_class && soft && use_labels) cr.weight *= mismatch_weight;
+            cr.residual = nq.dot(p - tc.points[m.index]);
+          } else {
+            cr.residual = std::sqrt(m.distance2);
           }
+          cr.distance2 = m.distance2;
+          cr.cross = m.cross_class;
+          cr.weight = use_labels && cls < class_weight.size() ? class_weight[cls] : 1.0f;
+          if (m.cross_class && soft && use_labels) cr.weight *= mismatch_weight;
         }
       });
       // 2. adaptive robust scale from the observed residuals (median absolute residual), separately
