@@ -92,12 +92,10 @@ VoxelHashIndex::VoxelHashIndex(std::span<const Eigen::Vector3f> points,
       table_[slot].key = key;
       table_[slot].cell = static_cast<std::uint32_t>(counts.size());
       counts.push_back(0);
-      cell_of[i] = table_[slot].cell;
-      if (2 * counts.size() > table_mask_ + 1) grow();
-    } else {
-      cell_of[i] = table_[slot].cell;
     }
+    cell_of[i] = table_[slot].cell;
     ++counts[cell_of[i]];
+    if (2 * counts.size() > table_mask_ + 1) grow();  // moves the slots: `slot` is stale after it
   }
   cell_begin_.assign(counts.size() + 1, 0);
   for (std::size_t c = 0; c < counts.size(); ++c) cell_begin_[c + 1] = cell_begin_[c] + counts[c];

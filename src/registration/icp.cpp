@@ -263,6 +263,82 @@ RegistrationResult solve(const LabeledCloud& source, const RegistrationTarget& t
   TangentMix mix;  // of the last iteration (the covariance uses it too)
   double kernel[2] = {0.0, 0.0};
 
+  // One correspondence search at T (steps 1 and 2); false when too few pairs were found (the
+  // reason is set). `it` numbers the search for that message.
+  const auto search = [&](int it) {
+    const Eigen::Matrix3f R = T.linear().cast<float>();
+    const Eigen::Vector3f t = T.translation().cast<float>();
+    T_corr = T;
+    // 1. correspondences (the expensive part; each point on its own, so finer grains than the
+    //    sums' chunks balance the threads better on small sources without changing a bit)
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, kSearchGrain), [&](const auto& range) {
+      for (std::size_t k = range.begin(); k < range.end(); ++k) {
+        const std::uint32_t i = used[k];
+        const Eigen::Vector3f p = R * source.points[i] + t;
+        const ClassId cls = source.classes[i];
+        const float value = use_value ? source.property[i] : std::numeric_limits<float>::quiet_NaN();
+        Corr& cr = corr[k];
+        // The previous iteration's partner bounds the search (exact, see costBound).
+        const float bound = target.costBound(p, cls, cr.target, use_labels);
+        const TargetMatch m = use_labels ? target.match(p, cls, value, bound)
+                                         : target.nearestAnyClass(p, cls, bound);
+        cr.target = static_cast<std::int32_t>(m.index);
+        if (m.index < 0) continue;
+        // A same-class property pair constrains where the labelled patch is, which a plane
+        // residual would throw away (a patch lies in its wall): it gets a 3-D residual.
+        const bool own_property = use_labels && !m.cross_class && is_property[cls];
+        cr.point3 = !plane || (property_point && own_property);
+        const Eigen::Vector3f& nq = plane ? target.normal(m.index) : p;  // p: unused
+        cr.anisotropic = plane && cr.point3 && tangent_scale < 1.0 && !nq.isZero();
+        cr.group = own_property ? 1 : 0;
+        if (cr.anisotropic) {
+          cr.residual = weightedResidual(p - tc.points[m.index], nq, tangent_scale).norm();
+        } else if (!cr.point3) {
+          if (nq.isZero()) {  // no normal there: unusable for point-to-plane
+            cr.target = -1;
+            continue;
+          }
+          cr.residual = nq.dot(p - tc.points[m.index]);
+        } else {
+          cr.residual = std::sqrt(m.distance2);
+        }
+        cr.distance2 = m.distance2;
+        cr.cross = m.cross_class;
+        cr.weight = use_labels && cls < class_weight.size() ? class_weight[cls] : 1.0f;
+        if (m.cross_class && soft && use_labels) cr.weight *= mismatch_weight;
+      }
+    });
+    // 2. adaptive robust scale from the observed residuals (median absolute residual), separately
+    //    for ordinary pairs and for property pairs (few, larger residuals, and the ones that
+    //    carry the label's information — one shared scale would silence them).
+    std::size_t matched_now = 0;
+    for (int grp = 0; grp < 2; ++grp) {
+      abs_res.clear();
+      bool p3 = !plane;
+      for (std::size_t k = 0; k < n; ++k)
+        if (corr[k].target >= 0 && corr[k].group == grp) {
+          abs_res.push_back(std::abs(corr[k].residual));
+          p3 = corr[k].point3;
+        }
+      matched_now += abs_res.size();
+      if (abs_res.empty()) continue;
+      const std::size_t mid = abs_res.size() / 2;
+      std::nth_element(abs_res.begin(), abs_res.begin() + mid, abs_res.end());
+      // |r| of a 1-D Gaussian has median 0.6745σ; the norm of a 3-D one 1.5382σ.
+      const double sigma = abs_res[mid] / (p3 ? 1.5382 : 0.6745);
+      kernel[grp] = std::max(config.robust_min_scale, config.robust_scale_factor * sigma);
+    }
+    if (matched_now < config.min_correspondences) {
+      result.reason = "only " + std::to_string(matched_now) + " correspondences at iteration " +
+                      std::to_string(it + 1) + " (min_correspondences = " +
+                      std::to_string(config.min_correspondences) + ")";
+      result.iterations = it + 1;
+      total = Sums{};
+      return false;
+    }
+    return true;
+  };
+
   const auto run = [&] {
     // An iteration is one correspondence search followed by Gauss-Newton steps: the first, plus
     // reweighting steps on the same correspondences while the points have hardly moved
@@ -271,80 +347,11 @@ RegistrationResult solve(const LabeledCloud& source, const RegistrationTarget& t
     bool fresh = true;  // search correspondences for this step (else reuse the last ones)
     int it = -1, reuse_steps = 0;
     while (true) {
-     if (fresh) {
-      if (++it == config.max_iterations) break;
-      reuse_steps = 0;
-      const Eigen::Matrix3f R = T.linear().cast<float>();
-      const Eigen::Vector3f t = T.translation().cast<float>();
-      T_corr = T;
-      // 1. correspondences (the expensive part; each point on its own, so finer grains than the
-      //    sums' chunks balance the threads better on small sources without changing a bit)
-      tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, kSearchGrain), [&](const auto& range) {
-        for (std::size_t k = range.begin(); k < range.end(); ++k) {
-          const std::uint32_t i = used[k];
-          const Eigen::Vector3f p = R * source.points[i] + t;
-          const ClassId cls = source.classes[i];
-          const float value = use_value ? source.property[i] : std::numeric_limits<float>::quiet_NaN();
-          Corr& cr = corr[k];
-          // The previous iteration's partner bounds the search (exact, see costBound).
-          const float bound = target.costBound(p, cls, cr.target, use_labels);
-          const TargetMatch m = use_labels ? target.match(p, cls, value, bound)
-                                           : target.nearestAnyClass(p, cls, bound);
-          cr.target = static_cast<std::int32_t>(m.index);
-          if (m.index < 0) continue;
-          // A same-class property pair constrains where the labelled patch is, which a plane
-          // residual would throw away (a patch lies in its wall): it gets a 3-D residual.
-          const bool own_property = use_labels && !m.cross_class && is_property[cls];
-          cr.point3 = !plane || (property_point && own_property);
-          const Eigen::Vector3f& nq = plane ? target.normal(m.index) : p;  // p: unused
-          cr.anisotropic = plane && cr.point3 && tangent_scale < 1.0 && !nq.isZero();
-          cr.group = own_property ? 1 : 0;
-          if (cr.anisotropic) {
-            cr.residual = weightedResidual(p - tc.points[m.index], nq, tangent_scale).norm();
-          } else if (!cr.point3) {
-            if (nq.isZero()) {  // no normal there: unusable for point-to-plane
-              cr.target = -1;
-              continue;
-            }
-            cr.residual = nq.dot(p - tc.points[m.index]);
-          } else {
-            cr.residual = std::sqrt(m.distance2);
-          }
-          cr.distance2 = m.distance2;
-          cr.cross = m.cross_class;
-          cr.weight = use_labels && cls < class_weight.size() ? class_weight[cls] : 1.0f;
-          if (m.cross_class && soft && use_labels) cr.weight *= mismatch_weight;
-        }
-      });
-      // 2. adaptive robust scale from the observed residuals (median absolute residual), separately
-      //    for ordinary pairs and for property pairs (few, larger residuals, and the ones that
-      //    carry the label's information — one shared scale would silence them).
-      std::size_t matched_now = 0;
-      for (int grp = 0; grp < 2; ++grp) {
-        abs_res.clear();
-        bool p3 = !plane;
-        for (std::size_t k = 0; k < n; ++k)
-          if (corr[k].target >= 0 && corr[k].group == grp) {
-            abs_res.push_back(std::abs(corr[k].residual));
-            p3 = corr[k].point3;
-          }
-        matched_now += abs_res.size();
-        if (abs_res.empty()) continue;
-        const std::size_t mid = abs_res.size() / 2;
-        std::nth_element(abs_res.begin(), abs_res.begin() + mid, abs_res.end());
-        // |r| of a 1-D Gaussian has median 0.6745σ; the norm of a 3-D one 1.5382σ.
-        const double sigma = abs_res[mid] / (p3 ? 1.5382 : 0.6745);
-        kernel[grp] = std::max(config.robust_min_scale, config.robust_scale_factor * sigma);
+      if (fresh) {
+        if (++it == config.max_iterations) break;
+        reuse_steps = 0;
+        if (!search(it)) return;
       }
-      if (matched_now < config.min_correspondences) {
-        result.reason = "only " + std::to_string(matched_now) + " correspondences at iteration " +
-                        std::to_string(it + 1) + " (min_correspondences = " +
-                        std::to_string(config.min_correspondences) + ")";
-        result.iterations = it + 1;
-        total = Sums{};
-        return;
-      }
-     }
       // 3. weighted normal equations, chunk by chunk (residuals and robust weights at the current
       //    pose: the same as the searched ones on a fresh iteration, updated when reused)
       tbb::parallel_for(tbb::blocked_range<std::size_t>(0, chunks, 1), [&](const auto& range) {
