@@ -6,11 +6,13 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <random>
+#include <unordered_map>
 
 #include "hazmap/core/error.hpp"
 #include "hazmap/io/atomic_file.hpp"
 #include "hazmap/io/kitti.hpp"
 #include "hazmap/io/trajectory.hpp"
+#include "hazmap/odometry/detail/voxel_key_index.hpp"
 #include "hazmap/odometry/local_map.hpp"
 #include "hazmap/odometry/odometry.hpp"
 #include "hazmap/preprocess/voxel_downsample.hpp"
@@ -237,6 +239,36 @@ TEST(Odometry, BadInput) {
   EXPECT_EQ(c.mode, OdometryMode::FrameToFrame);
   EXPECT_DOUBLE_EQ(c.map.voxel_size, 0.7);
   EXPECT_EQ(c.registration.metric, IcpMetric::PointToPoint);
+}
+
+TEST(LocalMap, VoxelKeyIndexAgreesWithUnorderedMapUnderChurn) {
+  // The map adds and drops voxels every frame: random inserts/erases over a small key range (so
+  // probe runs collide and wrap), checked against std::unordered_map after every operation.
+  detail::VoxelKeyIndex index;
+  std::unordered_map<std::uint64_t, std::uint32_t> ref;
+  std::mt19937_64 rng(7);
+  for (int op = 0; op < 200000; ++op) {
+    const std::uint64_t key = rng() % 3000;
+    if (rng() % 3 == 0) {
+      index.erase(key);
+      ref.erase(key);
+    } else {
+      const auto value = static_cast<std::uint32_t>(op);
+      const auto [slot, added] = index.tryEmplace(key, value);
+      const auto [it, ref_added] = ref.try_emplace(key, value);
+      ASSERT_EQ(added, ref_added);
+      ASSERT_EQ(*slot, it->second);
+    }
+    ASSERT_EQ(index.size(), ref.size());
+    const std::uint64_t probe = rng() % 3000;
+    const std::uint32_t* found = index.find(probe);
+    const auto it = ref.find(probe);
+    ASSERT_EQ(found != nullptr, it != ref.end()) << "key " << probe << " after op " << op;
+    if (found) ASSERT_EQ(*found, it->second);
+  }
+  for (const auto& [k, v] : ref) ASSERT_TRUE(index.find(k) && *index.find(k) == v);
+  index.clear();
+  EXPECT_EQ(index.find(1), nullptr);
 }
 
 TEST(LocalMap, BoundedAndKeepsPropertyPoints) {

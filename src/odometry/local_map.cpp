@@ -54,9 +54,9 @@ void LocalMap::integrate(const LabeledCloud& scan, const Eigen::Vector3d& origin
     const auto y = static_cast<std::int64_t>(std::floor(p.y() * inv));
     const auto z = static_cast<std::int64_t>(std::floor(p.z() * inv));
     const std::uint64_t key = packKey(x, y, z);
-    auto [it, inserted] = index_.try_emplace(key, static_cast<std::uint32_t>(voxels_.size()));
+    const auto [slot, inserted] = index_.tryEmplace(key, static_cast<std::uint32_t>(voxels_.size()));
     if (inserted) voxels_.push_back(Voxel{x, y, z, {}, {}, {}, 0, {}, {}, {}, {}, true, false, true});
-    Voxel& v = voxels_[it->second];
+    Voxel& v = voxels_[*slot];
     const ClassId cls = scan.classes[i];
     const bool prop = table.isProperty(cls);
     if (min_d2 > 0.0f) {
@@ -108,7 +108,7 @@ void LocalMap::integrate(const LabeledCloud& scan, const Eigen::Vector3d& origin
     index_.erase(packKey(v.x, v.y, v.z));
     if (k + 1 != voxels_.size()) {
       voxels_[k] = std::move(voxels_.back());
-      index_[packKey(voxels_[k].x, voxels_[k].y, voxels_[k].z)] = static_cast<std::uint32_t>(k);
+      *index_.find(packKey(voxels_[k].x, voxels_[k].y, voxels_[k].z)) = static_cast<std::uint32_t>(k);
     }
     voxels_.pop_back();
   }
@@ -126,10 +126,10 @@ void LocalMap::invalidateAround(std::int64_t x, std::int64_t y, std::int64_t z, 
   for (std::int64_t dx = -r; dx <= r; ++dx)
     for (std::int64_t dy = -r; dy <= r; ++dy)
       for (std::int64_t dz = -r; dz <= r; ++dz) {
-        const auto it = index_.find(packKey(x + dx, y + dy, z + dz));
-        if (it == index_.end()) continue;
-        voxels_[it->second].normals_valid = false;
-        voxels_[it->second].force = voxels_[it->second].force || force;
+        const std::uint32_t* at = index_.find(packKey(x + dx, y + dy, z + dz));
+        if (!at) continue;
+        voxels_[*at].normals_valid = false;
+        voxels_[*at].force = voxels_[*at].force || force;
       }
 }
 
@@ -198,14 +198,21 @@ RegistrationTarget LocalMap::makeTarget(const ClassTable& classes, const Registr
     std::vector<const Voxel*> around;
     for (std::size_t s_i = range.begin(); s_i < range.end(); ++s_i) {
       Voxel& v = voxels_[stale_voxels[s_i]];
+      const auto allowed = [&](std::size_t i) {
+        return budget == 0 || v.updates[i] < budget || v.normals[i].isZero();
+      };
+      // With a normal_updates budget most voxels hold only spent points: skip the neighbour
+      // lookups (27 hash probes) that would find nothing to do.
+      bool any = false;
+      for (std::size_t i = 0; i < v.points.size() && !any; ++i) any = allowed(i);
+      if (!any) continue;
       around.clear();
       for (const auto& o : normal_offsets_) {
-        const auto it = index_.find(packKey(v.x + o[0], v.y + o[1], v.z + o[2]));
-        if (it != index_.end() && !voxels_[it->second].delta.empty()) around.push_back(&voxels_[it->second]);
+        const std::uint32_t* at = index_.find(packKey(v.x + o[0], v.y + o[1], v.z + o[2]));
+        if (at && !voxels_[*at].delta.empty()) around.push_back(&voxels_[*at]);
       }
       for (std::size_t i = 0; i < v.points.size(); ++i) {
-        const bool allowed = v.normals[i].isZero() || budget == 0 || v.updates[i] < budget;
-        if (!allowed) continue;
+        if (!allowed(i)) continue;
         bool moved = v.force || v.reach2[i] < 0.0f;
         for (std::size_t a = 0; a < around.size() && !moved; ++a)
           for (const Eigen::Vector3f& d : around[a]->delta)
@@ -278,9 +285,9 @@ Eigen::Vector3f LocalMap::estimateNormal(Voxel& v, std::size_t i, const NormalCo
     lb2 *= vs * vs;
     const float bound = best.size() == k_max ? best.back().first : r2;
     if (lb2 * 0.9999f >= bound) continue;  // margin for the float box position
-    const auto it = index_.find(packKey(v.x + o[0], v.y + o[1], v.z + o[2]));
-    if (it == index_.end()) continue;
-    for (const Eigen::Vector3f& q : voxels_[it->second].points) {
+    const std::uint32_t* at = index_.find(packKey(v.x + o[0], v.y + o[1], v.z + o[2]));
+    if (!at) continue;
+    for (const Eigen::Vector3f& q : voxels_[*at].points) {
       const float d2 = (q - p).squaredNorm();
       if (!(d2 < r2)) continue;
       if (best.size() == k_max) {

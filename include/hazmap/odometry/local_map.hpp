@@ -6,11 +6,11 @@
 #include <Eigen/Core>
 #include <array>
 #include <cstdint>
-#include <unordered_map>
 #include <vector>
 
 #include "hazmap/core/class_table.hpp"
 #include "hazmap/core/labeled_cloud.hpp"
+#include "hazmap/odometry/detail/voxel_key_index.hpp"
 #include "hazmap/preprocess/normals.hpp"
 #include "hazmap/registration/registration_target.hpp"
 
@@ -79,7 +79,7 @@ class LocalMap {
   void invalidateAround(std::int64_t x, std::int64_t y, std::int64_t z, bool force);
   LocalMapConfig config_;
   std::vector<Voxel> voxels_;
-  std::unordered_map<std::uint64_t, std::uint32_t> index_;  ///< voxel key → position in voxels_
+  detail::VoxelKeyIndex index_;  ///< voxel key → position in voxels_
   std::size_t points_ = 0;
   bool has_values_ = false;
   // settings the cached normals were estimated with (a change invalidates them all)
