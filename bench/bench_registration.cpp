@@ -142,14 +142,34 @@ BENCHMARK(BM_ScanPair_Hazmap_Icp_Point)->Arg(1)->Arg(2)->Unit(benchmark::kMillis
 BENCHMARK(BM_Kitti_Hazmap_PropertyIcp_Plane)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->Repetitions(5)->ReportAggregatesOnly();
 BENCHMARK(BM_Kitti_Hazmap_Icp_Plane)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->Repetitions(5)->ReportAggregatesOnly();
 
-void hazmapOdometry(benchmark::State& state, OdometryMode mode, bool classes) {
+/// No ground truth for these scans: the reference trajectory is hazmap's own frame-to-map run at
+/// 0.25 m voxels with tight tolerances, used to compare the settings' answers (max_err_cm/deg).
+const std::vector<Eigen::Isometry3d>& kittiFineTrajectory(const std::vector<LabeledCloud>& scans,
+                                                          const ClassTable& table) {
+  static const std::vector<Eigen::Isometry3d> poses = [&] {
+    OdometryConfig fine;
+    fine.voxel_size = 0.25;
+    fine.registration.max_iterations = 100;
+    fine.registration.translation_tolerance = fine.registration.rotation_tolerance = 1e-6;
+    Odometry odo(table, fine);
+    std::vector<Eigen::Isometry3d> out;
+    for (const auto& s : scans) out.push_back(odo.addFrame(s).pose);
+    return out;
+  }();
+  return poses;
+}
+
+void hazmapOdometry(benchmark::State& state, OdometryMode mode, bool classes, bool dense_preset = false) {
   tbb::global_control threads(tbb::global_control::max_allowed_parallelism, state.range(0));
   const ClassTable table = ClassTable::semanticKitti();
   std::vector<LabeledCloud> scans;
   for (int i = 0; i < 6; ++i) scans.push_back(kittiScan(i, table));
-  OdometryConfig cfg;
+  // The shipped preset for 64/128-beam sensors, read from the file users pass to --config.
+  OdometryConfig cfg = dense_preset ? loadOdometryConfig(std::string(HAZMAP_SOURCE_DIR) + "/config/odometry/dense_lidar.yaml")
+                                    : OdometryConfig::defaults();
   cfg.mode = mode;
   cfg.registration.use_classes = classes;
+  const auto& ref = kittiFineTrajectory(scans, table);  // before the timed loop
   std::size_t frames = 0;
   double wall_ms = 0.0;
   for (auto _ : state) {
@@ -159,14 +179,28 @@ void hazmapOdometry(benchmark::State& state, OdometryMode mode, bool classes) {
     wall_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     frames += scans.size();
     benchmark::DoNotOptimize(odo.frames().back().pose);
+    if (frames == scans.size()) {  // first pass: the answer's distance to the fine run
+      double et = 0.0, er = 0.0;
+      for (std::size_t i = 0; i < ref.size(); ++i) {
+        const Eigen::Isometry3d e = ref[i].inverse() * odo.frames()[i].pose;
+        et = std::max(et, e.translation().norm());
+        er = std::max(er, rotationAngle(e));
+      }
+      state.counters["max_err_cm"] = et * 100.0;
+      state.counters["max_err_deg"] = er * 180.0 / M_PI;
+    }
   }
   state.counters["ms_per_frame"] = frames ? wall_ms / static_cast<double>(frames) : 0.0;
 }
 void BM_KittiOdometry_Map_Property(benchmark::State& s) { hazmapOdometry(s, OdometryMode::FrameToMap, true); }
 void BM_KittiOdometry_Map_Plain(benchmark::State& s) { hazmapOdometry(s, OdometryMode::FrameToMap, false); }
 void BM_KittiOdometry_Frame_Property(benchmark::State& s) { hazmapOdometry(s, OdometryMode::FrameToFrame, true); }
+void BM_KittiOdometry_Map_Property_DensePreset(benchmark::State& s) { hazmapOdometry(s, OdometryMode::FrameToMap, true, true); }
+void BM_KittiOdometry_Map_Plain_DensePreset(benchmark::State& s) { hazmapOdometry(s, OdometryMode::FrameToMap, false, true); }
 BENCHMARK(BM_KittiOdometry_Map_Property)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->Iterations(3);
 BENCHMARK(BM_KittiOdometry_Map_Plain)->Arg(2)->Unit(benchmark::kMillisecond)->Iterations(3);
+BENCHMARK(BM_KittiOdometry_Map_Property_DensePreset)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->Iterations(5);
+BENCHMARK(BM_KittiOdometry_Map_Plain_DensePreset)->Arg(2)->Unit(benchmark::kMillisecond)->Iterations(5);
 BENCHMARK(BM_KittiOdometry_Frame_Property)->Arg(2)->Unit(benchmark::kMillisecond)->Iterations(3);
 
 // Simulated VLP-16 (naraha scenario, 60 frames, scans generated once in the setup) with the
