@@ -7,6 +7,7 @@
 #include "hazmap/core/error.hpp"
 #include "hazmap/preprocess/normals.hpp"
 #include "hazmap/preprocess/spatial_index.hpp"
+#include "hazmap/preprocess/top_k.hpp"
 #include "hazmap/registration/registration.hpp"
 #include "hazmap/registration/registration_target.hpp"
 #include "test_registration_scenes.hpp"
@@ -78,6 +79,30 @@ TEST(SpatialIndex, VoxelHashMatchesBruteForceAndKdTree) {
     ASSERT_EQ(knn_v.size(), knn_k.size()) << trial;
     for (std::size_t k = 0; k < knn_v.size(); ++k) EXPECT_FLOAT_EQ(knn_v[k].distance2, knn_k[k].distance2);
   }
+}
+
+TEST(SpatialIndex, TopKKeepsTheSmallestSortedWithTiesInArrivalOrder) {
+  std::vector<Neighbor> buffer{{99, 0.f}};  // stale contents are replaced
+  TopK<Neighbor> top(buffer, 3, 10.f);
+  for (const Neighbor n : {Neighbor{0, 5.f}, Neighbor{1, 2.f}, Neighbor{2, 12.f}, Neighbor{3, 2.f},
+                           Neighbor{4, 7.f}, Neighbor{5, 1.f}, Neighbor{6, 2.f}})
+    top.push(n);
+  top.finish();
+  ASSERT_EQ(buffer.size(), 3u);
+  EXPECT_EQ(buffer[0].index, 5u);  // 1
+  EXPECT_EQ(buffer[1].index, 1u);  // 2, first of the ties
+  EXPECT_EQ(buffer[2].index, 3u);  // 2, second; the third tie (6) does not displace it
+  EXPECT_FLOAT_EQ(top.bound(), 2.f);
+  TopK<Neighbor> few(buffer, 5, 3.f);  // fewer candidates than k, one beyond the radius
+  few.push({7, 4.f});
+  few.push({8, 0.5f});
+  few.finish();
+  ASSERT_EQ(buffer.size(), 1u);
+  EXPECT_EQ(buffer[0].index, 8u);
+  TopK<Neighbor> none(buffer, 0, 3.f);
+  none.push({9, 0.1f});
+  none.finish();
+  EXPECT_TRUE(buffer.empty());
 }
 
 TEST(SpatialIndex, SubsetIndexesOnlyItsIds) {

@@ -10,6 +10,7 @@
 
 #include "hazmap/core/error.hpp"
 #include "hazmap/preprocess/normals.hpp"
+#include "hazmap/preprocess/top_k.hpp"
 
 namespace hazmap {
 
@@ -267,13 +268,17 @@ Eigen::Vector3f LocalMap::estimateNormal(Voxel& v, std::size_t i, const NormalCo
   const float r2 = static_cast<float>(nc.radius * nc.radius);
   const std::size_t k_max = static_cast<std::size_t>(std::max(nc.neighbors, 1));
   const float vs = static_cast<float>(config_.voxel_size);
-  thread_local std::vector<std::pair<float, Eigen::Vector3f>> best;  // sorted by distance, <= k
+  struct Candidate {
+    float distance2;
+    Eigen::Vector3f point;
+  };
+  thread_local std::vector<Candidate> buffer;
   thread_local std::vector<Eigen::Vector3f> neighbours;
   const Eigen::Vector3f p = v.points[i];
   const Eigen::Vector3f lo(static_cast<float>(v.x) * vs, static_cast<float>(v.y) * vs,
                            static_cast<float>(v.z) * vs);
   const Eigen::Vector3f f = ((p - lo) / vs).cwiseMax(0.0f).cwiseMin(1.0f);  // position in the voxel
-  best.clear();
+  TopK<Candidate> best(buffer, k_max, r2);
   for (const auto& o : normal_offsets_) {
     // lower bound of the distance from p to the neighbour voxel's box
     float lb2 = 0.0f;
@@ -283,25 +288,19 @@ Eigen::Vector3f LocalMap::estimateNormal(Voxel& v, std::size_t i, const NormalCo
       lb2 += g * g;
     }
     lb2 *= vs * vs;
-    const float bound = best.size() == k_max ? best.back().first : r2;
-    if (lb2 * 0.9999f >= bound) continue;  // margin for the float box position
+    if (lb2 * 0.9999f >= best.bound()) continue;  // margin for the float box position
     const std::uint32_t* at = index_.find(packKey(v.x + o[0], v.y + o[1], v.z + o[2]));
     if (!at) continue;
     for (const Eigen::Vector3f& q : voxels_[*at].points) {
       const float d2 = (q - p).squaredNorm();
-      if (!(d2 < r2)) continue;
-      if (best.size() == k_max) {
-        if (d2 >= best.back().first) continue;
-        best.pop_back();
-      }
-      auto at = std::upper_bound(best.begin(), best.end(), d2, [](float x, const auto& e) { return x < e.first; });
-      best.insert(at, {d2, q});
+      if (d2 < best.bound()) best.push({d2, q});
     }
   }
+  best.finish();
   neighbours.clear();
-  for (const auto& e : best) neighbours.push_back(e.second);
+  for (const Candidate& e : buffer) neighbours.push_back(e.point);
   v.normals[i] = planeNormal(p, neighbours, nc);
-  v.reach2[i] = best.size() == k_max ? best.back().first : r2;
+  v.reach2[i] = buffer.size() == k_max ? buffer.back().distance2 : r2;
   if (v.updates[i] < 255) ++v.updates[i];
   return v.normals[i];
 }

@@ -9,6 +9,7 @@
 #include <string>
 
 #include "hazmap/core/error.hpp"
+#include "hazmap/preprocess/top_k.hpp"
 
 namespace hazmap {
 
@@ -34,17 +35,6 @@ inline std::uint64_t hashKey(std::uint64_t key) {
 }
 
 inline bool finite(const Eigen::Vector3f& p) { return std::isfinite(p.x()) && std::isfinite(p.y()) && std::isfinite(p.z()); }
-
-// Keeps the k best (smallest distance2) neighbours, sorted.
-inline void pushBest(std::vector<Neighbor>& best, int k, Neighbor n) {
-  if (static_cast<int>(best.size()) == k) {
-    if (n.distance2 >= best.back().distance2) return;
-    best.pop_back();
-  }
-  auto it = std::upper_bound(best.begin(), best.end(), n,
-                             [](const Neighbor& a, const Neighbor& b) { return a.distance2 < b.distance2; });
-  best.insert(it, n);
-}
 
 }  // namespace
 
@@ -209,21 +199,20 @@ void VoxelHashIndex::kNearest(const Eigen::Vector3f& q, int k, float max_distanc
   const auto gap = [](int d, float f) {
     return d > 0 ? static_cast<float>(d) - f : (d < 0 ? f - static_cast<float>(d + 1) : 0.0f);
   };
-  const auto bound = [&] {
-    return static_cast<int>(out.size()) == k ? std::min(out.back().distance2, max_distance2) : max_distance2;
-  };
+  TopK<Neighbor> best(out, static_cast<std::size_t>(k), max_distance2);
   for (const Offset& o : offsets_) {
-    if (o.lower_bound2 * c2 >= bound()) break;
+    if (o.lower_bound2 * c2 >= best.bound()) break;
     const float gx = gap(o.dx, fx), gy = gap(o.dy, fy), gz = gap(o.dz, fz);
-    if ((gx * gx + gy * gy + gz * gz) * c2 >= bound()) continue;
+    if ((gx * gx + gy * gy + gz * gz) * c2 >= best.bound()) continue;
     const std::int64_t cell = findCell(cx + o.dx, cy + o.dy, cz + o.dz);
     if (cell < 0) continue;
     const std::uint32_t end = cell_begin_[cell + 1];
     for (std::uint32_t i = cell_begin_[cell]; i < end; ++i) {
       const float d2 = (points_[i] - q).squaredNorm();
-      if (d2 < max_distance2) pushBest(out, k, {ids_[i], d2});
+      if (d2 < best.bound()) best.push({ids_[i], d2});
     }
   }
+  best.finish();
 }
 
 // ---------------------------------------------------------------------------------------------
