@@ -104,6 +104,7 @@ void run(const RegisterOptions& o) {
     j["fitness"] = r.fitness;
     j["rmse"] = r.inlier_rmse;
     j["iterations"] = r.iterations;
+    j["coarse_iterations"] = r.coarse_iterations;
     j["converged"] = r.converged;
     if (!r.converged) j["reason"] = r.reason;
     std::vector<std::vector<double>> dirs;

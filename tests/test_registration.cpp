@@ -355,6 +355,38 @@ TEST(PropertyIcp, ReusedCorrespondencesSaveSearchesNotAccuracy) {
   EXPECT_TRUE(every.transform.matrix() == reuse.transform.matrix());
 }
 
+// Coarse to fine (coarse_source_points): the far-moving early steps on a strided subset, the
+// answer from the full source — the same pose as a single full-source stage, in fewer searches of
+// the full source; sources under 4× the subset run single-stage, bit for bit as with it off.
+TEST(PropertyIcp, CoarseStageSavesFullSearchesNotAccuracy) {
+  const Pair p = roomPair(12, 0.01, 8000);
+  for (const bool classes : {false, true}) {
+    RegistrationConfig cfg;
+    cfg.use_classes = classes;
+    cfg.max_iterations = 100;
+    cfg.coarse_source_points = 0;
+    const auto single = registerClouds(p.source, p.target, Eigen::Isometry3d::Identity(), ClassTable::defaults(), cfg);
+    cfg.coarse_source_points = 1000;
+    const auto staged = registerClouds(p.source, p.target, Eigen::Isometry3d::Identity(), ClassTable::defaults(), cfg);
+    ASSERT_TRUE(single.converged && staged.converged) << single.reason << staged.reason;
+    EXPECT_EQ(single.coarse_iterations, 0);
+    EXPECT_GT(staged.coarse_iterations, 0);
+    EXPECT_LT(staged.iterations, single.iterations);  // full-source searches
+    EXPECT_LT(transErr(single.transform, staged.transform), 0.002);
+    EXPECT_LT(rotErrDeg(single.transform, staged.transform), 0.02);
+    EXPECT_LT(transErr(staged.transform, p.truth), 0.02);
+    EXPECT_EQ(staged.stats.source_points, single.stats.source_points);  // the answer uses every point
+    std::printf("%s: full-source searches %d single-stage, %d + %d coarse staged; poses %.2f mm apart\n",
+                classes ? "property" : "plain", single.iterations, staged.iterations, staged.coarse_iterations,
+                1e3 * transErr(single.transform, staged.transform));
+    // Too small a source for the subset (needs 4×): single stage, the same bits.
+    cfg.coarse_source_points = p.source.size() / 4 + 1;
+    const auto small = registerClouds(p.source, p.target, Eigen::Isometry3d::Identity(), ClassTable::defaults(), cfg);
+    EXPECT_EQ(small.coarse_iterations, 0);
+    EXPECT_TRUE(small.transform.matrix() == single.transform.matrix());
+  }
+}
+
 TEST(PropertyIcp, PropertyPatchesFixTheCorridor) {
   // Plain ICP cannot tell where along the corridor it is; the labelled patches can.
   std::mt19937 rng(4);
@@ -482,6 +514,12 @@ TEST(RegistrationConfig, YamlRoundTripAndErrors) {
   EXPECT_THROW(registrationConfigFromYaml("correspondence_reuse_distance: .nan\n", "cfg.yaml"), Error);
   c.correspondence_reuse_distance = 0.02;
   EXPECT_DOUBLE_EQ(registrationConfigFromYaml(toYamlString(c), "test").correspondence_reuse_distance, 0.02);
+  EXPECT_THROW(registrationConfigFromYaml("coarse_source_points: 5\n", "cfg.yaml"), Error);  // < min_correspondences
+  EXPECT_THROW(registrationConfigFromYaml("coarse_source_points: -1\n", "cfg.yaml"), Error);
+  c.coarse_source_points = 0;
+  EXPECT_EQ(registrationConfigFromYaml(toYamlString(c), "test").coarse_source_points, 0u);
+  c.coarse_source_points = 750;
+  EXPECT_EQ(registrationConfigFromYaml(toYamlString(c), "test").coarse_source_points, 750u);
   try {
     registrationConfigFromYaml("mismatch_penalty: [1]\n", "cfg.yaml");
     FAIL();

@@ -216,6 +216,21 @@ RegistrationResult solve(const LabeledCloud& source, const RegistrationTarget& t
     return result;
   }
 
+  // Coarse to fine (coarse_source_points): the far-moving early steps on a strided subset, then
+  // the full source from where they ended. A coarse stage that failed leaves the guess as it was.
+  Eigen::Isometry3d start = initial_guess;
+  if (config.coarse_source_points > 0 && used.size() >= 4 * config.coarse_source_points) {
+    RegistrationConfig coarse = config;
+    coarse.coarse_source_points = 0;
+    coarse.max_source_points = config.coarse_source_points;
+    coarse.translation_tolerance = 10.0 * config.translation_tolerance;
+    coarse.rotation_tolerance = 10.0 * config.rotation_tolerance;
+    const RegistrationResult c = solve(source, target, initial_guess, classes, coarse, use_labels);
+    result.coarse_iterations = c.iterations;
+    const bool hit_limit = c.reason.rfind("reached max_iterations", 0) == 0;
+    if ((c.converged || hit_limit) && isFinite(c.transform)) start = c.transform;
+  }
+
   const bool plane = config.metric == IcpMetric::PointToPlane;
   const LabeledCloud& tc = target.cloud();
   // Normals are read raw after the correspondence pass, which asked for (and so estimated) every
@@ -257,7 +272,7 @@ RegistrationResult solve(const LabeledCloud& source, const RegistrationTarget& t
   std::vector<Sums> partial(chunks);
   std::vector<float> abs_res;
   abs_res.reserve(n);
-  Eigen::Isometry3d T = initial_guess;
+  Eigen::Isometry3d T = start;
   Eigen::Isometry3d T_corr = T;  // the pose at which `corr` was computed
   Sums total;
   TangentMix mix;  // of the last iteration (the covariance uses it too)
@@ -473,7 +488,7 @@ RegistrationResult solve(const LabeledCloud& source, const RegistrationTarget& t
   };
   runWithThreads(config.threads, run);
 
-  result.transform = isFinite(T) ? T : initial_guess;
+  result.transform = isFinite(T) ? T : start;
   result.kernel_scale = kernel[0];
   // Statistics of the last correspondence set.
   std::size_t matched = 0, cross = 0, prop = 0, prop_matched = 0, wide = 0;

@@ -55,6 +55,8 @@ void RegistrationConfig::validate() const {
   require(finitePositive(normal_radius), "normal_radius", "must be > 0");
   require(std::isfinite(index_cell_size) && index_cell_size >= 0.0, "index_cell_size", "must be >= 0 (0 = automatic)");
   require(threads >= 0, "threads", "must be >= 0 (0 = automatic)");
+  require(coarse_source_points == 0 || coarse_source_points >= min_correspondences, "coarse_source_points",
+          "must be 0 (off) or >= min_correspondences");
   require(std::isfinite(degeneracy_threshold) && degeneracy_threshold >= 0.0 && degeneracy_threshold < 1.0,
           "degeneracy_threshold", "must be in [0, 1)");
   require(finitePositive(degeneracy_length), "degeneracy_length", "must be > 0");
@@ -137,6 +139,7 @@ RegistrationConfig registrationConfigFromYaml(const std::string& yaml, const std
       else fail(where, "index must be 'voxel' or 'kdtree' (got '" + s + "')");
     } else if (key == "index_cell_size") get(c.index_cell_size);
     else if (key == "max_source_points") get(c.max_source_points);
+    else if (key == "coarse_source_points") get(c.coarse_source_points);
     else if (key == "threads") get(c.threads);
     else if (key == "degeneracy_threshold") get(c.degeneracy_threshold);
     else if (key == "degeneracy_length") get(c.degeneracy_length);
@@ -186,6 +189,7 @@ std::string toYamlString(const RegistrationConfig& c) {
   out << YAML::Key << "index" << YAML::Value << toString(c.index);
   out << YAML::Key << "index_cell_size" << YAML::Value << c.index_cell_size;
   out << YAML::Key << "max_source_points" << YAML::Value << c.max_source_points;
+  out << YAML::Key << "coarse_source_points" << YAML::Value << c.coarse_source_points;
   out << YAML::Key << "threads" << YAML::Value << c.threads;
   out << YAML::Key << "degeneracy_threshold" << YAML::Value << c.degeneracy_threshold;
   out << YAML::Key << "degeneracy_length" << YAML::Value << c.degeneracy_length;

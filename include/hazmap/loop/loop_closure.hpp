@@ -46,7 +46,8 @@ const char* toString(CandidateMethod method);
 ///                    registration: {...}}  # the registration stage's keys
 ///                                          # (docs/registration.md); defaults differ in
 ///                                          # max_correspondence_distance 1.5, max_iterations 60,
-///                                          # index kdtree
+///                                          # max_source_points 6000, index kdtree,
+///                                          # coarse_source_points 0
 ///     consistency:  {translation_drift_per_metre: 0.04, rotation_drift_per_metre: 0.004,
 ///                    translation_sigma_floor: 0.1, rotation_sigma_floor: 0.01,
 ///                    gate_probability: 0.999, use_drift_gate: true, use_pairwise: true}

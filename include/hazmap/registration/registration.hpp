@@ -105,6 +105,13 @@ struct RegistrationConfig {
   double index_cell_size = 0.0;
   /// Use at most this many source points (evenly strided, deterministic); 0 = all.
   std::size_t max_source_points = 0;
+  /// Coarse to fine: a source of at least 4× this many points is first registered with only this
+  /// many of them (evenly strided) to tolerances 10× looser, and the full source then refines
+  /// from there — the early steps, which move far, cost a fraction, and the answer is the full
+  /// source's (measured within 1 mm / 0.04° of a full-only run on the scan pair and KITTI).
+  /// Each stage has max_iterations. 0 = off. Sparse scans (a VLP-16 frame at 0.5 m, ~1.4k
+  /// points) stay single-stage.
+  std::size_t coarse_source_points = 1000;
   int threads = 0;  ///< 0 = TBB's default (or the surrounding tbb::global_control)
 
   // --- covariance / degeneracy ---
@@ -146,7 +153,8 @@ struct RegistrationResult {
   Matrix6d covariance = Matrix6d::Identity();  ///< translation-first (see core/se3.hpp)
   double fitness = 0.0;       ///< fraction of source points with a correspondence
   double inlier_rmse = 0.0;   ///< m
-  int iterations = 0;
+  int iterations = 0;  ///< correspondence searches of the full-source stage
+  int coarse_iterations = 0;  ///< … of the coarse stage (0 = none ran; see coarse_source_points)
   bool converged = false;
   std::vector<Vector6d> degenerate_directions;  ///< unit tangent directions, translation-first
   std::string reason;  ///< why it did not converge (empty when converged)
