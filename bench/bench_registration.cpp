@@ -130,6 +130,7 @@ void hazmapIcp(benchmark::State& state, const PairData& d, bool classes, IcpMetr
     benchmark::DoNotOptimize(r.transform);
   }
   report(state, r.transform, d.reference, r.iterations);
+  state.counters["coarse_iters"] = r.coarse_iterations;
 }
 
 void BM_ScanPair_Hazmap_PropertyIcp_Plane(benchmark::State& s) { hazmapIcp(s, scanPair(), true, IcpMetric::PointToPlane); }
