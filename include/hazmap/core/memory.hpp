@@ -11,7 +11,8 @@ namespace hazmap {
 /// microseconds, which made voxel downsampling of the scan pair 13× slower (27 → 2 ms per cloud)
 /// and registration about 2× slower (docs/registration.md, "What made it faster"). Resident
 /// memory then stays at its peak instead of shrinking between frames. Call once at start-up,
-/// before threads are started; a no-op returning false where glibc's mallopt is unavailable.
+/// before threads are started; a no-op returning false where glibc's mallopt is unavailable or
+/// not in charge (AddressSanitizer brings its own allocator).
 bool retainFreedMemory();
 
 }  // namespace hazmap
