@@ -183,9 +183,11 @@ double labelAgreement(const LabeledCloud& source, const RegistrationTarget& targ
   return e < 1.0 ? (a - e) / (1.0 - e) : 1.0;
 }
 
+// One ICP run (with its coarse stage, see coarse_source_points). `covariance` = false leaves the
+// result's covariance, Hessian and degenerate directions at their "unknown" defaults.
 RegistrationResult solve(const LabeledCloud& source, const RegistrationTarget& target,
                          const Eigen::Isometry3d& initial_guess, const ClassTable& classes,
-                         const RegistrationConfig& config, bool use_labels) {
+                         const RegistrationConfig& config, bool use_labels, bool covariance = true) {
   RegistrationResult result;
   result.transform = initial_guess;
   result.covariance = Matrix6d::Identity() * 1e6;  // "unknown" until a solution exists
@@ -225,7 +227,9 @@ RegistrationResult solve(const LabeledCloud& source, const RegistrationTarget& t
     coarse.max_source_points = config.coarse_source_points;
     coarse.translation_tolerance = 10.0 * config.translation_tolerance;
     coarse.rotation_tolerance = 10.0 * config.rotation_tolerance;
-    const RegistrationResult c = solve(source, target, initial_guess, classes, coarse, use_labels);
+    // Only its pose is used: no covariance pass (a serial loop and a target-sized buffer).
+    const RegistrationResult c = solve(source, target, initial_guess, classes, coarse, use_labels,
+                                       /*covariance=*/false);
     result.coarse_iterations = c.iterations;
     const bool hit_limit = c.reason.rfind("reached max_iterations", 0) == 0;
     if ((c.converged || hit_limit) && isFinite(c.transform)) start = c.transform;
@@ -512,7 +516,7 @@ RegistrationResult solve(const LabeledCloud& source, const RegistrationTarget& t
   result.stats.wide_matches = wide;
   result.fitness = static_cast<double>(matched) / static_cast<double>(n);
   result.inlier_rmse = total.n > 0 ? std::sqrt(total.d2 / static_cast<double>(total.n)) : 0.0;
-  if (total.w > 0.0) {
+  if (covariance && total.w > 0.0) {
     // Covariance pass over the last correspondences (serial: cheap, and it needs per-target sums).
     // The meat is cluster-robust: residuals that share a target point share that point's noise,
     // so their score contributions are summed per target point before the outer product.
