@@ -9,6 +9,8 @@
 #include <utility>
 #include <vector>
 
+#include "hazmap/core/hash.hpp"
+
 namespace hazmap::detail {
 
 template <class Value>
@@ -90,14 +92,7 @@ class VoxelHashMap {
     std::uint64_t key = kEmpty;
     std::uint32_t index = 0;
   };
-  static std::size_t hash(std::uint64_t x) {  // splitmix64 finaliser
-    x ^= x >> 30;
-    x *= 0xbf58476d1ce4e5b9ULL;
-    x ^= x >> 27;
-    x *= 0x94d049bb133111ebULL;
-    x ^= x >> 31;
-    return static_cast<std::size_t>(x);
-  }
+  static std::size_t hash(std::uint64_t x) { return static_cast<std::size_t>(splitmix64Mix(x)); }
   void grow() {
     const std::size_t n = slots_.empty() ? 1024 : slots_.size() * 2;
     std::vector<Slot> fresh(n);

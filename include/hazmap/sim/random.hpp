@@ -7,6 +7,8 @@
 #include <cmath>
 #include <cstdint>
 
+#include "hazmap/core/hash.hpp"
+
 namespace hazmap::sim {
 
 /// Independent random streams of one simulation.
@@ -15,17 +17,14 @@ enum class RngStream : std::uint64_t { Scan = 1, Odometry = 2, Temperature = 3 }
 class Rng {
  public:
   Rng(std::uint64_t seed, RngStream stream, std::uint64_t index) {
-    state_ = mix(seed ^ 0x6a09e667f3bcc909ULL);
-    state_ = mix(state_ ^ (static_cast<std::uint64_t>(stream) * 0xbb67ae8584caa73bULL));
-    state_ = mix(state_ ^ (index * 0x3c6ef372fe94f82bULL + 0xa54ff53a5f1d36f1ULL));
+    state_ = splitmix64Mix(seed ^ 0x6a09e667f3bcc909ULL);
+    state_ = splitmix64Mix(state_ ^ (static_cast<std::uint64_t>(stream) * 0xbb67ae8584caa73bULL));
+    state_ = splitmix64Mix(state_ ^ (index * 0x3c6ef372fe94f82bULL + 0xa54ff53a5f1d36f1ULL));
   }
 
   /// splitmix64: full-period 64-bit generator, passes BigCrush.
   std::uint64_t next() {
-    std::uint64_t z = (state_ += 0x9e3779b97f4a7c15ULL);
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
-    return z ^ (z >> 31);
+    return splitmix64Mix(state_ += 0x9e3779b97f4a7c15ULL);
   }
   /// Uniform in [0, 1) with 53 random bits.
   double uniform() { return static_cast<double>(next() >> 11) * 0x1.0p-53; }
@@ -50,11 +49,6 @@ class Rng {
   std::uint64_t below(std::uint64_t n) { return n == 0 ? 0 : next() % n; }
 
  private:
-  static std::uint64_t mix(std::uint64_t z) {
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
-    return z ^ (z >> 31);
-  }
   std::uint64_t state_;
   double spare_ = 0.0;
   bool has_spare_ = false;

@@ -10,6 +10,8 @@
 #include <utility>
 #include <vector>
 
+#include "hazmap/core/hash.hpp"
+
 namespace hazmap::detail {
 
 class VoxelKeyIndex {
@@ -73,14 +75,7 @@ class VoxelKeyIndex {
     std::uint64_t key = kEmpty;
     std::uint32_t value = 0;
   };
-  std::size_t home(std::uint64_t x) const {  // splitmix64 finaliser
-    x ^= x >> 30;
-    x *= 0xbf58476d1ce4e5b9ULL;
-    x ^= x >> 27;
-    x *= 0x94d049bb133111ebULL;
-    x ^= x >> 31;
-    return static_cast<std::size_t>(x) & mask_;
-  }
+  std::size_t home(std::uint64_t key) const { return static_cast<std::size_t>(splitmix64Mix(key)) & mask_; }
   void rehash(std::size_t n) {
     std::vector<Slot> old(n);
     old.swap(slots_);
