@@ -47,6 +47,11 @@ Pair roomPair(unsigned seed, double noise, std::size_t n = 20000) {
   return p;
 }
 
+/// The pair registered from the identity with the default class table.
+RegistrationResult registerPair(const Pair& p, const RegistrationConfig& cfg) {
+  return registerClouds(p.source, p.target, Eigen::Isometry3d::Identity(), ClassTable::defaults(), cfg);
+}
+
 }  // namespace
 
 TEST(SpatialIndex, VoxelHashMatchesBruteForceAndKdTree) {
@@ -232,14 +237,14 @@ TEST(Registration, IdenticalAcrossThreadCountsAndIndexes) {
   const Pair p = roomPair(11, 0.02);
   RegistrationConfig cfg;
   cfg.threads = 1;
-  const auto a = registerClouds(p.source, p.target, Eigen::Isometry3d::Identity(), ClassTable::defaults(), cfg);
+  const auto a = registerPair(p, cfg);
   cfg.threads = 2;
-  const auto b = registerClouds(p.source, p.target, Eigen::Isometry3d::Identity(), ClassTable::defaults(), cfg);
+  const auto b = registerPair(p, cfg);
   EXPECT_EQ(a.iterations, b.iterations);
   EXPECT_TRUE(a.transform.matrix() == b.transform.matrix());  // bitwise
   EXPECT_TRUE(a.covariance == b.covariance);
   cfg.index = SpatialIndexKind::KdTree;
-  const auto c = registerClouds(p.source, p.target, Eigen::Isometry3d::Identity(), ClassTable::defaults(), cfg);
+  const auto c = registerPair(p, cfg);
   EXPECT_EQ(a.iterations, c.iterations);
   EXPECT_LT(transErr(a.transform, c.transform), 1e-6);
 }
@@ -335,9 +340,9 @@ TEST(PropertyIcp, ReusedCorrespondencesSaveSearchesNotAccuracy) {
     cfg.use_classes = false;  // with labelled points in play every step searches (next test)
     cfg.max_iterations = 150;
     cfg.correspondence_reuse_distance = 0.0;
-    const auto every = registerClouds(p.source, p.target, Eigen::Isometry3d::Identity(), ClassTable::defaults(), cfg);
+    const auto every = registerPair(p, cfg);
     cfg.correspondence_reuse_distance = 0.05;
-    const auto reuse = registerClouds(p.source, p.target, Eigen::Isometry3d::Identity(), ClassTable::defaults(), cfg);
+    const auto reuse = registerPair(p, cfg);
     ASSERT_TRUE(every.converged && reuse.converged) << every.reason << reuse.reason;
     EXPECT_LT(transErr(every.transform, reuse.transform), 0.002);
     EXPECT_LT(rotErrDeg(every.transform, reuse.transform), 0.02);
@@ -348,9 +353,9 @@ TEST(PropertyIcp, ReusedCorrespondencesSaveSearchesNotAccuracy) {
   // Property ICP with labelled points: reuse is off, the result is the search-every-step one.
   RegistrationConfig cfg;
   cfg.correspondence_reuse_distance = 0.0;
-  const auto every = registerClouds(p.source, p.target, Eigen::Isometry3d::Identity(), ClassTable::defaults(), cfg);
+  const auto every = registerPair(p, cfg);
   cfg.correspondence_reuse_distance = 0.05;
-  const auto reuse = registerClouds(p.source, p.target, Eigen::Isometry3d::Identity(), ClassTable::defaults(), cfg);
+  const auto reuse = registerPair(p, cfg);
   ASSERT_GT(reuse.stats.property_points, 0u);
   EXPECT_TRUE(every.transform.matrix() == reuse.transform.matrix());
 }
@@ -365,9 +370,9 @@ TEST(PropertyIcp, CoarseStageSavesFullSearchesNotAccuracy) {
     cfg.use_classes = classes;
     cfg.max_iterations = 100;
     cfg.coarse_source_points = 0;
-    const auto single = registerClouds(p.source, p.target, Eigen::Isometry3d::Identity(), ClassTable::defaults(), cfg);
+    const auto single = registerPair(p, cfg);
     cfg.coarse_source_points = 1000;
-    const auto staged = registerClouds(p.source, p.target, Eigen::Isometry3d::Identity(), ClassTable::defaults(), cfg);
+    const auto staged = registerPair(p, cfg);
     ASSERT_TRUE(single.converged && staged.converged) << single.reason << staged.reason;
     EXPECT_EQ(single.coarse_iterations, 0);
     EXPECT_GT(staged.coarse_iterations, 0);
@@ -381,7 +386,7 @@ TEST(PropertyIcp, CoarseStageSavesFullSearchesNotAccuracy) {
                 1e3 * transErr(single.transform, staged.transform));
     // Too small a source for the subset (needs 4×): single stage, the same bits.
     cfg.coarse_source_points = p.source.size() / 4 + 1;
-    const auto small = registerClouds(p.source, p.target, Eigen::Isometry3d::Identity(), ClassTable::defaults(), cfg);
+    const auto small = registerPair(p, cfg);
     EXPECT_EQ(small.coarse_iterations, 0);
     EXPECT_TRUE(small.transform.matrix() == single.transform.matrix());
   }
