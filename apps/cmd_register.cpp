@@ -75,21 +75,18 @@ void run(const RegisterOptions& o) {
   if (o.voxel < 0.0 || !std::isfinite(o.voxel)) fail("--voxel", "must be >= 0 (0 = no downsampling)");
 
   const ClassTable table = ClassTable::load(o.classes);
-  LabeledCloud source = readCloud(o.source, table);
-  LabeledCloud target = readCloud(o.target, table);
+  const LabeledCloud source = readCloud(o.source, table);
+  const LabeledCloud target = readCloud(o.target, table);
   if (cfg.use_classes) {
     table.checkCloud(source, o.source);
     table.checkCloud(target, o.target);
   }
-  if (o.voxel > 0.0) {
-    VoxelDownsampleConfig vd;
-    vd.voxel_size = o.voxel;
-    vd.vote = ClassVote::PreferProperty;
-    source = voxelDownsample(source, vd, table);
-    target = voxelDownsample(target, vd, table);
-  }
   const Eigen::Isometry3d init = o.init.empty() ? Eigen::Isometry3d::Identity() : readTransform(o.init);
-  const RegistrationResult r = registerClouds(source, target, init, table, cfg);
+  VoxelDownsampleConfig vd;
+  vd.voxel_size = o.voxel;
+  vd.vote = ClassVote::PreferProperty;
+  const RegistrationResult r = o.voxel > 0.0 ? registerScans(source, target, init, table, vd, cfg)
+                                             : registerClouds(source, target, init, table, cfg);
 
   const Eigen::Matrix4d M = r.transform.matrix();
   if (o.json) {

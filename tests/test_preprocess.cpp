@@ -2,6 +2,8 @@
 // two-step reference, thread-count independence, and the local map's cached normals against the
 // normals a freshly built registration target estimates.
 #include <gtest/gtest.h>
+
+#include <limits>
 #include <tbb/global_control.h>
 
 #include <array>
@@ -89,6 +91,10 @@ TEST(Preprocess, CropAndDownsampleRejectsBadConfig) {
   // NaN points and an empty cloud are fine
   c.push_back({std::nanf(""), 0, 0});
   EXPECT_EQ(cropAndDownsample(c, RangeCropConfig{}, VoxelDownsampleConfig{}).size(), 1u);
+  c.push_back({0, std::numeric_limits<float>::infinity(), 0});
+  const LabeledCloud kept = voxelDownsample(c, VoxelDownsampleConfig{});  // non-finite dropped
+  ASSERT_EQ(kept.size(), 1u);
+  EXPECT_TRUE(kept.points[0] == Eigen::Vector3f(1, 2, 3));
   EXPECT_TRUE(cropAndDownsample(LabeledCloud{}, RangeCropConfig{}, VoxelDownsampleConfig{}).empty());
 }
 

@@ -262,6 +262,43 @@ TEST(Registration, PrebuiltTargetGivesTheSameResult) {
   EXPECT_THROW(registerClouds(p.source, target, Eigen::Isometry3d::Identity(), table, other), Error);
 }
 
+// A target estimates a normal only when ICP first pairs its point: a source that sees half the
+// room leaves most of the other half's normals unestimated, and every normal, estimated during
+// ICP or afterwards by normals(), is the one an eager estimate gives (bit for bit).
+TEST(Registration, TargetNormalsAreEstimatedOnFirstUse) {
+  const Pair p = roomPair(7, 0.01);
+  std::vector<std::size_t> half;
+  for (std::size_t i = 0; i < p.source.size(); ++i)
+    if (p.source.points[i].x() < 0.0f) half.push_back(i);
+  const LabeledCloud source = p.source.select(half);
+  RegistrationConfig cfg;
+  const auto table = ClassTable::defaults();
+  const RegistrationTarget target(p.target, table, cfg);
+  NormalConfig nc;
+  nc.neighbors = cfg.normal_neighbors;
+  nc.radius = cfg.normal_radius;
+  const float cell = static_cast<float>(cfg.max_correspondence_distance);
+  const VoxelHashIndex index(target.cloud().points, {}, cell, cell);
+  const std::vector<Eigen::Vector3f> eager = estimateNormals(target.cloud(), index, nc);
+  EXPECT_TRUE(target.normalsComputed().size() == eager.size());
+  const auto r = registerClouds(source, target, Eigen::Isometry3d::Identity(), table, cfg);
+  EXPECT_TRUE(r.converged) << r.reason;
+  std::size_t with_normal = 0, estimated = 0, differ = 0;
+  for (std::size_t j = 0; j < eager.size(); ++j) {
+    with_normal += !eager[j].isZero();
+    const Eigen::Vector3f& n = target.normalsComputed()[j];
+    estimated += !n.isZero();
+    differ += !n.isZero() && n != eager[j];
+  }
+  EXPECT_EQ(differ, 0u);
+  EXPECT_GT(estimated, with_normal / 5);
+  EXPECT_LT(estimated, with_normal * 3 / 4) << estimated << " of " << with_normal;
+  EXPECT_TRUE(target.normals() == eager);
+  // The same registration against a fresh target (normals estimated inside ICP) is identical.
+  const auto again = registerClouds(source, p.target, Eigen::Isometry3d::Identity(), table, cfg);
+  EXPECT_TRUE(again.transform.matrix() == r.transform.matrix());
+}
+
 // Many noise draws of the same synthetic pair: the spread of the estimates must match the
 // predicted covariance within a factor of two on every axis.
 void monteCarlo(IcpMetric metric, bool resample) {
@@ -496,6 +533,16 @@ TEST(BadInput, DefinedResultsAndClearErrors) {
   r = registerClouds(one_class_s, one_class_t, Eigen::Isometry3d::Identity(), table);
   EXPECT_TRUE(r.converged) << r.reason;
   EXPECT_LT(transErr(r.transform, p.truth), 0.05);
+  // preprocessing + registration: the same defined results and errors
+  VoxelDownsampleConfig vd;
+  vd.voxel_size = 0.1;
+  r = registerScans(with_nan, p.target, Eigen::Isometry3d::Identity(), table, vd);
+  EXPECT_TRUE(r.converged) << r.reason;
+  EXPECT_EQ(registerScans(empty, p.target, Eigen::Isometry3d::Identity(), table, vd).reason, "empty source cloud");
+  EXPECT_THROW(registerScans(odd, p.target, Eigen::Isometry3d::Identity(), table, vd), Error);
+  EXPECT_THROW(registerScans(p.source, p.target, nan_guess, table, vd), Error);
+  vd.voxel_size = 0.0;
+  EXPECT_THROW(registerScans(p.source, p.target, Eigen::Isometry3d::Identity(), table, vd), Error);
 }
 
 TEST(RegistrationConfig, YamlRoundTripAndErrors) {

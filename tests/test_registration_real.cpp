@@ -54,6 +54,10 @@ TEST_P(ScanPair, LandsOnTheReference) {
   cfg.metric = metric;
   cfg.max_iterations = 100;
   const auto r = registerClouds(source, target, Eigen::Isometry3d::Identity(), table, cfg);
+  // Preprocessing and registration in one call (overlapped): the same answer, bit for bit.
+  const auto overlapped = registerScans(source_raw, target_raw, Eigen::Isometry3d::Identity(), table, vd, cfg);
+  EXPECT_TRUE(overlapped.transform.matrix() == r.transform.matrix());
+  EXPECT_TRUE(overlapped.covariance == r.covariance);
   std::printf("scan pair %s/%s: %d iterations, vs relative.txt %.3f m %.3f deg, vs small_gicp %.3f m "
               "%.3f deg, fitness %.3f rmse %.3f, sd x %.4f yaw %.4f deg\n",
               use_classes ? "property" : "plain", toString(metric), r.iterations,

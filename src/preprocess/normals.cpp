@@ -61,21 +61,23 @@ void updateNormals(const LabeledCloud& cloud, const NeighborIndex& index, const 
     fail("normals", "stale mask has " + std::to_string(stale.size()) + " entries for " +
                         std::to_string(cloud.size()) + " points");
   normals.resize(cloud.size(), Eigen::Vector3f::Zero());
-  const float r2 = static_cast<float>(config.radius * config.radius);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cloud.size(), 256), [&](const auto& range) {
-    std::vector<Neighbor> nb;
-    std::vector<Eigen::Vector3f> pts;
-    for (std::size_t i = range.begin(); i < range.end(); ++i) {
-      if (!stale.empty() && !stale[i]) continue;
-      normals[i].setZero();
-      const Eigen::Vector3f& p = cloud.points[i];
-      if (!p.allFinite()) continue;
-      index.kNearest(p, config.neighbors, r2, nb);
-      pts.clear();
-      for (const auto& n : nb) pts.push_back(cloud.points[n.index]);
-      normals[i] = planeNormal(p, pts, config);
-    }
+    for (std::size_t i = range.begin(); i < range.end(); ++i)
+      if (stale.empty() || stale[i]) normals[i] = normalAt(cloud.points, index, i, config);
   });
+}
+
+Eigen::Vector3f normalAt(std::span<const Eigen::Vector3f> points, const NeighborIndex& index,
+                         std::size_t i, const NormalConfig& config) {
+  const Eigen::Vector3f& p = points[i];
+  if (!p.allFinite()) return Eigen::Vector3f::Zero();
+  // Per-thread buffers: this runs once per point, often inside another parallel loop.
+  thread_local std::vector<Neighbor> nb;
+  thread_local std::vector<Eigen::Vector3f> pts;
+  index.kNearest(p, config.neighbors, static_cast<float>(config.radius * config.radius), nb);
+  pts.clear();
+  for (const auto& n : nb) pts.push_back(points[n.index]);
+  return planeNormal(p, pts, config);
 }
 
 std::vector<Eigen::Vector3f> estimateNormals(const LabeledCloud& cloud, const NormalConfig& config) {

@@ -35,6 +35,7 @@ void checkConfig(const VoxelDownsampleConfig& config) {
 
 // One pass over the points (keys in parallel, hashing serial), a counting sort to group them,
 // then the voxels' centroids and votes in parallel. `crop` = keep only lo2 <= |p|² <= hi2.
+// Non-finite points are dropped.
 LabeledCloud downsample(const LabeledCloud& cloud, const VoxelDownsampleConfig& config,
                         const ClassTable& table, bool crop, double lo2, double hi2) {
   const double inv = 1.0 / config.voxel_size;
@@ -43,6 +44,10 @@ LabeledCloud downsample(const LabeledCloud& cloud, const VoxelDownsampleConfig& 
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096), [&](const auto& range) {
     for (std::size_t i = range.begin(); i < range.end(); ++i) {
       const Eigen::Vector3f& p = cloud.points[i];
+      if (!p.allFinite()) {  // no voxel (and a NaN must not reach the integer conversion)
+        keys[i] = kSkip;
+        continue;
+      }
       if (crop) {
         const double r2 = p.cast<double>().squaredNorm();
         if (!(std::isfinite(r2) && r2 >= lo2 && r2 <= hi2)) {

@@ -6,7 +6,6 @@
 // parallel and added in chunk order, so results do not depend on the number of threads.
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
-#include <tbb/task_arena.h>
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/SVD>
@@ -19,6 +18,7 @@
 #include "hazmap/registration/covariance.hpp"
 #include "hazmap/registration/registration.hpp"
 #include "hazmap/registration/registration_target.hpp"
+#include "thread_arena.hpp"
 
 namespace hazmap {
 
@@ -119,15 +119,7 @@ double robustSlope(RobustKernel kernel, double s, double k) {
   return 0.0;
 }
 
-template <typename F>
-void runWithThreads(int threads, F&& f) {
-  if (threads > 0) {
-    tbb::task_arena arena(threads);
-    arena.execute(f);
-  } else {
-    f();
-  }
-}
+using detail::runWithThreads;
 
 }  // namespace
 

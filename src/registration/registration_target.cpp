@@ -113,7 +113,7 @@ const Eigen::Vector3f& RegistrationTarget::lazyNormal(std::size_t j) const {
   std::atomic<std::uint8_t>& state = lazy_state_[j];
   std::uint8_t expected = 0;
   if (state.compare_exchange_strong(expected, 1, std::memory_order_acquire)) {
-    normals_[j] = lazy_(j);
+    normals_[j] = lazy_ ? lazy_(j) : normalAt(cloud_.points, *all_, j, normal_config_);
     state.store(kNormalReady, std::memory_order_release);
   } else {
     while (state.load(std::memory_order_acquire) != kNormalReady) std::this_thread::yield();
@@ -183,11 +183,20 @@ void RegistrationTarget::build(const ClassTable& classes, const RegistrationConf
     }
   }
   if (metric_ == IcpMetric::PointToPlane) {
-    NormalConfig nc;
-    nc.neighbors = config.normal_neighbors;
-    nc.radius = config.normal_radius;
-    if (stale.empty()) normals_.clear();  // everything estimated
-    if (!all_known) updateNormals(cloud_, *all_, nc, normals_, stale);
+    normal_config_.neighbors = config.normal_neighbors;
+    normal_config_.radius = config.normal_radius;
+    // Stale normals are estimated on first use (lazyNormal), not here: ICP pairs only part of
+    // the target (≈ 70 % of a scan pair's), and the estimates then run inside its parallel
+    // search. Each normal is a function of the cloud alone, so the results do not change.
+    if (stale.empty()) normals_.assign(cloud_.size(), Eigen::Vector3f::Zero());
+    if (!all_known) {
+      lazy_state_ = std::make_unique<std::atomic<std::uint8_t>[]>(cloud_.size());
+      for (std::size_t i = 0; i < cloud_.size(); ++i) {
+        const bool pending = stale.empty() || stale[i];
+        lazy_state_[i].store(pending ? 0 : kNormalReady, std::memory_order_relaxed);
+        if (pending) normals_[i].setZero();
+      }
+    }
   } else {
     normals_.clear();
   }

@@ -37,4 +37,9 @@ void updateNormals(const LabeledCloud& cloud, const NeighborIndex& index, const 
 /// Same, building a voxel-hash index itself. Throws hazmap::Error on bad config.
 std::vector<Eigen::Vector3f> estimateNormals(const LabeledCloud& cloud, const NormalConfig& config = {});
 
+/// The normal of `points[i]` alone (what updateNormals computes for it), for callers that need
+/// only some normals and ask for them as they go. No config check (the callers did it).
+Eigen::Vector3f normalAt(std::span<const Eigen::Vector3f> points, const NeighborIndex& index,
+                         std::size_t i, const NormalConfig& config);
+
 }  // namespace hazmap

@@ -20,8 +20,9 @@ struct VoxelDownsampleConfig {
 };
 
 /// Deterministic: output order follows the voxels' sorted keys (and does not depend on the number
-/// of threads; key computation and per-voxel averaging run in parallel). `table` tells which classes are
-/// properties (needed for PreferProperty). Throws hazmap::Error on voxel_size <= 0.
+/// of threads; key computation and per-voxel averaging run in parallel). Non-finite points are
+/// dropped. `table` tells which classes are properties (needed for PreferProperty). Throws
+/// hazmap::Error on voxel_size <= 0.
 LabeledCloud voxelDownsample(const LabeledCloud& cloud, const VoxelDownsampleConfig& config,
                              const ClassTable& table = ClassTable::defaults());
 

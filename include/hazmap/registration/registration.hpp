@@ -19,6 +19,7 @@
 #include "hazmap/core/class_table.hpp"
 #include "hazmap/core/labeled_cloud.hpp"
 #include "hazmap/core/se3.hpp"
+#include "hazmap/preprocess/voxel_downsample.hpp"
 
 namespace hazmap {
 
@@ -185,5 +186,15 @@ RegistrationResult registerClouds(const LabeledCloud& source, const LabeledCloud
 RegistrationResult registerClouds(const LabeledCloud& source, const RegistrationTarget& target,
                                   const Eigen::Isometry3d& initial_guess, const ClassTable& classes,
                                   const RegistrationConfig& config = {});
+
+/// Preprocessing + registration of two raw scans: each is voxel-downsampled with `downsample`
+/// (classes kept by its vote) and the results registered as by registerClouds — same answer, bit
+/// for bit. Faster with several threads: the source's downsampling runs alongside the target's
+/// downsampling, indexing and normals, since a downsampling has a serial pass that leaves the
+/// other cores idle. Throws as registerClouds, and for an invalid `downsample`.
+RegistrationResult registerScans(const LabeledCloud& source, const LabeledCloud& target,
+                                 const Eigen::Isometry3d& initial_guess, const ClassTable& classes,
+                                 const VoxelDownsampleConfig& downsample,
+                                 const RegistrationConfig& config = {});
 
 }  // namespace hazmap

@@ -1,8 +1,9 @@
 #pragma once
 // A registration target prepared once and reused: per-class spatial indexes (the paper's wider
 // same-class search costs little because property points live in their own small index), the
-// all-points index, and — for point-to-plane — the target normals. Build it once for a local map
-// or a loop-closure candidate and register many sources against it.
+// all-points index, and — for point-to-plane — the target normals, each estimated the first time
+// ICP pairs its point (a scan pair's ICP pairs ≈ 70 % of the target; the rest are never needed).
+// Build it once for a local map or a loop-closure candidate and register many sources against it.
 #include <Eigen/Core>
 #include <atomic>
 #include <cstdint>
@@ -13,6 +14,7 @@
 
 #include "hazmap/core/class_table.hpp"
 #include "hazmap/core/labeled_cloud.hpp"
+#include "hazmap/preprocess/normals.hpp"
 #include "hazmap/preprocess/spatial_index.hpp"
 #include "hazmap/registration/registration.hpp"
 
@@ -35,15 +37,16 @@ class RegistrationTarget {
   /// For incremental users (the odometry's local map): takes the cloud by value (no copy when
   /// moved in) and, for point-to-plane, keeps `normals[i]` where `stale[i] == 0` — the caller
   /// vouches that those points' neighbourhoods (normal_radius) did not change since the normals
-  /// were estimated with the same settings — and estimates the rest. `normals`/`stale` empty =
-  /// estimate all (same result as the constructor above); otherwise both cloud-sized.
+  /// were estimated with the same settings — and estimates the rest (on first use, like all
+  /// normals here). `normals`/`stale` empty = estimate all (same result as the constructor
+  /// above); otherwise both cloud-sized.
   RegistrationTarget(LabeledCloud&& cloud, const ClassTable& classes, const RegistrationConfig& config,
                      std::vector<Eigen::Vector3f> normals, const std::vector<char>& stale);
   /// Computes the normal of point i of the (finite) cloud on demand.
   using NormalSource = std::function<Eigen::Vector3f(std::size_t)>;
-  /// Same, but the stale normals are not estimated here: `lazy(i)` is called the first time ICP
-  /// needs point i's normal (at most once per point, from any thread). ICP touches only the
-  /// points it pairs — a fraction of a local map — so the rest are never estimated. The cloud
+  /// Same, but the stale normals come from the caller: `lazy(i)` is called the first time ICP
+  /// needs point i's normal (at most once per point, from any thread), and the target builds no
+  /// all-points index for them (the local map has its own neighbour structure). The cloud
   /// must be all finite (indices are the cloud's), and `lazy` must stay valid while the target
   /// is used.
   RegistrationTarget(LabeledCloud&& cloud, const ClassTable& classes, const RegistrationConfig& config,
@@ -102,8 +105,10 @@ class RegistrationTarget {
   void build(const ClassTable& classes, const RegistrationConfig& config, const std::vector<char>& stale);
   const Eigen::Vector3f& lazyNormal(std::size_t j) const;
   static constexpr std::uint8_t kNormalReady = 2;
-  // Lazy normals: state per point (0 pending, 1 being estimated, 2 ready).
+  // Lazy normals: state per point (0 pending, 1 being estimated, 2 ready). Pending ones come
+  // from lazy_ when the caller gave one, else from the all-points index with normal_config_.
   NormalSource lazy_;
+  NormalConfig normal_config_;
   mutable std::unique_ptr<std::atomic<std::uint8_t>[]> lazy_state_;
   struct ClassSlot {
     ClassId cls = 0;
