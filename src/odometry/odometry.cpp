@@ -3,7 +3,10 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <optional>
 #include <string>
+
+#include <tbb/parallel_invoke.h>
 
 #include "hazmap/core/error.hpp"
 #include "hazmap/preprocess/crop.hpp"
@@ -92,19 +95,35 @@ const OdometryFrame& Odometry::addFrame(const LabeledCloud& scan,
   const RegistrationConfig& rc = config_.registration;
   if (rc.use_classes) classes_.checkCloud(scan, where);
 
-  // 1. preprocessing: crop, downsample keeping property classes
+  // 1. preprocessing: crop, downsample keeping property classes. Frame to map, the local map's
+  //    registration target is built meanwhile: it does not depend on this scan, and a
+  //    downsampling has a serial pass that leaves the other cores idle.
   RangeCropConfig crop;
   crop.min_range = config_.min_range;
   crop.max_range = config_.max_range;
   VoxelDownsampleConfig vd;
   vd.voxel_size = config_.voxel_size;
   vd.vote = ClassVote::PreferProperty;
-  const LabeledCloud frame = cropAndDownsample(scan, crop, vd, classes_);
-  LabeledCloud coarse;
   const bool separate_source = config_.source_voxel_size > config_.voxel_size;
-  if (separate_source) {
-    vd.voxel_size = config_.source_voxel_size;
-    coarse = voxelDownsample(frame, vd, classes_);
+  LabeledCloud frame, coarse;
+  double preprocess_ms = 0.0;
+  const auto preprocess = [&] {
+    const auto t = Clock::now();
+    frame = cropAndDownsample(scan, crop, vd, classes_);
+    if (separate_source) {
+      VoxelDownsampleConfig vs = vd;
+      vs.voxel_size = config_.source_voxel_size;
+      coarse = voxelDownsample(frame, vs, classes_);
+    }
+    preprocess_ms = msSince(t);
+  };
+  const bool to_map = config_.mode == OdometryMode::FrameToMap;
+  std::optional<RegistrationTarget> map_target;
+  if (to_map && !frames_.empty()) {
+    // Lazy normals: ICP estimates only those of the map points it pairs with.
+    tbb::parallel_invoke(preprocess, [&] { map_target.emplace(map_.makeTarget(classes_, rc, /*lazy_normals=*/true)); });
+  } else {
+    preprocess();
   }
   const LabeledCloud& source = separate_source ? coarse : frame;
 
@@ -113,9 +132,8 @@ const OdometryFrame& Odometry::addFrame(const LabeledCloud& scan,
   f.stamp = stamp >= 0.0 ? stamp : static_cast<double>(index);
   f.scan_points = scan.size();
   f.source_points = source.size();
-  f.preprocess_ms = msSince(t_start);
+  f.preprocess_ms = preprocess_ms;
 
-  const auto t_reg = Clock::now();
   if (frames_.empty()) {
     f.pose = initial_pose_;
     f.status = FrameStatus::First;
@@ -126,15 +144,13 @@ const OdometryFrame& Odometry::addFrame(const LabeledCloud& scan,
                               : (impl_->has_velocity ? impl_->velocity : Eigen::Isometry3d::Identity());
     // Registration in its own space W: FrameToMap estimates world ← current, FrameToFrame
     // target-scan ← current (the target is the last non-empty scan, normally the previous one).
-    const bool to_map = config_.mode == OdometryMode::FrameToMap;
     const Eigen::Isometry3d W = to_map ? Eigen::Isometry3d::Identity() : impl_->previous_pose;
     const Eigen::Isometry3d reg_guess = W.inverse() * prev_pose * f.guess;
     RegistrationResult r;
     if (to_map) {
-      // Lazy normals: ICP estimates only those of the map points it pairs with.
-      const RegistrationTarget target = map_.makeTarget(classes_, rc, /*lazy_normals=*/true);
-      f.map_points = target.size();
-      r = registerClouds(source, target, reg_guess, classes_, rc);
+      f.map_points = map_target->size();
+      r = registerClouds(source, *map_target, reg_guess, classes_, rc);
+      map_target.reset();  // its lazy normals read the map, which changes below
     } else {
       if (impl_->previous) {
         f.map_points = impl_->previous->size();
@@ -218,8 +234,8 @@ const OdometryFrame& Odometry::addFrame(const LabeledCloud& scan,
     impl_->previous = std::make_unique<RegistrationTarget>(frame, classes_, rc);
     impl_->previous_pose = f.pose;
   }
-  f.registration_ms = msSince(t_reg);
   f.total_ms = msSince(t_start);
+  f.registration_ms = f.total_ms - f.preprocess_ms;
   frames_.push_back(std::move(f));
   return frames_.back();
 }
