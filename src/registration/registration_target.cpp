@@ -27,6 +27,20 @@ float cellSizeFor(const RegistrationConfig& c) {
   return static_cast<float>(c.index_cell_size > 0.0 ? c.index_cell_size : c.max_correspondence_distance);
 }
 
+void checkInputs(const LabeledCloud& cloud, const ClassTable& classes, const RegistrationConfig& config) {
+  config.validate();
+  cloud.checkConsistent("registration target");
+  if (config.use_classes) classes.checkCloud(cloud, "registration target");
+}
+
+std::vector<std::size_t> finiteIndices(const LabeledCloud& cloud) {
+  std::vector<std::size_t> finite;
+  finite.reserve(cloud.size());
+  for (std::size_t i = 0; i < cloud.size(); ++i)
+    if (cloud.points[i].allFinite()) finite.push_back(i);
+  return finite;
+}
+
 }  // namespace
 
 RegistrationTarget::~RegistrationTarget() = default;
@@ -35,13 +49,8 @@ RegistrationTarget& RegistrationTarget::operator=(RegistrationTarget&&) noexcept
 
 RegistrationTarget::RegistrationTarget(const LabeledCloud& cloud, const ClassTable& classes,
                                        const RegistrationConfig& config) {
-  config.validate();
-  cloud.checkConsistent("registration target");
-  if (config.use_classes) classes.checkCloud(cloud, "registration target");
-  std::vector<std::size_t> finite;
-  finite.reserve(cloud.size());
-  for (std::size_t i = 0; i < cloud.size(); ++i)
-    if (cloud.points[i].allFinite()) finite.push_back(i);
+  checkInputs(cloud, classes, config);
+  const std::vector<std::size_t> finite = finiteIndices(cloud);
   cloud_ = finite.size() == cloud.size() ? cloud : cloud.select(finite);
   build(classes, config, {});
 }
@@ -50,17 +59,12 @@ RegistrationTarget::RegistrationTarget(LabeledCloud&& cloud, const ClassTable& c
                                        const RegistrationConfig& config,
                                        std::vector<Eigen::Vector3f> normals,
                                        const std::vector<char>& stale) {
-  config.validate();
-  cloud.checkConsistent("registration target");
-  if (config.use_classes) classes.checkCloud(cloud, "registration target");
+  checkInputs(cloud, classes, config);
   if (normals.size() != stale.size() || (!stale.empty() && stale.size() != cloud.size()))
     fail("registration target", "cached normals/stale mask do not match the cloud (" +
                                     std::to_string(normals.size()) + "/" + std::to_string(stale.size()) +
                                     " for " + std::to_string(cloud.size()) + " points)");
-  std::vector<std::size_t> finite;
-  finite.reserve(cloud.size());
-  for (std::size_t i = 0; i < cloud.size(); ++i)
-    if (cloud.points[i].allFinite()) finite.push_back(i);
+  const std::vector<std::size_t> finite = finiteIndices(cloud);
   if (finite.size() == cloud.size()) {
     cloud_ = std::move(cloud);
     normals_ = std::move(normals);
@@ -88,25 +92,16 @@ RegistrationTarget::RegistrationTarget(LabeledCloud&& cloud, const ClassTable& c
     *this = RegistrationTarget(std::move(cloud), classes, config, std::move(normals), stale);
     return;
   }
-  config.validate();
-  cloud.checkConsistent("registration target");
-  if (config.use_classes) classes.checkCloud(cloud, "registration target");
+  checkInputs(cloud, classes, config);
   if (normals.size() != cloud.size() || stale.size() != cloud.size())
     fail("registration target", "lazy normals need cloud-sized normals and stale mask (" +
                                     std::to_string(normals.size()) + "/" + std::to_string(stale.size()) +
                                     " for " + std::to_string(cloud.size()) + " points)");
-  for (const auto& p : cloud.points)
-    if (!p.allFinite()) fail("registration target", "lazy normals need a finite cloud");
+  if (finiteIndices(cloud).size() != cloud.size()) fail("registration target", "lazy normals need a finite cloud");
   cloud_ = std::move(cloud);
   normals_ = std::move(normals);
   lazy_ = std::move(lazy);
-  lazy_state_ = std::make_unique<std::atomic<std::uint8_t>[]>(cloud_.size());
-  for (std::size_t i = 0; i < cloud_.size(); ++i) {
-    lazy_state_[i].store(stale[i] ? 0 : kNormalReady, std::memory_order_relaxed);
-    if (stale[i]) normals_[i].setZero();
-  }
-  // Every normal is accounted for (known or lazy): build() needs no all-points index for them.
-  build(classes, config, std::vector<char>(cloud_.size(), 0));
+  build(classes, config, stale);
 }
 
 const Eigen::Vector3f& RegistrationTarget::lazyNormal(std::size_t j) const {
@@ -159,9 +154,9 @@ void RegistrationTarget::build(const ClassTable& classes, const RegistrationConf
   }
 
   // The all-points index serves plain ICP's search and the normals; with classes and every
-  // normal supplied by the caller it is not needed.
+  // normal supplied by the caller (known, or from its lazy_ source) it is not needed.
   const bool all_known = !stale.empty() && std::none_of(stale.begin(), stale.end(), [](char c) { return c != 0; });
-  const bool need_all = !use_classes_ || (metric_ == IcpMetric::PointToPlane && !all_known);
+  const bool need_all = !use_classes_ || (metric_ == IcpMetric::PointToPlane && !all_known && !lazy_);
   if (need_all) {
     const float max_r = std::max(radius_, static_cast<float>(config.normal_radius));
     all_ = makeIndex(index_kind_, cloud_.points, {}, cell_, max_r);
