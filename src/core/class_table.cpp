@@ -5,6 +5,7 @@
 #include <cmath>
 #include <fstream>
 #include <sstream>
+#include <vector>
 
 #include "hazmap/core/error.hpp"
 
@@ -210,8 +211,11 @@ ClassId ClassTable::mapRaw(std::uint32_t raw) const {
 void ClassTable::mapRawLabel(std::uint32_t raw, ClassId id) { raw_to_class_[raw] = id; }
 
 void ClassTable::checkCloud(const LabeledCloud& cloud, const std::string& where) const {
+  // A flat look-up instead of a map search per point: this runs on every raw scan.
+  std::vector<char> known(classes_.empty() ? 0 : std::size_t(classes_.rbegin()->first) + 1, 0);
+  for (const auto& entry : classes_) known[entry.first] = 1;
   for (std::size_t i = 0; i < cloud.classes.size(); ++i)
-    if (!contains(cloud.classes[i]))
+    if (cloud.classes[i] >= known.size() || !known[cloud.classes[i]])
       fail(where, "point " + std::to_string(i) + " has class " + std::to_string(cloud.classes[i]) +
                       ", which is not in the class table");
 }
