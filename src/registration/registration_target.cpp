@@ -97,7 +97,8 @@ RegistrationTarget::RegistrationTarget(LabeledCloud&& cloud, const ClassTable& c
     fail("registration target", "lazy normals need cloud-sized normals and stale mask (" +
                                     std::to_string(normals.size()) + "/" + std::to_string(stale.size()) +
                                     " for " + std::to_string(cloud.size()) + " points)");
-  if (finiteIndices(cloud).size() != cloud.size()) fail("registration target", "lazy normals need a finite cloud");
+  if (!std::all_of(cloud.points.begin(), cloud.points.end(), [](const Eigen::Vector3f& p) { return p.allFinite(); }))
+    fail("registration target", "lazy normals need a finite cloud");
   cloud_ = std::move(cloud);
   normals_ = std::move(normals);
   lazy_ = std::move(lazy);
