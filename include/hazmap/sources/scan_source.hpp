@@ -1,0 +1,52 @@
+#pragma once
+// A stream of LiDAR scans, whatever the recording: a sequence folder, a bag (PointCloud2,
+// VelodyneScan or Ouster packet topics) or a packet capture. Everything downstream (odometry,
+// loops, graph, map) consumes this and nothing else, so memory is bounded by the map, not by
+// the file.
+#include <Eigen/Geometry>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "hazmap/core/class_table.hpp"
+#include "hazmap/core/labeled_cloud.hpp"
+#include "hazmap/io/trajectory.hpp"
+
+namespace hazmap {
+
+struct Scan {
+  std::size_t index = 0;
+  double stamp = 0.0;  ///< seconds: the scan's reference time (its first point's time for spinning LiDARs)
+  LabeledCloud cloud;  ///< sensor frame; per-point absolute times in cloud.timestamps when known
+  /// Wheel odometry pose at `stamp` (T_odom_sensor) when the recording has one.
+  std::optional<Eigen::Isometry3d> odometry;
+  /// Ground-truth pose (T_world_sensor) when the recording has one.
+  std::optional<Eigen::Isometry3d> ground_truth;
+};
+
+struct ScanSourceOptions {
+  std::string lidar_topic;     ///< empty: the only LiDAR topic, error listing candidates if several
+  std::string odom_topic;      ///< empty: the only nav_msgs/Odometry topic, if any
+  std::filesystem::path sensor_metadata;     ///< Ouster metadata JSON (else from a bag topic)
+  std::filesystem::path velodyne_calibration;  ///< optional calibration YAML (else factory)
+  std::optional<ClassTable> class_table;     ///< overrides the recording's
+};
+
+class ScanSource {
+ public:
+  virtual ~ScanSource() = default;
+  /// The next scan; nullopt at the end.
+  virtual std::optional<Scan> next() = 0;
+  /// Number of scans when known without reading them all (sequence folders), else nullopt.
+  virtual std::optional<std::size_t> size() const = 0;
+  virtual const ClassTable& classTable() const = 0;
+  /// Human-readable description, e.g. "rosbag2 (sqlite3) /velodyne_points".
+  virtual std::string describe() const = 0;
+};
+
+/// Opens a sequence folder, a bag or a capture. Throws hazmap::Error naming the path.
+std::unique_ptr<ScanSource> openScanSource(const std::filesystem::path& path,
+                                           const ScanSourceOptions& options = {});
+
+}  // namespace hazmap
