@@ -186,8 +186,17 @@ class McapReader final : public MessageReader {
     loss_.notices.push_back(where_ + ": chunk at offset " + std::to_string(offset) + " skipped: " + why);
   }
 
+  void unknownChannel(std::uint16_t channel) {
+    // Without a summary a channel is declared only in the chunk where it was first used; if
+    // that chunk was skipped its later messages cannot be attributed: say so, once.
+    if (!unknown_channels_.insert(channel).second) return;
+    loss_.notices.push_back(where_ + ": messages of channel " + std::to_string(channel) +
+                            " skipped: its Channel record is missing (in a skipped chunk?)");
+  }
+
   MappedFile file_;
   std::string where_;
+  std::set<std::uint16_t> unknown_channels_;
   std::map<std::uint16_t, Schema> schemas_;
   std::map<std::uint16_t, Channel> channels_;
   std::vector<std::int32_t> channel_topic_ = std::vector<std::int32_t>(65536, -1);
@@ -418,7 +427,8 @@ void McapReader::addMessage(const Record& r, const std::string& where, std::vect
   const auto log_time = toTime(c.read<std::uint64_t>());
   c.read<std::uint64_t>();
   const std::int32_t topic = channel_topic_[channel];
-  if (topic < 0 || !selected_[static_cast<std::size_t>(topic)]) return;
+  if (topic < 0) return unknownChannel(channel);
+  if (!selected_[static_cast<std::size_t>(topic)]) return;
   out.push_back({log_time, static_cast<std::uint32_t>(topic), r.body.subspan(kMessagePrefix)});
 }
 
