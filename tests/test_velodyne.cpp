@@ -82,6 +82,19 @@ void expectNebulaCloud(const std::string& name, const std::string& pcd,
   const DecodedScan scan = scanCompletedIn(messages, stamp, options);
   const LabeledCloud truth = readPcd(test::sharedData("sensors/velodyne-" + name + "/" + pcd));
   const Comparison c = compareInOrder(scan.cloud, truth);
+  {  // DEBUG dump
+    std::ofstream d("/tmp/vel/ours_" + name + ".bin", std::ios::binary);
+    for (std::size_t i = 0; i < scan.cloud.size(); ++i) {
+      d.write(reinterpret_cast<const char*>(scan.cloud.points[i].data()), 12);
+      float it = scan.cloud.intensity[i];
+      d.write(reinterpret_cast<const char*>(&it), 4);
+      d.write(reinterpret_cast<const char*>(&scan.cloud.timestamps[i]), 8);
+      std::uint16_t r = scan.ring[i];
+      d.write(reinterpret_cast<const char*>(&r), 2);
+      d.write(reinterpret_cast<const char*>(&scan.return_type[i]), 1);
+      d.write("\0", 1);
+    }
+  }
   EXPECT_EQ(c.ours, c.theirs) << name;
   EXPECT_LE(c.max_error, 1e-3) << name;
   std::printf("%s: %zu points (nebula %zu), max error in order %.3g m\n", name.c_str(), c.ours,

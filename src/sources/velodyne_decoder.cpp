@@ -129,14 +129,15 @@ void VelodyneDecoder::addPacket(std::span<const std::uint8_t> payload, double pa
   }
   checkBlocks(p, mode, where);
   last_mode_ = mode;
-  const bool completes = startsNewScan(p);
+  const Cut cut = findCut(p);
+  if (cut == Cut::BeforePacket) cutScan(false);
   switch (*model_) {
     case VelodyneModel::VLP16: decode16(p, packet_time, mode); break;
     case VelodyneModel::VLP32C:
     case VelodyneModel::HDL32E: decode32(p, packet_time, mode); break;
     case VelodyneModel::VLS128: decode128(p, packet_time, mode); break;
   }
-  if (completes) cutScan();
+  if (cut == Cut::WithinPacket) cutScan(true);
 }
 
 /// Every block the model uses must carry a bank id and an azimuth below 360° (checked before
@@ -156,24 +157,27 @@ void VelodyneDecoder::checkBlocks(const std::uint8_t* p, std::uint8_t mode,
   }
 }
 
-/// Like the drivers: a packet completes the scan when its azimuth passes the cut angle within
-/// the packet or since the previous packet (a jump, e.g. out of a restricted field of view).
-bool VelodyneDecoder::startsNewScan(const std::uint8_t* packet) {
+/// Like the drivers: the scan is complete when a packet's azimuth passes the cut angle, within
+/// the packet or since the previous packet (a jump, e.g. out of a restricted field of view, or
+/// a packet that starts right past the cut).
+VelodyneDecoder::Cut VelodyneDecoder::findCut(const std::uint8_t* packet) {
   ++packets_in_scan_;
   const std::uint32_t first = u16(packet + 2), last = u16(packet + (kBlocks - 1) * kBlockBytes + 2);
   const std::uint32_t first_phased = (kCentiDegrees + first - cut_cd_) % kCentiDegrees;
   const std::uint32_t last_phased = (kCentiDegrees + last - cut_cd_) % kCentiDegrees;
-  const bool completes = packets_in_scan_ > 1 &&
-                         (last_phased < first_phased || first_phased < prev_first_phased_);
+  const std::uint32_t prev_first_phased = prev_first_phased_;
   prev_first_phased_ = first_phased;
-  return completes;
+  if (packets_in_scan_ <= 1) return Cut::None;
+  if (last_phased < first_phased) return Cut::WithinPacket;
+  if (first_phased < prev_first_phased) return Cut::BeforePacket;
+  return Cut::None;
 }
 
-/// Emits the scan that the last packet completed. That packet's trailing points already past
-/// the cut angle (within 2°, as nebula does) open the next scan.
-void VelodyneDecoder::cutScan() {
+/// Emits the scan. After a packet that crossed the cut angle, that packet's trailing points
+/// already past the cut (within 2°, as nebula does) open the next scan.
+void VelodyneDecoder::cutScan(bool move_tail) {
   std::size_t keep = scan_.cloud.size();
-  while (keep > 0 &&
+  while (move_tail && keep > 0 &&
          (kCentiDegrees + azimuth_cd_[keep - 1] - cut_cd_) % kCentiDegrees < 200)
     --keep;
   DecodedScan next;
@@ -192,7 +196,7 @@ void VelodyneDecoder::cutScan() {
   }
   scan_ = std::move(next);
   azimuth_cd_ = std::move(next_az);
-  packets_in_scan_ = 0;
+  packets_in_scan_ = move_tail ? 0 : 1;
 }
 
 }  // namespace velodyne_detail

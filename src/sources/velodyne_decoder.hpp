@@ -75,8 +75,9 @@ class VelodyneDecoder final : public PacketDecoder {
 
  private:
   void setUp(VelodyneModel model);
-  bool startsNewScan(const std::uint8_t* packet);
-  void cutScan();
+  enum class Cut { None, BeforePacket, WithinPacket };
+  Cut findCut(const std::uint8_t* packet);
+  void cutScan(bool move_tail);
   bool inFov(int azimuth_cd) const {
     if (fov_min_cd_ < fov_max_cd_) return azimuth_cd >= fov_min_cd_ && azimuth_cd <= fov_max_cd_;
     if (fov_min_cd_ > fov_max_cd_) return azimuth_cd <= fov_max_cd_ || azimuth_cd >= fov_min_cd_;
