@@ -74,6 +74,13 @@ std::optional<DecodedScan> VelodyneDecoder::takeScan() {
 }
 
 std::optional<DecodedScan> VelodyneDecoder::flush() {
+  if (!held_.empty()) {  // a lone 0x21 packet: take the product id at its word
+    setUp(VelodyneModel::HDL32E);
+    const std::vector<std::uint8_t> held = std::move(held_);
+    held_.clear();
+    decodePacket(held.data(), held_time_, held_where_);
+  }
+  if (auto scan = takeScan()) return scan;
   if (scan_.cloud.empty()) return std::nullopt;
   DecodedScan s = std::move(scan_);
   s.stamp = s.cloud.timestamps.front();
@@ -105,6 +112,30 @@ void VelodyneDecoder::setUp(VelodyneModel model) {
   scan_.cloud.enableTimestamps();
 }
 
+namespace {
+
+/// Early VLP-16 firmware reports the HDL-32E's product id 0x21. The packet period tells them
+/// apart whatever the rotation speed: a VLP-16 packet holds 24 firing sequences of 55.296 µs
+/// (12 in dual return), an HDL-32E packet 12 of 46.08 µs (6).
+VelodyneModel disambiguate0x21(const std::uint8_t* first, const std::uint8_t* second) {
+  const auto stamp = [](const std::uint8_t* p) {
+    return static_cast<std::int64_t>(p[1200] | (p[1201] << 8) | (p[1202] << 16)) |
+           (static_cast<std::int64_t>(p[1203]) << 24);
+  };
+  const std::int64_t hour_us = 3600LL * 1000000;
+  const double dt = static_cast<double>(((stamp(second) - stamp(first)) % hour_us + hour_us) % hour_us);
+  const bool dual = second[1204] == kModeDual;
+  const double vlp16 = (dual ? 12 : 24) * 55.296, hdl32 = (dual ? 6 : 12) * 46.08;
+  return std::abs(dt - vlp16) < std::abs(dt - hdl32) ? VelodyneModel::VLP16 : VelodyneModel::HDL32E;
+}
+
+bool productFits(VelodyneModel model, std::uint8_t product) {
+  const auto said = velodyneModelFromProductId(product);
+  return said == model || (model == VelodyneModel::VLP16 && product == 0x21);
+}
+
+}  // namespace
+
 void VelodyneDecoder::addPacket(std::span<const std::uint8_t> payload, double packet_time,
                                 const std::string& where) {
   if (payload.size() != kVelodyneDataPacketSize) return;  // position packets and others
@@ -117,16 +148,31 @@ void VelodyneDecoder::addPacket(std::span<const std::uint8_t> payload, double pa
                             "mode, product id); supported: VLP-16 0x22, VLP-32C 0x28, HDL-32E "
                             "0x21, VLS-128 0xa1 in mode 0x37, 0x38 or 0x39",
                             model ? "return mode" : "product id", mode, product));
-  if (!model_) {
-    if (options_.model && *options_.model != *model)
-      fail(where, fmt::format("factory bytes 0x{:02x} 0x{:02x} say {}, expected {}", mode,
-                              product, velodyneModelName(*model),
-                              velodyneModelName(*options_.model)));
-    setUp(*model);
-  } else if (*model_ != *model) {
-    fail(where, fmt::format("factory bytes 0x{:02x} 0x{:02x} say {} in a {} stream", mode, product,
-                            velodyneModelName(*model), velodyneModelName(*model_)));
+  const VelodyneModel expected = model_ ? *model_ : options_.model ? *options_.model : *model;
+  if (!productFits(expected, product))
+    fail(where, fmt::format("factory bytes 0x{:02x} 0x{:02x} say {}, expected {}", mode, product,
+                            velodyneModelName(*model), velodyneModelName(expected)));
+  if (!model_ && !options_.model && product == 0x21) {
+    if (held_.empty()) {  // decide with the next packet
+      held_.assign(p, p + kVelodyneDataPacketSize);
+      held_time_ = packet_time;
+      held_where_ = where;
+      return;
+    }
+    setUp(disambiguate0x21(held_.data(), p));
   }
+  if (!model_) setUp(expected);
+  if (!held_.empty()) {
+    const std::vector<std::uint8_t> held = std::move(held_);
+    held_.clear();
+    decodePacket(held.data(), held_time_, held_where_);
+  }
+  decodePacket(p, packet_time, where);
+}
+
+void VelodyneDecoder::decodePacket(const std::uint8_t* p, double packet_time,
+                                   const std::string& where) {
+  const std::uint8_t mode = p[1204];
   checkBlocks(p, mode, where);
   last_mode_ = mode;
   const Cut cut = findCut(p);

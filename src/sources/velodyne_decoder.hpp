@@ -75,6 +75,7 @@ class VelodyneDecoder final : public PacketDecoder {
 
  private:
   void setUp(VelodyneModel model);
+  void decodePacket(const std::uint8_t* packet, double packet_time, const std::string& where);
   enum class Cut { None, BeforePacket, WithinPacket };
   Cut findCut(const std::uint8_t* packet);
   void cutScan(bool move_tail);
@@ -105,6 +106,9 @@ class VelodyneDecoder final : public PacketDecoder {
   std::deque<DecodedScan> ready_;
   std::size_t packets_in_scan_ = 0;
   std::uint32_t prev_first_phased_ = 0;
+  std::vector<std::uint8_t> held_;  // a first 0x21 packet, until the next says which model
+  double held_time_ = 0;
+  std::string held_where_;
 };
 
 }  // namespace hazmap::velodyne_detail
