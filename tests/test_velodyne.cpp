@@ -7,6 +7,9 @@
 #include <fstream>
 #include <map>
 
+#include <pcap/pcap.h>
+#include <sqlite3.h>
+
 #include "hazmap/core/error.hpp"
 #include "hazmap/io/pcd.hpp"
 #include "hazmap/sources/velodyne.hpp"
@@ -26,22 +29,39 @@ struct Message {
   std::vector<Packet> packets;
 };
 
-// TEMPORARY: packets extracted to /tmp until the rosbag2 reader lands.
+// FALLBACK until the rosbag2 reader lands: the .db3's messages table, VelodyneScan CDR
+// (encapsulation header, header{stamp, frame_id}, packets[]{stamp, uint8[1206]}).
 std::vector<Message> loadMessages(const std::string& name) {
-  std::ifstream in("/tmp/vel/" + name + ".pkts", std::ios::binary);
+  const fs::path dir = test::sharedData("sensors/velodyne-" + name);
+  fs::path db;
+  for (const auto& e : fs::directory_iterator(dir))
+    if (e.path().extension() == ".db3") db = e.path();
+  sqlite3* handle = nullptr;
+  EXPECT_EQ(sqlite3_open_v2(db.c_str(), &handle, SQLITE_OPEN_READONLY, nullptr), SQLITE_OK);
+  sqlite3_stmt* st = nullptr;
+  sqlite3_prepare_v2(handle, "SELECT timestamp, data FROM messages ORDER BY timestamp", -1, &st,
+                     nullptr);
   std::vector<Message> out;
-  while (true) {
-    std::int64_t ts;
-    double stamp;
-    std::uint32_t n;
-    if (!in.read(reinterpret_cast<char*>(&ts), 8)) break;
-    in.read(reinterpret_cast<char*>(&stamp), 8);
-    in.read(reinterpret_cast<char*>(&n), 4);
-    Packet p{stamp, std::vector<std::uint8_t>(n)};
-    in.read(reinterpret_cast<char*>(p.data.data()), n);
-    if (out.empty() || out.back().log_time_ns != ts) out.push_back({ts, {}});
-    out.back().packets.push_back(std::move(p));
+  while (sqlite3_step(st) == SQLITE_ROW) {
+    const auto* d = static_cast<const std::uint8_t*>(sqlite3_column_blob(st, 1));
+    const std::size_t size = static_cast<std::size_t>(sqlite3_column_bytes(st, 1));
+    auto u32 = [&](std::size_t o) { std::uint32_t v; std::memcpy(&v, d + o, 4); return v; };
+    std::size_t o = 4 + 8;
+    o += 4 + u32(o);
+    o = (o + 3) & ~std::size_t{3};
+    const std::uint32_t n = u32(o);
+    o += 4;
+    Message m{sqlite3_column_int64(st, 0), {}};
+    for (std::uint32_t i = 0; i < n && o + 8 + 1206 <= size; ++i) {
+      o = (o + 3) & ~std::size_t{3};
+      const double stamp = static_cast<std::int32_t>(u32(o)) + u32(o + 4) * 1e-9;
+      m.packets.push_back({stamp, std::vector<std::uint8_t>(d + o + 8, d + o + 8 + 1206)});
+      o += 8 + 1206;
+    }
+    out.push_back(std::move(m));
   }
+  sqlite3_finalize(st);
+  sqlite3_close(handle);
   return out;
 }
 
@@ -82,19 +102,6 @@ void expectNebulaCloud(const std::string& name, const std::string& pcd,
   const DecodedScan scan = scanCompletedIn(messages, stamp, options);
   const LabeledCloud truth = readPcd(test::sharedData("sensors/velodyne-" + name + "/" + pcd));
   const Comparison c = compareInOrder(scan.cloud, truth);
-  {  // DEBUG dump
-    std::ofstream d("/tmp/vel/ours_" + name + ".bin", std::ios::binary);
-    for (std::size_t i = 0; i < scan.cloud.size(); ++i) {
-      d.write(reinterpret_cast<const char*>(scan.cloud.points[i].data()), 12);
-      float it = scan.cloud.intensity[i];
-      d.write(reinterpret_cast<const char*>(&it), 4);
-      d.write(reinterpret_cast<const char*>(&scan.cloud.timestamps[i]), 8);
-      std::uint16_t r = scan.ring[i];
-      d.write(reinterpret_cast<const char*>(&r), 2);
-      d.write(reinterpret_cast<const char*>(&scan.return_type[i]), 1);
-      d.write("\0", 1);
-    }
-  }
   EXPECT_EQ(c.ours, c.theirs) << name;
   EXPECT_LE(c.max_error, 1e-3) << name;
   std::printf("%s: %zu points (nebula %zu), max error in order %.3g m\n", name.c_str(), c.ours,
