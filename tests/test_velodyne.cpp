@@ -10,10 +10,11 @@
 #include <set>
 
 #include <pcap/pcap.h>
-#include <sqlite3.h>
 
 #include "hazmap/core/error.hpp"
 #include "hazmap/io/pcd.hpp"
+#include "hazmap/sources/bag_message.hpp"
+#include "hazmap/sources/ros_messages.hpp"
 #include "hazmap/sources/velodyne.hpp"
 #include "test_helpers.hpp"
 
@@ -31,39 +32,19 @@ struct Message {
   std::vector<Packet> packets;
 };
 
-// FALLBACK until the rosbag2 reader lands: the .db3's messages table, VelodyneScan CDR
-// (encapsulation header, header{stamp, frame_id}, packets[]{stamp, uint8[1206]}).
+/// Every VelodyneScan of the recording's rosbag2 folder, through the bag reader.
 std::vector<Message> loadMessages(const std::string& name) {
   const fs::path dir = test::sharedData("sensors/velodyne-" + name);
-  fs::path db;
-  for (const auto& e : fs::directory_iterator(dir))
-    if (e.path().extension() == ".db3") db = e.path();
-  sqlite3* handle = nullptr;
-  EXPECT_EQ(sqlite3_open_v2(db.c_str(), &handle, SQLITE_OPEN_READONLY, nullptr), SQLITE_OK);
-  sqlite3_stmt* st = nullptr;
-  sqlite3_prepare_v2(handle, "SELECT timestamp, data FROM messages ORDER BY timestamp", -1, &st,
-                     nullptr);
+  auto bag = openBag(dir);
   std::vector<Message> out;
-  while (sqlite3_step(st) == SQLITE_ROW) {
-    const auto* d = static_cast<const std::uint8_t*>(sqlite3_column_blob(st, 1));
-    const std::size_t size = static_cast<std::size_t>(sqlite3_column_bytes(st, 1));
-    auto u32 = [&](std::size_t o) { std::uint32_t v; std::memcpy(&v, d + o, 4); return v; };
-    std::size_t o = 4 + 8;
-    o += 4 + u32(o);
-    o = (o + 3) & ~std::size_t{3};
-    const std::uint32_t n = u32(o);
-    o += 4;
-    Message m{sqlite3_column_int64(st, 0), {}};
-    for (std::uint32_t i = 0; i < n && o + 8 + 1206 <= size; ++i) {
-      o = (o + 3) & ~std::size_t{3};
-      const double stamp = static_cast<std::int32_t>(u32(o)) + u32(o + 4) * 1e-9;
-      m.packets.push_back({stamp, std::vector<std::uint8_t>(d + o + 8, d + o + 8 + 1206)});
-      o += 8 + 1206;
-    }
-    out.push_back(std::move(m));
+  BagMessage m;
+  while (bag->next(m)) {
+    if (m.topic->type != "velodyne_msgs/msg/VelodyneScan") continue;
+    const VelodyneScanMsg scan = decodeVelodyneScan(m.data, m.topic->serialization, dir.string());
+    Message msg{m.log_time_ns, {}};
+    for (const LidarPacket& p : scan.packets) msg.packets.push_back({p.stamp, p.data});
+    out.push_back(std::move(msg));
   }
-  sqlite3_finalize(st);
-  sqlite3_close(handle);
   return out;
 }
 
