@@ -9,11 +9,11 @@
 #include <map>
 #include <set>
 
-#include <pcap/pcap.h>
 
 #include "hazmap/core/error.hpp"
 #include "hazmap/io/pcd.hpp"
 #include "hazmap/sources/bag_message.hpp"
+#include "hazmap/sources/pcap_reader.hpp"
 #include "hazmap/sources/ros_messages.hpp"
 #include "hazmap/sources/velodyne.hpp"
 #include "test_helpers.hpp"
@@ -389,22 +389,14 @@ TEST(Velodyne, Hdl32eBlockLayout) {
 
 namespace {
 
-/// UDP payloads of a classic pcap (Ethernet, IPv4) read with libpcap.
+/// The capture's UDP payloads, through the pcap reader.
 std::vector<Packet> readPcapPayloads(const fs::path& path) {
-  char err[PCAP_ERRBUF_SIZE];
-  pcap_t* pcap = pcap_open_offline(path.c_str(), err);
-  EXPECT_NE(pcap, nullptr) << err;
+  PcapReader reader(path);
   std::vector<Packet> out;
-  pcap_pkthdr* header;
-  const u_char* data;
-  while (pcap && pcap_next_ex(pcap, &header, &data) == 1) {
-    if (header->caplen < 14 + 20 + 8) continue;
-    const std::size_t ip = 14, udp = ip + (data[ip] & 0x0f) * 4u;
-    if (data[12] != 0x08 || data[13] != 0x00 || data[ip + 9] != 17) continue;  // IPv4, UDP
-    out.push_back({header->ts.tv_sec + header->ts.tv_usec * 1e-6,
-                   std::vector<std::uint8_t>(data + udp + 8, data + header->caplen)});
-  }
-  if (pcap) pcap_close(pcap);
+  UdpPacket u;
+  while (reader.next(u))
+    out.push_back({u.time, std::vector<std::uint8_t>(u.payload.begin(), u.payload.end())});
+  EXPECT_FALSE(reader.loss().anyLost());
   return out;
 }
 
