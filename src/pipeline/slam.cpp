@@ -137,7 +137,6 @@ class SlamRun {
   SlamRun(ScanSource& source, const SlamConfig& config)
       : source_(source), config_(config), deskewer_(config.deskew) {
     result_.method = config.method;
-    result_.source = source.describe();
     result_.graph.dimension = 3;
   }
 
@@ -157,6 +156,7 @@ class SlamRun {
   std::size_t frames() const { return result_.frames.size(); }
 
   SlamResult finish() {
+    result_.source = source_.describe();  // after the scans: a decoder knows its sensor by then
     result_.tracked = trajectoryOf(tracked_);
     if (pgo_) {
       result_.keyframes = keyframe_frames_.size();
