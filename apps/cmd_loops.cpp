@@ -48,7 +48,7 @@ void runLoops(const LoopsOptions& o, bool method_given) {
     else if (o.method == "both") config.method = CandidateMethod::Both;
     else fail("--method", "must be constellation, distance or both (got '" + o.method + "')");
   }
-  const auto scans = openScanSource(o.sequence, o.source.options());
+  const auto scans = openScanSource(o.sequence, o.source.options(std::nullopt, true));
   // The estimate: --estimate's poses, else the recording's wheel odometry as the scans come.
   PoseList estimate;
   if (!o.estimate.empty()) {

@@ -51,7 +51,7 @@ void run(const OdometryOptions& o) {
 
   std::optional<ClassTable> table_override;
   if (!o.classes.empty()) table_override = ClassTable::load(o.classes);
-  const auto scans = openScanSource(o.sequence, o.source.options(table_override));
+  const auto scans = openScanSource(o.sequence, o.source.options(table_override, !o.quiet));
   DeskewConfig deskew;
   deskew.enabled = !o.source.no_deskew;
   StreamDeskewer deskewer(deskew);

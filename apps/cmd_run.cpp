@@ -32,7 +32,7 @@ void run(const RunOptions& o) {
   std::optional<ClassTable> table;
   if (!o.classes.empty()) table = ClassTable::load(o.classes);
   config.deskew.enabled = !o.source.no_deskew;
-  const auto scans = openScanSource(o.sequence, o.source.options(table));
+  const auto scans = openScanSource(o.sequence, o.source.options(table, !o.quiet));
   ProgressBar bar(o.method, scans->size().value_or(0), o.quiet ? 0 : -1);
   const SlamResult result = runSlam(*scans, config, [&](std::size_t d, std::size_t) { bar.update(d); });
   bar.finish();

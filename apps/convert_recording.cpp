@@ -60,9 +60,7 @@ std::string frameName(std::size_t i) {
 }  // namespace
 
 void convertRecording(const fs::path& input, const fs::path& out_dir, const SourceFlags& flags, bool quiet) {
-  ScanSourceOptions options = flags.options();
-  if (!quiet) options.notice = [](const std::string& line) { std::cerr << line << "\n"; };
-  const auto scans = openScanSource(input, options);
+  const auto scans = openScanSource(input, flags.options(std::nullopt, !quiet));
   StagingFolder staging(out_dir);
   std::ostringstream times;
   times.precision(17);

@@ -2,6 +2,7 @@
 // The flags every command that reads a recording shares (run, odometry, loops, info, convert):
 // which topics of a bag, the sensor's metadata or calibration, deskewing.
 #include <CLI/CLI.hpp>
+#include <iostream>
 #include <optional>
 #include <string>
 
@@ -27,13 +28,15 @@ struct SourceFlags {
       app.add_flag("--no-deskew", no_deskew, "Do not motion-compensate scans with per-point times");
   }
 
-  ScanSourceOptions options(std::optional<ClassTable> table = std::nullopt) const {
+  /// `print_notices`: the source's one-line notices (topics not read, …) go to stderr.
+  ScanSourceOptions options(std::optional<ClassTable> table = std::nullopt, bool print_notices = false) const {
     ScanSourceOptions o;
     o.lidar_topic = lidar_topic;
     o.odom_topic = odom_topic;
     o.sensor_metadata = sensor_metadata;
     o.velodyne_calibration = velodyne_calibration;
     o.class_table = std::move(table);
+    if (print_notices) o.notice = [](const std::string& line) { std::cerr << "notice: " << line << "\n"; };
     return o;
   }
 };

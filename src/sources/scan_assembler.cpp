@@ -8,12 +8,12 @@
 
 namespace hazmap::sources {
 
-double firstPointTime(const LabeledCloud& cloud, double fallback) {
+double sweepMiddle(const LabeledCloud& cloud, double fallback) {
   if (cloud.timestamps.empty()) return fallback;
-  double first = std::numeric_limits<double>::infinity();
+  double first = std::numeric_limits<double>::infinity(), last = -first;
   for (double t : cloud.timestamps)
-    if (std::isfinite(t)) first = std::min(first, t);
-  return std::isfinite(first) ? first : fallback;
+    if (std::isfinite(t)) first = std::min(first, t), last = std::max(last, t);
+  return std::isfinite(first) ? 0.5 * (first + last) : fallback;
 }
 
 ScanAssembler::ScanAssembler(LidarKind kind, std::unique_ptr<PacketDecoder> decoder)
@@ -29,7 +29,7 @@ void ScanAssembler::addMessage(const BagMessage& message, const std::string& whe
       const PointCloud2 msg = decodePointCloud2(message.data, s, where);
       RawScan scan;
       scan.cloud = pointCloud2ToCloud(msg, where);
-      scan.stamp = firstPointTime(scan.cloud, msg.header.stamp);
+      scan.stamp = sweepMiddle(scan.cloud, msg.header.stamp);
       if (!scan.cloud.empty()) out.push_back(std::move(scan));
       return;
     }
@@ -58,7 +58,7 @@ void ScanAssembler::take(std::deque<RawScan>& out) {
   while (std::optional<DecodedScan> d = decoder_->takeScan())
     if (!d->cloud.empty()) {
       last_points_ = d->cloud.size();
-      out.push_back({d->stamp, std::move(d->cloud)});
+      out.push_back({sweepMiddle(d->cloud, d->stamp), std::move(d->cloud)});
     }
 }
 
@@ -71,7 +71,7 @@ std::optional<std::string> ScanAssembler::flush(std::deque<RawScan>& out) {
   // capture shorter than a rotation still gives its one partial scan).
   if (last_points_ > 0 && 2 * d->cloud.size() < last_points_)
     return "the last " + std::to_string(d->cloud.size()) + " points (a partial rotation at the end) dropped";
-  out.push_back({d->stamp, std::move(d->cloud)});
+  out.push_back({sweepMiddle(d->cloud, d->stamp), std::move(d->cloud)});
   return std::nullopt;
 }
 

@@ -41,8 +41,8 @@ class ScanAssembler {
   std::size_t last_points_ = 0;  ///< of the last complete scan
 };
 
-/// A decoded cloud's reference time: its first point's time when it has per-point times, else
-/// `fallback` (the message's stamp).
-double firstPointTime(const LabeledCloud& cloud, double fallback);
+/// A decoded cloud's reference time (Scan::stamp): the middle of its sweep when it has per-point
+/// times, else `fallback` (the message's stamp).
+double sweepMiddle(const LabeledCloud& cloud, double fallback);
 
 }  // namespace hazmap::sources

@@ -2,7 +2,7 @@
 // Deskewing (motion compensation) of a spinning LiDAR's scan: its points are measured over a
 // whole rotation (0.1 s at 10 Hz) while the robot moves, so a scan taken at speed is smeared.
 // With each point's time and the motion over the scan, every point is moved to where the sensor
-// would have seen it at the scan's reference time (its first point's time, Scan::stamp).
+// would have seen it at the scan's reference time (the middle of its sweep, Scan::stamp).
 #include <Eigen/Geometry>
 #include <optional>
 

@@ -19,7 +19,11 @@ namespace hazmap {
 
 struct Scan {
   std::size_t index = 0;
-  double stamp = 0.0;  ///< seconds: the scan's reference time (its first point's time for spinning LiDARs)
+  /// Seconds: the scan's reference time. For a spinning LiDAR with per-point times, the middle of
+  /// its sweep: an undistorted scan looks on average like the scene seen from there, so the
+  /// first scans (before any motion is known to deskew them) and the deskewed ones agree, and
+  /// the pose estimated for the scan, its odometry and its ground truth are all at this time.
+  double stamp = 0.0;
   LabeledCloud cloud;  ///< sensor frame; per-point absolute times in cloud.timestamps when known
   /// Wheel odometry pose at `stamp` (T_odom_sensor) when the recording has one.
   std::optional<Eigen::Isometry3d> odometry;
