@@ -82,6 +82,11 @@ struct VelodyneOptions {
   /// Field of view kept (degrees): [fov_min, fov_max], wrapping through 0 when fov_min >
   /// fov_max (e.g. 270 → 90 keeps the front half). Like the driver's cloud_min/max_angle.
   double fov_min = 0.0, fov_max = 360.0;
+  /// false (default): a point's azimuth is interpolated between blocks as the drivers do, so
+  /// that clouds equal nebula's. true: from the laser's firing time (the manuals' timing
+  /// tables) and the rotor speed measured over the packet, which removes the drivers' lags of
+  /// up to 0.16° (docs/formats.md); the clouds then differ from the driver's by that much.
+  bool exact_azimuth = false;
 };
 
 /// A decoder of one sensor's data packets (512-byte position packets are ignored).
