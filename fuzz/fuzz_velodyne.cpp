@@ -1,7 +1,8 @@
 // libFuzzer target: Velodyne packet decoder (packets of the right sizes — data and position —
 // and of wrong ones, any factory bytes, forced or detected model, any cut angle and field of
 // view) and the calibration YAML reader.
-// Input: byte 0 flags (bit 7: the rest is a calibration YAML; bits 0–2: forced model), byte 1
+// Input: byte 0 flags (bit 7: the rest is a calibration YAML; bits 0–2: forced model; bit 3:
+// field of view up to 90°; bit 4: exact azimuths), byte 1
 // cut angle (× 1.5°), byte 2 field of view start (× 1.5°); then records of one selector byte
 // (0 mod 3: a 1206-byte data packet, 1: a 512-byte position packet, else that many bytes)
 // followed by the payload (zero-padded at the end of the input).
@@ -51,6 +52,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   options.cut_angle = std::min(360.0, data[1] * 1.5);
   options.fov_min = std::min(360.0, data[2] * 1.5);
   options.fov_max = data[0] & 0x08 ? 90.0 : 360.0;
+  options.exact_azimuth = data[0] & 0x10;
   auto decoder = hazmap::makeVelodyneDecoder(options);
   std::vector<std::uint8_t> payload;
   double time = 1000.0;

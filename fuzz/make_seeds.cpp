@@ -37,6 +37,7 @@ void velodyneSeeds(const fs::path& pcap, const fs::path& out) {
   }
   writeTextAtomically(out / "vlp16_detected", std::string("\x00\x00\x00", 3) + packets);
   writeTextAtomically(out / "vlp16_forced_cut90", std::string("\x01\x3c\x00", 3) + packets);
+  writeTextAtomically(out / "vlp16_exact_fov", std::string("\x18\x00\x78", 3) + packets);
   std::string yaml = "\x80num_lasers: 16\ndistance_resolution: 0.002\nlasers:\n";
   for (int i = 0; i < 16; ++i)
     yaml += "  - {laser_id: " + std::to_string(i) + ", rot_correction: 0.0, vert_correction: " +

@@ -229,6 +229,23 @@ TEST(Velodyne, CutAngleIsConfigurable) {
   }
 }
 
+// No recording in last-return mode is at hand: the VLP-32C packets relabelled 0x38 decode to
+// the same points, each typed "last".
+TEST(Velodyne, LastReturnMode) {
+  auto messages = loadMessages("vlp32");
+  VelodyneOptions o;
+  o.cut_angle = 180;
+  const auto strongest = decodeAll(messages, o);
+  for (auto& m : messages)
+    for (auto& p : m.packets) p.data[1204] = 0x38;
+  const auto last = decodeAll(messages, o);
+  ASSERT_EQ(strongest.size(), last.size());
+  EXPECT_EQ(strongest[1].cloud.points, last[1].cloud.points);
+  for (std::uint8_t t : last[1].return_type) EXPECT_EQ(t, static_cast<std::uint8_t>(VelodyneReturn::Last));
+  for (std::uint8_t t : strongest[1].return_type)
+    EXPECT_EQ(t, static_cast<std::uint8_t>(VelodyneReturn::Strongest));
+}
+
 TEST(Velodyne, UnsupportedFactoryBytesAreNamed) {
   auto packet = loadMessages("vlp16")[0].packets[0].data;
   packet[1205] = 0x99;
