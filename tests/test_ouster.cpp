@@ -244,6 +244,23 @@ TEST(OusterCapture, Os1_128GivesThreeFullScans) {
   EXPECT_NEAR(d.scans[1].stamp - d.scans[0].stamp, 0.1, 2e-3);
 }
 
+TEST(OusterCapture, Os1_128SensorClockMatchesTheSdksRecording) {
+  // ouster-sdk's own OSF recording of this capture (its reader test) starts at 991587364520 ns
+  // and ends at 991787323080 ns of the sensor's clock: the first and the last scan's first column.
+  OusterDecoderOptions sensor_clock;
+  sensor_clock.clock = OusterDecoderOptions::Clock::Sensor;
+  const Decoded d = decodeCapture(os128Pcap(), readOusterMetadata(os128Json()), sensor_clock);
+  ASSERT_EQ(d.scans.size(), 3u);
+  EXPECT_DOUBLE_EQ(d.scans[0].stamp, 991587364520e-9);
+  EXPECT_DOUBLE_EQ(d.scans[2].stamp, 991787323080e-9);
+  // The capture clock (the default for a sensor on its internal clock) only shifts them.
+  const Decoded host = decodeCapture(os128Pcap(), readOusterMetadata(os128Json()));
+  for (std::size_t i = 0; i < 3; ++i) {
+    const double shift = host.scans[i].stamp - d.scans[i].stamp;
+    EXPECT_NEAR(host.scans[i].cloud.timestamps.back() - d.scans[i].cloud.timestamps.back(), shift, 1e-6);
+  }
+}
+
 TEST(OusterCapture, Os1_128PointsMatchTheManualsFormula) {
   const OusterMetadata meta = readOusterMetadata(os128Json());
   const Decoded d = decodeCapture(os128Pcap(), meta);
