@@ -198,6 +198,17 @@ TEST(OusterMetadata, BadMetadataFailsNamingTheSource) {
   }
 }
 
+TEST(OusterMetadata, FoundNextToItsCapture) {
+  EXPECT_EQ(findOusterMetadata(os128Pcap()), os128Json());  // longest prefix of "…_lb_n3"
+  EXPECT_EQ(findOusterMetadata(os64Pcap()), os64Json());
+  EXPECT_FALSE(findOusterMetadata(test::sharedData("sensors/velodyne-vlp16-pcap/velodyne_vlp16.pcap")));
+  // Of several prefixes the longest wins; a longer name that is not a prefix does not.
+  const auto dir = test::scratchDir();
+  for (const char* name : {"OS-1.json", "OS-1-128.json", "OS-1-128_run2.json", "OS-1-128_run.txt"})
+    std::ofstream(dir / name) << "{}";
+  EXPECT_EQ(findOusterMetadata(dir / "OS-1-128_run1.pcap"), dir / "OS-1-128.json");
+}
+
 // ---- the real captures ------------------------------------------------------------------
 
 std::size_t nonZeroRanges(const std::vector<Bytes>& packets, std::size_t first, std::size_t count) {
