@@ -17,6 +17,8 @@
 #include "hazmap/io/trajectory.hpp"
 #include "hazmap/preprocess/voxel_downsample.hpp"
 #include "hazmap/registration/registration.hpp"
+#include "hazmap/sources/bag_message.hpp"
+#include "hazmap/sources/ros_messages.hpp"
 #include "hazmap/sources/ouster.hpp"
 #include "hazmap/sources/pcap_reader.hpp"
 #include "test_helpers.hpp"
@@ -196,6 +198,17 @@ TEST(OusterMetadata, BadMetadataFailsNamingTheSource) {
   }
 }
 
+TEST(OusterMetadata, FoundNextToItsCapture) {
+  EXPECT_EQ(findOusterMetadata(os128Pcap()), os128Json());  // longest prefix of "…_lb_n3"
+  EXPECT_EQ(findOusterMetadata(os64Pcap()), os64Json());
+  EXPECT_FALSE(findOusterMetadata(test::sharedData("sensors/velodyne-vlp16-pcap/velodyne_vlp16.pcap")));
+  // Of several prefixes the longest wins; a longer name that is not a prefix does not.
+  const auto dir = test::scratchDir();
+  for (const char* name : {"OS-1.json", "OS-1-128.json", "OS-1-128_run2.json", "OS-1-128_run.txt"})
+    std::ofstream(dir / name) << "{}";
+  EXPECT_EQ(findOusterMetadata(dir / "OS-1-128_run1.pcap"), dir / "OS-1-128.json");
+}
+
 // ---- the real captures ------------------------------------------------------------------
 
 std::size_t nonZeroRanges(const std::vector<Bytes>& packets, std::size_t first, std::size_t count) {
@@ -240,6 +253,23 @@ TEST(OusterCapture, Os1_128GivesThreeFullScans) {
     EXPECT_TRUE(std::is_sorted(s.cloud.timestamps.begin(), s.cloud.timestamps.end()));
   }
   EXPECT_NEAR(d.scans[1].stamp - d.scans[0].stamp, 0.1, 2e-3);
+}
+
+TEST(OusterCapture, Os1_128SensorClockMatchesTheSdksRecording) {
+  // ouster-sdk's own OSF recording of this capture (its reader test) starts at 991587364520 ns
+  // and ends at 991787323080 ns of the sensor's clock: the first and the last scan's first column.
+  OusterDecoderOptions sensor_clock;
+  sensor_clock.clock = OusterDecoderOptions::Clock::Sensor;
+  const Decoded d = decodeCapture(os128Pcap(), readOusterMetadata(os128Json()), sensor_clock);
+  ASSERT_EQ(d.scans.size(), 3u);
+  EXPECT_DOUBLE_EQ(d.scans[0].stamp, 991587364520e-9);
+  EXPECT_DOUBLE_EQ(d.scans[2].stamp, 991787323080e-9);
+  // The capture clock (the default for a sensor on its internal clock) only shifts them.
+  const Decoded host = decodeCapture(os128Pcap(), readOusterMetadata(os128Json()));
+  for (std::size_t i = 0; i < 3; ++i) {
+    const double shift = host.scans[i].stamp - d.scans[i].stamp;
+    EXPECT_NEAR(host.scans[i].cloud.timestamps.back() - d.scans[i].cloud.timestamps.back(), shift, 1e-6);
+  }
 }
 
 TEST(OusterCapture, Os1_128PointsMatchTheManualsFormula) {
@@ -389,6 +419,72 @@ TEST(OusterCapture, Os1_64LegacyCapture) {
   ASSERT_EQ(all.scans.size(), 3u);
   EXPECT_EQ(all.scans[1].cloud.points, s.cloud.points);
   EXPECT_LT(all.scans[0].cloud.size() + all.scans[2].cloud.size(), 64u * (1600 - 1024));
+}
+
+TEST(OusterBag, Os0_128RosBagDecodesItsScanWithTheMetadataTopic) {
+  // The ouster_ros driver's ROS 1 bag: raw packets (ouster_ros/PacketMsg) and the sensor's
+  // metadata JSON on its own topic (std_msgs/String).
+  const auto path = test::sharedData("sensors/ouster-os0-128-ros1/512x10_raw.bag");
+  auto bag = openBag(path);
+  std::string json;
+  std::vector<std::pair<double, Bytes>> packets;
+  BagMessage msg;
+  while (bag->next(msg)) {
+    if (msg.topic->name == "/os_node0/metadata") json = decodeString(msg.data, msg.topic->serialization, path.string());
+    if (msg.topic->name == "/os_node0/lidar_packets" || msg.topic->name == "/os_node0/imu_packets")
+      packets.emplace_back(static_cast<double>(msg.log_time_ns) * 1e-9,
+                           decodeOusterPacket(msg.data, msg.topic->serialization, path.string()).data);
+  }
+  ASSERT_FALSE(json.empty());
+  const OusterMetadata meta = parseOusterMetadata(json, path.string() + " /os_node0/metadata");
+  EXPECT_TRUE(meta.nested_layout);
+  EXPECT_EQ(meta.prod_line, "OS-0-128");
+  EXPECT_EQ(meta.columns_per_frame, 512u);
+  EXPECT_EQ(meta.pixels_per_column, 128u);
+  EXPECT_EQ(meta.profile, OusterProfile::Rng15Rfl8Nir8);
+  OusterDecoder decoder(meta);
+  std::vector<DecodedScan> scans;
+  std::vector<Bytes> lidar;
+  for (const auto& [time, data] : packets) {
+    if (data.size() == meta.lidarPacketSize()) lidar.push_back(data);
+    decoder.addPacket(data, time, path.string());
+    while (auto s = decoder.takeScan()) scans.push_back(std::move(*s));
+  }
+  if (auto s = decoder.flush()) scans.push_back(std::move(*s));
+  const OusterDecoderStats& st = decoder.stats();
+  std::printf("OS-0-128 bag: %zu lidar packets, %llu scans, %llu incomplete dropped, %llu foreign, %llu late\n",
+              lidar.size(), static_cast<unsigned long long>(st.scans_emitted),
+              static_cast<unsigned long long>(st.incomplete_scans_dropped),
+              static_cast<unsigned long long>(st.foreign_packets), static_cast<unsigned long long>(st.late_packets));
+  EXPECT_EQ(st.foreign_packets, 0u);
+  ASSERT_EQ(scans.size(), 1u);
+  const DecodedScan& s = scans[0];
+  // The bag holds exactly one rotation: 32 packets of 16 columns, all of one frame id.
+  ASSERT_EQ(lidar.size(), 32u);
+  std::size_t returns = 0;
+  for (const Bytes& p : lidar) {
+    EXPECT_EQ(p[2] | p[3] << 8, lidar[0][2] | lidar[0][3] << 8);
+    for (std::size_t c = 0; c < 16; ++c)
+      for (std::size_t r = 0; r < 128; ++r) {
+        const std::uint8_t* px = &p[32 + c * (12 + 128 * 4) + 12 + r * 4];
+        returns += ((px[0] | px[1] << 8) & 0x7fff) != 0;
+      }
+  }
+  // Every return of the rotation (counted here from the bytes), no more: 44 % of the pixels.
+  EXPECT_EQ(s.cloud.size(), returns);
+  EXPECT_GT(s.cloud.size(), 128u * 512u / 3);
+  EXPECT_EQ(*std::max_element(s.ring.begin(), s.ring.end()), 127);
+  const auto [tmin, tmax] = std::minmax_element(s.cloud.timestamps.begin(), s.cloud.timestamps.end());
+  EXPECT_NEAR(*tmax - *tmin, 0.1 * 511 / 512, 2e-3);
+  // An OS-0 sees ±45°: points well above and below the horizon.
+  float zmin = 0, zmax = 0;
+  for (std::size_t i = 0; i < s.cloud.size(); ++i) {
+    const auto& p = s.cloud.points[i];
+    const float elevation = std::atan2(p.z() - 0.036f, p.head<2>().norm()) / static_cast<float>(kDeg);
+    zmin = std::min(zmin, elevation), zmax = std::max(zmax, elevation);
+  }
+  EXPECT_LT(zmin, -40.0f);
+  EXPECT_GT(zmax, 40.0f);
 }
 
 // ---- packets built by hand --------------------------------------------------------------

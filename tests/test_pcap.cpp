@@ -327,6 +327,39 @@ TEST(Pcap, BadFilesFailNamingTheFile) {
   EXPECT_FALSE(isPcap(dir / "missing.pcap"));
 }
 
+/// A pcapng file: section header, one Ethernet interface (microsecond resolution), enhanced
+/// packet blocks.
+Bytes pcapngFile(const std::vector<Record>& records) {
+  Bytes f;
+  auto u32 = [&](std::uint32_t v) { for (int i = 0; i < 4; ++i) f.push_back((v >> (8 * i)) & 0xff); };
+  auto u16 = [&](std::uint16_t v) { f.push_back(v & 0xff); f.push_back(v >> 8); };
+  u32(0x0a0d0d0a), u32(28), u32(0x1a2b3c4d), u16(1), u16(0), u32(0xffffffff), u32(0xffffffff), u32(28);
+  u32(1), u32(20), u16(1), u16(0), u32(0), u32(20);  // interface: LINKTYPE_ETHERNET, no snap limit
+  for (const Record& r : records) {
+    const std::uint32_t padded = static_cast<std::uint32_t>((r.frame.size() + 3) / 4 * 4);
+    const std::uint64_t ts = std::uint64_t{r.sec} * 1'000'000 + r.sub;
+    u32(6), u32(32 + padded), u32(0), u32(static_cast<std::uint32_t>(ts >> 32)), u32(static_cast<std::uint32_t>(ts));
+    u32(static_cast<std::uint32_t>(r.frame.size())), u32(static_cast<std::uint32_t>(r.frame.size()));
+    f.insert(f.end(), r.frame.begin(), r.frame.end());
+    f.resize(f.size() + (padded - r.frame.size()), 0);
+    u32(32 + padded);
+  }
+  return f;
+}
+
+TEST(Pcap, ReadsPcapng) {
+  const Bytes payload(1206, 5);
+  const Bytes frame = ethernet(ipv4Packets(udpSegment(payload, 2368, 2368), 0, 0)[0], false, false);
+  const auto path = writeFile(test::scratchDir() / "capture.pcapng", pcapngFile({{100, 250, frame}, {100, 1250, frame}}));
+  EXPECT_TRUE(isPcap(path));
+  PcapReader reader(path);
+  const Collected c = readAll(reader);
+  ASSERT_EQ(c.packets.size(), 2u);
+  EXPECT_EQ(c.payloads[1], payload);
+  EXPECT_EQ(c.packets[1].time_ns, 100'001'250'000LL);
+  EXPECT_FALSE(reader.loss().anyLost());
+}
+
 TEST(Pcap, ReadsFromMemoryStream) {
   const Bytes payload(100, 42);
   Bytes file = pcapFile(101, false, {{3, 4, ipv4Packets(udpSegment(payload, 1, 2), 0, 0)[0]}});  // LINKTYPE_RAW

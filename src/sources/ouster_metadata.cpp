@@ -226,6 +226,23 @@ OusterMetadata readOusterMetadata(const std::filesystem::path& path) {
   return parseOusterMetadata(buffer.str(), path.string());
 }
 
+std::optional<std::filesystem::path> findOusterMetadata(const std::filesystem::path& capture) {
+  const std::string name = capture.stem().string();
+  std::optional<std::filesystem::path> best;
+  std::size_t best_length = 0;
+  std::error_code ec;
+  const auto folder = capture.has_parent_path() ? capture.parent_path() : std::filesystem::path(".");
+  for (const auto& entry : std::filesystem::directory_iterator(folder, ec)) {
+    if (!entry.is_regular_file(ec) || entry.path().extension() != ".json") continue;
+    const std::string stem = entry.path().stem().string();
+    if (stem.size() > best_length && name.compare(0, stem.size(), stem) == 0) {
+      best = entry.path();
+      best_length = stem.size();
+    }
+  }
+  return best;
+}
+
 std::string toString(OusterProfile profile) {
   switch (profile) {
     case OusterProfile::Legacy: return "LEGACY";

@@ -90,11 +90,13 @@ void VelodyneDecoder::decode16(const std::uint8_t* packet, double time, std::uin
       for (int laser = 0; laser < 16; ++laser) {
         const int k = (firing * 16 + laser) * 3;
         if (u16(data + k) == 0 || (dual && b % 2 == 1 && sameReturn(data + k, pair + k))) continue;
-        const float step = az.diff[b] * ((laser * 2.304f) + (firing * 55.296f)) / 110.592f;
-        const float azimuth = static_cast<float>(
-            static_cast<double>(az.azimuth[b] + step) - lasers_[laser].rot_cd);
         const int sequence = dual ? (b - b % 2) + firing : b * 2 + firing;
         const double offset = sequence * 55.296e-6 + laser * 2.304e-6;
+        const float step = az.diff[b] * ((laser * 2.304f) + (firing * 55.296f)) / 110.592f;
+        const float azimuth =
+            options_.exact_azimuth
+                ? exactAzimuth(packet, b, dual, offset, laser)
+                : static_cast<float>(static_cast<double>(az.azimuth[b] + step) - lasers_[laser].rot_cd);
         emit(laser, data + k, azimuth, true, time + offset,
              returnType(mode, b, data + k, pair + k));
       }
@@ -117,11 +119,13 @@ void VelodyneDecoder::decode32(const std::uint8_t* packet, double time, std::uin
     for (int laser = 0; laser < 32; ++laser) {
       const int k = laser * 3;
       if (u16(data + k) == 0 || (dual && b % 2 == 1 && sameReturn(data + k, pair + k))) continue;
-      const float step = az.diff[b] * channel / sequence_us * static_cast<float>(laser);
-      const float azimuth = static_cast<float>(
-          static_cast<double>(az.azimuth[b] + step) - lasers_[laser].rot_cd);
       const double offset =
           sequence * sequence_us * 1e-6 + (hdl ? laser : laser / 2) * channel * 1e-6;
+      const float step = az.diff[b] * channel / sequence_us * static_cast<float>(laser);
+      const float azimuth =
+          options_.exact_azimuth
+              ? exactAzimuth(packet, b, dual, offset, laser)
+              : static_cast<float>(static_cast<double>(az.azimuth[b] + step) - lasers_[laser].rot_cd);
       emit(laser, data + k, azimuth, false, time + offset, returnType(mode, b, data + k, pair + k));
     }
   }
@@ -144,14 +148,51 @@ void VelodyneDecoder::decode128(const std::uint8_t* packet, double time, std::ui
       const int k = j * 3;
       if (u16(data + k) == 0 || (dual && b % 2 == 1 && sameReturn(data + k, pair + k))) continue;
       const int laser = bank * 32 + j, group = laser / 8;
-      const float azimuth = static_cast<float>(
-          static_cast<double>(az.azimuth[b] + az.diff[b] * phase.of_group[group]) -
-          lasers_[laser].rot_cd);
       const int sequence = dual ? 0 : b / 4;
       const double offset = sequence * 53.3e-6 + (group + laser / 64) * 2.665e-6 - 8.7e-6;
+      const float azimuth =
+          options_.exact_azimuth
+              ? exactAzimuth(packet, b, dual, offset, laser)
+              : static_cast<float>(static_cast<double>(az.azimuth[b] + az.diff[b] * phase.of_group[group]) -
+                                   lasers_[laser].rot_cd);
       emit(laser, data + k, azimuth, true, time + offset, returnType(mode, b, data + k, pair + k));
     }
   }
+}
+
+/// Time (s into the packet) of the first firing of a block's sequence, as in the timing
+/// tables above.
+double VelodyneDecoder::blockStart(int b, bool dual) const {
+  switch (*model_) {
+    case VelodyneModel::VLP16: return (dual ? b - b % 2 : 2 * b) * 55.296e-6;
+    case VelodyneModel::VLP32C: return (dual ? b / 2 : b) * 55.296e-6;
+    case VelodyneModel::HDL32E: return (dual ? b / 2 : b) * 46.08e-6;
+    case VelodyneModel::VLS128: return (dual ? 0 : b / 4) * 53.3e-6 - 8.7e-6;
+  }
+  return 0;
+}
+
+/// The rotor speed over the packet, from its first and last firing sequence; a packet of one
+/// sequence (VLS-128 dual return), or one whose azimuth jumps (a restricted field of view),
+/// keeps the speed from the previous packet through the packets' µs time stamps.
+void VelodyneDecoder::fitRotor(const std::uint8_t* p, std::uint8_t mode) {
+  constexpr double kFastest = 25 * 36000.0;  // 0.01°/s: the sensors spin at 20 Hz at most
+  constexpr std::int64_t kHourUs = 3600LL * 1000000;
+  const bool dual = mode == kModeDual;
+  const int last = dual ? 10 : 11;
+  const double t0 = blockStart(0, dual), t1 = blockStart(last, dual);
+  const std::uint16_t az0 = u16(p + 2), az1 = u16(p + last * kBlockBytes + 2);
+  const std::int64_t stamp = static_cast<std::int64_t>(p[1200] | (p[1201] << 8) | (p[1202] << 16)) |
+                             (static_cast<std::int64_t>(p[1203]) << 24);
+  double rate = -1;
+  if (t1 > t0) rate = ((kCentiDegrees + az1 - az0) % kCentiDegrees) / (t1 - t0);
+  if (!(rate >= 0 && rate < kFastest) && prev_stamp_us_ >= 0) {
+    const std::int64_t dt = ((stamp - prev_stamp_us_) % kHourUs + kHourUs) % kHourUs;
+    if (dt > 0) rate = ((kCentiDegrees + az0 - prev_azimuth_) % kCentiDegrees) / (dt * 1e-6);
+  }
+  if (rate >= 0 && rate < kFastest) rotor_rate_ = rate;
+  prev_stamp_us_ = stamp;
+  prev_azimuth_ = az0;
 }
 
 }  // namespace hazmap::velodyne_detail

@@ -177,6 +177,7 @@ void VelodyneDecoder::decodePacket(const std::uint8_t* p, double packet_time,
   last_mode_ = mode;
   const Cut cut = findCut(p);
   if (cut == Cut::BeforePacket) cutScan(false);
+  if (options_.exact_azimuth) fitRotor(p, mode);
   switch (*model_) {
     case VelodyneModel::VLP16: decode16(p, packet_time, mode); break;
     case VelodyneModel::VLP32C:

@@ -91,6 +91,16 @@ class VelodyneDecoder final : public PacketDecoder {
   void decode16(const std::uint8_t* packet, double time, std::uint8_t mode);
   void decode32(const std::uint8_t* packet, double time, std::uint8_t mode);
   void decode128(const std::uint8_t* packet, double time, std::uint8_t mode);
+  void fitRotor(const std::uint8_t* packet, std::uint8_t mode);
+  double blockStart(int block, bool dual) const;
+  /// Azimuth (0.01°) of a firing `offset` seconds into the packet: its block's azimuth plus
+  /// the rotor's turn since the block's sequence began.
+  float exactAzimuth(const std::uint8_t* packet, int block, bool dual, double offset,
+                     int laser) const {
+    return static_cast<float>(u16(packet + block * kBlockBytes + 2) +
+                              rotor_rate_ * (offset - blockStart(block, dual)) -
+                              lasers_[laser].rot_cd);
+  }
   void checkBlocks(const std::uint8_t* packet, std::uint8_t mode, const std::string& where) const;
 
   VelodyneOptions options_;
@@ -106,6 +116,9 @@ class VelodyneDecoder final : public PacketDecoder {
   std::deque<DecodedScan> ready_;
   std::size_t packets_in_scan_ = 0;
   std::uint32_t prev_first_phased_ = 0;
+  double rotor_rate_ = 0;  // 0.01°/s, measured over the latest packet(s)
+  std::int64_t prev_stamp_us_ = -1;  // the previous packet's µs-past-the-hour and first azimuth
+  std::uint16_t prev_azimuth_ = 0;
   std::vector<std::uint8_t> held_;  // a first 0x21 packet, until the next says which model
   double held_time_ = 0;
   std::string held_where_;

@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -57,6 +58,10 @@ struct OusterMetadata {
 OusterMetadata parseOusterMetadata(std::string_view json, const std::string& where);
 /// Reads and parses a metadata file; errors name the file.
 OusterMetadata readOusterMetadata(const std::filesystem::path& path);
+/// The metadata file recorded with a capture, as ouster-sdk pairs them: the .json in the
+/// capture's folder whose name (without extension) is the longest prefix of the capture's name
+/// ("OS-1-128_v2.3.0_1024x10.json" for "OS-1-128_v2.3.0_1024x10_lb_n3.pcap"); nullopt if none.
+std::optional<std::filesystem::path> findOusterMetadata(const std::filesystem::path& capture);
 
 struct OusterDecoderOptions {
   /// Per-point intensity: the signal photon count (default; profiles without it — the

@@ -23,8 +23,8 @@ enum class VelodyneModel { VLP16, VLP32C, HDL32E, VLS128 };
 /// "VLP-16", "VLP-32C", "HDL-32E", "VLS-128".
 const char* velodyneModelName(VelodyneModel model);
 /// The model whose product id (factory byte 1205) this is: 0x22 VLP-16 (and Puck LITE),
-/// 0x24 Puck Hi-Res (decoded as a VLP-16 with its own angles), 0x28 VLP-32C, 0x21 HDL-32E,
-/// 0xA1 VLS-128 (Alpha Prime). nullopt for any other byte.
+/// 0x28 VLP-32C, 0x21 HDL-32E (also sent by early VLP-16 firmware: the decoder tells them apart
+/// by the packet period), 0xA1 VLS-128 (Alpha Prime). nullopt for any other byte.
 std::optional<VelodyneModel> velodyneModelFromProductId(std::uint8_t product_id);
 /// Number of lasers of the model (16, 32, 32, 128).
 int velodyneLaserCount(VelodyneModel model);
@@ -82,6 +82,11 @@ struct VelodyneOptions {
   /// Field of view kept (degrees): [fov_min, fov_max], wrapping through 0 when fov_min >
   /// fov_max (e.g. 270 → 90 keeps the front half). Like the driver's cloud_min/max_angle.
   double fov_min = 0.0, fov_max = 360.0;
+  /// false (default): a point's azimuth is interpolated between blocks as the drivers do, so
+  /// that clouds equal nebula's. true: from the laser's firing time (the manuals' timing
+  /// tables) and the rotor speed measured over the packet, which removes the drivers' lags of
+  /// up to 0.16° (docs/formats.md); the clouds then differ from the driver's by that much.
+  bool exact_azimuth = false;
 };
 
 /// A decoder of one sensor's data packets (512-byte position packets are ignored).
