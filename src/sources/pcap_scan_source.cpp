@@ -5,6 +5,7 @@
 #include <fstream>
 
 #include "hazmap/core/error.hpp"
+#include "hazmap/sources/ouster.hpp"
 #include "hazmap/sources/pcap_reader.hpp"
 #include "hazmap/sources/scan_source.hpp"
 #include "hazmap/sources/velodyne.hpp"
@@ -39,20 +40,11 @@ CaptureSensor sniffSensor(const fs::path& path, bool have_metadata) {
                           "(--sensor-metadata)");
 }
 
-/// The Ouster metadata: --sensor-metadata, else the capture's name with .json, else the only
-/// .json in the capture's folder (ouster-sdk's sample captures are named after the recording,
-/// their metadata after the sensor mode).
+/// The Ouster metadata: --sensor-metadata, else the .json recorded with the capture (its name a
+/// prefix of the capture's, as ouster-sdk pairs them).
 fs::path metadataPath(const fs::path& capture, const ScanSourceOptions& options) {
   if (!options.sensor_metadata.empty()) return options.sensor_metadata;
-  fs::path json = capture;
-  json.replace_extension(".json");
-  std::error_code ec;
-  if (fs::is_regular_file(json, ec)) return json;
-  std::vector<fs::path> found;
-  const fs::path folder = capture.has_parent_path() ? capture.parent_path() : fs::path(".");
-  for (const auto& entry : fs::directory_iterator(folder, ec))
-    if (entry.is_regular_file() && entry.path().extension() == ".json") found.push_back(entry.path());
-  return found.size() == 1 ? found.front() : fs::path();
+  return findOusterMetadata(capture).value_or(fs::path());
 }
 
 std::string readText(const fs::path& path) {
@@ -72,7 +64,7 @@ class PcapScanSource final : public ScanSource {
     } else {
       if (metadata.empty())
         fail(path.string(), "an Ouster capture needs the sensor's metadata JSON: put it next to the capture "
-                            "(same name, .json; or the folder's only .json) or give --sensor-metadata");
+                            "(named as a prefix of the capture's name) or give --sensor-metadata");
       assembler_.emplace(LidarKind::OusterPackets, makeOusterDecoderFor(readText(metadata), metadata.string()));
     }
     table_ = options.class_table ? *options.class_table : ClassTable::defaults();
