@@ -39,6 +39,59 @@ nlohmann::json poseJson(const Eigen::Isometry3d& T) {
   return rows;
 }
 
+/// Adds one keyframe's detection to the counts (candidates checked against the truth, if any).
+void countDetection(const LoopDetection& det, const PoseList& truth, std::size_t& candidates,
+                    std::size_t& true_candidates, std::size_t& verified, std::size_t& gated) {
+  candidates += det.candidates.size();
+  if (!truth.empty())
+    for (const auto& c : det.candidates) {
+      LoopClosure as_loop;
+      as_loop.from = c.match;
+      as_loop.to = c.query;
+      as_loop.T_from_to = c.initial_guess;
+      true_candidates += isTrueLoop(as_loop, truth, 1.0, 0.1);
+    }
+  for (const auto& v : det.verifications) verified += v.accepted || v.reason.rfind("drift gate", 0) == 0;
+  for (const auto& g : det.gates) gated += !g.accepted;
+}
+
+void printAgainstTruth(const std::vector<LoopClosure>& accepted, const std::vector<LoopClosure>& loops,
+                       const PoseList& truth) {
+  if (truth.empty()) return;
+  auto countTrue = [&](const std::vector<LoopClosure>& ls) {
+    std::size_t k = 0;
+    for (const auto& l : ls) k += isTrueLoop(l, truth);
+    return k;
+  };
+  std::cout << fmt::format("against poses.txt: accepted {} true / {} false; kept {} true / {} false\n",
+                           countTrue(accepted), accepted.size() - countTrue(accepted), countTrue(loops),
+                           loops.size() - countTrue(loops));
+}
+
+void writeLoopsJson(const LoopsOptions& o, const LoopClosureConfig& config, std::size_t n,
+                    const std::vector<LoopClosure>& loops, const PoseList& truth) {
+  nlohmann::json j;
+  j["sequence"] = o.sequence;
+  j["frames"] = n;
+  j["method"] = toString(config.method);
+  j["loops"] = nlohmann::json::array();
+  for (const auto& l : loops) {
+    nlohmann::json e;
+    e["from"] = l.from;
+    e["to"] = l.to;
+    e["source"] = toString(l.source);
+    e["T_from_to"] = poseJson(l.T_from_to);
+    e["information"] = std::vector<double>(l.information.data(), l.information.data() + 36);
+    e["fitness"] = l.fitness;
+    e["rmse"] = l.rmse;
+    if (!truth.empty()) e["true"] = isTrueLoop(l, truth);
+    j["loops"].push_back(e);
+  }
+  AtomicFile file(o.out);
+  file.stream() << j.dump(1) << "\n";
+  file.commit();
+}
+
 void runLoops(const LoopsOptions& o, bool method_given) {
   LoopClosureConfig config;
   if (!o.config.empty()) config = LoopClosureConfig::fromYamlFile(o.config);
@@ -88,17 +141,8 @@ void runLoops(const LoopsOptions& o, bool method_given) {
     t0 = Clock::now();
     const LoopDetection det = detector.detect(i, estimate);
     t_detect += secondsSince(t0);
-    candidates += det.candidates.size();
-    if (with_truth)
-      for (const auto& c : det.candidates) {
-        LoopClosure as_loop;
-        as_loop.from = c.match;
-        as_loop.to = c.query;
-        as_loop.T_from_to = c.initial_guess;
-        true_candidates += isTrueLoop(as_loop, truth, 1.0, 0.1);
-      }
-    for (const auto& v : det.verifications) verified += v.accepted || v.reason.rfind("drift gate", 0) == 0;
-    for (const auto& g : det.gates) gated += !g.accepted;
+    static const PoseList kNoTruth;
+    countDetection(det, with_truth ? truth : kNoTruth, candidates, true_candidates, verified, gated);
   }
   if (n == 0) fail(o.sequence, "has no scans");
   estimate.resize(n);
@@ -106,49 +150,18 @@ void runLoops(const LoopsOptions& o, bool method_given) {
   const auto t0 = Clock::now();
   const std::vector<LoopClosure> loops = detector.consistentLoops(estimate);
   const double t_consistency = secondsSince(t0);
-  const auto& accepted = detector.acceptedLoops();
-  auto countTrue = [&](const std::vector<LoopClosure>& ls) {
-    std::size_t k = 0;
-    for (const auto& l : ls) k += isTrueLoop(l, truth);
-    return k;
-  };
 
   std::cout << fmt::format("{} frames, {:.2f} landmarks/frame, method {}\n", n,
                            static_cast<double>(landmarks) / n, toString(config.method));
   std::cout << fmt::format("candidates {}{}, ICP-verified {}, rejected by the drift gate {}, accepted {}, "
                            "pairwise-consistent {}\n",
                            candidates, truth.empty() ? "" : fmt::format(" ({} true)", true_candidates),
-                           verified, gated, accepted.size(), loops.size());
-  if (!truth.empty())
-    std::cout << fmt::format("against poses.txt: accepted {} true / {} false; kept {} true / {} false\n",
-                             countTrue(accepted), accepted.size() - countTrue(accepted), countTrue(loops),
-                             loops.size() - countTrue(loops));
+                           verified, gated, detector.acceptedLoops().size(), loops.size());
+  printAgainstTruth(detector.acceptedLoops(), loops, truth);
   std::cout << fmt::format("time: read + landmarks {:.2f} s, candidates + verification {:.2f} s, "
                            "consistency {:.3f} s\n",
                            t_read, t_detect, t_consistency);
-
-  if (!o.out.empty()) {
-    nlohmann::json j;
-    j["sequence"] = o.sequence;
-    j["frames"] = n;
-    j["method"] = toString(config.method);
-    j["loops"] = nlohmann::json::array();
-    for (const auto& l : loops) {
-      nlohmann::json e;
-      e["from"] = l.from;
-      e["to"] = l.to;
-      e["source"] = toString(l.source);
-      e["T_from_to"] = poseJson(l.T_from_to);
-      e["information"] = std::vector<double>(l.information.data(), l.information.data() + 36);
-      e["fitness"] = l.fitness;
-      e["rmse"] = l.rmse;
-      if (!truth.empty()) e["true"] = isTrueLoop(l, truth);
-      j["loops"].push_back(e);
-    }
-    AtomicFile file(o.out);
-    file.stream() << j.dump(1) << "\n";
-    file.commit();
-  }
+  if (!o.out.empty()) writeLoopsJson(o, config, n, loops, truth);
 }
 
 void setupLoops(CLI::App& app) {

@@ -33,6 +33,27 @@ struct OdometryOptions {
   SourceFlags source;
 };
 
+/// One line of frames.csv and of covariances.txt.
+void appendFrameRows(std::size_t i, const OdometryFrame& f, std::ostringstream& csv, std::ostringstream& cov) {
+  std::string reason = f.reason;
+  for (char& c : reason)
+    if (c == ',' || c == '\n') c = ';';
+  char line[512];
+  std::snprintf(line, sizeof line, "%zu,%.6f,%s,%d,%.4f,%.4f,%zu,%zu,%zu,%.3f,%.3f,%.3f,%d,%.3f,%d,%s\n", i, f.stamp,
+                toString(f.status), f.registration.iterations, f.registration.fitness, f.registration.inlier_rmse,
+                f.scan_points, f.source_points, f.map_points, f.preprocess_ms, f.registration_ms, f.total_ms,
+                int(f.wheel_guess), f.registration.label_agreement, int(f.registration.labels_used), reason.c_str());
+  csv << line;
+  cov << i;
+  for (int r = 0; r < 6; ++r)
+    for (int c = 0; c < 6; ++c) {
+      char v[32];
+      std::snprintf(v, sizeof v, " %.9g", f.covariance(r, c));
+      cov << v;
+    }
+  cov << "\n";
+}
+
 void run(const OdometryOptions& o) {
   OdometryConfig cfg = o.config.empty() ? OdometryConfig::defaults() : loadOdometryConfig(o.config);
   if (o.method == "icp") cfg.registration.use_classes = false;
@@ -82,24 +103,7 @@ void run(const OdometryOptions& o) {
     fallbacks += f.status == FrameStatus::Fallback;
     degenerate += f.status == FrameStatus::Degenerate;
     total_ms += f.total_ms;
-    std::string reason = f.reason;
-    for (char& c : reason)
-      if (c == ',' || c == '\n') c = ';';
-    char line[512];
-    std::snprintf(line, sizeof line, "%zu,%.6f,%s,%d,%.4f,%.4f,%zu,%zu,%zu,%.3f,%.3f,%.3f,%d,%.3f,%d,%s\n", i, f.stamp,
-                  toString(f.status), f.registration.iterations, f.registration.fitness,
-                  f.registration.inlier_rmse, f.scan_points, f.source_points, f.map_points,
-                  f.preprocess_ms, f.registration_ms, f.total_ms, int(f.wheel_guess),
-                  f.registration.label_agreement, int(f.registration.labels_used), reason.c_str());
-    csv << line;
-    cov << i;
-    for (int r = 0; r < 6; ++r)
-      for (int c = 0; c < 6; ++c) {
-        char v[32];
-        std::snprintf(v, sizeof v, " %.9g", f.covariance(r, c));
-        cov << v;
-      }
-    cov << "\n";
+    appendFrameRows(i, f, csv, cov);
     if (!o.quiet && f.status == FrameStatus::Fallback)
       std::fprintf(stderr, "frame %zu: fell back to the %s guess: %s\n", i,
                    f.wheel_guess ? "wheel-odometry" : "constant-velocity", f.reason.c_str());
