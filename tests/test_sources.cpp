@@ -116,6 +116,26 @@ TEST(SlamStream, AStreamOfUnknownLengthGivesTheSequenceRunBitForBit) {
   EXPECT_GT(folder.estimate.stamps.back(), 0.0);
 }
 
+TEST(SlamStream, KeyframesOfAStreamReloadFromDiskBitForBit) {
+  // One resident keyframe: every loop candidate reloads its match (the folder from the
+  // sequence, the stream from the keyframe copies on disk). Long enough for loops.
+  SlamConfig config = SlamConfig::forMethod(SlamMethod::PropertyIcpPgo);
+  config.loop_closure.resident_keyframes = 1;
+  const fs::path dir = test::scratchDir() / "seq";
+  sim::SimulatorConfig sim;
+  sim.scenario = "naraha";
+  sim.seed = 2;
+  sim.max_frames = 40;
+  sim::writeSimulation(sim, dir, /*overwrite=*/true);
+  const SlamResult folder = runSlam(Sequence::open(dir), config);
+  StreamOnly stream(openScanSource(dir));
+  const SlamResult streamed = runSlam(stream, config);
+  EXPECT_GT(folder.loop_candidates, 0u);
+  EXPECT_EQ(folder.loop_candidates, streamed.loop_candidates);
+  EXPECT_EQ(folder.loops_verified, streamed.loops_verified);
+  expectSamePoses(folder.estimate, streamed.estimate);
+}
+
 TEST(SlamStream, OdometryMethodWithoutOdometryNamesTheSource) {
   const fs::path dir = test::scratchDir();
   fs::create_directories(dir / "seq/velodyne");

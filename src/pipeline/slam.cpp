@@ -12,6 +12,7 @@
 #include "hazmap/core/error.hpp"
 #include "hazmap/core/se3.hpp"
 #include "hazmap/io/atomic_file.hpp"
+#include "pipeline/keyframe_spill.hpp"
 
 namespace hazmap {
 
@@ -191,15 +192,20 @@ class SlamRun {
     pgo_ = usesPoseGraph(config_.method);
     if (!pgo_) return;
     loops_ = std::make_unique<LoopDetector>(source_.classTable(), config_.loop_closure);
-    // Old keyframes are re-read from the recording when a loop needs them (bounded memory); a
-    // stream without random access keeps them (downsampled) instead.
-    if (source_.canReread())
+    // Old keyframes are re-read when a loop needs them (bounded memory): from the recording when
+    // it allows that, else from the copies a stream's keyframes leave on disk.
+    if (source_.canReread()) {
       loops_->setCloudLoader([this](std::size_t k) {
         const std::size_t f = keyframe_frames_.at(k);
         LabeledCloud cloud = source_.reread(f);
         redoDeskew(cloud, result_.frames.at(f));
         return cloud;
       });
+    } else {
+      spill_.emplace();
+      loops_->setCloudLoader(
+          [this](std::size_t k) { return spill_->load(keyframe_frames_.at(k), source_.classTable()); });
+    }
   }
 
   /// Wheel odometry from the common start pose; the increment from the previous scan.
@@ -274,6 +280,7 @@ class SlamRun {
     const auto t_loop = Clock::now();
     last_keyframe_pose_ = pose;
     keyframe_frames_.push_back(frames() - 1);
+    if (spill_) spill_->store(keyframe_frames_.back(), cloud);
     const std::size_t k = loops_->addKeyframe(std::move(cloud));
     const LoopDetection detection = loops_->detect(k, keyframeEstimate());
     result_.loop_candidates += detection.candidates.size();
@@ -323,6 +330,7 @@ class SlamRun {
   std::vector<Eigen::Isometry3d> tracked_;
   bool pgo_ = false;
   std::unique_ptr<LoopDetector> loops_;
+  std::optional<KeyframeSpill> spill_;
   std::vector<std::size_t> keyframe_frames_;  // keyframe index → frame index
   Eigen::Isometry3d last_keyframe_pose_ = Eigen::Isometry3d::Identity();
 };
