@@ -721,6 +721,24 @@ TEST(OusterPackets, ScansAreCutAtTheFrameIdLatePacketsDroppedIncompleteScansCoun
   EXPECT_FALSE(decoder.flush().has_value());  // frame 9 incomplete: dropped
   EXPECT_EQ(decoder.stats().incomplete_scans_dropped, 2u);
   EXPECT_EQ(decoder.stats().scans_emitted, 1u);
+  const auto notices = decoder.notices("x.pcap");
+  ASSERT_EQ(notices.size(), 3u);
+  EXPECT_EQ(notices[0], "x.pcap: 2 incomplete Ouster scans dropped (started or ended mid-rotation, or packets lost)");
+  EXPECT_NE(notices[1].find("1 Ouster packets arrived after"), std::string::npos);
+  EXPECT_NE(notices[2].find("another sensor"), std::string::npos);
+}
+
+TEST(OusterPackets, MetadataOfAnotherSensorIsNamed) {
+  // The OS-1-64's metadata against the OS-1-128 capture: nothing decodes, and the notice says why.
+  const Decoded d = decodeCapture(os128Pcap(), readOusterMetadata(os64Json()));
+  EXPECT_TRUE(d.scans.empty());
+  OusterDecoder decoder(readOusterMetadata(os64Json()));
+  decoder.addPacket(d.packets[0], 0.0, "x");
+  const auto notices = decoder.notices("os1-128.pcap");
+  ASSERT_EQ(notices.size(), 1u);
+  EXPECT_EQ(notices[0], "os1-128.pcap: no packet of Ouster OS 1024x10 LEGACY (64 beams)'s lidar packet size "
+                        "(12608 bytes) among 1 packets (the last of 8448 bytes): the metadata does not belong "
+                        "to these packets");
 }
 
 TEST(OusterPackets, CaptureClockForAnUnsynchronisedSensor) {
