@@ -327,3 +327,56 @@ TEST(RosMessages, CloudToPointCloud2RoundTrip) {
   EXPECT_EQ(back.intensity, cloud.intensity);
   EXPECT_NEAR(back.timestamps[1], 100.02, 1e-6);
 }
+
+#include <sqlite3.h>
+#include <zstd.h>
+
+TEST(Rosbag2, ZstdPerMessageCompression) {
+  // rosbag2's "compression_mode: MESSAGE": each blob is a zstd frame. Compress the VLP-16
+  // bag's blobs in a copy and read it back: the same messages, byte for byte.
+  const auto dir = test::scratchDir();
+  const auto src = test::sharedData("sensors/velodyne-vlp16/1673400471837873222_0.db3");
+  std::filesystem::copy_file(src, dir / "z_0.db3");
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open((dir / "z_0.db3").c_str(), &db), SQLITE_OK);
+  std::vector<std::pair<std::int64_t, std::vector<std::uint8_t>>> rows;
+  sqlite3_stmt* st = nullptr;
+  sqlite3_prepare_v2(db, "SELECT id, data FROM messages", -1, &st, nullptr);
+  while (sqlite3_step(st) == SQLITE_ROW) {
+    const auto* b = static_cast<const std::uint8_t*>(sqlite3_column_blob(st, 1));
+    rows.emplace_back(sqlite3_column_int64(st, 0), std::vector<std::uint8_t>(b, b + sqlite3_column_bytes(st, 1)));
+  }
+  sqlite3_finalize(st);
+  sqlite3_prepare_v2(db, "UPDATE messages SET data = ? WHERE id = ?", -1, &st, nullptr);
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    std::vector<std::uint8_t> z(ZSTD_compressBound(rows[i].second.size()));
+    z.resize(ZSTD_compress(z.data(), z.size(), rows[i].second.data(), rows[i].second.size(), 3));
+    if (i == 2) z[z.size() / 2] ^= 0xFF, z[z.size() / 2 + 1] ^= 0xFF;  // one damaged message
+    sqlite3_bind_blob(st, 1, z.data(), static_cast<int>(z.size()), SQLITE_TRANSIENT);
+    sqlite3_bind_int64(st, 2, rows[i].first);
+    ASSERT_EQ(sqlite3_step(st), SQLITE_DONE);
+    sqlite3_reset(st);
+  }
+  sqlite3_finalize(st);
+  sqlite3_close(db);
+  std::ofstream(dir / "metadata.yaml") << "rosbag2_bagfile_information:\n  version: 5\n  storage_identifier: sqlite3\n"
+                                          "  relative_file_paths:\n    - z_0.db3\n  compression_format: zstd\n"
+                                          "  compression_mode: MESSAGE\n";
+  auto reader = openBag(dir);
+  auto plain = openBag(test::sharedData("sensors/velodyne-vlp16"));
+  BagMessage a, b;
+  std::size_t n = 0;
+  while (reader->next(a)) {
+    ASSERT_TRUE(plain->next(b));
+    if (n == 2) ASSERT_TRUE(plain->next(b));  // the damaged one is skipped
+    EXPECT_TRUE(std::equal(a.data.begin(), a.data.end(), b.data.begin(), b.data.end()));
+    ++n;
+  }
+  EXPECT_EQ(n, 3u);
+  ASSERT_EQ(reader->loss().notices.size(), 1u);
+  EXPECT_NE(reader->loss().notices[0].find("message skipped"), std::string::npos) << reader->loss().notices[0];
+  std::ofstream(dir / "metadata.yaml") << "rosbag2_bagfile_information:\n  storage_identifier: sqlite3\n"
+                                          "  relative_file_paths: [z_0.db3.zstd]\n  compression_format: zstd\n"
+                                          "  compression_mode: FILE\n";
+  EXPECT_THROW(openBag(dir), Error);
+}

@@ -292,3 +292,26 @@ TEST(Mcap, NotAnMcapFailsWithOneLine) {
     EXPECT_NE(std::string(e.what()).find("text.mcap"), std::string::npos);
   }
 }
+
+TEST(Mcap, ChunkStartingAfterItsMessagesIsSkipped) {
+  // A chunk header claiming a later start than its messages would break the log-time merge:
+  // the chunk is reported and skipped (scan path, where the chunk header is the only source).
+  auto bytes = readBytes(fixture("velodyne-zstd-chunked.mcap"));
+  const auto records = topRecords(bytes);
+  std::vector<TopRecord> chunks;
+  for (const auto& r : records)
+    if (r.opcode == 0x06) chunks.push_back(r);
+  const std::uint64_t late = 1700000000150000000;  // after chunk 1's messages (…001 to …100)
+  std::memcpy(bytes.data() + chunks[1].offset + 9, &late, 8);
+  const auto data_end = std::find_if(records.begin(), records.end(), [](const TopRecord& t) { return t.opcode == 0x0F; });
+  bytes.resize(data_end->offset);
+  const auto path = test::scratchDir() / "late.mcap";
+  writeBytes(path, bytes);
+  auto reader = openBag(path);
+  const ReadAll r = readAll(*reader);
+  EXPECT_TRUE(std::is_sorted(r.times.begin(), r.times.end()));
+  EXPECT_EQ(reader->loss().chunks_skipped, 1u);
+  ASSERT_FALSE(reader->loss().notices.empty());
+  EXPECT_NE(reader->loss().notices[0].find("precedes the chunk's declared start"), std::string::npos) << reader->loss().notices[0];
+  EXPECT_EQ(r.counts.at("/velodyne_points"), 2);
+}

@@ -2,7 +2,16 @@
 
 #include <algorithm>
 
+#include "hazmap/core/error.hpp"
+
 namespace hazmap::sources {
+
+void checkEntryTimes(const MergeBlock& block, const std::vector<MergeEntry>& entries, const std::string& where) {
+  for (const auto& e : entries)
+    if (e.time < block.start_time)
+      fail(where, "message at " + std::to_string(e.time) + " ns precedes the chunk's declared start " +
+                      std::to_string(block.start_time) + " ns (corrupt chunk header or index)");
+}
 
 BlockMerger::BlockMerger(std::vector<MergeBlock> blocks, Loader loader)
     : blocks_(std::move(blocks)), loader_(std::move(loader)) {
@@ -35,6 +44,7 @@ void BlockMerger::load(const MergeBlock& block) {
     free_slots_.push_back(slot);
     return;
   }
+
   slots_[slot].pending = scratch_.size();
   for (const auto& e : scratch_) heap_.push({e.time, sequence_++, slot, e.topic, e.data});
 }

@@ -6,6 +6,7 @@
 #include <functional>
 #include <queue>
 #include <span>
+#include <string>
 #include <vector>
 
 namespace hazmap::sources {
@@ -22,10 +23,15 @@ struct MergeEntry {
   std::span<const std::uint8_t> data;
 };
 
+/// Throws hazmap::Error when a message is earlier than its block's declared start (a corrupt
+/// chunk header or index): such a block cannot be merged in order.
+void checkEntryTimes(const MergeBlock& block, const std::vector<MergeEntry>& entries, const std::string& where);
+
 class BlockMerger {
  public:
-  /// Fills `entries` with the block's messages; `buffer` is the block's own storage to point
-  /// into (it keeps its capacity between uses). Returns false when the block was skipped.
+  /// Fills `entries` with the block's messages (none when the block is skipped); `buffer` is
+  /// the block's own storage to point into (it keeps its capacity between uses). No entry may
+  /// be earlier than the block's start_time (checkEntryTimes), or the order would break.
   using Loader = std::function<void(const MergeBlock&, std::vector<std::uint8_t>& buffer,
                                     std::vector<MergeEntry>& entries)>;
 

@@ -413,6 +413,7 @@ void McapReader::loadChunk(const MergeBlock& b, std::vector<std::uint8_t>& buffe
       if (!readRecord(rc, inner)) rc.failAt("record runs past the end of its chunk");
       if (inner.opcode == kMessage) addMessage(inner, rc.where(), out);
     }
+    checkEntryTimes(b, out, where_);
   } catch (const Error& e) {
     out.clear();  // all or nothing: a chunk that does not parse is not half-used
     skipChunk(b.offset, e.what());

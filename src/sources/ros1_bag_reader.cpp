@@ -300,6 +300,7 @@ void Ros1BagReader::loadChunk(const MergeBlock& b, std::vector<std::uint8_t>& bu
       out.push_back({rosTime(field<std::uint64_t>(fields, "time", where, inner.offset)),
                      static_cast<std::uint32_t>(conn->second), inner.data});
     }
+    checkEntryTimes(b, out, where);
   } catch (const Error& e) {
     out.clear();  // all or nothing
     skipChunk(b.offset, e.what());

@@ -1,12 +1,14 @@
 // A rosbag2 folder: metadata.yaml names the storage plugin (sqlite3 or mcap) and the files, in
 // recording order; a split bag's files are merged into one log-time stream.
 #include <yaml-cpp/yaml.h>
+#include <zstd.h>
 
 #include <algorithm>
 #include <fstream>
 #include <sstream>
 
 #include "bag_readers.hpp"
+#include "compression.hpp"
 #include "hazmap/core/error.hpp"
 
 namespace hazmap::sources {
@@ -67,6 +69,47 @@ Rosbag2Metadata guessMetadata(const fs::path& dir) {
   return m;
 }
 
+/// rosbag2's message compression mode: each message's data is one zstd frame.
+class ZstdMessagesReader final : public MessageReader {
+ public:
+  ZstdMessagesReader(std::unique_ptr<MessageReader> inner, std::string where)
+      : inner_(std::move(inner)), where_(std::move(where)) {}
+  const std::vector<TopicInfo>& topics() const override { return inner_->topics(); }
+  void selectTopics(const std::vector<std::string>& names) override { inner_->selectTopics(names); }
+  std::pair<std::int64_t, std::int64_t> timeRange() const override { return inner_->timeRange(); }
+  bool next(BagMessage& message) override {
+    while (inner_->next(message)) {
+      const std::string where = where_ + ": message at " + std::to_string(message.log_time_ns) + " ns on " + message.topic->name;
+      try {
+        const unsigned long long size = ZSTD_getFrameContentSize(message.data.data(), message.data.size());
+        if (size == ZSTD_CONTENTSIZE_ERROR || size == ZSTD_CONTENTSIZE_UNKNOWN)
+          fail(where, "not a zstd frame with its content size");
+        decompress(Codec::Zstd, message.data, size, buffer_, where);
+        message.data = std::span<const std::uint8_t>(buffer_.data(), static_cast<std::size_t>(size));
+        syncLoss();
+        return true;
+      } catch (const Error& e) {
+        loss_.notices.push_back(std::string(e.what()) + "; message skipped");
+      }
+    }
+    syncLoss();
+    return false;
+  }
+
+ private:
+  void syncLoss() {
+    const BagLoss& inner = inner_->loss();
+    loss_.bytes_unread = inner.bytes_unread;
+    loss_.chunks_skipped = inner.chunks_skipped;
+    for (std::size_t i = inner_notices_; i < inner.notices.size(); ++i) loss_.notices.push_back(inner.notices[i]);
+    inner_notices_ = inner.notices.size();
+  }
+  std::unique_ptr<MessageReader> inner_;
+  std::string where_;
+  std::vector<std::uint8_t> buffer_;
+  std::size_t inner_notices_ = 0;
+};
+
 std::unique_ptr<MessageReader> openStorageFile(const fs::path& file, const std::string& storage) {
   if (storage == "mcap" || (storage.empty() && hasExtension(file, ".mcap"))) return openMcap(file);
   if (storage == "sqlite3" || storage.empty()) return openDb3(file);
@@ -82,17 +125,19 @@ std::unique_ptr<MessageReader> openRosbag2(const fs::path& path) {
   }
   const fs::path yaml_path = path / "metadata.yaml";
   const Rosbag2Metadata meta = fs::exists(yaml_path) ? readMetadata(yaml_path) : guessMetadata(path);
-  if (!meta.compression_format.empty())
-    fail(yaml_path.string(), "compressed rosbag2 (" + meta.compression_format + ", mode " +
-                                 meta.compression_mode + ") is not read; decompress it with `ros2 bag convert`");
+  const bool zstd_messages = meta.compression_format == "zstd" && (meta.compression_mode == "MESSAGE" || meta.compression_mode == "message");
+  if (!meta.compression_format.empty() && !zstd_messages)
+    fail(yaml_path.string(), "compressed rosbag2 (" + meta.compression_format + ", mode " + meta.compression_mode +
+                                 ") is not read (zstd per message is); decompress it with `ros2 bag convert`");
   if (meta.files.empty()) fail(yaml_path.string(), "relative_file_paths lists no storage files");
   std::vector<std::unique_ptr<MessageReader>> readers;
   for (const auto& f : meta.files) {
     if (!fs::exists(f)) fail(yaml_path.string(), "lists " + f.filename().string() + ", which is missing");
     readers.push_back(openStorageFile(f, meta.storage));
   }
-  if (readers.size() == 1) return std::move(readers.front());
-  return mergeReaders(std::move(readers));
+  auto reader = readers.size() == 1 ? std::move(readers.front()) : mergeReaders(std::move(readers));
+  if (zstd_messages) return std::make_unique<ZstdMessagesReader>(std::move(reader), path.string());
+  return reader;
 }
 
 }  // namespace hazmap::sources
