@@ -156,6 +156,18 @@ TEST(OusterMetadata, NestedLayoutReadsTheSameSensor) {
   EXPECT_EQ(nested.imu_to_sensor, flat.imu_to_sensor);
   EXPECT_EQ(nested.pixel_shift_by_row, flat.pixel_shift_by_row);
   EXPECT_EQ(nested.udp_port_lidar, 7502);
+  // A recorder that left the profile and the mode out of the data format: the configuration
+  // and the data format's fps say them.
+  auto sparse = nestedFromFlat(flat_json);
+  sparse["lidar_data_format"].erase("udp_profile_lidar");
+  sparse["config_params"].erase("lidar_mode");
+  sparse["config_params"]["udp_profile_lidar"] = "RNG15_RFL8_NIR8";
+  sparse["lidar_data_format"]["columns_per_frame"] = 1024;
+  sparse["lidar_data_format"]["fps"] = 10;
+  const OusterMetadata from_config = parseOusterMetadata(sparse.dump(), "sparse");
+  EXPECT_EQ(from_config.profile, OusterProfile::Rng15Rfl8Nir8);
+  EXPECT_EQ(from_config.columns_per_frame, 1024u);
+  EXPECT_EQ(from_config.scan_rate_hz, 10.0);
   // Both decode the capture to the same points.
   const Decoded a = decodeCapture(os128Pcap(), flat), b = decodeCapture(os128Pcap(), nested);
   ASSERT_EQ(a.scans.size(), b.scans.size());
