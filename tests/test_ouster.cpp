@@ -21,6 +21,7 @@
 #include "hazmap/sources/ros_messages.hpp"
 #include "hazmap/sources/ouster.hpp"
 #include "hazmap/sources/pcap_reader.hpp"
+#include "pcap_builder.hpp"
 #include "test_helpers.hpp"
 
 namespace hazmap {
@@ -497,6 +498,31 @@ TEST(OusterBag, Os0_128RosBagDecodesItsScanWithTheMetadataTopic) {
   }
   EXPECT_LT(zmin, -40.0f);
   EXPECT_GT(zmax, 40.0f);
+}
+
+TEST(OusterCapture, Os1_64FragmentedAtTheMtuDecodesTheSame) {
+  // A legacy OS-1-64 packet (12,608 bytes) crosses a 1,500-byte MTU as 9 IPv4 fragments: the
+  // OS-1-64 capture re-sent that way decodes to the same scans, point for point.
+  namespace pc = test::pcap;
+  const OusterMetadata meta = readOusterMetadata(os64Json());
+  const Decoded direct = decodeCapture(os64Pcap(), meta);
+  std::vector<pc::Record> records;
+  PcapReader reader(os64Pcap());
+  UdpPacket p;
+  std::uint16_t id = 0;
+  while (reader.next(p)) {
+    const Bytes payload(p.payload.begin(), p.payload.end());
+    const auto sec = static_cast<std::uint32_t>(p.time_ns / 1'000'000'000), usec = static_cast<std::uint32_t>(p.time_ns % 1'000'000'000 / 1000);
+    for (const Bytes& ip : pc::ipv4Packets(pc::udpSegment(payload, p.source_port, p.destination_port), id++, 1500))
+      records.push_back({sec, usec, pc::ethernet(ip, false, false)});
+  }
+  EXPECT_EQ(records.size(), 900u);
+  const auto path = pc::writeFile(test::scratchDir() / "os1-64-fragmented.pcap", pc::pcapFile(1, false, records));
+  const Decoded fragmented = decodeCapture(path, meta);
+  ASSERT_EQ(fragmented.scans.size(), direct.scans.size());
+  EXPECT_EQ(fragmented.packets, direct.packets);
+  EXPECT_EQ(fragmented.scans[0].cloud.points, direct.scans[0].cloud.points);
+  EXPECT_EQ(fragmented.scans[0].cloud.timestamps, direct.scans[0].cloud.timestamps);
 }
 
 // ---- packets built by hand --------------------------------------------------------------
