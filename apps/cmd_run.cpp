@@ -19,6 +19,7 @@ struct RunOptions {
   std::string classes;
   int threads = 0;
   bool quiet = false;
+  bool no_viewer = false;
 };
 
 void run(const RunOptions& o) {
@@ -32,19 +33,11 @@ void run(const RunOptions& o) {
   ProgressBar bar(o.method, sequence.size(), o.quiet ? 0 : -1);
   const SlamResult result = runSlam(sequence, config, [&](std::size_t d, std::size_t) { bar.update(d); });
   bar.finish();
-  const RunSummary summary = writeRunOutputs(sequence, result, config, OutputConfig{}, o.out);
+  OutputConfig outputs;
+  outputs.write_viewer = !o.no_viewer;
+  const RunSummary summary = writeRunOutputs(sequence, result, config, outputs, o.out);
   if (o.quiet) return;
-  std::cout << fmt::format("{}: {} frames, {:.1f} frames/s, {} loops accepted, {} hazards, map {} cells\n",
-                           o.method, result.frames.size(), result.framesPerSecond(), result.loops.size(),
-                           summary.hazards, summary.map_cells);
-  if (summary.map_error)
-    std::cout << fmt::format("map error vs true-pose map: mean {:.3f} m, median {:.3f} m, p95 {:.3f} m\n",
-                             summary.map_error->point.mean, summary.map_error->point.median,
-                             summary.map_error->point.p95);
-  if (summary.trajectory)
-    std::cout << fmt::format("ATE (SE(3)-aligned) rmse {:.3f} m\n", summary.trajectory->ape.translation.rmse);
-  std::cout << "wrote " << o.out << "/ (trajectory.kitti/.tum, graph.g2o, map.ply/.pcd, hazards.json/.csv, "
-               "map_top.png, trajectory.png, run.json)\n";
+  std::cout << formatRunSummary(result, summary, o.out, outputs);
 }
 
 const RegisterCommand registration{{
@@ -64,6 +57,7 @@ const RegisterCommand registration{{
                      "Class table: 'default', 'semantic-kitti' or a YAML file (overrides hazmap.yaml)");
       app.add_option("--threads", o->threads, "Worker threads (0 = all cores)");
       app.add_flag("--quiet", o->quiet, "No progress bar and no summary");
+      app.add_flag("--no-viewer", o->no_viewer, "Do not write viewer.html (the map in 3D in a browser)");
       app.callback([o] { run(*o); });
     }}};
 

@@ -195,3 +195,51 @@ void writeHazardsCsv(const std::filesystem::path& path, const std::vector<Hazard
 }
 
 }  // namespace hazmap
+
+namespace hazmap {
+
+namespace {
+
+Eigen::Vector3d vec3(const nlohmann::json& j, const char* key) {
+  const auto& a = j.at(key);
+  if (!a.is_array() || a.size() != 3) throw std::invalid_argument(std::string(key) + " is not 3 numbers");
+  Eigen::Vector3d v(a[0].get<double>(), a[1].get<double>(), a[2].get<double>());
+  if (!v.allFinite()) throw std::invalid_argument(std::string(key) + " is not finite");
+  return v;
+}
+
+Hazard hazardFromJson(const nlohmann::json& j) {
+  Hazard h;
+  h.id = j.at("id").get<int>();
+  h.class_name = j.at("class").get<std::string>();
+  h.label = j.value("class_id", ClassId(0));
+  h.kind = parsePropertyKind(j.at("kind").get<std::string>()).value_or(PropertyKind::Other);
+  h.centroid = vec3(j, "centroid");
+  h.min = vec3(j, "min");
+  h.max = vec3(j, "max");
+  h.area_m2 = j.value("area_m2", 0.0);
+  h.cells = j.value("cells", std::size_t(0));
+  h.points = j.value("points", std::size_t(0));
+  if (j.contains("mean_property") && j["mean_property"].is_number())
+    h.mean_property = j["mean_property"].get<double>();
+  h.frame_count = j.value("frame_count", std::size_t(0));
+  if (j.contains("frames"))
+    for (const auto& r : j["frames"]) h.frames.push_back({r.at(0).get<std::uint32_t>(), r.at(1).get<std::uint32_t>()});
+  return h;
+}
+
+}  // namespace
+
+std::vector<Hazard> readHazardsJson(const std::filesystem::path& path) {
+  const std::string text = readTextFile(path);
+  std::vector<Hazard> out;
+  try {
+    const nlohmann::json j = nlohmann::json::parse(text);
+    for (const auto& h : j.at("hazards")) out.push_back(hazardFromJson(h));
+  } catch (const std::exception& e) {
+    fail(path.string(), std::string("not a hazards.json: ") + e.what());
+  }
+  return out;
+}
+
+}  // namespace hazmap
