@@ -135,7 +135,7 @@ Image renderTrajectoryComparison(const Trajectory& estimate, const Trajectory* g
   if (estimate.empty()) fail("trajectory plot", "the estimate is empty");
   const Rgb blue{20, 80, 220}, orange{240, 140, 0};
   std::vector<PlotSeries> series;
-  if (ground_truth) series.push_back({"ground truth", positionsOf(*ground_truth), kBlack, 2});
+  if (ground_truth) series.push_back({"ground truth", positionsOf(*ground_truth), kBlack, 4.5});  // wider: visible under a good estimate
   if (odometry) series.push_back({"odometry", positionsOf(*odometry), orange, 2});
   series.push_back({"estimate", positionsOf(estimate), blue, 2});
   std::vector<std::pair<PlotSeries, std::vector<double>>> errors;

@@ -68,7 +68,7 @@
     t.points.forEach((p, i) => { for (let k = 0; k < 3; ++k) xyz[3 * i + k] = p[k] - meta.center[k]; });
     geometry.setAttribute('position', new THREE.BufferAttribute(xyz, 3));
     const line = new THREE.Line(geometry, new THREE.LineBasicMaterial({ color: t.color, depthTest: false }));
-    line.renderOrder = 2;
+    line.renderOrder = t.name === 'estimate' ? 3 : 2;  // the estimate over the ground truth
     scene.add(line);
     const start = new THREE.Mesh(new THREE.SphereGeometry(1, 12, 8), new THREE.MeshBasicMaterial({ color: t.color, depthTest: false }));
     if (t.points.length) start.position.set(xyz[0], xyz[1], xyz[2]);
