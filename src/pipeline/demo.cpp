@@ -92,6 +92,7 @@ DemoReport runDemo(const DemoConfig& config, std::ostream& out) {
     top.clip_above = z / static_cast<double>(poses->poses.size()) + 1.5;  // drop the ceiling
   }
   top.draw_hazard_labels = false;
+  top.cell_size = OutputConfig{}.map.voxel_size;  // cells fill their footprint: no speckle
 
   // One pass over the methods with one tracking mode: outputs, rows, the side-by-side PNG.
   const auto runAll = [&](OdometryMode mode, const std::filesystem::path& dir, const std::string& png,

@@ -160,7 +160,7 @@
 
   function setMode(mode, keepTarget) {
     const target = (keepTarget ? activeControls().target.clone() : bounds.getCenter(new THREE.Vector3()));
-    const distance = keepTarget ? metresPerPixel() * (canvas.clientHeight || 600) : span;
+    const distance = keepTarget ? metresPerPixel() * (canvas.clientHeight || 600) : fitExtent();
     state.mode = mode;
     controls.perspective.enabled = mode === 'perspective';
     controls.top.enabled = mode === 'top';
@@ -168,6 +168,12 @@
     $('btn-top').classList.toggle('active', mode === 'top');
     $('btn-persp').classList.toggle('active', mode === 'perspective');
     requestRender();
+  }
+
+  // The extent that fits the map's footprint in the view (its height, or its width / aspect).
+  function fitExtent() {
+    const aspect = (canvas.clientWidth || 800) / (canvas.clientHeight || 600);
+    return Math.max(size.y, size.x / aspect, 1) * (state.mode === 'top' ? 1.05 : 1.25);
   }
 
   // Looks at `target` so that about `extent` metres fit the view's height.
@@ -410,7 +416,7 @@
   function bindControls() {
     $('btn-top').addEventListener('click', () => setMode('top', true));
     $('btn-persp').addEventListener('click', () => setMode('perspective', true));
-    $('btn-fit').addEventListener('click', () => flyTo(bounds.getCenter(new THREE.Vector3()), span));
+    $('btn-fit').addEventListener('click', () => flyTo(bounds.getCenter(new THREE.Vector3()), fitExtent()));
     $('btn-measure').addEventListener('click', () => setMeasuring(!state.measuring));
     $('btn-clear').addEventListener('click', clearSelection);
     const sizeInput = $('point-size'), detailInput = $('detail'), clipInput = $('clip');
