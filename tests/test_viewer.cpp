@@ -209,7 +209,12 @@ TEST(ViewerPage, TooLargeOrMissingFilesFailInOneLineAndWriteNothing) {
   cli = test::runCli("view " + (dir / "run").string());
   EXPECT_NE(cli.exit_code, 0);
   EXPECT_NE(cli.output.find("hazards.json"), std::string::npos) << cli.output;
+  writeTextAtomically(dir / "run" / "hazards.json", R"({"hazards": [{"id": 1e300, "class": "heat"}]})");
+  cli = test::runCli("view " + (dir / "run").string());
+  EXPECT_NE(cli.exit_code, 0);
+  EXPECT_NE(cli.output.find("hazards.json: not a hazards.json: id is not a count"), std::string::npos) << cli.output;
   writeHazardsJson(dir / "run" / "hazards.json", s.scene.hazards, 0.1);
+  EXPECT_EQ(readHazardsJson(dir / "run" / "hazards.json").size(), s.scene.hazards.size());
   cli = test::runCli("view " + (dir / "run").string() + " --max-mb 0.95");
   EXPECT_NE(cli.exit_code, 0);
   EXPECT_NE(cli.output.find("--max-points"), std::string::npos) << cli.output;

@@ -132,7 +132,7 @@ std::string viewerHtml(const ViewerScene& scene, const ViewerConfig& config, Vie
   if (points > fit) {
     if (!config.decimate_to_fit)
       fail(scene.source.empty() ? "viewer" : scene.source,
-           fmt::format("{} map points make a {:.0f} MB page, over the {:.0f} MB limit; pass --max-points {}",
+           fmt::format("{} map points make a {:.1f} MB page, over the {:.1f} MB limit; pass --max-points {}",
                        points, double(fixed + trajectory_bytes + points * viewer::bytesPerPoint(with_property)) / 1048576.0,
                        double(config.max_bytes) / 1048576.0, fit));
     points = fit;
