@@ -298,8 +298,8 @@ Screenshot readScreenshot(const std::filesystem::path& path) {
 // hazards.json, and a row click flies to that hazard.
 TEST_F(ViewerBrowser, RunWritesAViewerThatShowsItsHazards) {
   const auto dir = test::scratchDir();
-  ASSERT_EQ(test::runCli("simulate --scenario naraha --frames 60 --out " + (dir / "seq").string()).exit_code, 0);
-  const auto run = test::runCli("run " + (dir / "seq").string() + " --method property-icp --out " + (dir / "run").string());
+  ASSERT_EQ(test::runCli("simulate --scenario naraha --frames 30 --out " + (dir / "seq").string()).exit_code, 0);
+  const auto run = test::runCli("run " + (dir / "seq").string() + " --method icp --out " + (dir / "run").string());
   ASSERT_EQ(run.exit_code, 0) << run.output;
   EXPECT_NE(run.output.find("viewer.html"), std::string::npos) << run.output;
   EXPECT_NE(run.output.find("Map error"), std::string::npos) << run.output;
