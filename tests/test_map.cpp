@@ -13,6 +13,7 @@
 #include "hazmap/io/atomic_file.hpp"
 #include "hazmap/io/kitti.hpp"
 #include "hazmap/io/pcd.hpp"
+#include "hazmap/io/trajectory.hpp"
 #include "hazmap/io/ply.hpp"
 #include "hazmap/map/export.hpp"
 #include "hazmap/map/global_map.hpp"
@@ -525,6 +526,32 @@ TEST(MapRender, ErrorPlotAndBadInput) {
   // An empty map still renders (blank with the trajectory) instead of failing.
   const Image blank = renderTopDown(LabeledCloud{}, ClassTable::defaults(), {});
   EXPECT_FALSE(blank.empty());
+}
+
+TEST(MapRender, EvalPlotDrawsEveryEstimateAgainstDistance) {
+  const auto dir = test::scratchDir();
+  Trajectory gt, a, b;
+  for (int i = 0; i < 80; ++i) {
+    const double t = 0.05 * i;
+    gt.push_back(i, fromXyYaw(20 * std::cos(t), 10 * std::sin(t), t));
+    a.push_back(i, fromXyYaw(20 * std::cos(t) + 0.01 * i, 10 * std::sin(t), t));
+    b.push_back(i, fromXyYaw(20 * std::cos(t), 10 * std::sin(t) - 0.02 * i, t));
+  }
+  std::filesystem::create_directories(dir / "icp");
+  std::filesystem::create_directories(dir / "property-icp");
+  writeKittiTrajectory(dir / "gt.kitti", gt);
+  writeKittiTrajectory(dir / "icp" / "trajectory.kitti", a);
+  writeKittiTrajectory(dir / "property-icp" / "trajectory.kitti", b);
+  const std::string args = "eval --gt " + (dir / "gt.kitti").string() + " --est " + (dir / "icp/trajectory.kitti").string() +
+                           " --compare " + (dir / "property-icp/trajectory.kitti").string();
+  const auto r = test::runCli(args + " --plot " + (dir / "errors.png").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const Decoded d = readPngBack(dir / "errors.png");
+  ASSERT_EQ(d.w, 1200);
+  EXPECT_GT(countColor(d, seriesColor(0)), 300u);
+  EXPECT_GT(countColor(d, seriesColor(1)), 300u);
+  EXPECT_NE(test::runCli(args).exit_code, 0);  // --compare draws only on a --plot
+  EXPECT_NE(test::runCli(args + " --plot " + (dir / "missing/errors.png").string()).exit_code, 0);
 }
 
 // ---- real data ---------------------------------------------------------------------------------
