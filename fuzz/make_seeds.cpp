@@ -2,6 +2,7 @@
 // (with its SemanticKITTI labels) and of the real PCD scan written in every format hazmap
 // reads, the first poses of the real KITTI 00 ground truth as KITTI and TUM, the shipped class
 // tables. Usage: hazmap_fuzz_seeds SHARED_DATA_DIR SOURCE_DIR OUT_DIR
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -14,6 +15,37 @@
 
 namespace fs = std::filesystem;
 using namespace hazmap;
+
+namespace {
+
+/// Velodyne seeds in fuzz_velodyne's framing: the real VLP-16 capture's first UDP payloads
+/// (classic pcap, Ethernet + IPv4 + UDP = 42 header bytes), as detected and as a forced model,
+/// and a calibration YAML.
+void velodyneSeeds(const fs::path& pcap, const fs::path& out) {
+  fs::create_directories(out);
+  const std::string file = readTextFile(pcap);
+  std::string packets;
+  int n = 0;
+  for (std::size_t at = 24; at + 16 <= file.size() && n < 12; ++n) {
+    std::uint32_t caplen;
+    std::memcpy(&caplen, file.data() + at + 8, 4);
+    const std::string frame = file.substr(at + 16, caplen);
+    at += 16 + caplen;
+    if (frame.size() < 42) continue;
+    const std::string payload = frame.substr(42);
+    packets += std::string(1, payload.size() == 1206 ? '\x00' : '\x01') + payload;
+  }
+  writeTextAtomically(out / "vlp16_detected", std::string("\x00\x00\x00", 3) + packets);
+  writeTextAtomically(out / "vlp16_forced_cut90", std::string("\x01\x3c\x00", 3) + packets);
+  writeTextAtomically(out / "vlp16_exact_fov", std::string("\x18\x00\x78", 3) + packets);
+  std::string yaml = "\x80num_lasers: 16\ndistance_resolution: 0.002\nlasers:\n";
+  for (int i = 0; i < 16; ++i)
+    yaml += "  - {laser_id: " + std::to_string(i) + ", rot_correction: 0.0, vert_correction: " +
+            std::to_string((i % 2 ? 1 : -1) * 0.01 * i) + ", dist_correction: 0.01}\n";
+  writeTextAtomically(out / "calibration.yaml", yaml);
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   if (argc != 4) {
@@ -86,6 +118,8 @@ int main(int argc, char** argv) {
       for (int k = 0; k < 5; ++k) at = real.find('\n', at) + 1;
       writeTextAtomically(out / "trajectory/real.txt", real.substr(0, at));
     }
+
+    velodyneSeeds(data / "sensors/velodyne-vlp16-pcap/velodyne_vlp16.pcap", out / "velodyne");
 
     for (const auto& e : fs::directory_iterator(source / "config/classes"))
       fs::copy_file(e.path(), out / "class_table" / e.path().filename(), fs::copy_options::overwrite_existing);
