@@ -22,6 +22,7 @@ struct RunOptions {
   int threads = 0;
   bool quiet = false;
   SourceFlags source;
+  bool no_viewer = false;
 };
 
 void run(const RunOptions& o) {
@@ -38,19 +39,11 @@ void run(const RunOptions& o) {
   bar.finish();
   // The map is a second pass over the recording with the final poses.
   const auto second_pass = openScanSource(o.sequence, o.source.options(table));
-  const RunSummary summary = writeRunOutputs(*second_pass, result, config, OutputConfig{}, o.out);
+  OutputConfig outputs;
+  outputs.write_viewer = !o.no_viewer;
+  const RunSummary summary = writeRunOutputs(*second_pass, result, config, outputs, o.out);
   if (o.quiet) return;
-  std::cout << fmt::format("{}: {} frames, {:.1f} frames/s, {} loops accepted, {} hazards, map {} cells\n",
-                           o.method, result.frames.size(), result.framesPerSecond(), result.loops.size(),
-                           summary.hazards, summary.map_cells);
-  if (summary.map_error)
-    std::cout << fmt::format("map error vs true-pose map: mean {:.3f} m, median {:.3f} m, p95 {:.3f} m\n",
-                             summary.map_error->point.mean, summary.map_error->point.median,
-                             summary.map_error->point.p95);
-  if (summary.trajectory)
-    std::cout << fmt::format("ATE (SE(3)-aligned) rmse {:.3f} m\n", summary.trajectory->ape.translation.rmse);
-  std::cout << "wrote " << o.out << "/ (trajectory.kitti/.tum, graph.g2o, map.ply/.pcd, hazards.json/.csv, "
-               "map_top.png, trajectory.png, run.json)\n";
+  std::cout << formatRunSummary(result, summary, o.out, outputs);
 }
 
 const RegisterCommand registration{{
@@ -74,6 +67,7 @@ const RegisterCommand registration{{
       app.add_option("--threads", o->threads, "Worker threads (0 = all cores)");
       app.add_flag("--quiet", o->quiet, "No progress bar and no summary");
       o->source.add(app);
+      app.add_flag("--no-viewer", o->no_viewer, "Do not write viewer.html (the map in 3D in a browser)");
       app.callback([o] { run(*o); });
     }}};
 

@@ -195,3 +195,4 @@ void writeHazardsCsv(const std::filesystem::path& path, const std::vector<Hazard
 }
 
 }  // namespace hazmap
+

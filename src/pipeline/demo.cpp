@@ -9,6 +9,7 @@
 #include "hazmap/core/error.hpp"
 #include "hazmap/io/atomic_file.hpp"
 #include "hazmap/map/image.hpp"
+#include "hazmap/pipeline/demo_index.hpp"
 #include "hazmap/pipeline/progress.hpp"
 #include "hazmap/pipeline/run_outputs.hpp"
 #include "hazmap/sim/simulator.hpp"
@@ -91,6 +92,7 @@ DemoReport runDemo(const DemoConfig& config, std::ostream& out) {
     top.clip_above = z / static_cast<double>(poses->poses.size()) + 1.5;  // drop the ceiling
   }
   top.draw_hazard_labels = false;
+  top.cell_size = OutputConfig{}.map.voxel_size;  // cells fill their footprint: no speckle
 
   // One pass over the methods with one tracking mode: outputs, rows, the side-by-side PNG.
   const auto runAll = [&](OdometryMode mode, const std::filesystem::path& dir, const std::string& png,
@@ -128,6 +130,9 @@ DemoReport runDemo(const DemoConfig& config, std::ostream& out) {
     MontageConfig montage;
     montage.title = title;
     writePng(config.out_dir / png, renderMapMontage(panels, sequence.classTable(), top, montage));
+    if (sequence.groundTruth())
+      writeMethodErrorPlot(config.out_dir / (tag == "map" ? "trajectory_error_frame_to_map.png" : "trajectory_error.png"),
+                           *sequence.groundTruth(), results, "Trajectory error vs distance travelled (" + tag + " tracking)");
   };
   runAll(OdometryMode::FrameToFrame, config.out_dir, "maps_side_by_side.png",
          "hazmap demo: Table 2's five methods, the paper's set-up (heat red, water blue)", report.rows);
@@ -143,9 +148,10 @@ DemoReport runDemo(const DemoConfig& config, std::ostream& out) {
     table["frame_to_map"] = f2m;
   }
   writeTextAtomically(config.out_dir / "table2.json", table.dump(2) + "\n");
+  writeDemoIndex(config.out_dir, report, config.frame_to_map);
   report.total_seconds = std::chrono::duration<double>(Clock::now() - t0).count();
   out << "\n" << formatTable2(report);
-  out << fmt::format("\nWrote {} (sequence/, one folder per method{}, maps_side_by_side*.png, table2.json) in {:.1f} s\n",
+  out << fmt::format("\nWrote {} (sequence/, index.html, one folder per method with viewer.html{}, maps_side_by_side*.png, trajectory_error*.png, table2.json) in {:.1f} s\n",
                      config.out_dir.string(), config.frame_to_map ? ", frame-to-map/" : "", report.total_seconds);
   return report;
 }

@@ -54,5 +54,8 @@ void writeHazardsJson(const std::filesystem::path& path, const std::vector<Hazar
 /// hazards.csv: one row per hazard; frames as "first-last;first-last". Atomic.
 void writeHazardsCsv(const std::filesystem::path& path, const std::vector<Hazard>& hazards);
 std::string hazardsJson(const std::vector<Hazard>& hazards, double voxel_size, int indent = 2);
+/// Reads hazards.json back (the fields above; frames are kept as ranges). Throws hazmap::Error
+/// naming the file on a missing file, broken JSON or a missing field.
+std::vector<Hazard> readHazardsJson(const std::filesystem::path& path);
 
 }  // namespace hazmap
