@@ -2,6 +2,9 @@
 #include <fmt/format.h>
 
 #include <iostream>
+#include <sstream>
+
+#include "hazmap/core/error.hpp"
 
 #include "command.hpp"
 #include "hazmap/io/ply.hpp"
@@ -57,7 +60,35 @@ struct SimulateOptions {
   bool overwrite = false;
   bool temperature = false;
   bool png = false;
+  std::string cameras;
+  std::string calibration_error;
+  double time_offset = 0.0;
+  bool camera_blur = false;
+  std::string camera_size;
 };
+
+/// The --cameras family of options into the simulator config.
+void applyCameraOptions(const SimulateOptions& o, sim::CameraSimConfig& cameras) {
+  if (o.cameras.empty()) {
+    if (!o.calibration_error.empty() || o.time_offset != 0.0 || o.camera_blur || !o.camera_size.empty())
+      fail("simulate", "--calibration-error, --time-offset, --camera-blur and --camera-size need --cameras");
+    return;
+  }
+  cameras.cameras = sim::CameraSimConfig::parseList(o.cameras);
+  if (!o.calibration_error.empty()) cameras.parseCalibrationError(o.calibration_error);
+  cameras.time_offset = o.time_offset;
+  for (auto& c : cameras.cameras) {
+    c.blur = o.camera_blur;
+    if (!o.camera_size.empty()) {
+      int w = 0, h = 0;
+      char x = 0;
+      std::istringstream in(o.camera_size);
+      if (!(in >> w >> x >> h) || x != 'x' || !in.eof()) fail("--camera-size", "expected WIDTHxHEIGHT, e.g. 640x512");
+      c.width = w;
+      c.height = h;
+    }
+  }
+}
 
 void setupSimulate(CLI::App& app) {
   auto opt = std::make_shared<SimulateOptions>();
@@ -78,6 +109,14 @@ void setupSimulate(CLI::App& app) {
                                    "Also write the temperature channel (temperature/*.bin)");
   app.add_flag("--png", opt->png,
                "Also render reference_map.png and odometry_map.png (top-down, classes coloured)");
+  app.add_option("--cameras", opt->cameras,
+                 "Also render property cameras (comma list of thermal, nir, gamma): "
+                 "cameras/<name>/NNNNNN.png, times.txt, camera.yaml");
+  app.add_option("--calibration-error", opt->calibration_error,
+                 "Perturb the written camera calibration, e.g. 1deg,2cm (random axis and direction)");
+  app.add_option("--time-offset", opt->time_offset, "Error (s) of the time_offset written to camera.yaml");
+  app.add_flag("--camera-blur", opt->camera_blur, "Blur camera images by about one pixel");
+  app.add_option("--camera-size", opt->camera_size, "Camera resolution WIDTHxHEIGHT (default 640x512, 50 deg HFOV)");
   app.callback([opt, scenario, seed, frames, scene, regions, temperature]() {
     sim::SimulatorConfig config;
     if (!opt->config.empty()) config = sim::SimulatorConfig::fromYamlFile(opt->config);
@@ -87,6 +126,7 @@ void setupSimulate(CLI::App& app) {
     if (scene->count()) config.scene_file = opt->scene;
     if (regions->count()) config.regions_file = opt->regions;
     if (temperature->count()) config.temperature.enabled = opt->temperature;
+    applyCameraOptions(*opt, config.cameras);
     const auto summary = sim::writeSimulation(config, opt->out, opt->overwrite);
     const double fps = summary.scan_seconds > 0.0 ? summary.frames / summary.scan_seconds : 0.0;
     std::cout << fmt::format(
@@ -100,6 +140,8 @@ void setupSimulate(CLI::App& app) {
         summary.drift.max_position_error, summary.drift.final_position_error,
         summary.drift.max_frame_translation_error, summary.drift.max_frame_rotation_error_deg,
         summary.drift.slips);
+    if (!config.cameras.empty())
+      std::cout << fmt::format("  cameras ({}): {:.2f} s\n", opt->cameras, summary.camera_seconds);
     if (opt->png) {
       // Clip 0.5 m below the lowest ceiling of the built-in scenes (3 m) to see inside.
       renderPngs(opt->out, config.reference_voxel, config.scene_file.empty() ? 2.5 : 1e9);

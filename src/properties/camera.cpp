@@ -120,7 +120,8 @@ CameraIntrinsics intrinsicsFrom(const YAML::Node& root, const std::string& where
 
 PropertyChannel channelFrom(const YAML::Node& node, const std::string& where) {
   if (!node.IsMap()) fail(where, "'channel' must be a mapping (name, units, scale, offset, float_offset)");
-  PropertyChannel ch = defaultChannel(scalar<std::string>(required(node, where, "channel.name"), where, "channel.name"));
+  if (!node["name"]) fail(where, "missing key 'channel.name'");
+  PropertyChannel ch = defaultChannel(scalar<std::string>(node["name"], where, "channel.name"));
   for (const auto& kv : node) {
     const std::string key = kv.first.as<std::string>();
     if (key == "name") continue;

@@ -1,5 +1,7 @@
 #include "hazmap/properties/camera_model.hpp"
 
+#include <Eigen/LU>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
