@@ -15,6 +15,7 @@ struct LabelCliOptions {
   std::string sequence, out, rules;
   std::vector<std::string> cameras;
   double time_tolerance = 0.1;
+  ProjectionConfig projection;
   bool no_motion_compensation = false;
   bool overwrite = false, json = false;
 };
@@ -24,6 +25,7 @@ void label(const LabelCliOptions& o) {
   for (const auto& c : o.cameras) options.cameras.emplace_back(c);
   options.rules = o.rules;
   options.labeler.time_tolerance = o.time_tolerance;
+  options.labeler.projection = o.projection;
   options.labeler.motion_compensation = !o.no_motion_compensation;
   options.overwrite = o.overwrite;
   const LabelReport r = labelSequence(o.sequence, o.out, options);
@@ -56,6 +58,9 @@ const RegisterCommand registration{{
       app.add_option("--rules", o->rules, "Class rules YAML (e.g. 'heat: temperature >= 60'); default: built-in rules");
       app.add_option("--out", o->out, "Output sequence folder")->required();
       app.add_option("--time-tolerance", o->time_tolerance, "Largest |image time - scan time| used (s)");
+      app.add_option("--depth-cell", o->projection.depth_cell_px, "Depth-test z-buffer cell size (pixels)");
+      app.add_option("--depth-splat", o->projection.splat_cells, "Depth-test splat radius (cells)");
+      app.add_option("--depth-tolerance", o->projection.depth_tolerance, "Depth-test tolerance (m)");
       app.add_flag("--no-motion-compensation", o->no_motion_compensation,
                    "Do not place images with the pose at their own time");
       app.add_flag("--overwrite", o->overwrite, "Replace --out if it is a previous sequence");

@@ -69,7 +69,20 @@ CameraModel::CameraModel(const CameraIntrinsics& intrinsics, const std::string& 
       r2 = std::max(r2, (ray.head<2>() / ray.z()).squaredNorm());
     }
   }
-  if (k_.distortion != DistortionModel::None) max_r2_ = r2 * 1.44;  // 20 % beyond the border
+  if (k_.distortion == DistortionModel::None) return;
+  max_r2_ = r2 * 1.44;  // 20 % beyond the border
+  // ... but never past the radius where the radial polynomial stops growing (it folds back).
+  const double r_max = std::sqrt(max_r2_);
+  double last = 0.0;
+  for (int i = 1; i <= 2000; ++i) {
+    const double r = r_max * i / 2000.0;
+    const double rd = distort(Eigen::Vector2d(r, 0.0)).x();
+    if (rd <= last) {
+      max_r2_ = std::pow(r_max * (i - 1) / 2000.0, 2);
+      break;
+    }
+    last = rd;
+  }
 }
 
 Eigen::Vector2d CameraModel::distort(const Eigen::Vector2d& xy) const {

@@ -3,6 +3,7 @@
 #include <nlohmann/json.hpp>
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <sstream>
@@ -90,10 +91,13 @@ std::vector<ClassId> truthOf(const Sequence& seq, std::size_t i, const LabeledCl
   return out;
 }
 
-void accumulate(const ScanLabels& labels, const std::vector<ClassId>& truth, const ClassTable& table,
-                LabelReport& report) {
-  for (ClassId id : table.ids()) {
-    if (!table.isProperty(id)) continue;
+/// Counts for the classes the rules can give (the others are not the cameras' business).
+void accumulate(const ScanLabels& labels, const std::vector<ClassId>& truth, const PropertyRules& rules,
+                const ClassTable& table, LabelReport& report) {
+  std::vector<ClassId> ruled;
+  for (const ClassRule& r : rules.rules())
+    if (std::find(ruled.begin(), ruled.end(), r.class_id) == ruled.end()) ruled.push_back(r.class_id);
+  for (ClassId id : ruled) {
     ClassLabelMetrics& m = report.classes[table.at(id).name];
     for (std::size_t i = 0; i < truth.size(); ++i) {
       const bool is = truth[i] == id, said = labels.classes[i] == id;
@@ -157,7 +161,7 @@ LabelReport labelSequence(const fs::path& sequence_dir, const fs::path& out_arg,
     for (std::size_t i = begin; i < end; ++i) {
       LabeledCloud& scan = scans[i - begin];
       const ScanLabels& l = labels[i - begin];
-      if (!report.truth_source.empty()) accumulate(l, truthOf(seq, i, scan, report.truth_source), seq.classTable(), report);
+      if (!report.truth_source.empty()) accumulate(l, truthOf(seq, i, scan, report.truth_source), labeler.rules(), seq.classTable(), report);
       for (std::size_t c = 1; c < l.channels.size(); ++c) {
         const fs::path dir = tmp.path / labeler.channels()[c];
         fs::create_directories(dir);
