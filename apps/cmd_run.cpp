@@ -6,7 +6,9 @@
 
 #include "command.hpp"
 #include "hazmap/pipeline/progress.hpp"
+#include "hazmap/core/error.hpp"
 #include "hazmap/pipeline/run_outputs.hpp"
+#include "hazmap/properties/label_sequence.hpp"
 
 namespace hazmap::cli {
 namespace {
@@ -19,7 +21,29 @@ struct RunOptions {
   std::string classes;
   int threads = 0;
   bool quiet = false;
+  std::vector<std::string> cameras;  ///< camera.yaml files: label from cameras first
+  std::string rules;
 };
+
+/// With --camera, the sequence is first labelled from the cameras (hazmap label) into
+/// <out>/labelled_sequence, and SLAM runs on that.
+std::string labelFromCameras(const RunOptions& o) {
+  if (o.cameras.empty()) {
+    if (!o.rules.empty()) fail("run", "--rules needs --camera");
+    return o.sequence;
+  }
+  LabelOptions options;
+  for (const auto& c : o.cameras) options.cameras.emplace_back(c);
+  options.rules = o.rules;
+  options.overwrite = true;
+  const std::filesystem::path dir = std::filesystem::path(o.out) / "labelled_sequence";
+  std::filesystem::create_directories(o.out);
+  const LabelReport r = labelSequence(o.sequence, dir, options);
+  if (!o.quiet)
+    std::cout << fmt::format("labelled {} frames from {} camera(s): {:.1f} % of points observed\n", r.frames,
+                             o.cameras.size(), r.points ? 100.0 * double(r.projection.observed) / double(r.points) : 0.0);
+  return dir.string();
+}
 
 void run(const RunOptions& o) {
   const SlamMethod method = parseSlamMethod(o.method);
@@ -28,7 +52,7 @@ void run(const RunOptions& o) {
   config.threads = o.threads;
   std::optional<ClassTable> table;
   if (!o.classes.empty()) table = ClassTable::load(o.classes);
-  const Sequence sequence = Sequence::open(o.sequence, table);
+  const Sequence sequence = Sequence::open(labelFromCameras(o), table);
   ProgressBar bar(o.method, sequence.size(), o.quiet ? 0 : -1);
   const SlamResult result = runSlam(sequence, config, [&](std::size_t d, std::size_t) { bar.update(d); });
   bar.finish();
@@ -64,6 +88,9 @@ const RegisterCommand registration{{
                      "Class table: 'default', 'semantic-kitti' or a YAML file (overrides hazmap.yaml)");
       app.add_option("--threads", o->threads, "Worker threads (0 = all cores)");
       app.add_flag("--quiet", o->quiet, "No progress bar and no summary");
+      app.add_option("--camera", o->cameras,
+                     "Label the scans from this calibrated camera first (camera.yaml; repeatable; see hazmap label)");
+      app.add_option("--rules", o->rules, "Class rules YAML for --camera (default: built-in rules)");
       app.callback([o] { run(*o); });
     }}};
 
