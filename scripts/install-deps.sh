@@ -9,6 +9,7 @@ packages=(
   libcli11-dev libyaml-cpp-dev libfmt-dev libspdlog-dev libstb-dev libembree-dev
   nlohmann-json3-dev libgtest-dev libgmock-dev libbenchmark-dev
   pcl-tools clang libclang-rt-14-dev
+  libsqlite3-dev libzstd-dev liblz4-dev libbz2-dev zlib1g-dev
 )
 if [[ "${1:-}" == "--peers" ]]; then
   packages+=(libpcl-dev libopen3d-dev)

@@ -13,12 +13,15 @@
 namespace hazmap {
 
 /// How a message's bytes are serialized: ROS 2 CDR (with its 4-byte encapsulation header) or
-/// ROS 1's little-endian, unaligned serialization.
-enum class Serialization { Cdr, Ros1 };
+/// ROS 1's little-endian, unaligned serialization. Other (an MCAP channel in json, protobuf,
+/// …): listed by topics(), never decodable by ros_messages.hpp.
+enum class Serialization { Cdr, Ros1, Other };
 
 struct TopicInfo {
   std::string name;                   ///< e.g. "/velodyne_points"
-  std::string type;                   ///< ROS 2 spelling, e.g. "sensor_msgs/msg/PointCloud2"
+  /// Always the ROS 2 spelling, e.g. "sensor_msgs/msg/PointCloud2", also for ROS 1 bags (whose
+  /// "sensor_msgs/PointCloud2" is respelled), so one comparison serves every container.
+  std::string type;
   Serialization serialization = Serialization::Cdr;
   std::uint64_t message_count = 0;    ///< 0 when the container does not say and was not scanned
   std::string definition;             ///< message definition text when the container has one
