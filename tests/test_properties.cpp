@@ -484,3 +484,41 @@ TEST(Labeler, NearestImageInTimeAndMotionCompensation) {
 
 }  // namespace
 }  // namespace hazmap
+
+#include "hazmap/properties/bag_images.hpp"
+
+namespace hazmap {
+namespace {
+
+TEST(BagImages, RealMcapThermalTopicIsCentikelvinWithAHotSpot) {
+  const auto bag = test::sharedData("sensors/mcap/velodyne-zstd-chunked.mcap");
+  CameraCalibration cam = smallCamera(16, 12);
+  cam.topic = "/thermal/image_raw";
+  const auto images = readBagImages(bag, cam);
+  ASSERT_EQ(images->stamps().size(), 3u);
+  for (std::size_t k = 0; k < 3; ++k) {
+    const PropertyImage img = images->load(k, cam);
+    int hot = 0, min_x = 99, max_x = -1, min_y = 99, max_y = -1;
+    for (int y = 0; y < img.height; ++y)
+      for (int x = 0; x < img.width; ++x) {
+        const float v = img.at(x, y);
+        if (std::abs(v - 76.85f) < 1e-3f) {
+          ++hot;
+          min_x = std::min(min_x, x), max_x = std::max(max_x, x), min_y = std::min(min_y, y), max_y = std::max(max_y, y);
+        } else {
+          EXPECT_NEAR(v, 26.85f, 1e-3f);  // 300 K
+        }
+      }
+    EXPECT_EQ(hot, 9);  // a 3×3 spot of 350 K
+    EXPECT_EQ(max_x - min_x, 2);
+    EXPECT_EQ(max_y - min_y, 2);
+    if (k > 0) EXPECT_GT(images->stamps()[k], images->stamps()[k - 1]);
+  }
+  // A camera calibrated for another size, a topic that is not an image, a topic that is absent.
+  EXPECT_THROW(readBagImages(bag, smallCamera(16, 13), "/thermal/image_raw"), Error);
+  EXPECT_THROW(readBagImages(bag, cam, "/odom"), Error);
+  EXPECT_THROW(readBagImages(bag, cam, "/nope"), Error);
+}
+
+}  // namespace
+}  // namespace hazmap
