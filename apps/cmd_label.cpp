@@ -18,6 +18,7 @@ struct LabelCliOptions {
   ProjectionConfig projection;
   bool no_motion_compensation = false;
   bool overwrite = false, json = false;
+  long overlay = -1;
 };
 
 void label(const LabelCliOptions& o) {
@@ -29,6 +30,8 @@ void label(const LabelCliOptions& o) {
   options.labeler.motion_compensation = !o.no_motion_compensation;
   options.overwrite = o.overwrite;
   const LabelReport r = labelSequence(o.sequence, o.out, options);
+  if (o.overlay >= 0)
+    writeLabelOverlays(o.out, options.cameras, static_cast<std::size_t>(o.overlay), options.labeler);
   if (o.json) {
     std::cout << labelReportJson(r);
     return;
@@ -63,6 +66,8 @@ const RegisterCommand registration{{
       app.add_option("--depth-tolerance", o->projection.depth_tolerance, "Depth-test tolerance (m)");
       app.add_flag("--no-motion-compensation", o->no_motion_compensation,
                    "Do not place images with the pose at their own time");
+      app.add_option("--overlay", o->overlay,
+                     "Also draw frame N's points on each camera's image: OUT/overlays/<camera>_NNNNNN.png");
       app.add_flag("--overwrite", o->overwrite, "Replace --out if it is a previous sequence");
       app.add_flag("--json", o->json, "Print the report as JSON (labels.<class>.precision, .recall, .observed_fraction)");
       app.callback([o] { label(*o); });

@@ -59,7 +59,7 @@ std::string formatTable2(const DemoReport& report) {
   }
   for (const DemoRow& r : report.camera_rows)
     s += fmt::format("{:<44} {:>9}   {:>9.3f} {:>8.3f} {:>8.3f} {:>9} {:>6}\n",
-                     std::string(paperRowTitle(r.method)) + ", thermal-camera labels", "", r.map_error_m, r.map_error_p95_m,
+                     r.method == SlamMethod::PropertyIcp ? "Proposed ICP, camera labels" : "Proposed ICP + PGO, camera labels", "", r.map_error_m, r.map_error_p95_m,
                      r.ate_m, rate(r), r.loops);
   return s;
 }

@@ -12,6 +12,7 @@
 #include "hazmap/io/atomic_file.hpp"
 #include "hazmap/io/kitti.hpp"
 #include "hazmap/io/temporary_folder.hpp"
+#include "hazmap/properties/overlay.hpp"
 
 namespace hazmap {
 
@@ -189,6 +190,33 @@ LabelReport labelSequence(const fs::path& sequence_dir, const fs::path& out_arg,
   commitFolder(tmp, out, out_arg.string(), replace);
   report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return report;
+}
+
+void writeLabelOverlays(const fs::path& labelled_dir, const std::vector<fs::path>& cameras, std::size_t frame,
+                        const LabelerConfig& config) {
+  const Sequence seq = Sequence::open(labelled_dir);
+  if (frame >= seq.size()) fail("--overlay", "frame " + std::to_string(frame) + " is beyond the sequence");
+  const double t = readScanTimes(seq).at(frame);
+  const LabeledCloud scan = seq.frame(frame);
+  fs::create_directories(labelled_dir / "overlays");
+  for (const fs::path& path : cameras) {
+    const CameraCalibration cam = readCameraYaml(path);
+    const FolderImages images(cam.images.empty() ? fs::absolute(path).parent_path() : cam.images);
+    const auto& stamps = images.stamps();
+    std::size_t best = 0;
+    for (std::size_t k = 1; k < stamps.size(); ++k)
+      if (std::abs(stamps[k] + cam.time_offset - t) < std::abs(stamps[best] + cam.time_offset - t)) best = k;
+    if (std::abs(stamps[best] + cam.time_offset - t) > config.time_tolerance) continue;
+    OverlayConfig overlay;
+    if (cam.channel.name != "temperature") {  // reflectance, dose rate: their own ranges
+      overlay.value_min = 0.0;
+      overlay.value_max = cam.channel.name == "nir_reflectance" ? 1.0 : 60.0;
+    }
+    char name[64];
+    std::snprintf(name, sizeof name, "_%06zu.png", frame);
+    writeOverlayPng(labelled_dir / "overlays" / (cam.name + name), images.load(best, cam), cam, scan, cam.T_camera_lidar,
+                    seq.classTable(), config.projection, overlay);
+  }
 }
 
 std::string labelReportJson(const LabelReport& r) {

@@ -49,6 +49,10 @@ std::vector<double> readScanTimes(const Sequence& sequence);
 /// atomically (velodyne/, labels/, the first channel as property, poses, odometry, times).
 LabelReport labelSequence(const std::filesystem::path& sequence_dir, const std::filesystem::path& out_dir,
                           const LabelOptions& options);
+/// Writes <labelled_dir>/overlays/<camera>_NNNNNN.png for one frame of a labelled sequence:
+/// each camera's image nearest in time with the frame's points on it (overlay.hpp).
+void writeLabelOverlays(const std::filesystem::path& labelled_dir, const std::vector<std::filesystem::path>& cameras,
+                        std::size_t frame, const LabelerConfig& config);
 /// {"frames", "points", "channels", "observed_fraction", "images_missing", "truth",
 ///  "labels": {class: {precision, recall, observed_fraction, true_points}}}
 std::string labelReportJson(const LabelReport& report);
