@@ -6,6 +6,7 @@
 #include <cstring>
 #include <fstream>
 #include <iterator>
+#include <limits>
 
 #include "hazmap/core/error.hpp"
 #include "hazmap/io/atomic_file.hpp"
@@ -90,10 +91,14 @@ void writePng16(const std::filesystem::path& path, const Gray16& image) {
 }
 
 Gray16 readGray16(const std::filesystem::path& path) {
-  const std::string where = path.string();
   std::ifstream in(path, std::ios::binary);
-  if (!in) fail(where, "cannot open image");
+  if (!in) fail(path.string(), "cannot open image");
   const std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  return decodeGray16(bytes, path.string());
+}
+
+Gray16 decodeGray16(const std::vector<std::uint8_t>& bytes, const std::string& where) {
+  if (bytes.size() > static_cast<std::size_t>(std::numeric_limits<int>::max())) fail(where, "image file too large");
   if (bytes.size() >= 4 && ((bytes[0] == 'I' && bytes[1] == 'I') || (bytes[0] == 'M' && bytes[1] == 'M')))
     return readTiff16(bytes, where);
   const int n = static_cast<int>(bytes.size());

@@ -32,6 +32,8 @@ std::vector<std::uint8_t> encodePng16(const Gray16& image);
 /// Reads a 16-bit (or 8-bit: raw 0..255) grayscale PNG, or an uncompressed 8/16-bit
 /// grayscale TIFF. Throws hazmap::Error naming the file for anything else.
 Gray16 readGray16(const std::filesystem::path& path);
+/// The same from bytes in memory (`where` names them in errors).
+Gray16 decodeGray16(const std::vector<std::uint8_t>& bytes, const std::string& where);
 
 /// Raw pixels → channel values (integer encoding: raw · scale + offset).
 PropertyImage toPropertyImage(const Gray16& raw, const PropertyChannel& channel, double stamp);
