@@ -63,6 +63,8 @@ const RegisterCommand registration{{
       app.add_option("--time-tolerance", o->time_tolerance, "Largest |image time - scan time| used (s)");
       app.add_option("--depth-cell", o->projection.depth_cell_px, "Depth-test z-buffer cell size (pixels)");
       app.add_option("--depth-splat", o->projection.splat_cells, "Depth-test splat radius (cells)");
+      app.add_option("--edge-guard", o->projection.edge_guard_px,
+                     "No hazard class where a pixel within N pixels would not give it (robust to calibration error)");
       app.add_option("--depth-tolerance", o->projection.depth_tolerance, "Depth-test tolerance (m)");
       app.add_flag("--no-motion-compensation", o->no_motion_compensation,
                    "Do not place images with the pose at their own time");

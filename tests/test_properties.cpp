@@ -482,6 +482,27 @@ TEST(Labeler, NearestImageInTimeAndMotionCompensation) {
   EXPECT_LT(l.channels[0][0], 90.0f);  // 0.125 px off: interpolated with the cold neighbour
 }
 
+TEST(Labeler, EdgeGuardRefusesClassesACalibrationErrorCouldFlip) {
+  CameraCalibration cam = smallCamera(41, 41);
+  cam.T_camera_lidar.linear() << 0, -1, 0, 0, 0, -1, 1, 0, 0;
+  auto images = std::make_shared<MemoryImages>();
+  PropertyImage img;
+  img.width = img.height = 41;
+  for (int y = 0; y < 41; ++y)
+    for (int x = 0; x < 41; ++x) img.values.push_back(x < 20 ? 90.0f : 20.0f);  // hot left half
+  images->add(img);
+  LabeledCloud scan;
+  scan.push_back({4.0f, 1.2f, 0.0f});  // u = 10·(−1.2/4) + 20 = 17: hot, 3 px from the edge
+  scan.push_back({4.0f, 3.2f, 0.0f});  // u = 12: hot, 8 px from the edge
+  const auto rules = PropertyRules::defaults({"temperature"}, ClassTable::defaults());
+  LabelerConfig config;
+  EXPECT_EQ(PropertyLabeler({{cam, images}}, rules, config).label(scan, 0.0).classes, (std::vector<ClassId>{1, 1}));
+  config.projection.edge_guard_px = 4;
+  const ScanLabels l = PropertyLabeler({{cam, images}}, rules, config).label(scan, 0.0);
+  EXPECT_EQ(l.classes, (std::vector<ClassId>{0, 1}));
+  EXPECT_EQ(l.channels[0][0], 90.0f);  // the value stays: only the class is withheld
+}
+
 }  // namespace
 }  // namespace hazmap
 

@@ -81,6 +81,9 @@ ScanLabels PropertyLabeler::label(const LabeledCloud& scan, double time, const P
   const std::size_t n = scan.size();
   out.channels.assign(channels_.size(), std::vector<float>(n, std::numeric_limits<float>::quiet_NaN()));
   out.in_view.assign(n, 0);
+  const bool guard = config_.projection.edge_guard_px > 0;
+  std::vector<std::vector<float>> low(guard ? channels_.size() : 0, std::vector<float>(n, NAN));
+  std::vector<std::vector<float>> high = low;
   const std::optional<Eigen::Isometry3d> T_world_scan = pose_at ? pose_at(time) : std::nullopt;
   ProjectionScratch scratch;
   for (std::size_t c = 0; c < cameras_.size(); ++c) {
@@ -97,26 +100,44 @@ ScanLabels PropertyLabeler::label(const LabeledCloud& scan, double time, const P
       if (const auto T_world_image = pose_at(t_image)) T_camera_scan = cam.T_camera_lidar * T_world_image->inverse() * *T_world_scan;
     }
     out.projection += projectIntoImage(scan.points, T_camera_scan, cam.model, image, config_.projection,
-                                       out.channels[camera_channel_[c]], out.in_view, &scratch);
+                                       out.channels[camera_channel_[c]], out.in_view, &scratch,
+                                       guard ? std::span<float>(low[camera_channel_[c]]) : std::span<float>(),
+                                       guard ? std::span<float>(high[camera_channel_[c]]) : std::span<float>());
     ++out.images_used;
   }
   // Rule variables per point: channels by name, normal_z computed only when asked for.
   const auto& vars = rules_.variables();
-  std::vector<const std::vector<float>*> sources(vars.size(), nullptr);
+  std::vector<const std::vector<float>*> sources(vars.size(), nullptr), lows(vars.size()), highs(vars.size());
   std::vector<float> nz;
   for (std::size_t v = 0; v < vars.size(); ++v) {
     if (vars[v] == "normal_z") {
       if (nz.empty()) nz = normalZ(scan, T_world_scan ? Eigen::Matrix3d(T_world_scan->linear()) : Eigen::Matrix3d::Identity(), config_.normals);
-      sources[v] = &nz;
+      sources[v] = lows[v] = highs[v] = &nz;
     } else {
-      sources[v] = &out.channels[std::find(channels_.begin(), channels_.end(), vars[v]) - channels_.begin()];
+      const auto ch = std::find(channels_.begin(), channels_.end(), vars[v]) - channels_.begin();
+      sources[v] = &out.channels[ch];
+      lows[v] = guard ? &low[ch] : sources[v];
+      highs[v] = guard ? &high[ch] : sources[v];
     }
   }
   out.classes.assign(n, 0);
   std::vector<float> values(vars.size());
   for (std::size_t i = 0; i < n; ++i) {
     for (std::size_t v = 0; v < vars.size(); ++v) values[v] = (*sources[v])[i];
-    out.classes[i] = rules_.classify(values.data());
+    ClassId c = rules_.classify(values.data());
+    // Edge guard: a hazard class that the darkest or brightest pixel nearby would not give is
+    // left out — a calibration error of that many pixels could have made it.
+    if (guard && c != 0) {
+      const auto at = [&](const std::vector<float>* range, std::size_t v) {
+        const float x = (*range)[i];
+        return std::isnan(x) ? (*sources[v])[i] : x;  // no range where another camera gave the value
+      };
+      for (std::size_t v = 0; v < vars.size(); ++v) values[v] = at(lows[v], v);
+      if (rules_.classify(values.data()) != c) c = 0;
+      for (std::size_t v = 0; v < vars.size(); ++v) values[v] = at(highs[v], v);
+      if (rules_.classify(values.data()) != c) c = 0;
+    }
+    out.classes[i] = c;
   }
   return out;
 }

@@ -12,6 +12,7 @@ void ProjectionConfig::validate(const std::string& where) const {
   if (!(min_depth >= 0)) fail(where, "projection min_depth must be >= 0");
   if (depth_cell_px < 1) fail(where, "projection depth_cell_px must be >= 1");
   if (splat_cells < 0 || splat_cells > 16) fail(where, "projection splat_cells must be in [0, 16]");
+  if (edge_guard_px < 0 || edge_guard_px > 64) fail(where, "projection edge_guard_px must be in [0, 64]");
   if (!(depth_tolerance >= 0) || !(depth_tolerance_ratio >= 0))
     fail(where, "projection depth tolerances must be >= 0");
 }
@@ -49,12 +50,27 @@ void minFilter(const std::vector<float>& in, std::vector<float>& tmp, std::vecto
     }
 }
 
+/// Smallest and largest finite pixel value within r pixels of (u, v).
+void localRange(const PropertyImage& image, float u, float v, int r, float& lo, float& hi) {
+  const int cx = static_cast<int>(std::lround(u)), cy = static_cast<int>(std::lround(v));
+  lo = std::numeric_limits<float>::infinity();
+  hi = -lo;
+  for (int y = std::max(0, cy - r); y <= std::min(image.height - 1, cy + r); ++y)
+    for (int x = std::max(0, cx - r); x <= std::min(image.width - 1, cx + r); ++x) {
+      const float p = image.at(x, y);
+      if (!std::isfinite(p)) continue;
+      lo = std::min(lo, p);
+      hi = std::max(hi, p);
+    }
+}
+
 }  // namespace
 
 ProjectionStats projectIntoImage(std::span<const Eigen::Vector3f> points, const Eigen::Isometry3d& T,
                                  const CameraModel& camera, const PropertyImage& image,
                                  const ProjectionConfig& config, std::span<float> values,
-                                 std::span<std::uint8_t> in_view, ProjectionScratch* scratch) {
+                                 std::span<std::uint8_t> in_view, ProjectionScratch* scratch, std::span<float> low,
+                                 std::span<float> high) {
   if (image.width != camera.width() || image.height != camera.height())
     fail("projection", "image size differs from the camera's calibration");
   if (values.size() != points.size() || (!in_view.empty() && in_view.size() != points.size()))
@@ -110,7 +126,10 @@ ProjectionStats projectIntoImage(std::span<const Eigen::Vector3f> points, const 
     const float value = sampleBilinear(image, s.u[i], s.v[i]);
     if (!std::isfinite(value)) continue;
     ++stats.observed;
-    if (std::isnan(values[i])) values[i] = value;
+    if (!std::isnan(values[i])) continue;
+    values[i] = value;
+    if (config.edge_guard_px > 0 && low.size() == n && high.size() == n)
+      localRange(image, s.u[i], s.v[i], config.edge_guard_px, low[i], high[i]);
   }
   return stats;
 }

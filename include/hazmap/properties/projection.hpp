@@ -21,9 +21,12 @@ namespace hazmap {
 struct ProjectionConfig {
   double min_depth = 0.2;               ///< m; closer points are not projected
   int depth_cell_px = 4;                ///< z-buffer cell size (pixels, >= 1)
-  int splat_cells = 1;                  ///< z-buffer dilation radius (cells, >= 0)
+  int splat_cells = 2;                  ///< z-buffer dilation radius (cells, >= 0)
   double depth_tolerance = 0.15;        ///< m
   double depth_tolerance_ratio = 0.05;  ///< share of the depth added to the tolerance
+  /// Edge guard (0 = off): also report the smallest and largest pixel value within this many
+  /// pixels of each point, so a labeler can refuse a class the calibration's error could flip.
+  int edge_guard_px = 0;
   void validate(const std::string& where) const;
 };
 
@@ -47,11 +50,13 @@ struct ProjectionScratch {
 /// Projects `points` (any frame; T_camera_points maps them into the camera) into `image`.
 /// `values[i]` receives the value of a visible point only where it is still NaN (an earlier
 /// camera's value wins); `in_view` (optional, points-sized) is set to 1 for points inside the
-/// image. Deterministic, single-threaded.
+/// image. With config.edge_guard_px > 0, `low`/`high` (points-sized) receive the pixel range
+/// around each point that got a value. Deterministic, single-threaded.
 ProjectionStats projectIntoImage(std::span<const Eigen::Vector3f> points, const Eigen::Isometry3d& T_camera_points,
                                  const CameraModel& camera, const PropertyImage& image,
                                  const ProjectionConfig& config, std::span<float> values,
-                                 std::span<std::uint8_t> in_view = {}, ProjectionScratch* scratch = nullptr);
+                                 std::span<std::uint8_t> in_view = {}, ProjectionScratch* scratch = nullptr,
+                                 std::span<float> low = {}, std::span<float> high = {});
 
 /// Bilinear interpolation at a pixel position (pixel centres at integers; clamped at the
 /// border); NaN if any of the four pixels is NaN.
