@@ -210,5 +210,11 @@ TEST(Demo, BothSetUpsWriteTheTableAndOutputs) {
   const std::string table = formatTable2(report);
   EXPECT_NE(table.find("paper's set-up"), std::string::npos);
   EXPECT_NE(table.find("Proposed ICP with pose graph optimization"), std::string::npos);
+  // The rows on labels from the simulated thermal camera (issue 16).
+  ASSERT_EQ(report.camera_rows.size(), 2u);
+  EXPECT_EQ(report.camera_rows[0].method, SlamMethod::PropertyIcp);
+  EXPECT_TRUE(t.at("camera_labels").at("property-icp+pgo").at("map_error_m").is_number());
+  EXPECT_TRUE(fs::exists(dir / "camera-labels" / "property-icp" / "map.ply"));
+  EXPECT_NE(table.find("camera labels"), std::string::npos);
   fs::remove_all(dir);
 }
