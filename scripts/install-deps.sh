@@ -11,6 +11,7 @@ packages=(
   pcl-tools clang libclang-rt-14-dev
   libsqlite3-dev libzstd-dev liblz4-dev libbz2-dev zlib1g-dev
   libpcap-dev
+  libcairo2-dev fonts-dejavu-core libjs-three chromium
 )
 if [[ "${1:-}" == "--peers" ]]; then
   packages+=(libpcl-dev libopen3d-dev)
