@@ -3,6 +3,7 @@
 #include <memory>
 
 #include "command.hpp"
+#include "config_options.hpp"
 #include "hazmap/pipeline/demo.hpp"
 
 namespace hazmap::cli {
@@ -23,8 +24,11 @@ const RegisterCommand registration{{
                    "Only the paper's set-up (skip the frame-to-map tracking runs)");
       app.add_flag("!--no-camera-labels", o->camera_labels,
                    "Skip the rows with labels from the simulated thermal camera");
-      app.callback([o, out] {
+      auto params = addParameterOptions(app, "run settings for every method, as in `hazmap run --config`");
+      app.callback([o, out, params] {
         o->out_dir = *out;
+        o->property_icp = params->propertyIcp();
+        o->settings = params->settings;
         runDemo(*o, std::cout);
       });
     }}};

@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "command.hpp"
+#include "config_options.hpp"
 #include "hazmap/core/error.hpp"
 #include "hazmap/io/atomic_file.hpp"
 #include "hazmap/io/sequence.hpp"
@@ -92,7 +93,7 @@ void writeLoopsJson(const LoopsOptions& o, const LoopClosureConfig& config, std:
   file.commit();
 }
 
-void runLoops(const LoopsOptions& o, bool method_given) {
+void runLoops(const LoopsOptions& o, bool method_given, const ParameterOptions& params) {
   LoopClosureConfig config;
   if (!o.config.empty()) config = LoopClosureConfig::fromYamlFile(o.config);
   if (method_given) {
@@ -101,6 +102,7 @@ void runLoops(const LoopsOptions& o, bool method_given) {
     else if (o.method == "both") config.method = CandidateMethod::Both;
     else fail("--method", "must be constellation, distance or both (got '" + o.method + "')");
   }
+  params.applySettings(config);
   const auto scans = openScanSource(o.sequence, o.source.options(std::nullopt, true));
   // The estimate: --estimate's poses, else the recording's wheel odometry as the scans come.
   PoseList estimate;
@@ -115,7 +117,7 @@ void runLoops(const LoopsOptions& o, bool method_given) {
   deskew_config.motion = DeskewMotion::WheelOdometry;  // the only motion known without tracking
   StreamDeskewer deskewer(deskew_config);
 
-  LoopDetector detector(scans->classTable(), config);
+  LoopDetector detector(params.propertyIcp().applyTo(scans->classTable()), config);
   std::size_t landmarks = 0, candidates = 0, true_candidates = 0, verified = 0, gated = 0;
   double t_read = 0, t_detect = 0;
   std::size_t n = 0;
@@ -180,7 +182,8 @@ void setupLoops(CLI::App& app) {
   app.add_option("--frames", opt->frames, "Use only the first N frames (0 = all)");
   app.add_option("--out", opt->out, "Write the consistent loops (from, to, T_from_to, information) as JSON");
   opt->source.add(app);
-  app.callback([opt, method]() { runLoops(*opt, method->count() > 0); });
+  auto params = addParameterOptions(app, "keys of the loop_closure section, e.g. verification.max_rmse=0.3");
+  app.callback([opt, method, params]() { runLoops(*opt, method->count() > 0, *params); });
 }
 
 const RegisterCommand kRegister{{"loops",

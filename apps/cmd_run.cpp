@@ -6,6 +6,7 @@
 #include <memory>
 
 #include "command.hpp"
+#include "config_options.hpp"
 #include "hazmap/pipeline/progress.hpp"
 #include "hazmap/core/error.hpp"
 #include "hazmap/pipeline/run_outputs.hpp"
@@ -49,10 +50,13 @@ std::string labelFromCameras(const RunOptions& o) {
   return dir.string();
 }
 
-void run(const RunOptions& o) {
+void run(const RunOptions& o, const ParameterOptions& params) {
   const SlamMethod method = parseSlamMethod(o.method);
   SlamConfig config = SlamConfig::forMethod(method);
   if (!o.config.empty()) config.applyYamlFile(o.config);
+  // Parameter flags (config_options.hpp) override the file.
+  config.property_icp = params.propertyIcp(config.property_icp);
+  params.applySettings(config);
   config.threads = o.threads;
   std::optional<ClassTable> table;
   if (!o.classes.empty()) table = ClassTable::load(o.classes);
@@ -96,7 +100,8 @@ const RegisterCommand registration{{
       app.add_option("--camera", o->cameras,
                      "Label the scans from this calibrated camera first (camera.yaml; repeatable; see hazmap label)");
       app.add_option("--rules", o->rules, "Class rules YAML for --camera (default: built-in rules)");
-      app.callback([o] { run(*o); });
+      auto params = addParameterOptions(app, "keys as in --config, e.g. odometry.registration.max_iterations=30");
+      app.callback([o, params] { run(*o, *params); });
     }}};
 
 }  // namespace

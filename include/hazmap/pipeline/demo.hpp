@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "hazmap/core/property_icp_config.hpp"
 #include "hazmap/odometry/odometry.hpp"
 #include "hazmap/pipeline/slam_method.hpp"
 
@@ -27,6 +28,10 @@ struct DemoConfig {
   /// Also simulate the thermal camera (640×512, 50° HFOV, looking forward), label the sequence
   /// from it (hazmap label) and run the property methods on those labels into camera-labels/.
   bool camera_labels = true;
+  /// α and class search radii for every method (empty = the class table's).
+  PropertyIcpConfig property_icp;
+  /// `section.key=value` run settings applied to every method's SlamConfig (SlamConfig::applySetting).
+  std::vector<std::string> settings;
 };
 
 struct DemoRow {
