@@ -95,7 +95,7 @@ TEST(PropertiesSim, BadInputIsOneLineAndWritesNothing) {
 
 TEST(PropertiesSim, RunWithCameraReportsPeakTemperaturePerHazard) {
   const fs::path dir = test::scratchDir();
-  ASSERT_EQ(test::runCli("simulate --frames 40 --cameras thermal --camera-size 320x256 --out " + (dir / "seq").string()).exit_code, 0);
+  ASSERT_EQ(test::runCli("simulate --frames 40 --cameras thermal --out " + (dir / "seq").string()).exit_code, 0);
   const auto r = test::runCli("run " + (dir / "seq").string() + " --method property-icp --quiet --camera " +
                               (dir / "seq/cameras/thermal/camera.yaml").string() + " --out " + (dir / "run").string());
   ASSERT_EQ(r.exit_code, 0) << r.output;

@@ -16,6 +16,12 @@ namespace hazmap {
 
 namespace {
 
+/// A mapping key as text; a non-scalar key (YAML's `? [..]`) is an error, not an exception.
+std::string keyOf(const YAML::Node& key, const std::string& where) {
+  if (!key.IsScalar()) fail(where, "a key is not a plain name");
+  return key.Scalar();
+}
+
 const std::set<std::string> kKnownKeys = {
     "image_width", "image_height", "camera_name", "camera_matrix", "distortion_model",
     "distortion_coefficients", "rectification_matrix", "projection_matrix", "binning_x", "binning_y",
@@ -123,7 +129,7 @@ PropertyChannel channelFrom(const YAML::Node& node, const std::string& where) {
   if (!node["name"]) fail(where, "missing key 'channel.name'");
   PropertyChannel ch = defaultChannel(scalar<std::string>(node["name"], where, "channel.name"));
   for (const auto& kv : node) {
-    const std::string key = kv.first.as<std::string>();
+    const std::string key = keyOf(kv.first, where);
     if (key == "name") continue;
     if (key == "units") ch.units = scalar<std::string>(kv.second, where, "channel.units");
     else if (key == "scale") ch.scale = scalar<double>(kv.second, where, "channel.scale");
@@ -172,7 +178,7 @@ CameraCalibration parseCameraYaml(const std::string& yaml, const std::string& wh
   }
   if (!root.IsMap()) fail(where, "a camera calibration must be a YAML mapping");
   for (const auto& kv : root) {
-    const std::string key = kv.first.as<std::string>();
+    const std::string key = keyOf(kv.first, where);
     if (!kKnownKeys.count(key)) fail(where, "unknown key '" + key + "'");
   }
   CameraCalibration cam;

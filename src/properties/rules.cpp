@@ -42,6 +42,12 @@ struct RuleExpression::Node {
 
 namespace {
 
+/// A mapping key as text; a non-scalar key (YAML's `? [..]`) is an error, not an exception.
+std::string keyOf(const YAML::Node& key, const std::string& where) {
+  if (!key.IsScalar()) fail(where, "a key is not a plain name");
+  return key.Scalar();
+}
+
 using Node = RuleExpression::Node;
 using NodePtr = std::shared_ptr<const Node>;
 
@@ -188,11 +194,11 @@ PropertyRules PropertyRules::parse(const std::string& yaml, const std::string& w
   if (root.IsMap() && root["rules"]) root = root["rules"];
   std::vector<std::pair<std::string, YAML::Node>> entries;
   if (root.IsMap()) {
-    for (const auto& kv : root) entries.emplace_back(kv.first.as<std::string>(), kv.second);
+    for (const auto& kv : root) entries.emplace_back(keyOf(kv.first, where), kv.second);
   } else if (root.IsSequence()) {
     for (const auto& item : root) {
       if (!item.IsMap() || item.size() != 1) fail(where, "each rule must be one 'class: expression' pair");
-      for (const auto& kv : item) entries.emplace_back(kv.first.as<std::string>(), kv.second);
+      for (const auto& kv : item) entries.emplace_back(keyOf(kv.first, where), kv.second);
     }
   } else {
     fail(where, "expected rules as 'class: expression' lines (or a list under 'rules:')");
