@@ -69,9 +69,27 @@ struct LoopClosure {
   double rmse = 0.0;
 };
 
+/// Why a loop candidate was rejected (VerificationResult::reason says it for people).
+enum class LoopRejection {
+  None,                   ///< accepted (or not yet verified)
+  EmptyCloud,             ///< a keyframe cloud was empty
+  NotConverged,           ///< the registration did not converge
+  NonFinite,              ///< non-finite pose or covariance
+  LowFitness,             ///< fitness below min_fitness
+  HighRmse,               ///< inlier RMSE above max_rmse
+  Degenerate,             ///< a degenerate direction (reject_degenerate)
+  LargeCorrection,        ///< ICP moved beyond max_correction_* from the guess
+  CovarianceNotPositive,  ///< the covariance is not positive definite
+  UncertainTranslation,   ///< translation sigma above max_translation_sigma
+  UncertainRotation,      ///< rotation sigma above max_rotation_sigma
+  DriftGate,              ///< verified, then rejected by the drift gate (LoopDetector)
+};
+const char* toString(LoopRejection rejection);
+
 struct VerificationResult {
   bool accepted = false;
-  std::string reason;  ///< why it was rejected (empty when accepted)
+  LoopRejection rejection = LoopRejection::None;
+  std::string reason;  ///< why it was rejected, for people (empty when accepted)
   LoopClosure closure;
   RegistrationResult registration;
 };
