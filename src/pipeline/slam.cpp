@@ -64,7 +64,7 @@ void SlamConfig::applyYamlFile(const std::filesystem::path& path) {
   } catch (const YAML::Exception& e) {
     fail(path.string(), std::string("invalid YAML: ") + e.msg);
   }
-  if (!root.IsMap()) fail(path.string(), "expected a mapping with sections tracking/loop_closure/graph/slam");
+  if (!root.IsMap()) fail(path.string(), "expected a mapping with sections odometry/loop_closure/graph/slam/wheel_noise");
   const auto section = [&](const char* key) {
     std::stringstream s;
     s << root[key];

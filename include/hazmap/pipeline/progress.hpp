@@ -9,7 +9,7 @@ namespace hazmap {
 
 class ProgressBar {
  public:
-  /// `enabled` = nullopt → on exactly when stderr is a terminal.
+  /// `enabled`: 1 on, 0 off, -1 (default) on exactly when stderr is a terminal.
   ProgressBar(std::string label, std::size_t total, int enabled = -1);
   ~ProgressBar();
   void update(std::size_t done);
