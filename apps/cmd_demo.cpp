@@ -3,7 +3,7 @@
 #include <memory>
 
 #include "command.hpp"
-#include "hazmap/pipeline/demo.hpp"
+#include "hazmap/demo/demo.hpp"
 
 namespace hazmap::cli {
 namespace {
