@@ -9,6 +9,7 @@
 #include <tbb/parallel_for.h>
 
 #include "hazmap/core/error.hpp"
+#include "hazmap/core/voxel_key.hpp"
 #include "hazmap/preprocess/normals.hpp"
 #include "hazmap/preprocess/top_k.hpp"
 
@@ -16,9 +17,11 @@ namespace hazmap {
 
 namespace {
 
-std::uint64_t packKey(std::int64_t x, std::int64_t y, std::int64_t z) {
-  const auto f = [](std::int64_t v) { return static_cast<std::uint64_t>(v + (1LL << 20)) & 0x1FFFFFu; };
-  return (f(x) << 42) | (f(y) << 21) | f(z);
+// The voxel's index slot, or nullptr (no such voxel, or coordinates beyond the key's range).
+template <class Index>
+auto findVoxel(Index& index, std::int64_t x, std::int64_t y, std::int64_t z) {
+  std::uint64_t key = 0;
+  return voxelKey(x, y, z, key) ? index.find(key) : nullptr;
 }
 
 }  // namespace
@@ -51,10 +54,11 @@ void LocalMap::integrate(const LabeledCloud& scan, const Eigen::Vector3d& origin
   for (std::size_t i = 0; i < scan.size(); ++i) {
     const Eigen::Vector3f& p = scan.points[i];
     if (!p.allFinite()) continue;
-    const auto x = static_cast<std::int64_t>(std::floor(p.x() * inv));
-    const auto y = static_cast<std::int64_t>(std::floor(p.y() * inv));
-    const auto z = static_cast<std::int64_t>(std::floor(p.z() * inv));
-    const std::uint64_t key = packKey(x, y, z);
+    std::int64_t x, y, z;
+    std::uint64_t key = 0;
+    if (!voxelCoordinate(p.x() * inv, x) || !voxelCoordinate(p.y() * inv, y) || !voxelCoordinate(p.z() * inv, z) ||
+        !voxelKey(x, y, z, key))
+      continue;  // beyond ±2^20 voxels
     const auto [slot, inserted] = index_.tryEmplace(key, static_cast<std::uint32_t>(voxels_.size()));
     if (inserted) voxels_.push_back(Voxel{x, y, z, {}, {}, {}, 0, {}, {}, {}, {}, true, false, true});
     Voxel& v = voxels_[*slot];
@@ -93,7 +97,20 @@ void LocalMap::integrate(const LabeledCloud& scan, const Eigen::Vector3d& origin
       }
     }
   }
-  // Bound the map: drop voxels far from the robot (swap-remove keeps it O(1) and deterministic).
+  // Bound the map: drop voxels far from the robot.
+  const std::vector<std::array<std::int64_t, 3>> dropped = dropFarVoxels(origin);
+  // Cached normals: a change anywhere within the normal radius makes a voxel's normals stale.
+  for (Voxel& v : voxels_) {
+    if (!v.changed) continue;
+    v.changed = false;
+    invalidateAround(v.x, v.y, v.z, false);
+  }
+  for (const auto& d : dropped) invalidateAround(d[0], d[1], d[2], true);
+}
+
+// Drops the voxels farther than max_distance from `origin` (swap-remove keeps it O(1) and
+// deterministic); returns their coordinates.
+std::vector<std::array<std::int64_t, 3>> LocalMap::dropFarVoxels(const Eigen::Vector3d& origin) {
   const double max_d2 = config_.max_distance * config_.max_distance;
   std::vector<std::array<std::int64_t, 3>> dropped;
   for (std::size_t k = 0; k < voxels_.size();) {
@@ -106,20 +123,16 @@ void LocalMap::integrate(const LabeledCloud& scan, const Eigen::Vector3d& origin
     }
     dropped.push_back({v.x, v.y, v.z});
     points_ -= v.points.size();
-    index_.erase(packKey(v.x, v.y, v.z));
+    std::uint64_t key = 0;
+    voxelKey(v.x, v.y, v.z, key);  // in range: the voxel was added with it
+    index_.erase(key);
     if (k + 1 != voxels_.size()) {
       voxels_[k] = std::move(voxels_.back());
-      *index_.find(packKey(voxels_[k].x, voxels_[k].y, voxels_[k].z)) = static_cast<std::uint32_t>(k);
+      *findVoxel(index_, voxels_[k].x, voxels_[k].y, voxels_[k].z) = static_cast<std::uint32_t>(k);
     }
     voxels_.pop_back();
   }
-  // Cached normals: a change anywhere within the normal radius makes a voxel's normals stale.
-  for (Voxel& v : voxels_) {
-    if (!v.changed) continue;
-    v.changed = false;
-    invalidateAround(v.x, v.y, v.z, false);
-  }
-  for (const auto& d : dropped) invalidateAround(d[0], d[1], d[2], true);
+  return dropped;
 }
 
 void LocalMap::invalidateAround(std::int64_t x, std::int64_t y, std::int64_t z, bool force) {
@@ -127,7 +140,7 @@ void LocalMap::invalidateAround(std::int64_t x, std::int64_t y, std::int64_t z, 
   for (std::int64_t dx = -r; dx <= r; ++dx)
     for (std::int64_t dy = -r; dy <= r; ++dy)
       for (std::int64_t dz = -r; dz <= r; ++dz) {
-        const std::uint32_t* at = index_.find(packKey(x + dx, y + dy, z + dz));
+        const std::uint32_t* at = findVoxel(index_, x + dx, y + dy, z + dz);
         if (!at) continue;
         voxels_[*at].normals_valid = false;
         voxels_[*at].force = voxels_[*at].force || force;
@@ -259,7 +272,7 @@ void LocalMap::markStaleInVoxel(Voxel& v, std::vector<const Voxel*>& around) con
   if (!any) return;
   around.clear();
   for (const auto& o : normal_offsets_) {
-    const std::uint32_t* at = index_.find(packKey(v.x + o[0], v.y + o[1], v.z + o[2]));
+    const std::uint32_t* at = findVoxel(index_, v.x + o[0], v.y + o[1], v.z + o[2]);
     if (at && !voxels_[*at].delta.empty()) around.push_back(&voxels_[*at]);
   }
   for (std::size_t i = 0; i < v.points.size(); ++i) {
@@ -316,7 +329,7 @@ Eigen::Vector3f LocalMap::estimateNormal(Voxel& v, std::size_t i, const NormalCo
     }
     lb2 *= vs * vs;
     if (lb2 * 0.9999f >= best.bound()) continue;  // margin for the float box position
-    const std::uint32_t* at = index_.find(packKey(v.x + o[0], v.y + o[1], v.z + o[2]));
+    const std::uint32_t* at = findVoxel(index_, v.x + o[0], v.y + o[1], v.z + o[2]);
     if (!at) continue;
     for (const Eigen::Vector3f& q : voxels_[*at].points) {
       const float d2 = (q - p).squaredNorm();

@@ -25,7 +25,7 @@ struct VerificationConfig {
     r.max_iterations = 60;
     r.max_source_points = 6000;
     // Dense keyframes (0.15 m voxels) searched 1.5 m wide: a voxel hash with 1.5 m cells scans
-    // ~100 points per cell; the k-d tree verified the same 16 naraha loops in 58 % of the time.
+    // ~100 points per cell; the k-d tree verifies the same loops faster (docs/measurements.md).
     r.index = SpatialIndexKind::KdTree;
     // Single stage: the acceptance thresholds below were set on single-stage results, and a
     // loop's larger initial error is where a 1000-point coarse stage could settle elsewhere

@@ -75,6 +75,7 @@ class LocalMap {
     bool changed = false;  ///< modified during the current integrate()
   };
   Eigen::Vector3f estimateNormal(Voxel& v, std::size_t i, const NormalConfig& nc) const;
+  std::vector<std::array<std::int64_t, 3>> dropFarVoxels(const Eigen::Vector3d& origin);
   // The steps of makeTarget().
   LabeledCloud gatherPoints(const std::vector<std::size_t>& first) const;
   void useNormalSettings(const RegistrationConfig& config);
