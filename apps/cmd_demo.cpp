@@ -21,6 +21,8 @@ const RegisterCommand registration{{
       app.add_option("--threads", o->threads, "Worker threads (0 = all cores)");
       app.add_flag("!--paper-only", o->frame_to_map,
                    "Only the paper's set-up (skip the frame-to-map tracking runs)");
+      app.add_flag("!--no-camera-labels", o->camera_labels,
+                   "Skip the rows with labels from the simulated thermal camera");
       app.callback([o, out] {
         o->out_dir = *out;
         runDemo(*o, std::cout);

@@ -1,4 +1,5 @@
-// hazmap run SEQ --method M --out DIR: the whole SLAM run and its outputs.
+// hazmap run INPUT --method M --out DIR: the whole SLAM run and its outputs. INPUT is a sequence
+// folder, a bag (ROS 1, rosbag2, MCAP) or a packet capture, read as a stream.
 #include <fmt/format.h>
 
 #include <iostream>
@@ -6,7 +7,10 @@
 
 #include "command.hpp"
 #include "hazmap/pipeline/progress.hpp"
+#include "hazmap/core/error.hpp"
 #include "hazmap/pipeline/run_outputs.hpp"
+#include "source_flags.hpp"
+#include "hazmap/properties/label_sequence.hpp"
 
 namespace hazmap::cli {
 namespace {
@@ -19,7 +23,31 @@ struct RunOptions {
   std::string classes;
   int threads = 0;
   bool quiet = false;
+  SourceFlags source;
+  bool no_viewer = false;
+  std::vector<std::string> cameras;  ///< camera.yaml files: label from cameras first
+  std::string rules;
 };
+
+/// With --camera, the sequence is first labelled from the cameras (hazmap label) into
+/// <out>/labelled_sequence, and SLAM runs on that.
+std::string labelFromCameras(const RunOptions& o) {
+  if (o.cameras.empty()) {
+    if (!o.rules.empty()) fail("run", "--rules needs --camera");
+    return o.sequence;
+  }
+  LabelOptions options;
+  for (const auto& c : o.cameras) options.cameras.emplace_back(c);
+  options.rules = o.rules;
+  options.overwrite = true;
+  const std::filesystem::path dir = std::filesystem::path(o.out) / "labelled_sequence";
+  std::filesystem::create_directories(o.out);
+  const LabelReport r = labelSequence(o.sequence, dir, options);
+  if (!o.quiet)
+    std::cout << fmt::format("labelled {} frames from {} camera(s): {:.1f} % of points observed\n", r.frames,
+                             o.cameras.size(), r.points ? 100.0 * double(r.projection.observed) / double(r.points) : 0.0);
+  return dir.string();
+}
 
 void run(const RunOptions& o) {
   const SlamMethod method = parseSlamMethod(o.method);
@@ -28,31 +56,30 @@ void run(const RunOptions& o) {
   config.threads = o.threads;
   std::optional<ClassTable> table;
   if (!o.classes.empty()) table = ClassTable::load(o.classes);
-  const Sequence sequence = Sequence::open(o.sequence, table);
-  ProgressBar bar(o.method, sequence.size(), o.quiet ? 0 : -1);
-  const SlamResult result = runSlam(sequence, config, [&](std::size_t d, std::size_t) { bar.update(d); });
+  config.deskew.enabled = !o.source.no_deskew;
+  const std::string input = labelFromCameras(o);
+  const auto scans = openScanSource(input, o.source.options(table, !o.quiet));
+  ProgressBar bar(o.method, scans->size().value_or(0), o.quiet ? 0 : -1);
+  const SlamResult result = runSlam(*scans, config, [&](std::size_t d, std::size_t) { bar.update(d); });
   bar.finish();
-  const RunSummary summary = writeRunOutputs(sequence, result, config, OutputConfig{}, o.out);
+  // The map is a second pass over the recording with the final poses.
+  const auto second_pass = openScanSource(input, o.source.options(table));
+  OutputConfig outputs;
+  outputs.write_viewer = !o.no_viewer;
+  const RunSummary summary = writeRunOutputs(*second_pass, result, config, outputs, o.out);
   if (o.quiet) return;
-  std::cout << fmt::format("{}: {} frames, {:.1f} frames/s, {} loops accepted, {} hazards, map {} cells\n",
-                           o.method, result.frames.size(), result.framesPerSecond(), result.loops.size(),
-                           summary.hazards, summary.map_cells);
-  if (summary.map_error)
-    std::cout << fmt::format("map error vs true-pose map: mean {:.3f} m, median {:.3f} m, p95 {:.3f} m\n",
-                             summary.map_error->point.mean, summary.map_error->point.median,
-                             summary.map_error->point.p95);
-  if (summary.trajectory)
-    std::cout << fmt::format("ATE (SE(3)-aligned) rmse {:.3f} m\n", summary.trajectory->ape.translation.rmse);
-  std::cout << "wrote " << o.out << "/ (trajectory.kitti/.tum, graph.g2o, map.ply/.pcd, hazards.json/.csv, "
-               "map_top.png, trajectory.png, run.json)\n";
+  std::cout << formatRunSummary(result, summary, o.out, outputs);
 }
 
 const RegisterCommand registration{{
     "run",
-    "Run SLAM on a sequence directory and write trajectory, graph, map, hazards, PNGs and run.json",
+    "Run SLAM on a sequence directory, a bag or a packet capture and write trajectory, graph, map, "
+    "hazards, PNGs and run.json",
     [](CLI::App& app) {
       auto o = std::make_shared<RunOptions>();
-      app.add_option("sequence", o->sequence, "Sequence directory (velodyne/, labels/, odometry.txt, ...)")
+      app.add_option("sequence", o->sequence,
+                     "Sequence directory (velodyne/, labels/, odometry.txt, ...), bag (.bag, .mcap, rosbag2 "
+                     "folder) or capture (.pcap)")
           ->required();
       app.add_option("--method", o->method,
                      "odometry | icp | icp+pgo | property-icp | property-icp+pgo (the paper's Table 2 rows)");
@@ -64,6 +91,11 @@ const RegisterCommand registration{{
                      "Class table: 'default', 'semantic-kitti' or a YAML file (overrides hazmap.yaml)");
       app.add_option("--threads", o->threads, "Worker threads (0 = all cores)");
       app.add_flag("--quiet", o->quiet, "No progress bar and no summary");
+      o->source.add(app);
+      app.add_flag("--no-viewer", o->no_viewer, "Do not write viewer.html (the map in 3D in a browser)");
+      app.add_option("--camera", o->cameras,
+                     "Label the scans from this calibrated camera first (camera.yaml; repeatable; see hazmap label)");
+      app.add_option("--rules", o->rules, "Class rules YAML for --camera (default: built-in rules)");
       app.callback([o] { run(*o); });
     }}};
 

@@ -2,13 +2,18 @@
 #include <fmt/format.h>
 
 #include <iostream>
+#include <random>
+#include <sstream>
 
 #include "command.hpp"
+#include "hazmap/core/error.hpp"
 #include "hazmap/io/ply.hpp"
 #include "hazmap/io/sequence.hpp"
 #include "hazmap/map/render.hpp"
 #include "hazmap/preprocess/voxel_downsample.hpp"
 #include "hazmap/sim/simulator.hpp"
+#include "hazmap/sources/mcap_export.hpp"
+#include "hazmap/sources/scan_source.hpp"
 
 namespace hazmap::cli {
 namespace {
@@ -57,7 +62,63 @@ struct SimulateOptions {
   bool overwrite = false;
   bool temperature = false;
   bool png = false;
+  std::string format = "folder";
+  std::string cameras;
+  std::string calibration_error;
+  double time_offset = 0.0;
+  bool camera_blur = false;
+  std::string camera_size;
 };
+
+/// --format mcap: the sequence is simulated into a temporary folder next to the bag, then written
+/// as a ROS 2 MCAP bag (sources/mcap_export.hpp) and the folder removed.
+void writeSimulationAsMcap(const sim::SimulatorConfig& config, const std::filesystem::path& bag, bool overwrite) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (fs::exists(bag, ec) && !overwrite) fail(bag.string(), "exists (pass --overwrite to replace it)");
+  if (fs::is_directory(bag, ec)) fail(bag.string(), "is a folder; --format mcap writes one .mcap file");
+  const fs::path absolute = fs::absolute(bag);
+  const fs::path folder =
+      absolute.parent_path() / ("." + absolute.filename().string() + ".sequence-" + std::to_string(std::random_device{}() % 1000000));
+  struct RemoveFolder {
+    fs::path path;
+    ~RemoveFolder() {
+      std::error_code ignored;
+      fs::remove_all(path, ignored);
+    }
+  } cleanup{folder};
+  const auto summary = sim::writeSimulation(config, folder, /*overwrite=*/false);
+  const auto scans = sequenceScanSource(Sequence::open(folder));
+  const McapExportSummary written = writeScansAsMcap(*scans, bag);
+  std::cout << fmt::format("wrote {}: {} frames ({} PointCloud2 on /velodyne_points, {} Odometry on /odom, {} "
+                           "PoseStamped on /ground_truth), {:.1f} m route\n",
+                           bag.string(), written.scans, written.scans, written.odometry, written.ground_truth,
+                           summary.route_length);
+}
+
+
+/// The --cameras family of options into the simulator config.
+void applyCameraOptions(const SimulateOptions& o, sim::CameraSimConfig& cameras) {
+  if (o.cameras.empty()) {
+    if (!o.calibration_error.empty() || o.time_offset != 0.0 || o.camera_blur || !o.camera_size.empty())
+      fail("simulate", "--calibration-error, --time-offset, --camera-blur and --camera-size need --cameras");
+    return;
+  }
+  cameras.cameras = sim::CameraSimConfig::parseList(o.cameras);
+  if (!o.calibration_error.empty()) cameras.parseCalibrationError(o.calibration_error);
+  cameras.time_offset = o.time_offset;
+  for (auto& c : cameras.cameras) {
+    c.blur = o.camera_blur;
+    if (!o.camera_size.empty()) {
+      int w = 0, h = 0;
+      char x = 0;
+      std::istringstream in(o.camera_size);
+      if (!(in >> w >> x >> h) || x != 'x' || !in.eof()) fail("--camera-size", "expected WIDTHxHEIGHT, e.g. 640x512");
+      c.width = w;
+      c.height = h;
+    }
+  }
+}
 
 void setupSimulate(CLI::App& app) {
   auto opt = std::make_shared<SimulateOptions>();
@@ -76,8 +137,20 @@ void setupSimulate(CLI::App& app) {
   app.add_flag("--overwrite", opt->overwrite, "Replace --out if it exists and is not empty");
   auto* temperature = app.add_flag("--temperature", opt->temperature,
                                    "Also write the temperature channel (temperature/*.bin)");
+  app.add_option("--format", opt->format,
+                 "folder: a sequence folder; mcap: a ROS 2 MCAP bag (PointCloud2 with a class field, "
+                 "Odometry, PoseStamped ground truth on /ground_truth) at --out")
+      ->check(CLI::IsMember({"folder", "mcap"}));
   app.add_flag("--png", opt->png,
                "Also render reference_map.png and odometry_map.png (top-down, classes coloured)");
+  app.add_option("--cameras", opt->cameras,
+                 "Also render property cameras (comma list of thermal, nir, gamma): "
+                 "cameras/<name>/NNNNNN.png, times.txt, camera.yaml");
+  app.add_option("--calibration-error", opt->calibration_error,
+                 "Perturb the written camera calibration, e.g. 1deg,2cm (random axis and direction)");
+  app.add_option("--time-offset", opt->time_offset, "Error (s) of the time_offset written to camera.yaml");
+  app.add_flag("--camera-blur", opt->camera_blur, "Blur camera images by about one pixel");
+  app.add_option("--camera-size", opt->camera_size, "Camera resolution WIDTHxHEIGHT (default 640x512, 50 deg HFOV)");
   app.callback([opt, scenario, seed, frames, scene, regions, temperature]() {
     sim::SimulatorConfig config;
     if (!opt->config.empty()) config = sim::SimulatorConfig::fromYamlFile(opt->config);
@@ -87,6 +160,13 @@ void setupSimulate(CLI::App& app) {
     if (scene->count()) config.scene_file = opt->scene;
     if (regions->count()) config.regions_file = opt->regions;
     if (temperature->count()) config.temperature.enabled = opt->temperature;
+    applyCameraOptions(*opt, config.cameras);
+    if (opt->format == "mcap") {
+      if (opt->png) fail("--png", "renders a sequence folder; not with --format mcap");
+      if (!opt->cameras.empty()) fail("--cameras", "writes camera images into a sequence folder; not with --format mcap");
+      writeSimulationAsMcap(config, opt->out, opt->overwrite);
+      return;
+    }
     const auto summary = sim::writeSimulation(config, opt->out, opt->overwrite);
     const double fps = summary.scan_seconds > 0.0 ? summary.frames / summary.scan_seconds : 0.0;
     std::cout << fmt::format(
@@ -100,6 +180,8 @@ void setupSimulate(CLI::App& app) {
         summary.drift.max_position_error, summary.drift.final_position_error,
         summary.drift.max_frame_translation_error, summary.drift.max_frame_rotation_error_deg,
         summary.drift.slips);
+    if (!config.cameras.empty())
+      std::cout << fmt::format("  cameras ({}): {:.2f} s\n", opt->cameras, summary.camera_seconds);
     if (opt->png) {
       // Clip 0.5 m below the lowest ceiling of the built-in scenes (3 m) to see inside.
       renderPngs(opt->out, config.reference_voxel, config.scene_file.empty() ? 2.5 : 1e9);

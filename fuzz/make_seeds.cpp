@@ -2,6 +2,7 @@
 // (with its SemanticKITTI labels) and of the real PCD scan written in every format hazmap
 // reads, the first poses of the real KITTI 00 ground truth as KITTI and TUM, the shipped class
 // tables. Usage: hazmap_fuzz_seeds SHARED_DATA_DIR SOURCE_DIR OUT_DIR
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -15,6 +16,37 @@
 namespace fs = std::filesystem;
 using namespace hazmap;
 
+namespace {
+
+/// Velodyne seeds in fuzz_velodyne's framing: the real VLP-16 capture's first UDP payloads
+/// (classic pcap, Ethernet + IPv4 + UDP = 42 header bytes), as detected and as a forced model,
+/// and a calibration YAML.
+void velodyneSeeds(const fs::path& pcap, const fs::path& out) {
+  fs::create_directories(out);
+  const std::string file = readTextFile(pcap);
+  std::string packets;
+  int n = 0;
+  for (std::size_t at = 24; at + 16 <= file.size() && n < 12; ++n) {
+    std::uint32_t caplen;
+    std::memcpy(&caplen, file.data() + at + 8, 4);
+    const std::string frame = file.substr(at + 16, caplen);
+    at += 16 + caplen;
+    if (frame.size() < 42) continue;
+    const std::string payload = frame.substr(42);
+    packets += std::string(1, payload.size() == 1206 ? '\x00' : '\x01') + payload;
+  }
+  writeTextAtomically(out / "vlp16_detected", std::string("\x00\x00\x00", 3) + packets);
+  writeTextAtomically(out / "vlp16_forced_cut90", std::string("\x01\x3c\x00", 3) + packets);
+  writeTextAtomically(out / "vlp16_exact_fov", std::string("\x18\x00\x78", 3) + packets);
+  std::string yaml = "\x80num_lasers: 16\ndistance_resolution: 0.002\nlasers:\n";
+  for (int i = 0; i < 16; ++i)
+    yaml += "  - {laser_id: " + std::to_string(i) + ", rot_correction: 0.0, vert_correction: " +
+            std::to_string((i % 2 ? 1 : -1) * 0.01 * i) + ", dist_correction: 0.01}\n";
+  writeTextAtomically(out / "calibration.yaml", yaml);
+}
+
+}  // namespace
+
 int main(int argc, char** argv) {
   if (argc != 4) {
     std::cerr << "usage: hazmap_fuzz_seeds SHARED_DATA_DIR SOURCE_DIR OUT_DIR\n";
@@ -22,7 +54,8 @@ int main(int argc, char** argv) {
   }
   const fs::path data = argv[1], source = argv[2], out = argv[3];
   try {
-    for (const char* d : {"pcd", "ply", "kitti", "trajectory", "class_table"}) fs::create_directories(out / d);
+    for (const char* d : {"pcd", "ply", "kitti", "trajectory", "class_table", "hazards_json"})
+      fs::create_directories(out / d);
     const auto scan = readKittiScan(data / "kitti-semantic-sample/velodyne/000000.bin",
                                     data / "kitti-semantic-sample/labels/000000.label", ClassTable::defaults());
     const auto pair = readPcd(data / "scan-pair/251370668.pcd");
@@ -86,8 +119,19 @@ int main(int argc, char** argv) {
       writeTextAtomically(out / "trajectory/real.txt", real.substr(0, at));
     }
 
+    velodyneSeeds(data / "sensors/velodyne-vlp16-pcap/velodyne_vlp16.pcap", out / "velodyne");
+
     for (const auto& e : fs::directory_iterator(source / "config/classes"))
       fs::copy_file(e.path(), out / "class_table" / e.path().filename(), fs::copy_options::overwrite_existing);
+    // hazards.json as `hazmap run` writes it (two hazards of the demo's map).
+    writeTextAtomically(out / "hazards_json/hazards.json", R"({"count": 2, "voxel_size": 0.1, "hazards": [
+ {"id": 1, "class": "heat", "class_id": 1, "kind": "heat", "centroid": [12.59, 1.39, 0.21],
+  "min": [11.9, 1.2, -0.4], "max": [13.3, 1.6, 0.8], "extent": [1.4, 0.4, 1.2], "area_m2": 0.49,
+  "cells": 97, "points": 1203, "mean_property": null, "frame_count": 31, "frames": [[0, 12], [140, 162]]},
+ {"id": 2, "class": "water", "class_id": 2, "kind": "water", "centroid": [17.5, -0.2, -0.4],
+  "min": [16.4, -1.0, -0.5], "max": [18.5, 0.6, -0.3], "extent": [2.1, 1.6, 0.2], "area_m2": 2.48,
+  "cells": 250, "points": 4100, "mean_property": 1.0, "frame_count": 20, "frames": [[20, 39]]}]}
+)");
   } catch (const std::exception& e) {
     std::cerr << "hazmap_fuzz_seeds: " << e.what() << "\n";
     return 1;

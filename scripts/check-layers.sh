@@ -6,7 +6,7 @@
 #             <  map < eval < pipeline < demo
 #
 # A stage may include itself and any stage to its left. core and io are below everything (core
-# includes only core). sim stands beside the flow: it may use core, io and preprocess, and only
+# includes only core). sim stands beside the flow: it may use core, io, sources, properties and preprocess, and only
 # demo (and apps/, tests/, bench/, which are not checked) may use it. Also rejects includes that
 # climb out of a stage's folder ("../").
 #
@@ -19,7 +19,7 @@ declare -A rank=(
   [loop]=7 [graph]=8 [map]=9 [eval]=10 [pipeline]=11 [demo]=12
 )
 # sim: beside the flow. What it may use, and who may use it.
-sim_uses="core io preprocess"
+sim_uses="core io sources properties preprocess"
 sim_users="demo sim"
 
 allowed() {  # allowed <from> <to>

@@ -9,6 +9,9 @@ packages=(
   libcli11-dev libyaml-cpp-dev libfmt-dev libspdlog-dev libstb-dev libembree-dev
   nlohmann-json3-dev libgtest-dev libgmock-dev libbenchmark-dev robin-map-dev
   pcl-tools clang libclang-rt-14-dev
+  libsqlite3-dev libzstd-dev liblz4-dev libbz2-dev zlib1g-dev
+  libpcap-dev
+  libcairo2-dev fonts-dejavu-core libjs-three chromium
 )
 if [[ "${1:-}" == "--peers" ]]; then
   packages+=(libpcl-dev libopen3d-dev)

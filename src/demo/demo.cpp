@@ -9,6 +9,7 @@
 #include "hazmap/core/error.hpp"
 #include "hazmap/io/atomic_file.hpp"
 #include "hazmap/map/image.hpp"
+#include "hazmap/demo/demo_index.hpp"
 #include "hazmap/pipeline/progress.hpp"
 #include "hazmap/pipeline/run_outputs.hpp"
 #include "hazmap/sim/simulator.hpp"
@@ -57,17 +58,23 @@ std::string formatTable2(const DemoReport& report) {
     }
     s += "\n";
   }
+  for (const DemoRow& r : report.camera_rows)
+    s += fmt::format("{:<44} {:>9}   {:>9.3f} {:>8.3f} {:>8.3f} {:>9} {:>6}\n",
+                     r.method == SlamMethod::PropertyIcp ? "Proposed ICP, camera labels" : "Proposed ICP + PGO, camera labels", "", r.map_error_m, r.map_error_p95_m,
+                     r.ate_m, rate(r), r.loops);
   return s;
 }
 
 namespace {
 
-// 1. The simulated sequence: the paper's experiment with its fixed noise defaults.
+// 1. The simulated sequence: the paper's experiment with its fixed noise defaults (and the
+//    thermal camera when camera labels are asked for).
 sim::SimulationSummary simulate(const DemoConfig& config, const std::filesystem::path& seq_dir, std::ostream& out) {
   sim::SimulatorConfig sim_config;
   sim_config.scenario = config.scenario;
   sim_config.seed = config.seed;
   sim_config.max_frames = config.frames;
+  if (config.camera_labels) sim_config.cameras.cameras = {sim::SimCameraConfig::forName("thermal")};
   out << "Simulating '" << config.scenario << "' (seed " << config.seed << ") into " << seq_dir.string()
       << " ..." << std::endl;
   const sim::SimulationSummary sim = sim::writeSimulation(sim_config, seq_dir, /*overwrite=*/true);
@@ -86,6 +93,7 @@ TopDownConfig topDownView(const Sequence& sequence) {
     top.clip_above = z / static_cast<double>(poses->poses.size()) + 1.5;  // drop the ceiling
   }
   top.draw_hazard_labels = false;
+  top.cell_size = OutputConfig{}.map.voxel_size;  // cells fill their footprint: no speckle
   return top;
 }
 
@@ -109,7 +117,8 @@ DemoRow rowOf(SlamMethod method, OdometryMode mode, const RunSummary& summary, c
   return row;
 }
 
-// 2. Every method with one tracking mode: its run outputs, its row, then the side-by-side PNG.
+// 2. Every method with one tracking mode: its run outputs and row, then the side-by-side PNG
+//    and the trajectory-error plot.
 std::vector<DemoRow> runMethods(const DemoConfig& config, const Sequence& sequence, const TopDownConfig& top,
                                 const DemoPass& pass, std::ostream& out) {
   const std::string tag = pass.mode == OdometryMode::FrameToFrame ? "frame" : "map";
@@ -138,10 +147,13 @@ std::vector<DemoRow> runMethods(const DemoConfig& config, const Sequence& sequen
   MontageConfig montage;
   montage.title = pass.title;
   writePng(config.out_dir / pass.png, renderMapMontage(panels, sequence.classTable(), top, montage));
+  if (sequence.groundTruth())
+    writeMethodErrorPlot(config.out_dir / (tag == "map" ? "trajectory_error_frame_to_map.png" : "trajectory_error.png"),
+                         *sequence.groundTruth(), results, "Trajectory error vs distance travelled (" + tag + " tracking)");
   return rows;
 }
 
-// 3. table2.json: per method, the paper's set-up and (when run) frame to map.
+// 3. table2.json: per method, the paper's set-up, frame to map and camera labels (when run).
 void writeTable2Json(const DemoReport& report, const std::filesystem::path& path) {
   nlohmann::json table = nlohmann::json::object();
   for (const DemoRow& r : report.rows) table[toString(r.method)] = rowJson(r);
@@ -149,6 +161,13 @@ void writeTable2Json(const DemoReport& report, const std::filesystem::path& path
     nlohmann::json f2m = nlohmann::json::object();
     for (const DemoRow& r : report.map_rows) f2m[toString(r.method)] = rowJson(r);
     table["frame_to_map"] = f2m;
+  }
+  if (!report.camera_rows.empty()) {
+    nlohmann::json cam = nlohmann::json::object();
+    for (const DemoRow& r : report.camera_rows) cam[toString(r.method)] = rowJson(r);
+    cam["heat_precision"] = report.camera_heat_precision;
+    cam["heat_recall"] = report.camera_heat_recall;
+    table["camera_labels"] = cam;
   }
   writeTextAtomically(path, table.dump(2) + "\n");
 }
@@ -175,6 +194,7 @@ DemoReport runDemo(const DemoConfig& config, std::ostream& out) {
                            {OdometryMode::FrameToFrame, config.out_dir, "maps_side_by_side.png",
                             "hazmap demo: Table 2's five methods, the paper's set-up (heat red, water blue)"},
                            out);
+  if (config.camera_labels) runCameraLabelRows(config, seq_dir, report, out);
   if (config.frame_to_map)
     report.map_rows = runMethods(config, sequence, top,
                                  {OdometryMode::FrameToMap, config.out_dir / "frame-to-map",
@@ -182,9 +202,10 @@ DemoReport runDemo(const DemoConfig& config, std::ostream& out) {
                                   "hazmap demo: the five methods with frame-to-map tracking (heat red, water blue)"},
                                  out);
   writeTable2Json(report, config.out_dir / "table2.json");
+  writeDemoIndex(config.out_dir, report, config.frame_to_map);
   report.total_seconds = std::chrono::duration<double>(Clock::now() - t0).count();
   out << "\n" << formatTable2(report);
-  out << fmt::format("\nWrote {} (sequence/, one folder per method{}, maps_side_by_side*.png, table2.json) in {:.1f} s\n",
+  out << fmt::format("\nWrote {} (sequence/, index.html, one folder per method with viewer.html{}, maps_side_by_side*.png, trajectory_error*.png, table2.json) in {:.1f} s\n",
                      config.out_dir.string(), config.frame_to_map ? ", frame-to-map/" : "", report.total_seconds);
   return report;
 }

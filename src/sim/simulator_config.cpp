@@ -185,6 +185,7 @@ void SimulatorConfig::validate(const std::string& where) const {
   requireNonNegative(odometry.slip_max, where, "odometry.slip_max");
   if (odometry.slip_min > odometry.slip_max) fail(where, "odometry.slip_min must be <= odometry.slip_max");
   requirePositive(reference_voxel, where, "reference_voxel");
+  cameras.validate(where);
 }
 
 std::string SimulatorConfig::toYamlString() const {

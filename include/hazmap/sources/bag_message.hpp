@@ -13,12 +13,15 @@
 namespace hazmap {
 
 /// How a message's bytes are serialized: ROS 2 CDR (with its 4-byte encapsulation header) or
-/// ROS 1's little-endian, unaligned serialization.
-enum class Serialization { Cdr, Ros1 };
+/// ROS 1's little-endian, unaligned serialization. Other (an MCAP channel in json, protobuf,
+/// …): listed by topics(), never decodable by ros_messages.hpp.
+enum class Serialization { Cdr, Ros1, Other };
 
 struct TopicInfo {
   std::string name;                   ///< e.g. "/velodyne_points"
-  std::string type;                   ///< ROS 2 spelling, e.g. "sensor_msgs/msg/PointCloud2"
+  /// Always the ROS 2 spelling, e.g. "sensor_msgs/msg/PointCloud2", also for ROS 1 bags (whose
+  /// "sensor_msgs/PointCloud2" is respelled), so one comparison serves every container.
+  std::string type;
   Serialization serialization = Serialization::Cdr;
   std::uint64_t message_count = 0;    ///< 0 when the container does not say and was not scanned
   std::string definition;             ///< message definition text when the container has one
@@ -31,10 +34,11 @@ struct BagMessage {
   std::span<const std::uint8_t> data;
 };
 
-/// What a reader could not read (a recorder killed mid-write, a corrupt chunk).
+/// What a reader could not read (a recorder killed mid-write, a corrupt chunk). Filled while
+/// reading: complete once next() has returned false. Nothing in here was ever yielded.
 struct BagLoss {
-  std::uint64_t bytes_unread = 0;     ///< bytes after the last complete record
-  std::uint64_t chunks_skipped = 0;   ///< corrupt chunks (CRC mismatch, bad compression)
+  std::uint64_t bytes_unread = 0;     ///< bytes after the last complete record (truncated file)
+  std::uint64_t chunks_skipped = 0;   ///< corrupt chunks (CRC mismatch, bad compression, …), skipped whole
   std::vector<std::string> notices;   ///< one line each, naming the file and the offset
 };
 
