@@ -4,7 +4,7 @@
 
 #include "command.hpp"
 #include "config_options.hpp"
-#include "hazmap/pipeline/demo.hpp"
+#include "hazmap/demo/demo.hpp"
 
 namespace hazmap::cli {
 namespace {

@@ -6,7 +6,7 @@
 #include "command.hpp"
 #include "hazmap/core/error.hpp"
 #include "hazmap/graph/optimizer.hpp"
-#include "hazmap/io/g2o.hpp"
+#include "hazmap/graph/g2o.hpp"
 
 namespace hazmap::cli {
 namespace {

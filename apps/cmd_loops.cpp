@@ -52,7 +52,7 @@ void countDetection(const LoopDetection& det, const PoseList& truth, std::size_t
       as_loop.T_from_to = c.initial_guess;
       true_candidates += isTrueLoop(as_loop, truth, 1.0, 0.1);
     }
-  for (const auto& v : det.verifications) verified += v.accepted || v.reason.rfind("drift gate", 0) == 0;
+  for (const auto& v : det.verifications) verified += v.accepted || v.rejection == LoopRejection::DriftGate;
   for (const auto& g : det.gates) gated += !g.accepted;
 }
 

@@ -23,7 +23,7 @@
 #include <string>
 
 #include "hazmap/graph/optimizer.hpp"
-#include "hazmap/io/g2o.hpp"
+#include "hazmap/graph/g2o.hpp"
 
 #ifdef HAZMAP_BENCH_HAVE_OPEN3D
 #include <open3d/pipelines/registration/GlobalOptimization.h>

@@ -7,7 +7,7 @@ packages=(
   build-essential cmake pkg-config
   libeigen3-dev libtbb-dev libceres-dev libsuitesparse-dev libnanoflann-dev
   libcli11-dev libyaml-cpp-dev libfmt-dev libspdlog-dev libstb-dev libembree-dev
-  nlohmann-json3-dev libgtest-dev libgmock-dev libbenchmark-dev
+  nlohmann-json3-dev libgtest-dev libgmock-dev libbenchmark-dev robin-map-dev
   pcl-tools clang libclang-rt-14-dev
   libsqlite3-dev libzstd-dev liblz4-dev libbz2-dev zlib1g-dev
   libpcap-dev

@@ -14,7 +14,7 @@
 #include "hazmap/graph/chordal_init.hpp"
 #include "hazmap/graph/costs.hpp"
 #include "hazmap/graph/optimizer.hpp"
-#include "hazmap/io/g2o.hpp"
+#include "hazmap/graph/g2o.hpp"
 #include "test_helpers.hpp"
 
 namespace hazmap {

@@ -10,7 +10,7 @@
 #include <sstream>
 
 #include "hazmap/graph/optimizer.hpp"
-#include "hazmap/io/g2o.hpp"
+#include "hazmap/graph/g2o.hpp"
 #include "test_helpers.hpp"
 
 namespace hazmap {

@@ -10,7 +10,7 @@
 #include "hazmap/core/error.hpp"
 #include "hazmap/io/atomic_file.hpp"
 #include "hazmap/io/trajectory.hpp"
-#include "hazmap/pipeline/demo.hpp"
+#include "hazmap/demo/demo.hpp"
 #include "hazmap/pipeline/run_outputs.hpp"
 #include "hazmap/pipeline/slam.hpp"
 #include "hazmap/sim/simulator.hpp"

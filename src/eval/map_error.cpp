@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "hazmap/core/error.hpp"
+#include "hazmap/core/voxel_key.hpp"
 #include "hazmap/core/se3.hpp"
 #include "map/voxel_hash.hpp"
 
@@ -22,10 +23,10 @@ class CentroidGrid {
   explicit CentroidGrid(double voxel) : inv_(1.0 / voxel) {}
   void add(const Eigen::Vector3d& p) {
     const Eigen::Vector3d q = (p * inv_).array().floor();
-    constexpr double kLimit = double(1 << 20);
-    if ((q.array().abs() >= kLimit).any()) return;  // beyond ±1M voxels: ignore
-    const auto pack = [](double v) { return static_cast<std::uint64_t>(static_cast<std::int64_t>(v) + (1 << 20)); };
-    const std::uint64_t key = pack(q.x()) | (pack(q.y()) << 21) | (pack(q.z()) << 42);
+    if ((q.array().abs() >= double(kVoxelKeyBias)).any()) return;  // beyond ±2^20 voxels: ignore
+    // Keyed (z, y, x): the centroids are listed in key order, z-major.
+    std::uint64_t key = 0;
+    voxelKey(static_cast<std::int64_t>(q.z()), static_cast<std::int64_t>(q.y()), static_cast<std::int64_t>(q.x()), key);
     auto& cell = cells_[key];
     cell.sum += p;
     ++cell.count;

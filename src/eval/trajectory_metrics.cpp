@@ -1,5 +1,6 @@
 #include "hazmap/eval/trajectory_metrics.hpp"
 
+#include <Eigen/Geometry>
 #include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
@@ -109,42 +110,32 @@ ErrorStats summarize(const std::vector<double>& errors, const std::string& where
   return s;
 }
 
+// Eigen::umeyama does the alignment; the checks here catch the inputs it would not report.
 SimilarityTransform umeyamaAlignment(const std::vector<Eigen::Vector3d>& source,
                                      const std::vector<Eigen::Vector3d>& target, bool with_scale) {
   if (source.size() != target.size())
     fail("umeyama alignment", "point counts differ (" + std::to_string(source.size()) + " vs " +
                                   std::to_string(target.size()) + ")");
   if (source.size() < 3) fail("umeyama alignment", "needs at least 3 positions");
-  const double n = static_cast<double>(source.size());
-  Eigen::Vector3d mean_x = Eigen::Vector3d::Zero(), mean_y = Eigen::Vector3d::Zero();
-  for (std::size_t i = 0; i < source.size(); ++i) {
-    mean_x += source[i];
-    mean_y += target[i];
+  const auto n = static_cast<Eigen::Index>(source.size());
+  Eigen::Matrix3Xd x(3, n), y(3, n);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    x.col(i) = source[static_cast<std::size_t>(i)];
+    y.col(i) = target[static_cast<std::size_t>(i)];
   }
-  mean_x /= n;
-  mean_y /= n;
-  double sigma_x = 0;
-  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
-  for (std::size_t i = 0; i < source.size(); ++i) {
-    const Eigen::Vector3d dx = source[i] - mean_x;
-    sigma_x += dx.squaredNorm();
-    cov += (target[i] - mean_y) * dx.transpose();
-  }
-  sigma_x /= n;
-  cov /= n;
-  if (!(sigma_x > 0)) fail("umeyama alignment", "all estimate positions are equal");
-  Eigen::JacobiSVD<Eigen::Matrix3d> svd(cov, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  const Eigen::Vector3d d = svd.singularValues();
+  const Eigen::Matrix3Xd dx = x.colwise() - x.rowwise().mean();
+  if (!(dx.squaredNorm() > 0)) fail("umeyama alignment", "all estimate positions are equal");
   // Umeyama needs rank >= m - 1 (a straight line has no defined rotation about itself).
+  const Eigen::Matrix3d cov = (y.colwise() - y.rowwise().mean()) * dx.transpose() / static_cast<double>(n);
+  const Eigen::Vector3d d = Eigen::JacobiSVD<Eigen::Matrix3d>(cov).singularValues();
   const int rank = static_cast<int>((d.array() > std::numeric_limits<double>::epsilon()).count());
   if (rank < 2)
     fail("umeyama alignment", "degenerate positions (collinear or identical): cannot align");
-  Eigen::Matrix3d S = Eigen::Matrix3d::Identity();
-  if (svd.matrixU().determinant() * svd.matrixV().determinant() < 0) S(2, 2) = -1;
+  const Eigen::Matrix4d M = Eigen::umeyama(x, y, with_scale);  // [c R, t]
   SimilarityTransform T;
-  T.rotation = svd.matrixU() * S * svd.matrixV().transpose();
-  T.scale = with_scale ? (d.asDiagonal() * S).trace() / sigma_x : 1.0;
-  T.translation = mean_y - T.scale * T.rotation * mean_x;
+  T.scale = with_scale ? M.topLeftCorner<3, 3>().col(0).norm() : 1.0;
+  T.rotation = M.topLeftCorner<3, 3>() / T.scale;
+  T.translation = M.topRightCorner<3, 1>();
   return T;
 }
 

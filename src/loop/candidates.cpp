@@ -164,17 +164,15 @@ double triangleHeight(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const 
 
 }  // namespace
 
-std::optional<ConstellationMatch> matchConstellations(const std::vector<PropertyLandmark>& q,
-                                                      const std::vector<PropertyLandmark>& m,
-                                                      const ConstellationConfig& c) {
-  if (q.size() < c.min_inliers || m.size() < c.min_inliers) return std::nullopt;
-  std::vector<Corr> corrs;
-  for (std::size_t i = 0; i < q.size(); ++i)
-    for (std::size_t j = 0; j < m.size(); ++j)
-      if (compatible(q[i], m[j], c)) corrs.emplace_back(i, j);
-  if (corrs.size() < c.min_inliers) return std::nullopt;
+namespace {
 
-  // Pairwise consistency: distances between landmarks are invariant to the unknown pose.
+// Minimal samples of correspondences: pairs (planar) or triples (3-D) whose landmarks are
+// consistent (distances between landmarks are invariant to the unknown pose) and well spread;
+// at most max_hypotheses, drawn at random from the first 8× as many.
+std::vector<std::array<std::size_t, 3>> minimalSamples(const std::vector<Corr>& corrs,
+                                                        const std::vector<PropertyLandmark>& q,
+                                                        const std::vector<PropertyLandmark>& m,
+                                                        const ConstellationConfig& c) {
   auto consistent = [&](const Corr& a, const Corr& b) {
     if (a.first == b.first || a.second == b.second) return false;
     const double dq = (q[a.first].centroid - q[b.first].centroid).norm();
@@ -186,8 +184,6 @@ std::optional<ConstellationMatch> matchConstellations(const std::vector<Property
     const double len = c.model == ConstellationModel::Planar ? d.head<2>().norm() : d.norm();
     return len >= c.min_pair_distance;
   };
-
-  // Minimal samples: pairs (planar) or triples (3-D).
   std::vector<std::array<std::size_t, 3>> samples;
   const std::size_t cap = c.max_hypotheses * 8;  // bound enumeration before sampling
   for (std::size_t a = 0; a < corrs.size() && samples.size() < cap; ++a)
@@ -205,13 +201,46 @@ std::optional<ConstellationMatch> matchConstellations(const std::vector<Property
         samples.push_back({a, b, d});
       }
     }
-  if (samples.empty()) return std::nullopt;
   if (samples.size() > c.max_hypotheses) {
     std::mt19937_64 rng(c.seed);
     std::shuffle(samples.begin(), samples.end(), rng);
     samples.resize(c.max_hypotheses);
   }
+  return samples;
+}
 
+// Ambiguity: another hypothesis explaining as many landmarks with a clearly different pose
+// (e.g. a symmetric arrangement of same-class sources).
+bool ambiguous(const std::vector<Scored>& hypotheses, const Scored& best, const std::vector<PropertyLandmark>& q,
+               const ConstellationConfig& c) {
+  Eigen::Vector3d q_mean = Eigen::Vector3d::Zero();
+  for (const auto& lm : q) q_mean += lm.centroid;
+  q_mean /= static_cast<double>(q.size());
+  for (const auto& h : hypotheses) {
+    if (h.inliers.size() < best.inliers.size() || h.value < best.value) continue;
+    const double dt = (h.T * q_mean - best.T * q_mean).norm();
+    const double dr = rotationAngle(h.T.inverse() * best.T);
+    if (dt > 2.0 * c.inlier_distance || dr > 0.5) return true;
+  }
+  return false;
+}
+
+}  // namespace
+
+// RANSAC over landmark correspondences: compatible pairs, minimal samples, a transform fitted
+// and scored per sample, the best refined, then checked for overlap and ambiguity.
+std::optional<ConstellationMatch> matchConstellations(const std::vector<PropertyLandmark>& q,
+                                                      const std::vector<PropertyLandmark>& m,
+                                                      const ConstellationConfig& c) {
+  if (q.size() < c.min_inliers || m.size() < c.min_inliers) return std::nullopt;
+  std::vector<Corr> corrs;
+  for (std::size_t i = 0; i < q.size(); ++i)
+    for (std::size_t j = 0; j < m.size(); ++j)
+      if (compatible(q[i], m[j], c)) corrs.emplace_back(i, j);
+  if (corrs.size() < c.min_inliers) return std::nullopt;
+
+  const std::vector<std::array<std::size_t, 3>> samples = minimalSamples(corrs, q, m, c);
+  if (samples.empty()) return std::nullopt;
   std::vector<Scored> hypotheses;
   hypotheses.reserve(samples.size());
   for (const auto& s : samples) {
@@ -237,20 +266,7 @@ std::optional<ConstellationMatch> matchConstellations(const std::vector<Property
   out.overlap = 2.0 * static_cast<double>(result.inliers.size()) /
                 static_cast<double>(2 * result.inliers.size() + result.misses);
   if (out.overlap < c.min_overlap) return std::nullopt;
-  // Ambiguity: another hypothesis explaining as many landmarks with a clearly different pose
-  // (e.g. a symmetric arrangement of same-class sources).
-  Eigen::Vector3d q_mean = Eigen::Vector3d::Zero();
-  for (const auto& lm : q) q_mean += lm.centroid;
-  q_mean /= static_cast<double>(q.size());
-  for (const auto& h : hypotheses) {
-    if (h.inliers.size() < result.inliers.size() || h.value < result.value) continue;
-    const double dt = (h.T * q_mean - result.T * q_mean).norm();
-    const double dr = rotationAngle(h.T.inverse() * result.T);
-    if (dt > 2.0 * c.inlier_distance || dr > 0.5) {
-      out.ambiguous = true;
-      break;
-    }
-  }
+  out.ambiguous = ambiguous(hypotheses, result, q, c);
   return out;
 }
 

@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <limits>
 #include <numeric>
+#include <optional>
 #include <unordered_map>
 
 #include "hazmap/core/error.hpp"
@@ -84,20 +85,19 @@ PropertyLandmark describe(const LabeledCloud& cloud, const std::vector<std::size
 
 }  // namespace
 
-std::vector<PropertyLandmark> extractLandmarks(const LabeledCloud& cloud, const ClassTable& table,
-                                               const LandmarkConfig& config) {
-  validate(config);
-  if (cloud.classes.size() != cloud.size()) fail("extractLandmarks", "cloud has no per-point classes");
-  const double tol = config.cluster_tolerance;
-  const double tol2 = tol * tol;
-  const double max_range2 = config.max_range > 0 ? config.max_range * config.max_range : 0.0;
+namespace {
 
-  // Labelled points only (they are a few percent of a scan, so this stays small).
+using CellGrid = std::unordered_map<CellKey, std::vector<std::uint32_t>, CellHash>;
+
+// The labelled points (a few percent of a scan, so what follows stays small): finite, of a
+// property class, within max_range.
+std::vector<std::size_t> labelledPoints(const LabeledCloud& cloud, const ClassTable& table, double max_range) {
   std::vector<char> is_property;  // class id → property? (a table lookup per point is slow)
   for (ClassId id : table.ids()) {
     if (id >= is_property.size()) is_property.resize(static_cast<std::size_t>(id) + 1, 0);
     is_property[id] = table.isProperty(id);
   }
+  const double max_range2 = max_range > 0 ? max_range * max_range : 0.0;
   std::vector<std::size_t> idx;
   for (std::size_t i = 0; i < cloud.size(); ++i) {
     const ClassId c = cloud.classes[i];
@@ -107,31 +107,40 @@ std::vector<PropertyLandmark> extractLandmarks(const LabeledCloud& cloud, const 
     if (max_range2 > 0 && p.cast<double>().squaredNorm() > max_range2) continue;
     idx.push_back(i);
   }
-  if (idx.empty()) return {};
+  return idx;
+}
 
-  // Hash grid with cell edge tol/√3: the cell diagonal is tol, so all points of one cell are
-  // connected outright, and every neighbour within tol lies within ±2 cells. Cell pairs whose
-  // points are already connected are skipped, which keeps dense patches cheap.
-  const double cell = tol / std::sqrt(3.0);
-  auto keyOf = [&](std::size_t i) {
+// The hash grid's cell of a point, per class (cell edge tol/√3, see extractLandmarks).
+struct CellOf {
+  const LabeledCloud& cloud;
+  double cell;
+  CellKey operator()(std::size_t i) const {
     const Eigen::Vector3f& p = cloud.points[i];
     return CellKey{static_cast<std::int32_t>(std::floor(p.x() / cell)),
                    static_cast<std::int32_t>(std::floor(p.y() / cell)),
                    static_cast<std::int32_t>(std::floor(p.z() / cell)), cloud.classes[i]};
-  };
-  std::unordered_map<CellKey, std::vector<std::uint32_t>, CellHash> grid;
-  std::vector<CellKey> order;  // cells in first-seen order (deterministic)
-  grid.reserve(idx.size());
-  for (std::uint32_t k = 0; k < idx.size(); ++k) {
-    const CellKey key = keyOf(idx[k]);
-    auto [it, inserted] = grid.try_emplace(key);
-    if (inserted) order.push_back(key);
-    it->second.push_back(k);
   }
+};
 
+// Euclidean clustering of the labelled points idx[k] on the grid: all points of one cell are
+// connected outright (the cell diagonal is tol), and every neighbour within tol lies within ±2
+// cells. Cell pairs whose points are already connected are skipped, which keeps dense patches
+// cheap.
+DisjointSets connectWithin(const LabeledCloud& cloud, const std::vector<std::size_t>& idx, const CellGrid& grid,
+                           const std::vector<CellKey>& order, double tol2) {
   DisjointSets sets(idx.size());
   for (const auto& [key, members] : grid)
     for (std::size_t m = 1; m < members.size(); ++m) sets.unite(members[0], members[m]);
+  const auto joinCells = [&](const std::vector<std::uint32_t>& a, const std::vector<std::uint32_t>& b) {
+    for (std::size_t s = 0; s < a.size(); ++s) {
+      const Eigen::Vector3f& p = cloud.points[idx[a[s]]];
+      for (std::size_t t = 0; t < b.size(); ++t)
+        if ((cloud.points[idx[b[t]]] - p).cast<double>().squaredNorm() <= tol2) {
+          sets.unite(a[s], b[t]);
+          return;
+        }
+    }
+  };
   for (const CellKey& key : order) {
     const auto& a = grid.find(key)->second;
     for (int dx = -2; dx <= 2; ++dx)
@@ -139,24 +148,16 @@ std::vector<PropertyLandmark> extractLandmarks(const LabeledCloud& cloud, const 
         for (int dz = -2; dz <= 2; ++dz) {
           if (dx == 0 && dy == 0 && dz == 0) continue;
           auto it = grid.find(CellKey{key.x + dx, key.y + dy, key.z + dz, key.c});
-          if (it == grid.end()) continue;
-          const auto& b = it->second;
-          if (sets.find(a[0]) == sets.find(b[0])) continue;
-          bool joined = false;
-          for (std::size_t s = 0; s < a.size() && !joined; ++s) {
-            const Eigen::Vector3f& p = cloud.points[idx[a[s]]];
-            for (std::size_t t = 0; t < b.size(); ++t)
-              if ((cloud.points[idx[b[t]]] - p).cast<double>().squaredNorm() <= tol2) {
-                sets.unite(a[s], b[t]);
-                joined = true;
-                break;
-              }
-          }
+          if (it == grid.end() || sets.find(a[0]) == sets.find(it->second[0])) continue;
+          joinCells(a, it->second);
         }
   }
+  return sets;
+}
 
-  // Group by root; roots are the smallest member, so iterating k in order yields clusters
-  // ordered by their lowest point index.
+// The clusters as lists of cloud indices. Roots are the smallest member, so iterating k in
+// order yields clusters ordered by their lowest point index.
+std::vector<std::vector<std::size_t>> clustersOf(DisjointSets& sets, const std::vector<std::size_t>& idx) {
   std::unordered_map<std::uint32_t, std::size_t> slot;
   std::vector<std::vector<std::size_t>> clusters;
   for (std::uint32_t k = 0; k < idx.size(); ++k) {
@@ -165,40 +166,79 @@ std::vector<PropertyLandmark> extractLandmarks(const LabeledCloud& cloud, const 
     if (inserted) clusters.emplace_back();
     clusters[it->second].push_back(idx[k]);
   }
-  // Purity: the share of the cluster among all points (any class) in the grid cells it
-  // occupies. A real source is mostly labelled where it is seen; label noise on a dense nearby
-  // wall chains into clusters whose cells hold hundreds of unlabelled points.
-  std::unordered_map<CellKey, std::uint32_t, CellHash> all_counts;
-  if (config.min_purity > 0.0) {
+  return clusters;
+}
+
+// Purity: the share of the cluster among all points (any class) in the grid cells it occupies.
+// A real source is mostly labelled where it is seen; label noise on a dense nearby wall chains
+// into clusters whose cells hold hundreds of unlabelled points.
+class Purity {
+ public:
+  Purity(const LabeledCloud& cloud, const CellOf& cell_of, const std::vector<std::vector<std::size_t>>& clusters,
+         std::size_t min_points)
+      : cell_of_(cell_of) {
     std::unordered_map<CellKey, char, CellHash> wanted;
     for (const auto& members : clusters)
-      if (members.size() >= config.min_points)
-        for (std::size_t i : members) {
-          CellKey k = keyOf(i);
-          k.c = 0;
-          wanted.emplace(k, 1);
-        }
+      if (members.size() >= min_points)
+        for (std::size_t i : members) wanted.emplace(anyClass(i), 1);
     for (std::size_t i = 0; i < cloud.size(); ++i) {
       if (!cloud.points[i].allFinite()) continue;
-      CellKey k = keyOf(i);
-      k.c = 0;
-      if (wanted.count(k)) ++all_counts[k];
+      const CellKey k = anyClass(i);
+      if (wanted.count(k)) ++all_counts_[k];
     }
   }
+  double of(const std::vector<std::size_t>& members) {
+    std::unordered_map<CellKey, char, CellHash> cells;
+    for (std::size_t i : members) cells.emplace(anyClass(i), 1);
+    std::size_t total = 0;
+    for (const auto& kv : cells) total += all_counts_[kv.first];
+    return total > 0 ? static_cast<double>(members.size()) / static_cast<double>(total) : 1.0;
+  }
+
+ private:
+  CellKey anyClass(std::size_t i) const {
+    CellKey k = cell_of_(i);
+    k.c = 0;
+    return k;
+  }
+  const CellOf& cell_of_;
+  std::unordered_map<CellKey, std::uint32_t, CellHash> all_counts_;
+};
+
+}  // namespace
+
+// Property landmarks (paper section V): the labelled points clustered per class, each cluster
+// large and pure enough described by its centroid, extent and axes.
+std::vector<PropertyLandmark> extractLandmarks(const LabeledCloud& cloud, const ClassTable& table,
+                                               const LandmarkConfig& config) {
+  validate(config);
+  if (cloud.classes.size() != cloud.size()) fail("extractLandmarks", "cloud has no per-point classes");
+  const std::vector<std::size_t> idx = labelledPoints(cloud, table, config.max_range);
+  if (idx.empty()) return {};
+
+  // Hash grid with cell edge tol/√3: the cell diagonal is tol.
+  const double tol = config.cluster_tolerance;
+  const CellOf cell_of{cloud, tol / std::sqrt(3.0)};
+  CellGrid grid;
+  std::vector<CellKey> order;  // cells in first-seen order (deterministic)
+  grid.reserve(idx.size());
+  for (std::uint32_t k = 0; k < idx.size(); ++k) {
+    const CellKey key = cell_of(idx[k]);
+    auto [it, inserted] = grid.try_emplace(key);
+    if (inserted) order.push_back(key);
+    it->second.push_back(k);
+  }
+  DisjointSets sets = connectWithin(cloud, idx, grid, order, tol * tol);
+  const std::vector<std::vector<std::size_t>> clusters = clustersOf(sets, idx);
+
+  std::optional<Purity> purity;
+  if (config.min_purity > 0.0) purity.emplace(cloud, cell_of, clusters, config.min_points);
   std::vector<PropertyLandmark> out;
   for (const auto& members : clusters) {
     if (members.size() < config.min_points) continue;
     PropertyLandmark lm = describe(cloud, members);
-    if (config.min_purity > 0.0) {
-      std::unordered_map<CellKey, char, CellHash> cells;
-      for (std::size_t i : members) {
-        CellKey k = keyOf(i);
-        k.c = 0;
-        cells.emplace(k, 1);
-      }
-      std::size_t total = 0;
-      for (const auto& kv : cells) total += all_counts[kv.first];
-      lm.purity = total > 0 ? static_cast<double>(members.size()) / static_cast<double>(total) : 1.0;
+    if (purity) {
+      lm.purity = purity->of(members);
       if (lm.purity < config.min_purity) continue;
     }
     out.push_back(lm);

@@ -99,6 +99,7 @@ LoopDetection LoopDetector::detect(std::size_t query, const PoseList& estimate) 
       det.gates.push_back(g);
       if (!g.accepted) {
         det.verifications.back().accepted = false;
+        det.verifications.back().rejection = LoopRejection::DriftGate;
         det.verifications.back().reason = "drift gate: d² = " + std::to_string(g.mahalanobis2) +
                                           " > " + std::to_string(g.threshold);
         continue;

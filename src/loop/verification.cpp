@@ -36,33 +36,43 @@ VerificationResult evaluateRegistration(const LoopCandidate& cand, const Registr
   lc.source = cand.source;
   lc.fitness = reg.fitness;
   lc.rmse = reg.inlier_rmse;
-  auto reject = [&](std::string why) {
+  auto reject = [&](LoopRejection why, std::string text) {
     out.accepted = false;
-    out.reason = std::move(why);
+    out.rejection = why;
+    out.reason = std::move(text);
     return out;
   };
-  if (!reg.converged) return reject("registration did not converge" + (reg.reason.empty() ? "" : ": " + reg.reason));
-  if (!isFinite(reg.transform) || !reg.covariance.allFinite()) return reject("non-finite registration result");
-  if (reg.fitness < c.min_fitness) return reject("fitness " + fmt(reg.fitness) + " < " + fmt(c.min_fitness));
-  if (reg.inlier_rmse > c.max_rmse) return reject("rmse " + fmt(reg.inlier_rmse) + " m > " + fmt(c.max_rmse));
+  if (!reg.converged)
+    return reject(LoopRejection::NotConverged,
+                  "registration did not converge" + (reg.reason.empty() ? "" : ": " + reg.reason));
+  if (!isFinite(reg.transform) || !reg.covariance.allFinite())
+    return reject(LoopRejection::NonFinite, "non-finite registration result");
+  if (reg.fitness < c.min_fitness)
+    return reject(LoopRejection::LowFitness, "fitness " + fmt(reg.fitness) + " < " + fmt(c.min_fitness));
+  if (reg.inlier_rmse > c.max_rmse)
+    return reject(LoopRejection::HighRmse, "rmse " + fmt(reg.inlier_rmse) + " m > " + fmt(c.max_rmse));
   if (c.reject_degenerate && !reg.degenerate_directions.empty())
-    return reject("degenerate registration (" + std::to_string(reg.degenerate_directions.size()) +
-                  " unconstrained directions)");
+    return reject(LoopRejection::Degenerate, "degenerate registration (" +
+                                                 std::to_string(reg.degenerate_directions.size()) +
+                                                 " unconstrained directions)");
   const Eigen::Isometry3d correction = cand.initial_guess.inverse() * reg.transform;
   if (translationNorm(correction) > c.max_correction_translation ||
       rotationAngle(correction) > c.max_correction_rotation)
-    return reject("ICP moved " + fmt(translationNorm(correction)) + " m / " +
-                  fmt(rotationAngle(correction)) + " rad from the initial guess");
+    return reject(LoopRejection::LargeCorrection, "ICP moved " + fmt(translationNorm(correction)) + " m / " +
+                                                      fmt(rotationAngle(correction)) + " rad from the initial guess");
 
   // Covariance: symmetric, positive definite, bounded.
   Matrix6d cov = 0.5 * (reg.covariance + reg.covariance.transpose());
   Eigen::SelfAdjointEigenSolver<Matrix6d> eig(cov);
   if (eig.info() != Eigen::Success || !(eig.eigenvalues().minCoeff() > 0.0))
-    return reject("covariance is not positive definite");
+    return reject(LoopRejection::CovarianceNotPositive, "covariance is not positive definite");
   const double st = largestSigma(cov.topLeftCorner<3, 3>());
   const double sr = largestSigma(cov.bottomRightCorner<3, 3>());
-  if (st > c.max_translation_sigma) return reject("translation sigma " + fmt(st) + " m > " + fmt(c.max_translation_sigma));
-  if (sr > c.max_rotation_sigma) return reject("rotation sigma " + fmt(sr) + " rad > " + fmt(c.max_rotation_sigma));
+  if (st > c.max_translation_sigma)
+    return reject(LoopRejection::UncertainTranslation,
+                  "translation sigma " + fmt(st) + " m > " + fmt(c.max_translation_sigma));
+  if (sr > c.max_rotation_sigma)
+    return reject(LoopRejection::UncertainRotation, "rotation sigma " + fmt(sr) + " rad > " + fmt(c.max_rotation_sigma));
   // Add the floor variances so the information stays finite and no loop becomes rigid.
   Eigen::Matrix<double, 6, 1> floor;
   floor << Eigen::Vector3d::Constant(c.min_translation_sigma * c.min_translation_sigma),
@@ -73,6 +83,24 @@ VerificationResult evaluateRegistration(const LoopCandidate& cand, const Registr
   lc.information = 0.5 * (info + info.transpose());
   out.accepted = true;
   return out;
+}
+
+const char* toString(LoopRejection rejection) {
+  switch (rejection) {
+    case LoopRejection::None: return "none";
+    case LoopRejection::EmptyCloud: return "empty cloud";
+    case LoopRejection::NotConverged: return "not converged";
+    case LoopRejection::NonFinite: return "non-finite";
+    case LoopRejection::LowFitness: return "low fitness";
+    case LoopRejection::HighRmse: return "high rmse";
+    case LoopRejection::Degenerate: return "degenerate";
+    case LoopRejection::LargeCorrection: return "large correction";
+    case LoopRejection::CovarianceNotPositive: return "covariance not positive definite";
+    case LoopRejection::UncertainTranslation: return "uncertain translation";
+    case LoopRejection::UncertainRotation: return "uncertain rotation";
+    case LoopRejection::DriftGate: return "drift gate";
+  }
+  return "unknown";
 }
 
 }  // namespace hazmap

@@ -10,6 +10,7 @@ VerificationResult verifyCandidate(const LoopCandidate& cand, const LabeledCloud
   validate(c);
   if (query_cloud.empty() || match_cloud.empty()) {
     VerificationResult out;
+    out.rejection = LoopRejection::EmptyCloud;
     out.reason = "empty keyframe cloud";
     out.closure.from = cand.match;
     out.closure.to = cand.query;

@@ -8,6 +8,7 @@
 #include <cmath>
 
 #include "hazmap/core/error.hpp"
+#include "hazmap/core/voxel_key.hpp"
 #include "hazmap/core/se3.hpp"
 #include "map/voxel_hash.hpp"
 
@@ -36,18 +37,22 @@ std::vector<FrameRange> unionRanges(std::vector<FrameRange> ranges) {
 
 namespace {
 
-// ---- voxel keys: 21 bits per axis, signed, packed into 63 bits ---------------------------------
-constexpr std::int64_t kHalf = std::int64_t(1) << 20;
-constexpr std::uint64_t kMask = (std::uint64_t(1) << 21) - 1;
-
+// ---- voxel keys (core/voxel_key.hpp) ----------------------------------------------------------
 std::uint64_t packKey(const Eigen::Vector3i& v) {
-  return (std::uint64_t(std::int64_t(v.x()) + kHalf) & kMask) |
-         ((std::uint64_t(std::int64_t(v.y()) + kHalf) & kMask) << 21) |
-         ((std::uint64_t(std::int64_t(v.z()) + kHalf) & kMask) << 42);
+  std::uint64_t key = 0;
+  voxelKey(v.x(), v.y(), v.z(), key);  // callers keep indices within ±2^20 voxels
+  return key;
 }
 Eigen::Vector3i unpackKey(std::uint64_t k) {
-  return {int(std::int64_t(k & kMask) - kHalf), int(std::int64_t((k >> 21) & kMask) - kHalf),
-          int(std::int64_t((k >> 42) & kMask) - kHalf)};
+  const auto [x, y, z] = unpackVoxelKey(k);
+  return {int(x), int(y), int(z)};
+}
+// The map's cells are written in (z, y, x) order, as before the keys were shared.
+std::uint64_t zMajorKey(std::uint64_t k) {
+  const auto [x, y, z] = unpackVoxelKey(k);
+  std::uint64_t key = 0;
+  voxelKey(z, y, x, key);
+  return key;
 }
 int floorDiv2(int v) { return v >= 0 ? v / 2 : -((-v + 1) / 2); }
 
@@ -242,7 +247,7 @@ void GlobalMap::insert(std::size_t frame, const LabeledCloud& scan, const Eigen:
     if (r2 < min_r2 || (max_r2 > 0 && r2 > max_r2)) continue;
     const Eigen::Vector3d pw = R * pd + t;
     const Eigen::Vector3d q = (pw * inv).array().floor();
-    if ((q.array().abs() >= double(kHalf)).any()) continue;  // beyond ±2^20 voxels
+    if ((q.array().abs() >= double(kVoxelKeyBias)).any()) continue;  // beyond ±2^20 voxels
     const Eigen::Vector3i idx = q.cast<int>();
     const std::uint64_t key = packKey(idx);
     Cell& c = m.cells[key];
@@ -285,12 +290,13 @@ std::vector<MapCell> GlobalMap::cells() const {
   const Impl& m = *impl_;
   std::vector<std::pair<std::uint64_t, std::size_t>> order;
   order.reserve(m.cells.size());
-  for (std::size_t i = 0; i < m.cells.size(); ++i) order.emplace_back(m.cells.keyAt(i), i);
-  // Sort by (z, y, x)-packed key: deterministic regardless of insertion or hash order.
+  for (std::size_t i = 0; i < m.cells.size(); ++i) order.emplace_back(zMajorKey(m.cells.keyAt(i)), i);
+  // Sorted (z, y, x): deterministic regardless of insertion or hash order.
   std::sort(order.begin(), order.end());
   std::vector<MapCell> out;
   out.reserve(order.size());
-  for (const auto& [key, index] : order) {
+  for (const auto& [sort_key, index] : order) {
+    const std::uint64_t key = m.cells.keyAt(index);
     const Cell& c = m.cells.valueAt(index);
     MapCell v;
     v.index = unpackKey(key);

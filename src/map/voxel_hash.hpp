@@ -2,7 +2,7 @@
 // Private: an open-addressing hash map from packed voxel keys to cell values, for the map and
 // the map-error grids. Linear probing on a power-of-two table of (key, index) slots; values
 // live densely in a deque (stable, no reallocation spikes), so iteration is a linear walk.
-// 3-5× faster than std::unordered_map on map assembly (no node allocation per cell).
+// No node allocation per cell, unlike std::unordered_map (measured: docs/measurements.md).
 #include <cstddef>
 #include <cstdint>
 #include <deque>

@@ -9,6 +9,7 @@
 #include <tbb/parallel_for.h>
 
 #include "hazmap/core/error.hpp"
+#include "hazmap/core/voxel_key.hpp"
 #include "hazmap/preprocess/normals.hpp"
 #include "hazmap/preprocess/top_k.hpp"
 
@@ -16,9 +17,11 @@ namespace hazmap {
 
 namespace {
 
-std::uint64_t packKey(std::int64_t x, std::int64_t y, std::int64_t z) {
-  const auto f = [](std::int64_t v) { return static_cast<std::uint64_t>(v + (1LL << 20)) & 0x1FFFFFu; };
-  return (f(x) << 42) | (f(y) << 21) | f(z);
+// The voxel's index slot, or nullptr (no such voxel, or coordinates beyond the key's range).
+template <class Index>
+auto findVoxel(Index& index, std::int64_t x, std::int64_t y, std::int64_t z) {
+  std::uint64_t key = 0;
+  return voxelKey(x, y, z, key) ? index.find(key) : nullptr;
 }
 
 }  // namespace
@@ -40,10 +43,11 @@ void LocalMap::integrate(const LabeledCloud& scan, const Eigen::Vector3d& origin
   for (std::size_t i = 0; i < scan.size(); ++i) {
     const Eigen::Vector3f& p = scan.points[i];
     if (!p.allFinite()) continue;
-    const auto x = static_cast<std::int64_t>(std::floor(p.x() * inv));
-    const auto y = static_cast<std::int64_t>(std::floor(p.y() * inv));
-    const auto z = static_cast<std::int64_t>(std::floor(p.z() * inv));
-    const std::uint64_t key = packKey(x, y, z);
+    std::int64_t x, y, z;
+    std::uint64_t key = 0;
+    if (!voxelCoordinate(p.x() * inv, x) || !voxelCoordinate(p.y() * inv, y) || !voxelCoordinate(p.z() * inv, z) ||
+        !voxelKey(x, y, z, key))
+      continue;  // beyond ±2^20 voxels
     const auto [slot, inserted] = index_.tryEmplace(key, static_cast<std::uint32_t>(voxels_.size()));
     if (inserted) voxels_.push_back(Voxel{x, y, z, {}, {}, {}, 0, {}, {}, {}, {}, true, false, true});
     Voxel& v = voxels_[*slot];
@@ -82,7 +86,20 @@ void LocalMap::integrate(const LabeledCloud& scan, const Eigen::Vector3d& origin
       }
     }
   }
-  // Bound the map: drop voxels far from the robot (swap-remove keeps it O(1) and deterministic).
+  // Bound the map: drop voxels far from the robot.
+  const std::vector<std::array<std::int64_t, 3>> dropped = dropFarVoxels(origin);
+  // Cached normals: a change anywhere within the normal radius makes a voxel's normals stale.
+  for (Voxel& v : voxels_) {
+    if (!v.changed) continue;
+    v.changed = false;
+    invalidateAround(v.x, v.y, v.z, false);
+  }
+  for (const auto& d : dropped) invalidateAround(d[0], d[1], d[2], true);
+}
+
+// Drops the voxels farther than max_distance from `origin` (swap-remove keeps it O(1) and
+// deterministic); returns their coordinates.
+std::vector<std::array<std::int64_t, 3>> LocalMap::dropFarVoxels(const Eigen::Vector3d& origin) {
   const double max_d2 = config_.max_distance * config_.max_distance;
   std::vector<std::array<std::int64_t, 3>> dropped;
   for (std::size_t k = 0; k < voxels_.size();) {
@@ -95,20 +112,16 @@ void LocalMap::integrate(const LabeledCloud& scan, const Eigen::Vector3d& origin
     }
     dropped.push_back({v.x, v.y, v.z});
     points_ -= v.points.size();
-    index_.erase(packKey(v.x, v.y, v.z));
+    std::uint64_t key = 0;
+    voxelKey(v.x, v.y, v.z, key);  // in range: the voxel was added with it
+    index_.erase(key);
     if (k + 1 != voxels_.size()) {
       voxels_[k] = std::move(voxels_.back());
-      *index_.find(packKey(voxels_[k].x, voxels_[k].y, voxels_[k].z)) = static_cast<std::uint32_t>(k);
+      *findVoxel(index_, voxels_[k].x, voxels_[k].y, voxels_[k].z) = static_cast<std::uint32_t>(k);
     }
     voxels_.pop_back();
   }
-  // Cached normals: a change anywhere within the normal radius makes a voxel's normals stale.
-  for (Voxel& v : voxels_) {
-    if (!v.changed) continue;
-    v.changed = false;
-    invalidateAround(v.x, v.y, v.z, false);
-  }
-  for (const auto& d : dropped) invalidateAround(d[0], d[1], d[2], true);
+  return dropped;
 }
 
 void LocalMap::invalidateAround(std::int64_t x, std::int64_t y, std::int64_t z, bool force) {
@@ -116,108 +129,43 @@ void LocalMap::invalidateAround(std::int64_t x, std::int64_t y, std::int64_t z, 
   for (std::int64_t dx = -r; dx <= r; ++dx)
     for (std::int64_t dy = -r; dy <= r; ++dy)
       for (std::int64_t dz = -r; dz <= r; ++dz) {
-        const std::uint32_t* at = index_.find(packKey(x + dx, y + dy, z + dz));
+        const std::uint32_t* at = findVoxel(index_, x + dx, y + dy, z + dz);
         if (!at) continue;
         voxels_[*at].normals_valid = false;
         voxels_[*at].force = voxels_[*at].force || force;
       }
 }
 
+namespace {
+
+// Calls f(k, voxel k, its first point's index in the target) for every voxel, in parallel.
+template <class Voxels, class F>
+void forEachVoxel(Voxels& voxels, const std::vector<std::size_t>& first, F&& f) {
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, voxels.size(), 64), [&](const auto& range) {
+    for (std::size_t k = range.begin(); k < range.end(); ++k) f(k, voxels[k], first[k]);
+  });
+}
+
+}  // namespace
+
+// The registration target of the map: its points, and (point-to-plane) their normals — cached
+// ones where the neighbourhood did not change, the rest estimated now or on first use.
 RegistrationTarget LocalMap::makeTarget(const ClassTable& classes, const RegistrationConfig& config,
                                         bool lazy_normals) {
-  // The map's points in voxel order, written in parallel (each voxel at its prefix offset).
+  // 1. the map's points in voxel order, written in parallel (each voxel at its prefix offset)
   std::vector<std::size_t> first(voxels_.size() + 1, 0);
   for (std::size_t k = 0; k < voxels_.size(); ++k) first[k + 1] = first[k] + voxels_[k].points.size();
-  LabeledCloud out;
-  if (has_values_) out.enableProperty();
-  out.resize(points_);
-  const auto forEachVoxel = [&](auto&& f) {
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, voxels_.size(), 64), [&](const auto& range) {
-      for (std::size_t k = range.begin(); k < range.end(); ++k) f(k, voxels_[k], first[k]);
-    });
-  };
-  forEachVoxel([&](std::size_t, const Voxel& v, std::size_t at) {
-    std::copy(v.points.begin(), v.points.end(), out.points.begin() + at);
-    std::copy(v.classes.begin(), v.classes.end(), out.classes.begin() + at);
-    if (has_values_) std::copy(v.values.begin(), v.values.end(), out.property.begin() + at);
-  });
-  if (config.metric != IcpMetric::PointToPlane)
-    return RegistrationTarget(std::move(out), classes, config, {}, {});
+  LabeledCloud out = gatherPoints(first);
+  if (config.metric != IcpMetric::PointToPlane) return RegistrationTarget(std::move(out), classes, config, {}, {});
 
-  if (config.normal_neighbors != normal_neighbors_ || config.normal_radius != normal_radius_) {
-    for (Voxel& v : voxels_) {
-      v.normals_valid = false;
-      v.force = true;
-    }
-    normal_neighbors_ = config.normal_neighbors;
-    normal_radius_ = config.normal_radius;
-    normal_ring_ = std::max(1, static_cast<int>(std::ceil(config.normal_radius / config_.voxel_size)));
-  }
-  // Which normals are stale (their neighbourhood changed)? Those are not estimated here: the
-  // target estimates them when ICP first pairs a point with them (most never are). The map's own
-  // voxels are the neighbour search (estimateNormal). With a normal_updates budget, a point past
-  // it keeps its normal.
-  if (normal_offsets_.empty() || normal_offsets_ring_ != normal_ring_) {
-    // Neighbour voxels in the order a k-NN search should visit them (nearest first: own voxel,
-    // faces, edges, corners, then the outer rings).
-    const int ring = normal_ring_;
-    normal_offsets_.clear();
-    for (int dx = -ring; dx <= ring; ++dx)
-      for (int dy = -ring; dy <= ring; ++dy)
-        for (int dz = -ring; dz <= ring; ++dz) normal_offsets_.push_back({dx, dy, dz});
-    std::stable_sort(normal_offsets_.begin(), normal_offsets_.end(), [](const auto& a, const auto& b) {
-      const auto m = [](const auto& o) {
-        return std::max({std::abs(o[0]), std::abs(o[1]), std::abs(o[2])}) * 8 + std::abs(o[0]) + std::abs(o[1]) + std::abs(o[2]);
-      };
-      return m(a) < m(b);
-    });
-    normal_offsets_ring_ = normal_ring_;
-  }
-  const int budget = config_.normal_updates;
-  std::vector<std::uint32_t> stale_voxels;
-  for (std::size_t k = 0; k < voxels_.size(); ++k) {
-    Voxel& v = voxels_[k];
-    v.normals.resize(v.points.size(), Eigen::Vector3f::Zero());
-    v.updates.resize(v.points.size(), 0);
-    v.reach2.resize(v.points.size(), -1.0f);
-    if (!v.normals_valid) stale_voxels.push_back(static_cast<std::uint32_t>(k));
-  }
-  // Could point i's neighbour set have changed since its normal was estimated? (exact: a change
-  // beyond its k-th neighbour cannot enter the set, a removed point beyond it was not in it)
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, stale_voxels.size(), 8), [&](const auto& range) {
-    std::vector<const Voxel*> around;
-    for (std::size_t s_i = range.begin(); s_i < range.end(); ++s_i) {
-      Voxel& v = voxels_[stale_voxels[s_i]];
-      const auto allowed = [&](std::size_t i) {
-        return budget == 0 || v.updates[i] < budget || v.normals[i].isZero();
-      };
-      // With a normal_updates budget most voxels hold only spent points: skip the neighbour
-      // lookups (27 hash probes) that would find nothing to do.
-      bool any = false;
-      for (std::size_t i = 0; i < v.points.size() && !any; ++i) any = allowed(i);
-      if (!any) continue;
-      around.clear();
-      for (const auto& o : normal_offsets_) {
-        const std::uint32_t* at = index_.find(packKey(v.x + o[0], v.y + o[1], v.z + o[2]));
-        if (at && !voxels_[*at].delta.empty()) around.push_back(&voxels_[*at]);
-      }
-      for (std::size_t i = 0; i < v.points.size(); ++i) {
-        if (!allowed(i)) continue;
-        bool moved = v.force || v.reach2[i] < 0.0f;
-        for (std::size_t a = 0; a < around.size() && !moved; ++a)
-          for (const Eigen::Vector3f& d : around[a]->delta)
-            if ((d - v.points[i]).squaredNorm() <= v.reach2[i]) {
-              moved = true;
-              break;
-            }
-        if (moved) v.reach2[i] = -1.0f;  // pending: estimated on demand (reach2 < 0 = not estimated)
-      }
-    }
-  });
+  // 2. which cached normals are stale (their neighbourhood changed or the settings did)
+  useNormalSettings(config);
+  markStaleNormals();
+  // 3. the cached normals in target order, and which are pending
   std::vector<Eigen::Vector3f> normals(points_);
   std::vector<char> pending(points_);
   owner_.resize(points_);
-  forEachVoxel([&](std::size_t k, Voxel& v, std::size_t at) {
+  forEachVoxel(voxels_, first, [&](std::size_t k, Voxel& v, std::size_t at) {
     v.normals_valid = true;
     v.force = false;
     v.delta.clear();
@@ -227,19 +175,13 @@ RegistrationTarget LocalMap::makeTarget(const ClassTable& classes, const Registr
       normals[at + i] = v.normals[i];
     }
   });
+  // 4. the pending ones estimated now, or by the target when ICP first pairs a point with them
+  //    (most never are). The map's own voxels are the neighbour search (estimateNormal).
   NormalConfig nc;
   nc.neighbors = config.normal_neighbors;
   nc.radius = config.normal_radius;
   if (!lazy_normals) {
-    std::vector<std::size_t> todo;
-    for (std::size_t j = 0; j < pending.size(); ++j)
-      if (pending[j]) todo.push_back(j);
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, todo.size(), 64), [&](const auto& range) {
-      for (std::size_t t = range.begin(); t < range.end(); ++t) {
-        const auto [k, i] = owner_[todo[t]];
-        normals[todo[t]] = estimateNormal(voxels_[k], i, nc);
-      }
-    });
+    estimatePendingNormals(pending, nc, normals);
     std::vector<char> none_stale(normals.size(), 0);
     return RegistrationTarget(std::move(out), classes, config, std::move(normals), none_stale);
   }
@@ -248,6 +190,104 @@ RegistrationTarget LocalMap::makeTarget(const ClassTable& classes, const Registr
     return estimateNormal(voxels_[k], i, nc);
   };
   return RegistrationTarget(std::move(out), classes, config, std::move(normals), pending, lazy);
+}
+
+LabeledCloud LocalMap::gatherPoints(const std::vector<std::size_t>& first) const {
+  LabeledCloud out;
+  if (has_values_) out.enableProperty();
+  out.resize(points_);
+  forEachVoxel(voxels_, first, [&](std::size_t, const Voxel& v, std::size_t at) {
+    std::copy(v.points.begin(), v.points.end(), out.points.begin() + at);
+    std::copy(v.classes.begin(), v.classes.end(), out.classes.begin() + at);
+    if (has_values_) std::copy(v.values.begin(), v.values.end(), out.property.begin() + at);
+  });
+  return out;
+}
+
+// New normal settings make every cached normal stale; the ring of neighbour voxels follows the
+// radius, visited nearest first (own voxel, faces, edges, corners, then the outer rings) as a
+// k-NN search should.
+void LocalMap::useNormalSettings(const RegistrationConfig& config) {
+  if (config.normal_neighbors != normal_neighbors_ || config.normal_radius != normal_radius_) {
+    for (Voxel& v : voxels_) {
+      v.normals_valid = false;
+      v.force = true;
+    }
+    normal_neighbors_ = config.normal_neighbors;
+    normal_radius_ = config.normal_radius;
+    normal_ring_ = std::max(1, static_cast<int>(std::ceil(config.normal_radius / config_.voxel_size)));
+  }
+  if (!normal_offsets_.empty() && normal_offsets_ring_ == normal_ring_) return;
+  const int ring = normal_ring_;
+  normal_offsets_.clear();
+  for (int dx = -ring; dx <= ring; ++dx)
+    for (int dy = -ring; dy <= ring; ++dy)
+      for (int dz = -ring; dz <= ring; ++dz) normal_offsets_.push_back({dx, dy, dz});
+  std::stable_sort(normal_offsets_.begin(), normal_offsets_.end(), [](const auto& a, const auto& b) {
+    const auto m = [](const auto& o) {
+      return std::max({std::abs(o[0]), std::abs(o[1]), std::abs(o[2])}) * 8 + std::abs(o[0]) + std::abs(o[1]) + std::abs(o[2]);
+    };
+    return m(a) < m(b);
+  });
+  normal_offsets_ring_ = normal_ring_;
+}
+
+// Marks pending (reach2 < 0) every point of a stale voxel whose neighbour set could have changed
+// since its normal was estimated — exact: a change beyond its k-th neighbour cannot enter the
+// set, a removed point beyond it was not in it. With a normal_updates budget, a point past it
+// keeps its normal.
+void LocalMap::markStaleNormals() {
+  std::vector<std::uint32_t> stale_voxels;
+  for (std::size_t k = 0; k < voxels_.size(); ++k) {
+    Voxel& v = voxels_[k];
+    v.normals.resize(v.points.size(), Eigen::Vector3f::Zero());
+    v.updates.resize(v.points.size(), 0);
+    v.reach2.resize(v.points.size(), -1.0f);
+    if (!v.normals_valid) stale_voxels.push_back(static_cast<std::uint32_t>(k));
+  }
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, stale_voxels.size(), 8), [&](const auto& range) {
+    std::vector<const Voxel*> around;
+    for (std::size_t s_i = range.begin(); s_i < range.end(); ++s_i) markStaleInVoxel(voxels_[stale_voxels[s_i]], around);
+  });
+}
+
+void LocalMap::markStaleInVoxel(Voxel& v, std::vector<const Voxel*>& around) const {
+  const int budget = config_.normal_updates;
+  const auto allowed = [&](std::size_t i) { return budget == 0 || v.updates[i] < budget || v.normals[i].isZero(); };
+  // With a normal_updates budget most voxels hold only spent points: skip the neighbour
+  // lookups (27 hash probes) that would find nothing to do.
+  bool any = false;
+  for (std::size_t i = 0; i < v.points.size() && !any; ++i) any = allowed(i);
+  if (!any) return;
+  around.clear();
+  for (const auto& o : normal_offsets_) {
+    const std::uint32_t* at = findVoxel(index_, v.x + o[0], v.y + o[1], v.z + o[2]);
+    if (at && !voxels_[*at].delta.empty()) around.push_back(&voxels_[*at]);
+  }
+  for (std::size_t i = 0; i < v.points.size(); ++i) {
+    if (!allowed(i)) continue;
+    bool moved = v.force || v.reach2[i] < 0.0f;
+    for (std::size_t a = 0; a < around.size() && !moved; ++a)
+      for (const Eigen::Vector3f& d : around[a]->delta)
+        if ((d - v.points[i]).squaredNorm() <= v.reach2[i]) {
+          moved = true;
+          break;
+        }
+    if (moved) v.reach2[i] = -1.0f;  // pending: estimated on demand (reach2 < 0 = not estimated)
+  }
+}
+
+void LocalMap::estimatePendingNormals(const std::vector<char>& pending, const NormalConfig& nc,
+                                      std::vector<Eigen::Vector3f>& normals) {
+  std::vector<std::size_t> todo;
+  for (std::size_t j = 0; j < pending.size(); ++j)
+    if (pending[j]) todo.push_back(j);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, todo.size(), 64), [&](const auto& range) {
+    for (std::size_t t = range.begin(); t < range.end(); ++t) {
+      const auto [k, i] = owner_[todo[t]];
+      normals[todo[t]] = estimateNormal(voxels_[k], i, nc);
+    }
+  });
 }
 
 // The k nearest map points within normal_radius (the map's voxels visited nearest first, voxels
@@ -278,7 +318,7 @@ Eigen::Vector3f LocalMap::estimateNormal(Voxel& v, std::size_t i, const NormalCo
     }
     lb2 *= vs * vs;
     if (lb2 * 0.9999f >= best.bound()) continue;  // margin for the float box position
-    const std::uint32_t* at = index_.find(packKey(v.x + o[0], v.y + o[1], v.z + o[2]));
+    const std::uint32_t* at = findVoxel(index_, v.x + o[0], v.y + o[1], v.z + o[2]);
     if (!at) continue;
     for (const Eigen::Vector3f& q : voxels_[*at].points) {
       const float d2 = (q - p).squaredNorm();

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include <tbb/parallel_invoke.h>
 
@@ -59,162 +60,205 @@ Matrix6d fallbackCovariance(const OdometryConfig& c) {
   return d.asDiagonal();
 }
 
+// A scan after preprocessing: cropped and downsampled keeping property classes (`frame`, what
+// enters the map or becomes the next frame's target), and the source that is registered.
+struct PreparedScan {
+  LabeledCloud frame;
+  LabeledCloud coarse;  ///< the registered source when source_voxel_size > voxel_size
+  bool separate_source = false;
+  double ms = 0.0;
+  const LabeledCloud& source() const { return separate_source ? coarse : frame; }
+};
+
+PreparedScan prepareScan(const LabeledCloud& scan, const OdometryConfig& config, const ClassTable& classes) {
+  RangeCropConfig crop;
+  crop.min_range = config.min_range;
+  crop.max_range = config.max_range;
+  VoxelDownsampleConfig vd;
+  vd.voxel_size = config.voxel_size;
+  vd.vote = ClassVote::PreferProperty;
+  PreparedScan out;
+  out.separate_source = config.source_voxel_size > config.voxel_size;
+  const auto t = Clock::now();
+  out.frame = cropAndDownsample(scan, crop, vd, classes);
+  if (out.separate_source) {
+    VoxelDownsampleConfig vs = vd;
+    vs.voxel_size = config.source_voxel_size;
+    out.coarse = voxelDownsample(out.frame, vs, classes);
+  }
+  out.ms = msSince(t);
+  return out;
+}
+
+// Failure detection: why ICP's answer cannot be used (empty when it can). Stopping at the
+// iteration limit is not a failure: the pose is usually close, and the other checks still apply.
+std::string registrationFailure(const RegistrationResult& r, const Eigen::Isometry3d& guess,
+                                const OdometryConfig& config) {
+  const bool hit_limit = !r.converged && r.termination == Termination::MaxIterations;
+  if (!r.converged && !hit_limit) return r.reason;
+  char buf[160];
+  if (r.fitness < config.min_fitness) {
+    std::snprintf(buf, sizeof buf, "fitness %.3f below min_fitness %.3f", r.fitness, config.min_fitness);
+    return buf;
+  }
+  const Vector6d correction = se3Log(r.transform * guess.inverse());
+  const double dt = correction.head<3>().norm(), dr = correction.tail<3>().norm();
+  if (!(dt > config.max_correction_translation || dr > config.max_correction_rotation)) return {};
+  std::snprintf(buf, sizeof buf, "diverged: %.3f m / %.2f deg from the guess (limits %.3f m / %.2f deg)", dt,
+                dr * 180.0 / M_PI, config.max_correction_translation, config.max_correction_rotation * 180.0 / M_PI);
+  return buf;
+}
+
+// An orthonormal basis of the registration's degenerate directions.
+std::vector<Vector6d> orthonormalBasis(const std::vector<Vector6d>& directions) {
+  std::vector<Vector6d> basis;
+  for (Vector6d d : directions) {
+    for (const auto& b : basis) d -= b.dot(d) * b;
+    if (d.norm() > 1e-6) basis.push_back(d.normalized());
+  }
+  return basis;
+}
+
+std::string describeDegenerate(const std::vector<Vector6d>& basis) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%zu degenerate direction(s); guess kept along ", basis.size());
+  std::string out = buf;
+  for (std::size_t k = 0; k < basis.size(); ++k) {
+    char d[96];
+    const Vector6d& b = basis[k];
+    std::snprintf(d, sizeof d, "%s[%.2f %.2f %.2f %.2f %.2f %.2f]", k ? ", " : "", b(0), b(1), b(2), b(3), b(4), b(5));
+    out += d;
+  }
+  return out;
+}
+
+struct Estimate {
+  Eigen::Isometry3d pose;  ///< in registration space
+  Matrix6d covariance;
+};
+
+// ICP's answer where it is constrained, the guess along the degenerate directions `basis`, with
+// the fallback covariance there.
+Estimate keepGuessAlong(const std::vector<Vector6d>& basis, const RegistrationResult& r,
+                        const Eigen::Isometry3d& guess, const OdometryConfig& config) {
+  Vector6d delta = se3Log(r.transform * guess.inverse());
+  Matrix6d P = Matrix6d::Identity();
+  for (const auto& b : basis) {
+    delta -= b.dot(delta) * b;
+    P -= b * b.transpose();
+  }
+  Estimate e{normalized(se3Exp(delta) * guess), r.covariance};
+  e.covariance = P * e.covariance * P.transpose();  // (assigned as the tested results were computed)
+  const Matrix6d fb = fallbackCovariance(config);
+  for (const auto& b : basis) e.covariance += (b.transpose() * fb * b)(0, 0) * b * b.transpose();
+  return e;
+}
+
 }  // namespace
 
+// The paper's Fig. 1 for one scan: preprocess, register against the previous scan or the local
+// map from the wheel-odometry guess, check the result, then update the map.
 const OdometryFrame& Odometry::addFrame(const LabeledCloud& scan,
                                         const std::optional<Eigen::Isometry3d>& wheel_increment,
                                         double stamp) {
   const auto t_start = Clock::now();
-  const std::size_t index = frames_.size();
-  const std::string where = "odometry frame " + std::to_string(index);
+  OdometryFrame f;
+  f.index = frames_.size();
+  const std::string where = "odometry frame " + std::to_string(f.index);
   if (wheel_increment && !isFinite(*wheel_increment)) fail(where, "wheel odometry increment is not finite");
   scan.checkConsistent(where);
-  const RegistrationConfig& rc = config_.registration;
-  if (rc.use_classes) classes_.checkCloud(scan, where);
+  if (config_.registration.use_classes) classes_.checkCloud(scan, where);
+  f.stamp = stamp >= 0.0 ? stamp : static_cast<double>(f.index);
+  f.scan_points = scan.size();
 
-  // 1. preprocessing: crop, downsample keeping property classes. Frame to map, the local map's
-  //    registration target is built meanwhile: it does not depend on this scan, and a
-  //    downsampling has a serial pass that leaves the other cores idle.
-  RangeCropConfig crop;
-  crop.min_range = config_.min_range;
-  crop.max_range = config_.max_range;
-  VoxelDownsampleConfig vd;
-  vd.voxel_size = config_.voxel_size;
-  vd.vote = ClassVote::PreferProperty;
-  const bool separate_source = config_.source_voxel_size > config_.voxel_size;
-  LabeledCloud frame, coarse;
-  double preprocess_ms = 0.0;
-  const auto preprocess = [&] {
-    const auto t = Clock::now();
-    frame = cropAndDownsample(scan, crop, vd, classes_);
-    if (separate_source) {
-      VoxelDownsampleConfig vs = vd;
-      vs.voxel_size = config_.source_voxel_size;
-      coarse = voxelDownsample(frame, vs, classes_);
-    }
-    preprocess_ms = msSince(t);
-  };
-  const bool to_map = config_.mode == OdometryMode::FrameToMap;
+  // 1. preprocessing. Frame to map, the local map's registration target is built meanwhile: it
+  //    does not depend on this scan, and a downsampling has a serial pass that leaves the other
+  //    cores idle.
+  PreparedScan prepared;
   std::optional<RegistrationTarget> map_target;
-  if (to_map && !frames_.empty()) {
+  const auto preprocess = [&] { prepared = prepareScan(scan, config_, classes_); };
+  if (config_.mode == OdometryMode::FrameToMap && !frames_.empty()) {
     // Lazy normals: ICP estimates only those of the map points it pairs with.
-    tbb::parallel_invoke(preprocess, [&] { map_target.emplace(map_.makeTarget(classes_, rc, /*lazy_normals=*/true)); });
+    tbb::parallel_invoke(preprocess, [&] {
+      map_target.emplace(map_.makeTarget(classes_, config_.registration, /*lazy_normals=*/true));
+    });
   } else {
     preprocess();
   }
-  const LabeledCloud& source = separate_source ? coarse : frame;
+  f.source_points = prepared.source().size();
+  f.preprocess_ms = prepared.ms;
 
-  OdometryFrame f;
-  f.index = index;
-  f.stamp = stamp >= 0.0 ? stamp : static_cast<double>(index);
-  f.scan_points = scan.size();
-  f.source_points = source.size();
-  f.preprocess_ms = preprocess_ms;
-
+  // 2.–4. registration, failure detection, the pose
   if (frames_.empty()) {
     f.pose = initial_pose_;
     f.status = FrameStatus::First;
   } else {
-    const Eigen::Isometry3d prev_pose = frames_.back().pose;
-    f.wheel_guess = wheel_increment.has_value();
-    f.guess = wheel_increment ? *wheel_increment
-                              : (impl_->has_velocity ? impl_->velocity : Eigen::Isometry3d::Identity());
-    // Registration in its own space W: FrameToMap estimates world ← current, FrameToFrame
-    // target-scan ← current (the target is the last non-empty scan, normally the previous one).
-    const Eigen::Isometry3d W = to_map ? Eigen::Isometry3d::Identity() : impl_->previous_pose;
-    const Eigen::Isometry3d reg_guess = W.inverse() * prev_pose * f.guess;
-    RegistrationResult r;
-    if (to_map) {
-      f.map_points = map_target->size();
-      r = registerClouds(source, *map_target, reg_guess, classes_, rc);
-      map_target.reset();  // its lazy normals read the map, which changes below
-    } else {
-      if (impl_->previous) {
-        f.map_points = impl_->previous->size();
-        r = registerClouds(source, *impl_->previous, reg_guess, classes_, rc);
-      } else {
-        r.reason = "no previous scan to register against";
-      }
-    }
-    // 2. failure detection
-    std::string failure;
-    const bool hit_limit = !r.converged && r.reason.rfind("reached max_iterations", 0) == 0;
-    if (!r.converged && !hit_limit) failure = r.reason;
-    else if (r.fitness < config_.min_fitness) {
-      char buf[128];
-      std::snprintf(buf, sizeof buf, "fitness %.3f below min_fitness %.3f", r.fitness, config_.min_fitness);
-      failure = buf;
-    } else {
-      const Vector6d correction = se3Log(r.transform * reg_guess.inverse());
-      const double dt = correction.head<3>().norm(), dr = correction.tail<3>().norm();
-      if (dt > config_.max_correction_translation || dr > config_.max_correction_rotation) {
-        char buf[160];
-        std::snprintf(buf, sizeof buf, "diverged: %.3f m / %.2f deg from the guess (limits %.3f m / %.2f deg)",
-                      dt, dr * 180.0 / M_PI, config_.max_correction_translation,
-                      config_.max_correction_rotation * 180.0 / M_PI);
-        failure = buf;
-      }
-    }
-    Eigen::Isometry3d estimate = r.transform;  // in registration space
-    Matrix6d cov = r.covariance;
-    if (!failure.empty()) {
-      f.status = FrameStatus::Fallback;
-      f.reason = failure;
-      estimate = reg_guess;
-    } else if (!r.degenerate_directions.empty() && config_.keep_guess_along_degenerate) {
-      // Keep ICP's answer where it is constrained and the guess along degenerate directions.
-      std::vector<Vector6d> basis;
-      for (Vector6d d : r.degenerate_directions) {
-        for (const auto& b : basis) d -= b.dot(d) * b;
-        if (d.norm() > 1e-6) basis.push_back(d.normalized());
-      }
-      Vector6d delta = se3Log(r.transform * reg_guess.inverse());
-      Matrix6d P = Matrix6d::Identity();
-      for (const auto& b : basis) {
-        delta -= b.dot(delta) * b;
-        P -= b * b.transpose();
-      }
-      estimate = normalized(se3Exp(delta) * reg_guess);
-      cov = P * cov * P.transpose();
-      const Matrix6d fb = fallbackCovariance(config_);
-      for (const auto& b : basis) cov += (b.transpose() * fb * b)(0, 0) * b * b.transpose();
-      f.status = FrameStatus::Degenerate;
-      char buf[64];
-      std::snprintf(buf, sizeof buf, "%zu degenerate direction(s); guess kept along ", basis.size());
-      f.reason = buf;
-      for (std::size_t k = 0; k < basis.size(); ++k) {
-        char d[96];
-        const Vector6d& b = basis[k];
-        std::snprintf(d, sizeof d, "%s[%.2f %.2f %.2f %.2f %.2f %.2f]", k ? ", " : "", b(0), b(1), b(2),
-                      b(3), b(4), b(5));
-        f.reason += d;
-      }
-    } else {
-      f.status = FrameStatus::Registered;
-    }
-    f.increment = normalized(prev_pose.inverse() * W * estimate);
-    // W-frame perturbation → previous-frame perturbation of the increment
-    const Matrix6d Ad = adjoint(prev_pose.inverse() * W);
-    f.covariance = f.status == FrameStatus::Fallback ? fallbackCovariance(config_)
-                                                     : Matrix6d(Ad * cov * Ad.transpose());
-    f.pose = normalized(prev_pose * f.increment);
-    f.registration = std::move(r);
-    impl_->velocity = f.increment;
-    impl_->has_velocity = true;
+    track(f, prepared.source(), map_target, wheel_increment);
   }
-
-  // 3. update the map / the previous scan
-  if (config_.mode == OdometryMode::FrameToMap) {
-    map_.integrate(frame.transformed(f.pose), f.pose.translation(), classes_);
-    f.map_points = map_.size();
-  } else if (!frame.empty() || !impl_->previous) {
-    impl_->previous = std::make_unique<RegistrationTarget>(frame, classes_, rc);
-    impl_->previous_pose = f.pose;
-  }
+  // 5. the map / the previous scan
+  remember(f, prepared.frame);
   f.total_ms = msSince(t_start);
   f.registration_ms = f.total_ms - f.preprocess_ms;
   frames_.push_back(std::move(f));
   return frames_.back();
+}
+
+void Odometry::track(OdometryFrame& f, const LabeledCloud& source, std::optional<RegistrationTarget>& map_target,
+                     const std::optional<Eigen::Isometry3d>& wheel_increment) {
+  const Eigen::Isometry3d prev_pose = frames_.back().pose;
+  f.wheel_guess = wheel_increment.has_value();
+  f.guess = wheel_increment ? *wheel_increment
+                            : (impl_->has_velocity ? impl_->velocity : Eigen::Isometry3d::Identity());
+  // Registration in its own space W: FrameToMap estimates world ← current, FrameToFrame
+  // target-scan ← current (the target is the last non-empty scan, normally the previous one).
+  const bool to_map = config_.mode == OdometryMode::FrameToMap;
+  const Eigen::Isometry3d W = to_map ? Eigen::Isometry3d::Identity() : impl_->previous_pose;
+  const Eigen::Isometry3d reg_guess = W.inverse() * prev_pose * f.guess;
+  RegistrationResult r;
+  if (to_map) {
+    f.map_points = map_target->size();
+    r = registerClouds(source, *map_target, reg_guess, classes_, config_.registration);
+    map_target.reset();  // its lazy normals read the map, which changes below
+  } else if (impl_->previous) {
+    f.map_points = impl_->previous->size();
+    r = registerClouds(source, *impl_->previous, reg_guess, classes_, config_.registration);
+  } else {
+    r.reason = "no previous scan to register against";
+  }
+
+  Estimate estimate{r.transform, r.covariance};
+  const std::string failure = registrationFailure(r, reg_guess, config_);
+  if (!failure.empty()) {
+    f.status = FrameStatus::Fallback;
+    f.reason = failure;
+    estimate.pose = reg_guess;
+  } else if (!r.degenerate_directions.empty() && config_.keep_guess_along_degenerate) {
+    const std::vector<Vector6d> basis = orthonormalBasis(r.degenerate_directions);
+    estimate = keepGuessAlong(basis, r, reg_guess, config_);
+    f.status = FrameStatus::Degenerate;
+    f.reason = describeDegenerate(basis);
+  } else {
+    f.status = FrameStatus::Registered;
+  }
+  f.increment = normalized(prev_pose.inverse() * W * estimate.pose);
+  // W-frame perturbation → previous-frame perturbation of the increment
+  const Matrix6d Ad = adjoint(prev_pose.inverse() * W);
+  f.covariance = f.status == FrameStatus::Fallback ? fallbackCovariance(config_)
+                                                   : Matrix6d(Ad * estimate.covariance * Ad.transpose());
+  f.pose = normalized(prev_pose * f.increment);
+  f.registration = std::move(r);
+  impl_->velocity = f.increment;
+  impl_->has_velocity = true;
+}
+
+void Odometry::remember(OdometryFrame& f, const LabeledCloud& frame) {
+  if (config_.mode == OdometryMode::FrameToMap) {
+    map_.integrate(frame.transformed(f.pose), f.pose.translation(), classes_);
+    f.map_points = map_.size();
+  } else if (!frame.empty() || !impl_->previous) {
+    impl_->previous = std::make_unique<RegistrationTarget>(frame, classes_, config_.registration);
+    impl_->previous_pose = f.pose;
+  }
 }
 
 Trajectory Odometry::trajectory() const {

@@ -8,7 +8,7 @@
 
 #include "hazmap/core/error.hpp"
 #include "hazmap/io/atomic_file.hpp"
-#include "hazmap/io/g2o.hpp"
+#include "hazmap/graph/g2o.hpp"
 #include "hazmap/map/export.hpp"
 #include "hazmap/map/image.hpp"
 #include "hazmap/map/outputs.hpp"

@@ -9,6 +9,8 @@
 #include <string>
 
 #include "hazmap/core/error.hpp"
+#include "hazmap/core/hash.hpp"
+#include "hazmap/core/voxel_key.hpp"
 #include "hazmap/preprocess/top_k.hpp"
 
 namespace hazmap {
@@ -16,23 +18,7 @@ namespace hazmap {
 namespace {
 
 constexpr std::uint64_t kEmpty = ~std::uint64_t{0};
-constexpr std::int64_t kAxisBias = std::int64_t{1} << 20;  // 21 bits per axis
-
-inline bool packKey(std::int64_t x, std::int64_t y, std::int64_t z, std::uint64_t& key) {
-  x += kAxisBias;
-  y += kAxisBias;
-  z += kAxisBias;
-  constexpr std::int64_t kMax = (std::int64_t{1} << 21) - 1;
-  if (x < 0 || y < 0 || z < 0 || x > kMax || y > kMax || z > kMax) return false;
-  key = (std::uint64_t(x) << 42) | (std::uint64_t(y) << 21) | std::uint64_t(z);
-  return true;
-}
-
-inline std::uint64_t hashKey(std::uint64_t key) {
-  key ^= key >> 29;
-  key *= 0x9E3779B97F4A7C15ull;
-  return key ^ (key >> 32);
-}
+inline std::uint64_t hashKey(std::uint64_t key) { return splitmix64Mix(key); }
 
 inline bool finite(const Eigen::Vector3f& p) { return std::isfinite(p.x()) && std::isfinite(p.y()) && std::isfinite(p.z()); }
 
@@ -72,7 +58,7 @@ VoxelHashIndex::VoxelHashIndex(std::span<const Eigen::Vector3f> points,
     const Eigen::Vector3f& p = points[id];
     if (!finite(p)) continue;
     std::uint64_t key;
-    if (!packKey(static_cast<std::int64_t>(std::floor(p.x() * inv_cell_)),
+    if (!voxelKey(static_cast<std::int64_t>(std::floor(p.x() * inv_cell_)),
                  static_cast<std::int64_t>(std::floor(p.y() * inv_cell_)),
                  static_cast<std::int64_t>(std::floor(p.z() * inv_cell_)), key))
       continue;  // farther than ~1e6 voxels from the origin: not indexable
@@ -120,7 +106,7 @@ VoxelHashIndex::VoxelHashIndex(std::span<const Eigen::Vector3f> points,
 
 inline std::int64_t VoxelHashIndex::findCell(std::int64_t x, std::int64_t y, std::int64_t z) const {
   std::uint64_t key;
-  if (!packKey(x, y, z, key)) return -1;
+  if (!voxelKey(x, y, z, key)) return -1;
   std::uint64_t slot = hashKey(key) & table_mask_;
   while (true) {
     const Slot& e = table_[slot];

@@ -10,20 +10,24 @@
 #include <vector>
 
 #include "hazmap/core/error.hpp"
+#include "hazmap/core/hash.hpp"
+#include "hazmap/core/voxel_key.hpp"
 
 namespace hazmap {
 
 namespace {
 
-constexpr std::uint64_t kSkip = ~std::uint64_t{0};  // point dropped by the range crop
+constexpr std::uint64_t kSkip = ~std::uint64_t{0};  // point dropped (crop, non-finite, out of key range)
 
-// 21 bits per axis (±1M voxels) packed in 64 bits; sorting by this key groups each voxel's points.
-std::uint64_t voxelKey(const Eigen::Vector3f& p, double inv) {
-  const auto axis = [inv](float v) {
-    const long long c = static_cast<long long>(std::floor(static_cast<double>(v) * inv)) + (1LL << 20);
-    return static_cast<std::uint64_t>(std::clamp(c, 0LL, (1LL << 21) - 1));
-  };
-  return (axis(p.x()) << 42) | (axis(p.y()) << 21) | axis(p.z());
+// Sorting by the voxel key (core/voxel_key.hpp, x-major) groups each voxel's points. kSkip for a
+// point beyond the key's range (±2^20 voxels).
+std::uint64_t voxelKeyOf(const Eigen::Vector3f& p, double inv) {
+  std::int64_t x, y, z;
+  std::uint64_t key = kSkip;
+  if (voxelCoordinate(static_cast<double>(p.x()) * inv, x) && voxelCoordinate(static_cast<double>(p.y()) * inv, y) &&
+      voxelCoordinate(static_cast<double>(p.z()) * inv, z))
+    voxelKey(x, y, z, key);
+  return key;
 }
 
 void checkConfig(const VoxelDownsampleConfig& config) {
@@ -33,12 +37,10 @@ void checkConfig(const VoxelDownsampleConfig& config) {
     fail("voxel downsample", "property_share must be in [0, 1]");
 }
 
-// One pass over the points (keys in parallel, hashing serial), a counting sort to group them,
-// then the voxels' centroids and votes in parallel. `crop` = keep only lo2 <= |p|² <= hi2.
-// Non-finite points are dropped.
-LabeledCloud downsample(const LabeledCloud& cloud, const VoxelDownsampleConfig& config,
-                        const ClassTable& table, bool crop, double lo2, double hi2) {
-  const double inv = 1.0 / config.voxel_size;
+// Each point's voxel key (kSkip: non-finite, cropped, or out of the key's range), in parallel.
+// `crop` = keep only lo2 <= |p|² <= hi2.
+std::vector<std::uint64_t> pointKeys(const LabeledCloud& cloud, double voxel_size, bool crop, double lo2, double hi2) {
+  const double inv = 1.0 / voxel_size;
   const std::size_t n = cloud.size();
   std::vector<std::uint64_t> keys(n);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096), [&](const auto& range) {
@@ -55,12 +57,22 @@ LabeledCloud downsample(const LabeledCloud& cloud, const VoxelDownsampleConfig& 
           continue;
         }
       }
-      keys[i] = voxelKey(p, inv);
+      keys[i] = voxelKeyOf(p, inv);
     }
   });
+  return keys;
+}
+
+// The points grouped by voxel: voxel v (in key order) holds grouped[start[order[v]] …].
+struct VoxelGroups {
+  std::vector<std::uint32_t> start, grouped, order;
+};
+
+VoxelGroups groupByVoxel(const std::vector<std::uint64_t>& keys) {
+  const std::size_t n = keys.size();
   // Group points by voxel without sorting all points: an open-addressing table gives each voxel an
   // id, a counting sort groups the points (stable: original order inside a voxel), and only the
-  // voxels are sorted by key — same output as sorting (key, index) pairs, several times faster.
+  // voxels are sorted by key — same output as sorting (key, index) pairs (docs/measurements.md).
   std::size_t table_size = 16;
   while (table_size < 2 * n) table_size <<= 1;
   const std::size_t mask = table_size - 1;
@@ -78,8 +90,7 @@ LabeledCloud downsample(const LabeledCloud& cloud, const VoxelDownsampleConfig& 
       point_voxel[i] = kNone;
       continue;
     }
-    std::uint64_t h = key * 0x9E3779B97F4A7C15ull;
-    std::size_t slot = (h ^ (h >> 29)) & mask;
+    std::size_t slot = splitmix64Mix(key) & mask;
     while (table_keys[slot] != kEmpty && table_keys[slot] != key) slot = (slot + 1) & mask;
     if (table_keys[slot] == kEmpty) {
       table_keys[slot] = key;
@@ -104,6 +115,19 @@ LabeledCloud downsample(const LabeledCloud& cloud, const VoxelDownsampleConfig& 
   std::sort(order.begin(), order.end(),
             [&](std::uint32_t a, std::uint32_t b) { return voxel_keys[a] < voxel_keys[b]; });
 
+  return {std::move(start), std::move(grouped), std::move(order)};
+}
+
+// One pass over the points (keys in parallel, hashing serial), a counting sort to group them,
+// then the voxels' centroids and votes in parallel. `crop` = keep only lo2 <= |p|² <= hi2.
+// Non-finite points are dropped.
+LabeledCloud downsample(const LabeledCloud& cloud, const VoxelDownsampleConfig& config,
+                        const ClassTable& table, bool crop, double lo2, double hi2) {
+  const VoxelGroups groups = groupByVoxel(pointKeys(cloud, config.voxel_size, crop, lo2, hi2));
+  const std::vector<std::uint32_t>& start = groups.start;
+  const std::vector<std::uint32_t>& grouped = groups.grouped;
+  const std::vector<std::uint32_t>& order = groups.order;
+  const std::size_t voxels = order.size();
   LabeledCloud out = LabeledCloud::withLayoutOf(cloud);
   out.resize(voxels);
   const bool has_i = cloud.hasIntensity(), has_t = cloud.hasTimestamps(), has_p = cloud.hasProperty();

@@ -8,7 +8,7 @@
 //   hazmap: the true relative pose is exp(ξ)·T_from_to with ξ ~ N(0, information⁻¹). So the
 //   covariance returned by registration (target ← source) can be inverted and used as it is for an
 //   edge from = target node, to = source node. (g2o files store the information for a RIGHT
-//   perturbation T_from_to·exp(ξ); io/g2o.hpp converts on import and export.)
+//   perturbation T_from_to·exp(ξ); graph/g2o.hpp converts on import and export.)
 // - 2-D graphs (dimension 2) keep every pose in the plane z = 0 with rotations about z only; only
 //   the [x y rz] rows/columns (indices 0, 1, 5) of their information matrices are used.
 #include <Eigen/Geometry>

@@ -32,14 +32,16 @@ const char* toString(CandidateMethod method);
 ///     max_loops_per_keyframe: 1
 ///     keyframe_voxel: 0.15
 ///     resident_keyframes: 64
-///     landmark_window: 1
+///     landmark_window: 5
 ///     landmark_merge_distance: 1.0
-///     landmarks:    {cluster_tolerance: 0.7, min_points: 8, max_range: 30}
+///     landmarks:    {cluster_tolerance: 0.7, min_points: 8, max_range: 15, min_purity: 0.2}
 ///     candidates:   {min_index_gap: 15, search_radius: 3, max_candidates: 3,
 ///                    constellation: {model: planar, distance_tolerance: 0.8, inlier_distance: 1,
-///                                    min_inliers: 3, min_pair_distance: 1.5,
+///                                    min_inliers: 2, min_pair_distance: 1.5,
 ///                                    min_triangle_height: 1, max_extent_ratio: 4,
-///                                    property_value_tolerance: 0, max_hypotheses: 4000, seed: 1}}
+///                                    property_value_tolerance: 0, max_hypotheses: 4000,
+///                                    visibility_range: 15, miss_penalty: 0.5, min_overlap: 0.7,
+///                                    facing_tolerance: 0.8, seed: 1}}
 ///     verification: {min_fitness: 0.8, max_rmse: 0.4, max_translation_sigma: 0.25,
 ///                    max_rotation_sigma: 0.035, reject_degenerate: true,
 ///                    max_correction_translation: 2, max_correction_rotation: 0.35,

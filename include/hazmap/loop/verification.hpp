@@ -25,7 +25,7 @@ struct VerificationConfig {
     r.max_iterations = 60;
     r.max_source_points = 6000;
     // Dense keyframes (0.15 m voxels) searched 1.5 m wide: a voxel hash with 1.5 m cells scans
-    // ~100 points per cell; the k-d tree verified the same 16 naraha loops in 58 % of the time.
+    // ~100 points per cell; the k-d tree verifies the same loops faster (docs/measurements.md).
     r.index = SpatialIndexKind::KdTree;
     // Single stage: the acceptance thresholds below were set on single-stage results, and a
     // loop's larger initial error is where a 1000-point coarse stage could settle elsewhere
@@ -69,9 +69,27 @@ struct LoopClosure {
   double rmse = 0.0;
 };
 
+/// Why a loop candidate was rejected (VerificationResult::reason says it for people).
+enum class LoopRejection {
+  None,                   ///< accepted (or not yet verified)
+  EmptyCloud,             ///< a keyframe cloud was empty
+  NotConverged,           ///< the registration did not converge
+  NonFinite,              ///< non-finite pose or covariance
+  LowFitness,             ///< fitness below min_fitness
+  HighRmse,               ///< inlier RMSE above max_rmse
+  Degenerate,             ///< a degenerate direction (reject_degenerate)
+  LargeCorrection,        ///< ICP moved beyond max_correction_* from the guess
+  CovarianceNotPositive,  ///< the covariance is not positive definite
+  UncertainTranslation,   ///< translation sigma above max_translation_sigma
+  UncertainRotation,      ///< rotation sigma above max_rotation_sigma
+  DriftGate,              ///< verified, then rejected by the drift gate (LoopDetector)
+};
+const char* toString(LoopRejection rejection);
+
 struct VerificationResult {
   bool accepted = false;
-  std::string reason;  ///< why it was rejected (empty when accepted)
+  LoopRejection rejection = LoopRejection::None;
+  std::string reason;  ///< why it was rejected, for people (empty when accepted)
   LoopClosure closure;
   RegistrationResult registration;
 };

@@ -75,6 +75,14 @@ class LocalMap {
     bool changed = false;  ///< modified during the current integrate()
   };
   Eigen::Vector3f estimateNormal(Voxel& v, std::size_t i, const NormalConfig& nc) const;
+  std::vector<std::array<std::int64_t, 3>> dropFarVoxels(const Eigen::Vector3d& origin);
+  // The steps of makeTarget().
+  LabeledCloud gatherPoints(const std::vector<std::size_t>& first) const;
+  void useNormalSettings(const RegistrationConfig& config);
+  void markStaleNormals();
+  void markStaleInVoxel(Voxel& v, std::vector<const Voxel*>& around) const;
+  void estimatePendingNormals(const std::vector<char>& pending, const NormalConfig& nc,
+                              std::vector<Eigen::Vector3f>& normals);
   /// Marks the normals of every voxel within the normal ring of (x, y, z) stale.
   void invalidateAround(std::int64_t x, std::int64_t y, std::int64_t z, bool force);
   LocalMapConfig config_;

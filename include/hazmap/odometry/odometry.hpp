@@ -27,8 +27,7 @@ const char* toString(OdometryMode mode);
 
 struct OdometryConfig {
   OdometryMode mode = OdometryMode::FrameToMap;
-  /// ICP settings (use_classes = property ICP or plain ICP). Odometry's defaults differ from
-  /// registerClouds' in max_correspondence_distance only (see defaults()).
+  /// ICP settings (use_classes = property ICP or plain ICP); the same defaults as registerClouds'.
   RegistrationConfig registration;
   // --- preprocessing ---
   double min_range = 1.0;      ///< m; drops the robot's own body
@@ -46,7 +45,8 @@ struct OdometryConfig {
   double fallback_sigma_translation = 0.1;  ///< m
   double fallback_sigma_rotation = 0.02;    ///< rad
 
-  /// Sensible defaults for a 10 Hz spinning LiDAR (max correspondence 1.5 m, map voxel 1 m).
+  /// The defaults above (max correspondence 1 m, scan voxel 0.5 m, map voxel 1 m), set for the
+  /// simulated 10 Hz VLP-16 of the paper's experiment.
   static OdometryConfig defaults();
   void validate() const;
 };
@@ -108,6 +108,12 @@ class Odometry {
   const OdometryConfig& config() const { return config_; }
 
  private:
+  /// Steps 2–4 of a frame after the first: the guess, registration, failure detection, the pose.
+  void track(OdometryFrame& f, const LabeledCloud& source, std::optional<RegistrationTarget>& map_target,
+             const std::optional<Eigen::Isometry3d>& wheel_increment);
+  /// Step 5: the scan (`frame`, preprocessed) enters the local map or becomes the next target.
+  void remember(OdometryFrame& f, const LabeledCloud& frame);
+
   struct Impl;
   ClassTable classes_;
   OdometryConfig config_;

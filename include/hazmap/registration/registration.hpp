@@ -153,6 +153,21 @@ struct CorrespondenceStats {
   std::size_t wide_matches = 0;
 };
 
+/// How a registration ended. `RegistrationResult::reason` says the same for people.
+enum class Termination {
+  NotRun,                  ///< no registration ran (e.g. no target yet)
+  Converged,               ///< a step below the tolerances on fresh correspondences
+  MaxIterations,           ///< max_iterations searches without converging (the pose is usable)
+  EmptySource,             ///< no finite source point
+  EmptyTarget,             ///< no target point
+  TooFewSourcePoints,      ///< fewer finite source points than min_correspondences
+  TooFewCorrespondences,   ///< a search found fewer pairs than min_correspondences
+  AllRejected,             ///< the robust kernel gave every pair zero weight
+  StepNotFinite,           ///< the Gauss–Newton step was not finite
+  Diverged,                ///< the estimate became non-finite
+};
+const char* toString(Termination termination);
+
 struct RegistrationResult {
   Eigen::Isometry3d transform = Eigen::Isometry3d::Identity();  ///< target ← source
   Matrix6d covariance = Matrix6d::Identity();  ///< translation-first (see core/se3.hpp)
@@ -162,7 +177,8 @@ struct RegistrationResult {
   int coarse_iterations = 0;  ///< … of the coarse stage (0 = none ran; see coarse_source_points)
   bool converged = false;
   std::vector<Vector6d> degenerate_directions;  ///< unit tangent directions, translation-first
-  std::string reason;  ///< why it did not converge (empty when converged)
+  Termination termination = Termination::NotRun;
+  std::string reason;  ///< why it did not converge, for people (empty when converged)
   // --- additions ---
   CorrespondenceStats stats;
   Matrix6d hessian = Matrix6d::Zero();  ///< Σ w JᵀJ at the solution (translation-first)

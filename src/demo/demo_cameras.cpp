@@ -5,7 +5,7 @@
 
 #include <ostream>
 
-#include "hazmap/pipeline/demo.hpp"
+#include "hazmap/demo/demo.hpp"
 #include "hazmap/pipeline/run_outputs.hpp"
 #include "hazmap/properties/label_sequence.hpp"
 

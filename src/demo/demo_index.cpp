@@ -1,4 +1,4 @@
-#include "hazmap/pipeline/demo_index.hpp"
+#include "hazmap/demo/demo_index.hpp"
 
 #include <fmt/format.h>
 

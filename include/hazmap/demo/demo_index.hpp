@@ -6,7 +6,7 @@
 #include <vector>
 
 #include "hazmap/io/trajectory.hpp"
-#include "hazmap/pipeline/demo.hpp"
+#include "hazmap/demo/demo.hpp"
 #include "hazmap/pipeline/slam.hpp"
 
 namespace hazmap {

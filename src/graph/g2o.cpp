@@ -1,4 +1,4 @@
-#include "hazmap/io/g2o.hpp"
+#include "hazmap/graph/g2o.hpp"
 
 #include <Eigen/Eigenvalues>
 

@@ -1,0 +1,69 @@
+#!/usr/bin/env bash
+# Checks that every #include "hazmap/<stage>/..." in src/ and include/ points down the documented
+# data flow (DEVELOPERS.md, "Layout"):
+#
+#   core, io  <  sources < properties < preprocess < registration < odometry < loop < graph
+#             <  map < eval < pipeline < demo
+#
+# A stage may include itself and any stage to its left. core and io are below everything (core
+# includes only core). sim stands beside the flow: it may use core, io, sources, properties and preprocess, and only
+# demo (and apps/, tests/, bench/, which are not checked) may use it. Also rejects includes that
+# climb out of a stage's folder ("../").
+#
+#   scripts/check-layers.sh        prints each violation as file:line: <stage> -> <stage>, exit 1
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+declare -A rank=(
+  [core]=0 [io]=1 [sources]=2 [properties]=3 [preprocess]=4 [registration]=5 [odometry]=6
+  [loop]=7 [graph]=8 [map]=9 [eval]=10 [pipeline]=11 [demo]=12
+)
+# sim: beside the flow. What it may use, and who may use it.
+sim_uses="core io sources properties preprocess"
+sim_users="demo sim"
+
+allowed() {  # allowed <from> <to>
+  local from=$1 to=$2
+  [ "$from" = "$to" ] && return 0
+  if [ "$to" = sim ]; then [[ " $sim_users " == *" $from "* ]]; return; fi
+  if [ "$from" = sim ]; then [[ " $sim_uses " == *" $to "* ]]; return; fi
+  [ -n "${rank[$from]:-}" ] && [ -n "${rank[$to]:-}" ] || return 1
+  [ "$from" = core ] && return 1  # core includes only core
+  [ "${rank[$to]}" -le "${rank[$from]}" ]
+}
+
+violations=0
+while IFS= read -r hit; do
+  file=${hit%%:*}
+  rest=${hit#*:}
+  line=${rest%%:*}
+  text=${rest#*:}
+  case "$file" in
+    src/*) from=$(echo "$file" | cut -d/ -f2) ;;
+    include/hazmap/*) from=$(echo "$file" | cut -d/ -f3) ;;
+    *) continue ;;
+  esac
+  if [[ "$text" == *'"../'* ]]; then
+    echo "$file:$line: includes across folders with ../ (use \"hazmap/<stage>/...\")"
+    violations=$((violations + 1))
+    continue
+  fi
+  to=$(echo "$text" | sed -nE 's/.*#include[[:space:]]*"hazmap\/([a-z_]+)\/.*/\1/p')
+  [ -n "$to" ] || continue
+  if [ -z "${rank[$from]:-}" ] && [ "$from" != sim ]; then
+    echo "$file:$line: stage '$from' is not in the documented order (scripts/check-layers.sh)"
+    violations=$((violations + 1))
+  elif [ -z "${rank[$to]:-}" ] && [ "$to" != sim ]; then
+    echo "$file:$line: includes stage '$to', which is not in the documented order"
+    violations=$((violations + 1))
+  elif ! allowed "$from" "$to"; then
+    echo "$file:$line: $from -> $to points up the data flow"
+    violations=$((violations + 1))
+  fi
+done < <(grep -rnE '^[[:space:]]*#[[:space:]]*include[[:space:]]*"' src include --include='*.hpp' --include='*.cpp' --include='*.h')
+
+if [ "$violations" -gt 0 ]; then
+  echo "check-layers: $violations include(s) against the documented order" >&2
+  exit 1
+fi
+echo "check-layers: every include follows the documented order"
