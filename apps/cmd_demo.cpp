@@ -3,6 +3,7 @@
 #include <memory>
 
 #include "command.hpp"
+#include "config_options.hpp"
 #include "hazmap/pipeline/demo.hpp"
 
 namespace hazmap::cli {
@@ -21,8 +22,11 @@ const RegisterCommand registration{{
       app.add_option("--threads", o->threads, "Worker threads (0 = all cores)");
       app.add_flag("!--paper-only", o->frame_to_map,
                    "Only the paper's set-up (skip the frame-to-map tracking runs)");
-      app.callback([o, out] {
+      auto params = addParameterOptions(app, "run settings for every method, as in `hazmap run --config`");
+      app.callback([o, out, params] {
         o->out_dir = *out;
+        o->property_icp = params->propertyIcp();
+        o->settings = params->settings;
         runDemo(*o, std::cout);
       });
     }}};

@@ -22,7 +22,28 @@ struct GraphOptimizeArgs {
   int max_iterations = 100;
   int threads = 1;
   bool verbose = false;
+  bool strict = false;
 };
+
+// Indefinite information matrices (benchmark files such as cubicle.g2o): the chordal cost reads
+// only the diagonal blocks, as SE-Sync does; the geodesic cost needs the whole matrix and gets
+// the nearest positive-definite one; --strict refuses. One line on stderr says what was done.
+G2oInformation informationPolicy(const GraphOptimizeArgs& a, PoseGraphCost cost) {
+  if (a.strict) return G2oInformation::Strict;
+  return cost == PoseGraphCost::Chordal ? G2oInformation::DiagonalBlocks : G2oInformation::NearestPositiveDefinite;
+}
+
+void reportAdjusted(const std::string& file, const G2oReadInfo& info, G2oInformation policy) {
+  if (info.adjusted_lines.empty()) return;
+  const std::size_t n = info.adjusted_lines.size();
+  const std::string others = n > 1 ? fmt::format(" (and {} more edge{})", n - 1, n > 2 ? "s" : "") : "";
+  if (policy == G2oInformation::DiagonalBlocks)
+    fmt::print(stderr, "note: {}:{}: information matrix is not positive definite; the chordal cost uses its "
+               "translation and rotation blocks only, as SE-Sync does{}\n", file, info.adjusted_lines.front(), others);
+  else
+    fmt::print(stderr, "warning: {}:{}: information matrix is not positive definite; projected to the nearest "
+               "positive-definite matrix{} (--strict refuses)\n", file, info.adjusted_lines.front(), others);
+}
 
 void runOptimize(const GraphOptimizeArgs& a, const CLI::App& sub) {
   PoseGraphConfig config = a.config_file.empty() ? PoseGraphConfig{}
@@ -37,7 +58,9 @@ void runOptimize(const GraphOptimizeArgs& a, const CLI::App& sub) {
   if (a.verbose) config.verbose = true;
 
   G2oReadInfo info;
-  PoseGraph graph = readG2o(a.input, &info);
+  const G2oInformation policy = informationPolicy(a, config.cost);
+  PoseGraph graph = readG2o(a.input, &info, policy);
+  reportAdjusted(a.input, info, policy);
   if (a.config_file.empty() || sub.count("--init")) {
     // auto: files without vertex lines only have composed odometry, start from the chordal
     // solution; otherwise from the file's vertices.
@@ -92,6 +115,9 @@ const RegisterCommand registration{Command{
       opt->add_option("--max-iterations", args->max_iterations, "Levenberg-Marquardt iterations");
       opt->add_option("--threads", args->threads, "threads for Jacobian evaluation");
       opt->add_flag("--verbose,-v", args->verbose, "print Ceres progress");
+      opt->add_flag("--strict", args->strict,
+                    "refuse information matrices that are not positive definite (default: chordal "
+                    "uses their diagonal blocks, geodesic the nearest positive-definite matrix)");
       opt->callback([args, opt] { runOptimize(*args, *opt); });
     }}};
 

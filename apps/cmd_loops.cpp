@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 
 #include "command.hpp"
+#include "config_options.hpp"
 #include "hazmap/core/error.hpp"
 #include "hazmap/io/atomic_file.hpp"
 #include "hazmap/io/sequence.hpp"
@@ -35,7 +36,7 @@ nlohmann::json poseJson(const Eigen::Isometry3d& T) {
   return rows;
 }
 
-void runLoops(const LoopsOptions& o, bool method_given) {
+void runLoops(const LoopsOptions& o, bool method_given, const ParameterOptions& params) {
   LoopClosureConfig config;
   if (!o.config.empty()) config = LoopClosureConfig::fromYamlFile(o.config);
   if (method_given) {
@@ -44,6 +45,7 @@ void runLoops(const LoopsOptions& o, bool method_given) {
     else if (o.method == "both") config.method = CandidateMethod::Both;
     else fail("--method", "must be constellation, distance or both (got '" + o.method + "')");
   }
+  params.applySettings(config);
   const Sequence seq = Sequence::open(o.sequence);
   if (seq.size() == 0) fail(o.sequence, "sequence has no scans");
   Trajectory est;
@@ -62,7 +64,7 @@ void runLoops(const LoopsOptions& o, bool method_given) {
   if (seq.groundTruth() && seq.groundTruth()->size() >= n)
     truth.assign(seq.groundTruth()->poses.begin(), seq.groundTruth()->poses.begin() + static_cast<std::ptrdiff_t>(n));
 
-  LoopDetector detector(seq.classTable(), config);
+  LoopDetector detector(params.propertyIcp().applyTo(seq.classTable()), config);
   std::size_t landmarks = 0, candidates = 0, true_candidates = 0, verified = 0, gated = 0;
   double t_read = 0, t_detect = 0;
   for (std::size_t i = 0; i < n; ++i) {
@@ -147,7 +149,8 @@ void setupLoops(CLI::App& app) {
   app.add_option("--config", opt->config, "YAML with a loop_closure: section (docs/loop_closure.md)");
   app.add_option("--frames", opt->frames, "Use only the first N frames (0 = all)");
   app.add_option("--out", opt->out, "Write the consistent loops (from, to, T_from_to, information) as JSON");
-  app.callback([opt, method]() { runLoops(*opt, method->count() > 0); });
+  auto params = addParameterOptions(app, "keys of the loop_closure section, e.g. verification.max_rmse=0.3");
+  app.callback([opt, method, params]() { runLoops(*opt, method->count() > 0, *params); });
 }
 
 const RegisterCommand kRegister{{"loops",

@@ -12,6 +12,7 @@
 #include <string>
 
 #include "command.hpp"
+#include "config_options.hpp"
 #include "hazmap/core/error.hpp"
 #include "hazmap/io/atomic_file.hpp"
 #include "hazmap/io/sequence.hpp"
@@ -29,7 +30,7 @@ struct OdometryOptions {
   bool quiet = false;
 };
 
-void run(const OdometryOptions& o) {
+void run(const OdometryOptions& o, const ParameterOptions& params) {
   OdometryConfig cfg = o.config.empty() ? OdometryConfig::defaults() : loadOdometryConfig(o.config);
   if (o.method == "icp") cfg.registration.use_classes = false;
   else if (o.method == "property-icp") cfg.registration.use_classes = true;
@@ -41,6 +42,7 @@ void run(const OdometryOptions& o) {
   else if (o.metric == "plane") cfg.registration.metric = IcpMetric::PointToPlane;
   else if (!o.metric.empty()) fail("--metric", "expected point or plane, got '" + o.metric + "'");
   if (o.threads < 0) fail("--threads", "must be >= 0");
+  params.applySettings(cfg);
   cfg.validate();
   std::optional<tbb::global_control> threads;
   if (o.threads > 0) threads.emplace(tbb::global_control::max_allowed_parallelism, o.threads);
@@ -57,7 +59,7 @@ void run(const OdometryOptions& o) {
          "has " + std::to_string(wheel->size()) + " poses for " + std::to_string(n) + " scans");
 
   std::filesystem::create_directories(o.out);
-  Odometry odo(seq.classTable(), cfg);
+  Odometry odo(params.propertyIcp().applyTo(seq.classTable()), cfg);
   std::ostringstream csv, cov;
   csv << "frame,stamp,status,iterations,fitness,rmse,scan_points,source_points,map_points,"
          "preprocess_ms,registration_ms,total_ms,wheel_guess,label_agreement,labels_used,reason\n";
@@ -135,7 +137,8 @@ const RegisterCommand kOdometry{{
       app.add_option("--threads", o->threads, "Worker threads (0 = all)");
       app.add_flag("--no-wheel", o->no_wheel, "Ignore odometry.txt (constant-velocity guess)");
       app.add_flag("--quiet", o->quiet, "No progress output");
-      app.callback([o] { run(*o); });
+      auto params = addParameterOptions(app, "keys of the odometry section, e.g. registration.max_iterations=30");
+      app.callback([o, params] { run(*o, *params); });
     }}};
 
 }  // namespace

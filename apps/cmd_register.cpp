@@ -8,6 +8,7 @@
 #include <string>
 
 #include "command.hpp"
+#include "config_options.hpp"
 #include "hazmap/core/error.hpp"
 #include "hazmap/io/atomic_file.hpp"
 #include "hazmap/io/cloud_file.hpp"
@@ -59,7 +60,7 @@ Eigen::Isometry3d readTransform(const std::string& path) {
   return T;
 }
 
-void run(const RegisterOptions& o) {
+void run(const RegisterOptions& o, const ParameterOptions& params) {
   RegistrationConfig cfg;
   if (!o.config.empty()) cfg = loadRegistrationConfig(o.config);
   if (o.method == "icp") cfg.use_classes = false;
@@ -71,10 +72,11 @@ void run(const RegisterOptions& o) {
   if (o.max_distance != 0.0) cfg.max_correspondence_distance = o.max_distance;
   if (o.max_iterations != 0) cfg.max_iterations = o.max_iterations;
   if (o.threads != 0) cfg.threads = o.threads;
+  params.applySettings(cfg);
   cfg.validate();
   if (o.voxel < 0.0 || !std::isfinite(o.voxel)) fail("--voxel", "must be >= 0 (0 = no downsampling)");
 
-  const ClassTable table = ClassTable::load(o.classes);
+  const ClassTable table = params.propertyIcp().applyTo(ClassTable::load(o.classes));
   const LabeledCloud source = readCloud(o.source, table);
   const LabeledCloud target = readCloud(o.target, table);
   if (cfg.use_classes) {
@@ -146,7 +148,8 @@ const RegisterCommand kRegister{{
       app.add_option("--max-iterations", o->max_iterations, "Iteration limit (0 = config)");
       app.add_option("--threads", o->threads, "Worker threads (0 = all)");
       app.add_flag("--json", o->json, "Print JSON: transform, covariance, fitness, rmse, iterations, converged");
-      app.callback([o] { run(*o); });
+      auto params = addParameterOptions(app, "keys of the registration section, e.g. max_iterations=30");
+      app.callback([o, params] { run(*o, *params); });
     }}};
 
 }  // namespace

@@ -5,6 +5,7 @@
 #include <memory>
 
 #include "command.hpp"
+#include "config_options.hpp"
 #include "hazmap/pipeline/progress.hpp"
 #include "hazmap/pipeline/run_outputs.hpp"
 
@@ -21,10 +22,13 @@ struct RunOptions {
   bool quiet = false;
 };
 
-void run(const RunOptions& o) {
+void run(const RunOptions& o, const ParameterOptions& params) {
   const SlamMethod method = parseSlamMethod(o.method);
   SlamConfig config = SlamConfig::forMethod(method);
   if (!o.config.empty()) config.applyYamlFile(o.config);
+  // Parameter flags (config_options.hpp) override the file.
+  config.property_icp = params.propertyIcp(config.property_icp);
+  params.applySettings(config);
   config.threads = o.threads;
   std::optional<ClassTable> table;
   if (!o.classes.empty()) table = ClassTable::load(o.classes);
@@ -64,7 +68,8 @@ const RegisterCommand registration{{
                      "Class table: 'default', 'semantic-kitti' or a YAML file (overrides hazmap.yaml)");
       app.add_option("--threads", o->threads, "Worker threads (0 = all cores)");
       app.add_flag("--quiet", o->quiet, "No progress bar and no summary");
-      app.callback([o] { run(*o); });
+      auto params = addParameterOptions(app, "keys as in --config, e.g. odometry.registration.max_iterations=30");
+      app.callback([o, params] { run(*o, *params); });
     }}};
 
 }  // namespace

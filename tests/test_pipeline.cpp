@@ -6,6 +6,7 @@
 #include <unistd.h>
 #include <nlohmann/json.hpp>
 
+#include "hazmap/core/config_fields.hpp"
 #include "hazmap/core/error.hpp"
 #include "hazmap/io/atomic_file.hpp"
 #include "hazmap/io/trajectory.hpp"
@@ -101,6 +102,14 @@ TEST(SlamRun, WritesEveryOutputAndRunJson) {
   EXPECT_EQ(j["frames"], seq.size());
   EXPECT_TRUE(j.contains("map_error"));
   EXPECT_GT(j["frames_per_s"].get<double>(), 0.0);
+  // Parameters: nested objects in the YAML layout (not YAML text in strings), read back exactly.
+  const auto& p = j["parameters"];
+  EXPECT_EQ(p["odometry"]["registration"]["max_iterations"], config.odometry.registration.max_iterations);
+  EXPECT_EQ(p["loop_closure"]["verification"]["registration"]["index"], "kdtree");
+  EXPECT_EQ(p["slam"]["keyframe_distance"], config.keyframe_distance);
+  SlamConfig reread = SlamConfig::forMethod(SlamMethod::Icp);
+  reread.applyYamlString(jsonToYaml(p), "run.json");
+  EXPECT_EQ(configToJson(reread), configToJson(config));
   ASSERT_TRUE(s.map_error.has_value());
   EXPECT_LT(s.map_error->point.mean, 1.0);
   EXPECT_GT(s.hazards, 0u);  // the corridor has heat and water patches

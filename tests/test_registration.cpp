@@ -141,7 +141,7 @@ TEST(PropertyCorrespondence, FollowsEquationTwo) {
   target.push_back({0, 2.5f, 0}, 2);   // 2: water at 2.5 m
   RegistrationConfig cfg;
   cfg.metric = IcpMetric::PointToPoint;
-  cfg.mismatch_penalty = 1.0;
+  table.mismatch_penalty = 1.0;
   {
     const RegistrationTarget t(target, table, cfg);
     // heat query: heat at d²=0.64 beats none at 0.01 + α = 1.01
@@ -157,7 +157,7 @@ TEST(PropertyCorrespondence, FollowsEquationTwo) {
     EXPECT_TRUE(m.cross_class);
     EXPECT_NEAR(m.cost, 0.01 + 1.0, 1e-5);
   }
-  cfg.mismatch_penalty = 10.0;  // large α: the wider same-class radius wins
+  table.mismatch_penalty = 10.0;  // large α: the wider same-class radius wins
   {
     const RegistrationTarget t(target, table, cfg);
     const auto m = t.match({0, 0, 0}, 2, NAN);
@@ -177,7 +177,8 @@ TEST(PropertyCorrespondence, FollowsEquationTwo) {
 // must be exactly the unbounded one, for labelled and plain matching, whatever the previous
 // partner was (near, far, another class, outside its gate).
 TEST(PropertyCorrespondence, PreviousPartnerBoundKeepsTheAnswer) {
-  const ClassTable table = ClassTable::defaults();
+  ClassTable table = ClassTable::defaults();
+  table.mismatch_penalty = 0.3;
   std::mt19937 rng(3);
   std::uniform_real_distribution<float> u(-3.0f, 3.0f);
   std::uniform_int_distribution<int> cls(0, 3);
@@ -188,7 +189,6 @@ TEST(PropertyCorrespondence, PreviousPartnerBoundKeepsTheAnswer) {
   for (const bool classes : {true, false}) {
     RegistrationConfig cfg;
     cfg.use_classes = classes;
-    cfg.mismatch_penalty = 0.3;
     const RegistrationTarget t(target, table, cfg);
     int bounded = 0;
     for (int q = 0; q < 3000; ++q) {
@@ -573,7 +573,7 @@ TEST(RegistrationConfig, YamlRoundTripAndErrors) {
   c.coarse_source_points = 750;
   EXPECT_EQ(registrationConfigFromYaml(toYamlString(c), "test").coarse_source_points, 750u);
   try {
-    registrationConfigFromYaml("mismatch_penalty: [1]\n", "cfg.yaml");
+    registrationConfigFromYaml("max_iterations: [1]\n", "cfg.yaml");
     FAIL();
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("cfg.yaml"), std::string::npos);

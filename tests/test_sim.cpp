@@ -547,16 +547,16 @@ TEST(SimConfig, BadValuesFailWithOneLineNamingTheParameter) {
     }
     return std::string("no error");
   };
-  EXPECT_NE(error("sensor: {range_noise_sigma: -0.1}").find("cfg.yaml: sensor.range_noise_sigma must be >= 0"), std::string::npos);
-  EXPECT_NE(error("odometry: {lateral_sigma: -1}").find("odometry.lateral_sigma must be >= 0"), std::string::npos);
-  EXPECT_NE(error("odometry: {slip_probability: 1.5}").find("odometry.slip_probability must be in [0, 1]"), std::string::npos);
+  EXPECT_NE(error("sensor: {range_noise_sigma: -0.1}").find("cfg.yaml: sensor.range_noise_sigma: must be >= 0, got -0.1"), std::string::npos);
+  EXPECT_NE(error("odometry: {lateral_sigma: -1}").find("odometry.lateral_sigma: must be >= 0"), std::string::npos);
+  EXPECT_NE(error("odometry: {slip_probability: 1.5}").find("odometry.slip_probability: must be in [0, 1], got 1.5"), std::string::npos);
   EXPECT_NE(error("labels: {false_property: -0.01}").find("labels.false_property"), std::string::npos);
   EXPECT_NE(error("scenario: moon").find("unknown scenario 'moon'"), std::string::npos);
-  EXPECT_NE(error("sensor: {min_range: 5, max_range: 2}").find("min_range must be < sensor.max_range"), std::string::npos);
+  EXPECT_NE(error("sensor: {min_range: 5, max_range: 2}").find("sensor.min_range: must be < sensor.max_range"), std::string::npos);
   EXPECT_NE(error("sensor: {channels: 0}").find("sensor.channels"), std::string::npos);
-  EXPECT_NE(error("sensor: {rang_noise: 0.1}").find("unknown key 'sensor.rang_noise'"), std::string::npos);
+  EXPECT_NE(error("sensor: {rang_noise: 0.1}").find("sensor: unknown key 'rang_noise' (did you mean 'range_noise_sigma'?)"), std::string::npos);
   EXPECT_NE(error("speed: 3").find("unknown key 'speed'"), std::string::npos);
-  EXPECT_NE(error("sensor: {columns: many}").find("bad value for 'sensor.columns'"), std::string::npos);
+  EXPECT_NE(error("sensor: {columns: many}").find("sensor.columns: must be a whole number, got 'many'"), std::string::npos);
   EXPECT_NE(error("scene: room.ply").find("needs a regions file"), std::string::npos);
   EXPECT_EQ(error("sensor: {range_noise_sigma: 0}"), "no error");
   for (const std::string& e : {error("odometry: {yaw_sigma_deg: -2}"), error("scenario: x")})

@@ -167,9 +167,9 @@ TEST(SimCli, BadConfigurationFailsBeforeWritingAnything) {
       EXPECT_EQ(e.path().filename().string().find(".never.partial"), std::string::npos);
   };
   writeTextAtomically(dir / "neg.yaml", "sensor: {range_noise_sigma: -0.03}\n");
-  expectFailure("--config " + (dir / "neg.yaml").string(), "sensor.range_noise_sigma must be >= 0");
+  expectFailure("--config " + (dir / "neg.yaml").string(), "sensor.range_noise_sigma: must be >= 0");
   writeTextAtomically(dir / "negodo.yaml", "odometry: {forward_scale_sigma: -0.05}\n");
-  expectFailure("--config " + (dir / "negodo.yaml").string(), "odometry.forward_scale_sigma must be >= 0");
+  expectFailure("--config " + (dir / "negodo.yaml").string(), "odometry.forward_scale_sigma: must be >= 0");
   expectFailure("--scenario atlantis", "unknown scenario 'atlantis'");
 
   TriangleMesh empty;

@@ -24,6 +24,17 @@ double angleOf(const Eigen::Matrix3d& R) {
   return std::acos(c);
 }
 
+// The devkit's rotationError / translationError, in its single precision.
+float devkitRotationError(const Eigen::Matrix4d& e) {
+  const float a = static_cast<float>(e(0, 0)), b = static_cast<float>(e(1, 1)), c = static_cast<float>(e(2, 2));
+  const float d = static_cast<float>(0.5 * (a + b + c - 1.0));
+  return std::acos(std::max(std::min(d, 1.0f), -1.0f));
+}
+float devkitTranslationError(const Eigen::Matrix4d& e) {
+  const float dx = static_cast<float>(e(0, 3)), dy = static_cast<float>(e(1, 3)), dz = static_cast<float>(e(2, 3));
+  return std::sqrt(dx * dx + dy * dy + dz * dz);
+}
+
 void checkPair(const Trajectory& gt, const Trajectory& est, const std::string& where) {
   checkTrajectory(gt, where + ": ground truth");
   checkTrajectory(est, where + ": estimate");
@@ -269,28 +280,34 @@ KittiResult computeKittiErrors(const Trajectory& gt, const Trajectory& est, cons
   if (config.step_size == 0) fail("kitti", "step_size must be >= 1");
   for (double len : config.lengths)
     if (!(len > 0)) fail("kitti", "segment lengths must be positive");
+  // As the devkit (evaluate_odometry.cpp) computes it, operation for operation: the file's
+  // matrices as given with general 4×4 inverses (no re-orthonormalisation), then single
+  // precision for path distances, segment lengths, per-segment errors (acos of a float) and their
+  // sums — so t_err and r_err agree with the devkit's own output, float rounding included.
   const auto& Q = gt.poses;
   const auto& P = est.poses;
-  std::vector<double> dist(Q.size(), 0.0);
-  for (std::size_t i = 1; i < Q.size(); ++i)
-    dist[i] = dist[i - 1] + (Q[i].translation() - Q[i - 1].translation()).norm();
-
+  std::vector<float> dist(Q.size(), 0.0f);
+  for (std::size_t i = 1; i < Q.size(); ++i) {
+    const Eigen::Vector3d d = Q[i - 1].matrix().topRightCorner<3, 1>() - Q[i].matrix().topRightCorner<3, 1>();
+    const float dx = static_cast<float>(d.x()), dy = static_cast<float>(d.y()), dz = static_cast<float>(d.z());
+    dist[i] = dist[i - 1] + std::sqrt(dx * dx + dy * dy + dz * dz);
+  }
   KittiResult r;
-  std::vector<double> t_sum(config.lengths.size(), 0.0), r_sum(config.lengths.size(), 0.0);
+  std::vector<float> t_sum(config.lengths.size(), 0.0f), r_sum(config.lengths.size(), 0.0f);
   std::vector<std::size_t> n(config.lengths.size(), 0);
-  double t_total = 0, r_total = 0;
+  float t_total = 0, r_total = 0;
   for (std::size_t first = 0; first < Q.size(); first += config.step_size) {
     for (std::size_t l = 0; l < config.lengths.size(); ++l) {
-      const double len = config.lengths[l];
-      // devkit lastFrameFromSegmentLength: first frame whose distance exceeds dist[first] + len
+      const float len = static_cast<float>(config.lengths[l]);
+      // lastFrameFromSegmentLength: the first frame whose distance exceeds dist[first] + len
       const auto it = std::upper_bound(dist.begin() + first, dist.end(), dist[first] + len);
       if (it == dist.end()) continue;
       const std::size_t last = static_cast<std::size_t>(it - dist.begin());
-      const Eigen::Isometry3d dq = Q[first].inverse() * Q[last];
-      const Eigen::Isometry3d dp = P[first].inverse() * P[last];
-      const Eigen::Isometry3d err = dp.inverse() * dq;
-      const double t_err = err.translation().norm() / len;
-      const double r_err = angleOf(err.linear()) / len;
+      const Eigen::Matrix4d dq = Q[first].matrix().inverse() * Q[last].matrix();
+      const Eigen::Matrix4d dp = P[first].matrix().inverse() * P[last].matrix();
+      const Eigen::Matrix4d err = dp.inverse() * dq;
+      const float t_err = devkitTranslationError(err) / len;
+      const float r_err = devkitRotationError(err) / len;
       t_sum[l] += t_err;
       r_sum[l] += r_err;
       ++n[l];
@@ -299,17 +316,18 @@ KittiResult computeKittiErrors(const Trajectory& gt, const Trajectory& est, cons
       ++r.segments;
     }
   }
+  const auto average = [](float sum, std::size_t count) { return double(sum / static_cast<float>(count)); };
   if (r.segments > 0) {
-    r.t_err_pct = 100.0 * t_total / static_cast<double>(r.segments);
-    r.r_err_deg_per_100m = 100.0 * kRadToDeg * r_total / static_cast<double>(r.segments);
+    r.t_err_pct = 100.0 * average(t_total, r.segments);
+    r.r_err_deg_per_100m = 100.0 * kRadToDeg * average(r_total, r.segments);
   }
   for (std::size_t l = 0; l < config.lengths.size(); ++l) {
     if (n[l] == 0) continue;
     KittiLengthError e;
     e.length = config.lengths[l];
     e.segments = n[l];
-    e.t_err_pct = 100.0 * t_sum[l] / static_cast<double>(n[l]);
-    e.r_err_deg_per_100m = 100.0 * kRadToDeg * r_sum[l] / static_cast<double>(n[l]);
+    e.t_err_pct = 100.0 * average(t_sum[l], n[l]);
+    e.r_err_deg_per_100m = 100.0 * kRadToDeg * average(r_sum[l], n[l]);
     r.per_length.push_back(e);
   }
   return r;
@@ -322,6 +340,11 @@ double pathLength(const Trajectory& trajectory) {
   return len;
 }
 
+namespace {
+TrajectoryEvaluation evaluateRelative(const Trajectory& gt, const Trajectory& est,
+                                      const TrajectoryEvalConfig& config, TrajectoryEvaluation e);
+}  // namespace
+
 TrajectoryEvaluation evaluateTrajectory(const Trajectory& gt, const Trajectory& est,
                                         const TrajectoryEvalConfig& config) {
   TrajectoryEvaluation e;
@@ -329,6 +352,21 @@ TrajectoryEvaluation evaluateTrajectory(const Trajectory& gt, const Trajectory& 
   e.poses = gt.size();
   e.gt_length_m = pathLength(gt);
   e.est_length_m = pathLength(est);
+  // Sim(3): the scale found by the alignment applies to RPE and the KITTI segments too, as in
+  // evo's --correct_scale and kitti-odom-eval's --align 7dof (a monocular estimate has no scale
+  // of its own). The rigid part changes no relative pose.
+  Trajectory scaled;
+  if (config.ape_alignment == Alignment::Sim3) {
+    scaled.stamps = est.stamps;
+    scaled.poses = applyTransform(e.ape.transform, est.poses);
+  }
+  return evaluateRelative(gt, config.ape_alignment == Alignment::Sim3 ? scaled : est, config, std::move(e));
+}
+
+namespace {
+
+TrajectoryEvaluation evaluateRelative(const Trajectory& gt, const Trajectory& est,
+                                      const TrajectoryEvalConfig& config, TrajectoryEvaluation e) {
   if (!(config.rpe.delta > 0) || !std::isfinite(config.rpe.delta))
     fail("rpe", "delta must be a positive number (got " + std::to_string(config.rpe.delta) + ")");
   // Too short for one RPE pair is a property of the data, not an error of the evaluation.
@@ -341,6 +379,8 @@ TrajectoryEvaluation evaluateTrajectory(const Trajectory& gt, const Trajectory& 
   e.kitti = computeKittiErrors(gt, est, config.kitti);
   return e;
 }
+
+}  // namespace
 
 namespace {
 nlohmann::json statsJson(const ErrorStats& s) {

@@ -1,45 +1,36 @@
-#include <yaml-cpp/yaml.h>
-
-#include "hazmap/core/error.hpp"
+// PoseGraphConfig: its field table (core/config_fields.hpp) and the YAML loader derived from it.
+#include "hazmap/core/config_fields.hpp"
 #include "hazmap/graph/optimizer.hpp"
+#include "hazmap/io/atomic_file.hpp"
 
 namespace hazmap {
 
+const ConfigFields<PoseGraphConfig>& configFields(ConfigTag<PoseGraphConfig>) {
+  using C = PoseGraphConfig;
+  static const ConfigFields<C> fields =
+      ConfigFields<C>("Pose-graph optimisation (Ceres Levenberg–Marquardt).")
+          .choice("cost", &C::cost, {{"geodesic", PoseGraphCost::Geodesic}, {"chordal", PoseGraphCost::Chordal}},
+                  "geodesic (SE(3) log, information-weighted) or chordal (SE-Sync's objective)")
+          .choice("init", &C::init,
+                  {{"file", PoseGraphInit::AsIs}, {"odometry", PoseGraphInit::Odometry},
+                   {"chordal", PoseGraphInit::Chordal}, {"as-is", PoseGraphInit::AsIs}, {"asis", PoseGraphInit::AsIs}},
+                  "Initial poses: as given, composed odometry, or the chordal relaxation")
+          .choice("loop_loss", &C::loop_loss,
+                  {{"cauchy", LoopLoss::Cauchy}, {"none", LoopLoss::None}, {"dcs", LoopLoss::Dcs}},
+                  "Robust loss on loop edges only")
+          .number("loop_loss_scale", &C::loop_loss_scale, positive(), "Loss scale c in whitened units")
+          .integer("max_iterations", &C::max_iterations, nonNegative(), "Levenberg–Marquardt iterations")
+          .number("function_tolerance", &C::function_tolerance, nonNegative(),
+                  "Stop when a step lowers the cost by less than this fraction")
+          .number("gradient_tolerance", &C::gradient_tolerance, nonNegative(), "Ceres gradient tolerance")
+          .number("parameter_tolerance", &C::parameter_tolerance, nonNegative(), "Ceres parameter tolerance")
+          .integer("threads", &C::threads, atLeast(1), "Threads for residual and Jacobian evaluation")
+          .flag("verbose", &C::verbose, "Ceres progress to stderr");
+  return fields;
+}
+
 PoseGraphConfig loadPoseGraphConfig(const std::filesystem::path& yaml_file) {
-  const std::string file = yaml_file.string();
-  YAML::Node root;
-  try {
-    root = YAML::LoadFile(file);
-  } catch (const YAML::BadFile&) {
-    fail(file, "cannot open");
-  } catch (const YAML::Exception& e) {
-    fail(file, std::string("invalid YAML: ") + e.what());
-  }
-  YAML::Node node = root && root.IsMap() && root["graph"] ? root["graph"] : root;
-  PoseGraphConfig c;
-  if (!node || node.IsNull()) return c;
-  if (!node.IsMap()) fail(file, "expected a map of pose-graph settings");
-  for (const auto& kv : node) {
-    const std::string key = kv.first.as<std::string>();
-    const std::string where = file + ": graph." + key;
-    try {
-      const YAML::Node& v = kv.second;
-      if (key == "cost") c.cost = parsePoseGraphCost(v.as<std::string>(), where);
-      else if (key == "init") c.init = parsePoseGraphInit(v.as<std::string>(), where);
-      else if (key == "loop_loss") c.loop_loss = parseLoopLoss(v.as<std::string>(), where);
-      else if (key == "loop_loss_scale") c.loop_loss_scale = v.as<double>();
-      else if (key == "max_iterations") c.max_iterations = v.as<int>();
-      else if (key == "function_tolerance") c.function_tolerance = v.as<double>();
-      else if (key == "gradient_tolerance") c.gradient_tolerance = v.as<double>();
-      else if (key == "parameter_tolerance") c.parameter_tolerance = v.as<double>();
-      else if (key == "threads") c.threads = v.as<int>();
-      else if (key == "verbose") c.verbose = v.as<bool>();
-      else fail(where, "unknown key");
-    } catch (const YAML::Exception&) {
-      fail(where, "wrong value type");
-    }
-  }
-  return c;
+  return configFromYaml(readTextFile(yaml_file), yaml_file.string(), "graph", PoseGraphConfig{});
 }
 
 }  // namespace hazmap

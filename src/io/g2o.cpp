@@ -1,5 +1,7 @@
 #include "hazmap/io/g2o.hpp"
 
+#include <Eigen/Eigenvalues>
+
 #include <fmt/format.h>
 
 #include <Eigen/Cholesky>
@@ -77,6 +79,39 @@ Eigen::Isometry3d poseFromQuat(const LineParser& p, const std::vector<std::strin
 }
 
 template <int N>
+bool positiveDefinite(const Eigen::Matrix<double, N, N>& m) {
+  Eigen::LLT<Eigen::Matrix<double, N, N>> llt(m);
+  if (llt.info() != Eigen::Success) return false;
+  const double scale = m.cwiseAbs().maxCoeff();
+  return llt.matrixL().toDenseMatrix().diagonal().minCoeff() > 1e-12 * std::sqrt(scale);
+}
+
+// An information matrix that is not positive definite, made usable as `policy` says (see
+// G2oInformation); returns whether it changed.
+template <int N>
+bool makeUsable(Eigen::Matrix<double, N, N>& m, G2oInformation policy, const LineParser& p) {
+  if (positiveDefinite(m)) return false;
+  if (policy == G2oInformation::Strict) p.error("information matrix is not positive definite");
+  if (policy == G2oInformation::DiagonalBlocks) {
+    // Translation block and rotation block only: N = 6 is x y z | rx ry rz, N = 3 is x y | θ.
+    const int t = N == 6 ? 3 : 2;
+    m.topRightCorner(t, N - t).setZero();
+    m.bottomLeftCorner(N - t, t).setZero();
+    if (!positiveDefinite(m))
+      p.error("information matrix's translation or rotation block is not positive definite");
+    return true;
+  }
+  // Nearest positive-definite matrix (Frobenius norm): eigenvalues clamped to a small floor.
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, N, N>> eig(m);
+  const double largest = eig.eigenvalues().maxCoeff();
+  if (!(largest > 0.0)) p.error("information matrix has no positive eigenvalue");
+  const Eigen::Matrix<double, N, 1> clamped = eig.eigenvalues().cwiseMax(1e-9 * largest);
+  m = eig.eigenvectors() * clamped.asDiagonal() * eig.eigenvectors().transpose();
+  m = 0.5 * (m + m.transpose()).eval();
+  return true;
+}
+
+template <int N>
 Eigen::Matrix<double, N, N> upperTriangle(const LineParser& p,
                                           const std::vector<std::string_view>& t,
                                           std::size_t first) {
@@ -84,13 +119,6 @@ Eigen::Matrix<double, N, N> upperTriangle(const LineParser& p,
   std::size_t k = first;
   for (int r = 0; r < N; ++r)
     for (int c = r; c < N; ++c) m(r, c) = m(c, r) = p.number(t[k++]);
-  Eigen::LLT<Eigen::Matrix<double, N, N>> llt(m);
-  bool ok = llt.info() == Eigen::Success;
-  if (ok) {
-    const double scale = m.cwiseAbs().maxCoeff();
-    ok = llt.matrixL().toDenseMatrix().diagonal().minCoeff() > 1e-12 * std::sqrt(scale);
-  }
-  if (!ok) p.error("information matrix is not positive definite");
   return m;
 }
 
@@ -103,8 +131,10 @@ struct RawEdge {
 
 }  // namespace
 
-PoseGraph parseG2o(const std::string& text, const std::string& name, G2oReadInfo* info) {
+PoseGraph parseG2o(const std::string& text, const std::string& name, G2oReadInfo* info,
+                   G2oInformation policy) {
   LineParser p{name};
+  std::vector<int> adjusted;
   int dimension = 0;
   auto setDimension = [&](int d) {
     if (dimension != 0 && dimension != d) p.error("mixes 2-D and 3-D vertices/edges");
@@ -150,12 +180,14 @@ PoseGraph parseG2o(const std::string& text, const std::string& name, G2oReadInfo
       e.info_right.setZero();
       if (planar) {
         e.T = fromXyYaw(p.number(t[3]), p.number(t[4]), p.number(t[5]));
-        const Eigen::Matrix3d m = upperTriangle<3>(p, t, 6);
+        Eigen::Matrix3d m = upperTriangle<3>(p, t, 6);
+        if (makeUsable(m, policy, p)) adjusted.push_back(p.line);
         for (int r = 0; r < 3; ++r)
           for (int c = 0; c < 3; ++c) e.info_right(kPlanarIndex[r], kPlanarIndex[c]) = m(r, c);
       } else {
         e.T = poseFromQuat(p, t, 3);
         e.info_right = upperTriangle<6>(p, t, 10);
+        if (makeUsable(e.info_right, policy, p)) adjusted.push_back(p.line);
       }
       raw.push_back(e);
     } else if (tag == "FIX") {
@@ -206,12 +238,13 @@ PoseGraph parseG2o(const std::string& text, const std::string& name, G2oReadInfo
     info->had_vertices = had_vertices;
     info->vertex_lines = static_cast<int>(vertices.size());
     info->edge_lines = static_cast<int>(raw.size());
+    info->adjusted_lines = std::move(adjusted);
   }
   return graph;
 }
 
-PoseGraph readG2o(const std::filesystem::path& path, G2oReadInfo* info) {
-  return parseG2o(readTextFile(path), path.string(), info);
+PoseGraph readG2o(const std::filesystem::path& path, G2oReadInfo* info, G2oInformation policy) {
+  return parseG2o(readTextFile(path), path.string(), info, policy);
 }
 
 std::string formatG2o(const PoseGraph& graph) {

@@ -16,33 +16,6 @@ const char* toString(CandidateSource source) {
   return source == CandidateSource::Constellation ? "constellation" : "distance";
 }
 
-void validate(const CandidateSearchConfig& c) {
-  const std::string where = "loop_closure.candidates";
-  auto positive = [&](double v, const char* name) {
-    if (!(v > 0.0) || !std::isfinite(v)) fail(where, std::string(name) + " must be a finite number > 0");
-  };
-  const ConstellationConfig& k = c.constellation;
-  positive(k.distance_tolerance, "distance_tolerance");
-  positive(k.inlier_distance, "inlier_distance");
-  if (!(k.min_pair_distance >= 0.0)) fail(where, "min_pair_distance must be >= 0");
-  if (!(k.min_triangle_height >= 0.0)) fail(where, "min_triangle_height must be >= 0");
-  if (k.min_inliers < 2) fail(where, "min_inliers must be >= 2");
-  if (k.model == ConstellationModel::Full3D && k.min_inliers < 3)
-    fail(where, "min_inliers must be >= 3 for the full-3d model");
-  if (!(k.max_extent_ratio == 0.0 || k.max_extent_ratio >= 1.0))
-    fail(where, "max_extent_ratio must be 0 (off) or >= 1");
-  if (!(k.property_value_tolerance >= 0.0)) fail(where, "property_value_tolerance must be >= 0");
-  if (k.max_hypotheses < 1) fail(where, "max_hypotheses must be >= 1");
-  if (!(k.visibility_range >= 0.0) || !std::isfinite(k.visibility_range))
-    fail(where, "visibility_range must be >= 0 (0 = off)");
-  if (!(k.miss_penalty >= 0.0) || !std::isfinite(k.miss_penalty)) fail(where, "miss_penalty must be >= 0");
-  if (!(k.min_overlap >= 0.0 && k.min_overlap <= 1.0)) fail(where, "min_overlap must be in [0, 1]");
-  if (!(k.facing_tolerance >= 0.0 && k.facing_tolerance <= M_PI))
-    fail(where, "facing_tolerance must be in [0, pi] rad (0 = off)");
-  positive(c.search_radius, "search_radius");
-  if (c.max_candidates < 1) fail(where, "max_candidates must be >= 1");
-}
-
 namespace {
 
 using Corr = std::pair<std::size_t, std::size_t>;  // (query landmark, match landmark)

@@ -11,21 +11,6 @@
 
 namespace hazmap {
 
-void validate(const ConsistencyConfig& c) {
-  const std::string where = "loop_closure.consistency";
-  auto nonneg = [&](double v, const char* name) {
-    if (!(v >= 0.0) || !std::isfinite(v)) fail(where, std::string(name) + " must be a finite number >= 0");
-  };
-  nonneg(c.translation_drift_per_metre, "translation_drift_per_metre");
-  nonneg(c.rotation_drift_per_metre, "rotation_drift_per_metre");
-  nonneg(c.translation_sigma_floor, "translation_sigma_floor");
-  nonneg(c.rotation_sigma_floor, "rotation_sigma_floor");
-  if (!(c.translation_sigma_floor > 0.0 && c.rotation_sigma_floor > 0.0))
-    fail(where, "translation_sigma_floor and rotation_sigma_floor must be > 0");
-  if (!(c.gate_probability > 0.0 && c.gate_probability < 1.0))
-    fail(where, "gate_probability must be in (0, 1)");
-}
-
 double pathLength(const PoseList& poses, std::size_t a, std::size_t b) {
   if (a > b) std::swap(a, b);
   if (b >= poses.size()) fail("pathLength", "keyframe index out of range");

@@ -84,16 +84,6 @@ PropertyLandmark describe(const LabeledCloud& cloud, const std::vector<std::size
 
 }  // namespace
 
-void validate(const LandmarkConfig& c) {
-  const std::string where = "loop_closure.landmarks";
-  if (!(c.cluster_tolerance > 0.0) || !std::isfinite(c.cluster_tolerance))
-    fail(where, "cluster_tolerance must be a finite number > 0");
-  if (c.min_points < 1) fail(where, "min_points must be >= 1");
-  if (!(c.min_purity >= 0.0 && c.min_purity <= 1.0)) fail(where, "min_purity must be in [0, 1]");
-  if (!(c.max_range >= 0.0) || !std::isfinite(c.max_range))
-    fail(where, "max_range must be >= 0 (0 = no limit)");
-}
-
 std::vector<PropertyLandmark> extractLandmarks(const LabeledCloud& cloud, const ClassTable& table,
                                                const LandmarkConfig& config) {
   validate(config);

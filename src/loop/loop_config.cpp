@@ -1,12 +1,9 @@
-// LoopClosureConfig: validation and YAML round trip.
-#include <yaml-cpp/yaml.h>
-
+// LoopClosureConfig and its parts: their field tables (core/config_fields.hpp) and the YAML entry
+// points and validate() functions derived from them.
 #include <cmath>
-#include <fstream>
-#include <set>
-#include <sstream>
 
-#include "hazmap/core/error.hpp"
+#include "hazmap/core/config_fields.hpp"
+#include "hazmap/io/atomic_file.hpp"
 #include "hazmap/loop/loop_closure.hpp"
 
 namespace hazmap {
@@ -20,242 +17,140 @@ const char* toString(CandidateMethod method) {
   return "constellation";
 }
 
-void LoopClosureConfig::validate() const {
-  hazmap::validate(landmarks);
-  hazmap::validate(candidates);
-  hazmap::validate(verification);
-  hazmap::validate(consistency);
-  if (max_loops_per_keyframe < 1) fail("loop_closure", "max_loops_per_keyframe must be >= 1");
-  if (landmark_window < 1) fail("loop_closure", "landmark_window must be >= 1");
-  if (!(landmark_merge_distance > 0.0) || !std::isfinite(landmark_merge_distance))
-    fail("loop_closure", "landmark_merge_distance must be a finite number > 0");
-  if (resident_keyframes < 1) fail("loop_closure", "resident_keyframes must be >= 1");
-  if (!(keyframe_voxel >= 0.0) || !std::isfinite(keyframe_voxel))
-    fail("loop_closure", "keyframe_voxel must be >= 0 (0 = no downsampling)");
+const ConfigFields<LandmarkConfig>& configFields(ConfigTag<LandmarkConfig>) {
+  using C = LandmarkConfig;
+  static const ConfigFields<C> fields =
+      ConfigFields<C>("Property landmarks: same-class clusters of labelled points.")
+          .number("cluster_tolerance", &C::cluster_tolerance, positive(),
+                  "m; same-class points closer than this join one landmark")
+          .integer("min_points", &C::min_points, atLeast(1), "Smaller clusters are label noise")
+          .number("max_range", &C::max_range, nonNegative(), "m; farther points are ignored (0 = no limit)")
+          .number("min_purity", &C::min_purity, closed(0, 1),
+                  "Share of all points in the cluster's cells that it must make up (0 = off)");
+  return fields;
 }
 
-namespace {
+const ConfigFields<ConstellationConfig>& configFields(ConfigTag<ConstellationConfig>) {
+  using C = ConstellationConfig;
+  static const ConfigFields<C> fields =
+      ConfigFields<C>("Constellation matching of two keyframes' landmarks (RANSAC over pairs or triples).")
+          .choice("model", &C::model, {{"planar", ConstellationModel::Planar}, {"full-3d", ConstellationModel::Full3D}},
+                  "planar: x, y, yaw from landmark pairs; full-3d: 6-DoF from triples")
+          .number("distance_tolerance", &C::distance_tolerance, positive(),
+                  "m; landmark pairs are compatible when their distances differ by at most this")
+          .number("inlier_distance", &C::inlier_distance, positive(), "m; inlier radius after the hypothesis")
+          .integer("min_inliers", &C::min_inliers, atLeast(2), "Matched landmarks needed for a candidate")
+          .number("min_pair_distance", &C::min_pair_distance, nonNegative(),
+                  "m; closer landmark pairs give no reliable yaw")
+          .number("min_triangle_height", &C::min_triangle_height, nonNegative(),
+                  "m; flatter triples are collinear (full-3d)")
+          .number("max_extent_ratio", &C::max_extent_ratio, nonNegative(),
+                  "Descriptor gate on the principal extent ratio (0 = off, else >= 1)")
+          .number("property_value_tolerance", &C::property_value_tolerance, nonNegative(),
+                  "Gate on the mean property value (0 = off)")
+          .integer("max_hypotheses", &C::max_hypotheses, atLeast(1),
+                   "Exhaustive search up to this many hypotheses, a random sample beyond")
+          .integer("seed", &C::seed, nonNegative(), "Seed of that sample")
+          .number("visibility_range", &C::visibility_range, nonNegative(),
+                  "m; an unmatched landmark this close to the other sensor counts as a miss (0 = off)")
+          .number("miss_penalty", &C::miss_penalty, nonNegative(), "Ranking: inliers − miss_penalty · misses")
+          .number("min_overlap", &C::min_overlap, closed(0, 1), "Required 2·inliers / (2·inliers + misses)")
+          .number("facing_tolerance", &C::facing_tolerance, closed(0, M_PI),
+                  "rad; matched flat landmarks must face the same way (0 = off)")
+          .rule("max_extent_ratio", [](const C& c) { return c.max_extent_ratio == 0.0 || c.max_extent_ratio >= 1.0; },
+                "must be 0 (off) or >= 1")
+          .rule("min_inliers",
+                [](const C& c) { return c.model != ConstellationModel::Full3D || c.min_inliers >= 3; },
+                "must be >= 3 for the full-3d model");
+  return fields;
+}
 
-// One YAML mapping: typed reads that remember the keys seen, then a check for unknown keys.
-class Section {
- public:
-  Section(YAML::Node node, std::string where) : node_(std::move(node)), where_(std::move(where)) {
-    if (node_ && !node_.IsNull() && !node_.IsMap()) fail(where_, "must be a mapping");
-  }
-  template <typename T>
-  void get(const char* key, T& value) {
-    known_.insert(key);
-    if (!node_ || !node_.IsMap() || !node_[key]) return;
-    try {
-      value = node_[key].as<T>();
-    } catch (const YAML::Exception&) {
-      fail(where_, std::string("bad value for '") + key + "'");
-    }
-  }
-  void getSize(const char* key, std::size_t& value) {
-    long long v = static_cast<long long>(value);
-    get(key, v);
-    if (v < 0) fail(where_, std::string("'") + key + "' must be >= 0");
-    value = static_cast<std::size_t>(v);
-  }
-  template <typename E>
-  void getEnum(const char* key, E& value, std::initializer_list<std::pair<const char*, E>> names) {
-    std::string text;
-    get(key, text);
-    if (text.empty()) return;
-    for (const auto& [n, e] : names)
-      if (text == n) {
-        value = e;
-        return;
-      }
-    std::string options;
-    for (const auto& [n, e] : names) options += (options.empty() ? "" : ", ") + std::string(n);
-    fail(where_, std::string("'") + key + "' must be one of " + options + " (got '" + text + "')");
-  }
-  YAML::Node raw(const char* key) {
-    known_.insert(key);
-    return node_ && node_.IsMap() ? node_[key] : YAML::Node();
-  }
-  Section child(const char* key) {
-    known_.insert(key);
-    return Section(node_ && node_.IsMap() ? node_[key] : YAML::Node(), where_ + "." + key);
-  }
-  void finish() const {
-    if (!node_ || !node_.IsMap()) return;
-    for (const auto& kv : node_) {
-      const auto k = kv.first.as<std::string>();
-      if (!known_.count(k)) fail(where_, "unknown key '" + k + "'");
-    }
-  }
+const ConfigFields<CandidateSearchConfig>& configFields(ConfigTag<CandidateSearchConfig>) {
+  using C = CandidateSearchConfig;
+  static const ConfigFields<C> fields =
+      ConfigFields<C>("Loop candidates: which past keyframe the current one may re-observe.")
+          .integer("min_index_gap", &C::min_index_gap, nonNegative(),
+                   "Keyframes newer than query − gap are never candidates")
+          .number("search_radius", &C::search_radius, positive(), "m; distance search radius")
+          .integer("max_candidates", &C::max_candidates, atLeast(1), "Candidates per query, best first")
+          .section("constellation", &C::constellation, "Constellation matching");
+  return fields;
+}
 
- private:
-  YAML::Node node_;
-  std::string where_;
-  std::set<std::string> known_;
-};
+const ConfigFields<VerificationConfig>& configFields(ConfigTag<VerificationConfig>) {
+  using C = VerificationConfig;
+  static const ConfigFields<C> fields =
+      ConfigFields<C>("Loop verification: ICP from the candidate's guess, then acceptance rules.")
+          .number("min_fitness", &C::min_fitness, closed(0, 1), "Fraction of source points with a partner")
+          .number("max_rmse", &C::max_rmse, positive(), "m; inlier RMSE")
+          .number("max_translation_sigma", &C::max_translation_sigma, positive(),
+                  "m; largest translation standard deviation of the ICP covariance")
+          .number("max_rotation_sigma", &C::max_rotation_sigma, positive(), "rad")
+          .flag("reject_degenerate", &C::reject_degenerate, "Reject loops with a degenerate direction")
+          .number("max_correction_translation", &C::max_correction_translation, positive(),
+                  "m; ICP may move the guess at most this far")
+          .number("max_correction_rotation", &C::max_correction_rotation, positive(), "rad")
+          .number("min_translation_sigma", &C::min_translation_sigma, nonNegative(),
+                  "m; floor on the standard deviations before inverting")
+          .number("min_rotation_sigma", &C::min_rotation_sigma, nonNegative(), "rad")
+          .section("registration", &C::registration, "The verification ICP (α and class radii: property_icp)");
+  return fields;
+}
 
-}  // namespace
+const ConfigFields<ConsistencyConfig>& configFields(ConfigTag<ConsistencyConfig>) {
+  using C = ConsistencyConfig;
+  static const ConfigFields<C> fields =
+      ConfigFields<C>("Rejection of false loops: drift gate and pairwise consistency.")
+          .number("translation_drift_per_metre", &C::translation_drift_per_metre, nonNegative(),
+                  "Drift model: m per m of path")
+          .number("rotation_drift_per_metre", &C::rotation_drift_per_metre, nonNegative(), "rad per m")
+          .number("translation_sigma_floor", &C::translation_sigma_floor, positive(), "m")
+          .number("rotation_sigma_floor", &C::rotation_sigma_floor, positive(), "rad")
+          .number("gate_probability", &C::gate_probability, Range{0.0, 1.0, true, true},
+                  "Probability of the χ² gates (6 degrees of freedom)")
+          .flag("use_drift_gate", &C::use_drift_gate, "Gate loops against the drifting estimate")
+          .flag("use_pairwise", &C::use_pairwise, "Keep only the largest pairwise-consistent set");
+  return fields;
+}
+
+const ConfigFields<LoopClosureConfig>& configFields(ConfigTag<LoopClosureConfig>) {
+  using C = LoopClosureConfig;
+  static const ConfigFields<C> fields =
+      ConfigFields<C>("Loop closure from property landmarks (paper section V).")
+          .choice("method", &C::method,
+                  {{"constellation", CandidateMethod::Constellation}, {"distance", CandidateMethod::Distance},
+                   {"both", CandidateMethod::Both}},
+                  "Candidate search: property constellations, distance in the estimate, or both")
+          .integer("max_loops_per_keyframe", &C::max_loops_per_keyframe, atLeast(1), "Verified loops kept per query")
+          .number("keyframe_voxel", &C::keyframe_voxel, nonNegative(),
+                  "m; keyframe clouds are stored downsampled to this (0 = every point)")
+          .integer("resident_keyframes", &C::resident_keyframes, atLeast(1),
+                   "Keyframe clouds kept in memory (older ones are reloaded)")
+          .integer("landmark_window", &C::landmark_window, atLeast(1),
+                   "Constellations merge the landmarks of this many keyframes")
+          .number("landmark_merge_distance", &C::landmark_merge_distance, positive(),
+                  "m; same-class landmarks closer than this fuse")
+          .section("landmarks", &C::landmarks, "Landmark extraction")
+          .section("candidates", &C::candidates, "Candidate search")
+          .section("verification", &C::verification, "ICP verification")
+          .section("consistency", &C::consistency, "Drift gate and pairwise consistency");
+  return fields;
+}
+
+void validate(const LandmarkConfig& c) { validateConfig(c, "loop_closure.landmarks"); }
+void validate(const CandidateSearchConfig& c) { validateConfig(c, "loop_closure.candidates"); }
+void validate(const VerificationConfig& c) { validateConfig(c, "loop_closure.verification"); }
+void validate(const ConsistencyConfig& c) { validateConfig(c, "loop_closure.consistency"); }
+void LoopClosureConfig::validate() const { validateConfig(*this, "loop_closure"); }
 
 LoopClosureConfig LoopClosureConfig::fromYamlFile(const std::filesystem::path& path) {
-  std::ifstream in(path);
-  if (!in) fail(path.string(), "cannot open loop-closure config");
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return fromYamlString(ss.str(), path.string());
+  return fromYamlString(readTextFile(path), path.string());
 }
 
 LoopClosureConfig LoopClosureConfig::fromYamlString(const std::string& yaml, const std::string& where) {
-  YAML::Node root;
-  try {
-    root = YAML::Load(yaml);
-  } catch (const YAML::Exception& e) {
-    fail(where, std::string("invalid YAML: ") + e.msg + " at line " + std::to_string(e.mark.line + 1));
-  }
-  LoopClosureConfig c;
-  if (!root || root.IsNull()) return c;
-  if (!root.IsMap()) fail(where, "loop-closure config must be a YAML mapping");
-  YAML::Node node = root["loop_closure"] ? root["loop_closure"] : root;
-  const std::string prefix = where + ": loop_closure";
-  try {
-    Section top(node, prefix);
-    top.getEnum("method", c.method, {{"constellation", CandidateMethod::Constellation},
-                                     {"distance", CandidateMethod::Distance},
-                                     {"both", CandidateMethod::Both}});
-    top.getSize("max_loops_per_keyframe", c.max_loops_per_keyframe);
-    top.get("keyframe_voxel", c.keyframe_voxel);
-    top.getSize("resident_keyframes", c.resident_keyframes);
-    top.getSize("landmark_window", c.landmark_window);
-    top.get("landmark_merge_distance", c.landmark_merge_distance);
-
-    Section lm = top.child("landmarks");
-    lm.get("cluster_tolerance", c.landmarks.cluster_tolerance);
-    lm.getSize("min_points", c.landmarks.min_points);
-    lm.get("max_range", c.landmarks.max_range);
-    lm.get("min_purity", c.landmarks.min_purity);
-    lm.finish();
-
-    Section cs = top.child("candidates");
-    cs.getSize("min_index_gap", c.candidates.min_index_gap);
-    cs.get("search_radius", c.candidates.search_radius);
-    cs.getSize("max_candidates", c.candidates.max_candidates);
-    Section co = cs.child("constellation");
-    ConstellationConfig& k = c.candidates.constellation;
-    co.getEnum("model", k.model, {{"planar", ConstellationModel::Planar},
-                                  {"full-3d", ConstellationModel::Full3D}});
-    co.get("distance_tolerance", k.distance_tolerance);
-    co.get("inlier_distance", k.inlier_distance);
-    co.getSize("min_inliers", k.min_inliers);
-    co.get("min_pair_distance", k.min_pair_distance);
-    co.get("min_triangle_height", k.min_triangle_height);
-    co.get("max_extent_ratio", k.max_extent_ratio);
-    co.get("property_value_tolerance", k.property_value_tolerance);
-    co.getSize("max_hypotheses", k.max_hypotheses);
-    co.get("seed", k.seed);
-    co.get("visibility_range", k.visibility_range);
-    co.get("miss_penalty", k.miss_penalty);
-    co.get("min_overlap", k.min_overlap);
-    co.get("facing_tolerance", k.facing_tolerance);
-    co.finish();
-    cs.finish();
-
-    Section ve = top.child("verification");
-    VerificationConfig& v = c.verification;
-    ve.get("min_fitness", v.min_fitness);
-    ve.get("max_rmse", v.max_rmse);
-    ve.get("max_translation_sigma", v.max_translation_sigma);
-    ve.get("max_rotation_sigma", v.max_rotation_sigma);
-    ve.get("reject_degenerate", v.reject_degenerate);
-    ve.get("max_correction_translation", v.max_correction_translation);
-    ve.get("max_correction_rotation", v.max_correction_rotation);
-    ve.get("min_translation_sigma", v.min_translation_sigma);
-    ve.get("min_rotation_sigma", v.min_rotation_sigma);
-    // The registration section is the registration stage's own config (its loader, its keys).
-    if (const YAML::Node re = ve.raw("registration"); re && !re.IsNull())
-      v.registration = registrationConfigFromYaml(YAML::Dump(re), where + ": loop_closure.verification.registration",
-                                                  v.registration);
-    ve.finish();
-
-    Section cn = top.child("consistency");
-    ConsistencyConfig& g = c.consistency;
-    cn.get("translation_drift_per_metre", g.translation_drift_per_metre);
-    cn.get("rotation_drift_per_metre", g.rotation_drift_per_metre);
-    cn.get("translation_sigma_floor", g.translation_sigma_floor);
-    cn.get("rotation_sigma_floor", g.rotation_sigma_floor);
-    cn.get("gate_probability", g.gate_probability);
-    cn.get("use_drift_gate", g.use_drift_gate);
-    cn.get("use_pairwise", g.use_pairwise);
-    cn.finish();
-    top.finish();
-    c.validate();
-  } catch (const Error& e) {
-    const std::string msg = e.what();
-    // Validation errors name the parameter but not the file.
-    if (msg.rfind(where, 0) == 0) throw;
-    fail(where, msg);
-  }
-  return c;
+  return configFromYaml(yaml, where, "loop_closure", LoopClosureConfig{});
 }
 
-std::string LoopClosureConfig::toYamlString() const {
-  YAML::Emitter o;
-  o.SetDoublePrecision(10);
-  o << YAML::BeginMap << YAML::Key << "loop_closure" << YAML::Value << YAML::BeginMap;
-  o << YAML::Key << "method" << YAML::Value << toString(method);
-  o << YAML::Key << "max_loops_per_keyframe" << YAML::Value << max_loops_per_keyframe;
-  o << YAML::Key << "keyframe_voxel" << YAML::Value << keyframe_voxel;
-  o << YAML::Key << "resident_keyframes" << YAML::Value << resident_keyframes;
-  o << YAML::Key << "landmark_window" << YAML::Value << landmark_window;
-  o << YAML::Key << "landmark_merge_distance" << YAML::Value << landmark_merge_distance;
-  o << YAML::Key << "landmarks" << YAML::Value << YAML::BeginMap;
-  o << YAML::Key << "cluster_tolerance" << YAML::Value << landmarks.cluster_tolerance;
-  o << YAML::Key << "min_points" << YAML::Value << landmarks.min_points;
-  o << YAML::Key << "max_range" << YAML::Value << landmarks.max_range;
-  o << YAML::Key << "min_purity" << YAML::Value << landmarks.min_purity << YAML::EndMap;
-  const ConstellationConfig& k = candidates.constellation;
-  o << YAML::Key << "candidates" << YAML::Value << YAML::BeginMap;
-  o << YAML::Key << "min_index_gap" << YAML::Value << candidates.min_index_gap;
-  o << YAML::Key << "search_radius" << YAML::Value << candidates.search_radius;
-  o << YAML::Key << "max_candidates" << YAML::Value << candidates.max_candidates;
-  o << YAML::Key << "constellation" << YAML::Value << YAML::BeginMap;
-  o << YAML::Key << "model" << YAML::Value << (k.model == ConstellationModel::Planar ? "planar" : "full-3d");
-  o << YAML::Key << "distance_tolerance" << YAML::Value << k.distance_tolerance;
-  o << YAML::Key << "inlier_distance" << YAML::Value << k.inlier_distance;
-  o << YAML::Key << "min_inliers" << YAML::Value << k.min_inliers;
-  o << YAML::Key << "min_pair_distance" << YAML::Value << k.min_pair_distance;
-  o << YAML::Key << "min_triangle_height" << YAML::Value << k.min_triangle_height;
-  o << YAML::Key << "max_extent_ratio" << YAML::Value << k.max_extent_ratio;
-  o << YAML::Key << "property_value_tolerance" << YAML::Value << k.property_value_tolerance;
-  o << YAML::Key << "max_hypotheses" << YAML::Value << k.max_hypotheses;
-  o << YAML::Key << "seed" << YAML::Value << k.seed;
-  o << YAML::Key << "visibility_range" << YAML::Value << k.visibility_range;
-  o << YAML::Key << "miss_penalty" << YAML::Value << k.miss_penalty;
-  o << YAML::Key << "min_overlap" << YAML::Value << k.min_overlap;
-  o << YAML::Key << "facing_tolerance" << YAML::Value << k.facing_tolerance;
-  o << YAML::EndMap << YAML::EndMap;
-  const VerificationConfig& v = verification;
-  o << YAML::Key << "verification" << YAML::Value << YAML::BeginMap;
-  o << YAML::Key << "min_fitness" << YAML::Value << v.min_fitness;
-  o << YAML::Key << "max_rmse" << YAML::Value << v.max_rmse;
-  o << YAML::Key << "max_translation_sigma" << YAML::Value << v.max_translation_sigma;
-  o << YAML::Key << "max_rotation_sigma" << YAML::Value << v.max_rotation_sigma;
-  o << YAML::Key << "reject_degenerate" << YAML::Value << v.reject_degenerate;
-  o << YAML::Key << "max_correction_translation" << YAML::Value << v.max_correction_translation;
-  o << YAML::Key << "max_correction_rotation" << YAML::Value << v.max_correction_rotation;
-  o << YAML::Key << "min_translation_sigma" << YAML::Value << v.min_translation_sigma;
-  o << YAML::Key << "min_rotation_sigma" << YAML::Value << v.min_rotation_sigma;
-  o << YAML::Key << "registration" << YAML::Value << YAML::Load(hazmap::toYamlString(v.registration));
-  o << YAML::EndMap;
-  const ConsistencyConfig& g = consistency;
-  o << YAML::Key << "consistency" << YAML::Value << YAML::BeginMap;
-  o << YAML::Key << "translation_drift_per_metre" << YAML::Value << g.translation_drift_per_metre;
-  o << YAML::Key << "rotation_drift_per_metre" << YAML::Value << g.rotation_drift_per_metre;
-  o << YAML::Key << "translation_sigma_floor" << YAML::Value << g.translation_sigma_floor;
-  o << YAML::Key << "rotation_sigma_floor" << YAML::Value << g.rotation_sigma_floor;
-  o << YAML::Key << "gate_probability" << YAML::Value << g.gate_probability;
-  o << YAML::Key << "use_drift_gate" << YAML::Value << g.use_drift_gate;
-  o << YAML::Key << "use_pairwise" << YAML::Value << g.use_pairwise;
-  o << YAML::EndMap << YAML::EndMap << YAML::EndMap;
-  return std::string(o.c_str()) + "\n";
-}
+std::string LoopClosureConfig::toYamlString() const { return configToYaml(*this, "loop_closure"); }
 
 }  // namespace hazmap

@@ -8,29 +8,6 @@
 
 namespace hazmap {
 
-void validate(const VerificationConfig& c) {
-  const std::string where = "loop_closure.verification";
-  auto nonneg = [&](double v, const char* name) {
-    if (!(v >= 0.0) || !std::isfinite(v)) fail(where, std::string(name) + " must be a finite number >= 0");
-  };
-  auto positive = [&](double v, const char* name) {
-    if (!(v > 0.0) || !std::isfinite(v)) fail(where, std::string(name) + " must be a finite number > 0");
-  };
-  if (!(c.min_fitness >= 0.0 && c.min_fitness <= 1.0)) fail(where, "min_fitness must be in [0, 1]");
-  positive(c.max_rmse, "max_rmse");
-  positive(c.max_translation_sigma, "max_translation_sigma");
-  positive(c.max_rotation_sigma, "max_rotation_sigma");
-  positive(c.max_correction_translation, "max_correction_translation");
-  positive(c.max_correction_rotation, "max_correction_rotation");
-  nonneg(c.min_translation_sigma, "min_translation_sigma");
-  nonneg(c.min_rotation_sigma, "min_rotation_sigma");
-  try {
-    c.registration.validate();
-  } catch (const Error& e) {
-    fail(where + ".registration", e.what());
-  }
-}
-
 namespace {
 
 std::string fmt(double v) {

@@ -150,43 +150,6 @@ struct FrameRecord {
 
 // ---- config ------------------------------------------------------------------------------------
 
-void GlobalMapConfig::validate() const {
-  if (!(voxel_size > 0) || !std::isfinite(voxel_size))
-    fail("global map: voxel_size", "must be a positive number");
-  if (max_voxels < 1000) fail("global map: max_voxels", "must be at least 1000");
-  if (!(min_range >= 0) || !(max_range >= 0)) fail("global map: min_range/max_range", "must be >= 0");
-  if (max_range > 0 && max_range <= min_range)
-    fail("global map: max_range", "must be larger than min_range (or 0 for no limit)");
-  if (max_frame_ranges < 1) fail("global map: max_frame_ranges", "must be >= 1");
-}
-
-GlobalMapConfig GlobalMapConfig::fromYamlString(const std::string& yaml, const std::string& where) {
-  GlobalMapConfig c;
-  try {
-    const YAML::Node n = YAML::Load(yaml);
-    if (n && !n.IsNull()) {
-      if (!n.IsMap()) fail(where, "global map config must be a YAML mapping");
-      for (const auto& kv : n) {
-        const std::string key = kv.first.as<std::string>();
-        if (key == "voxel_size") c.voxel_size = kv.second.as<double>();
-        else if (key == "max_voxels") c.max_voxels = kv.second.as<std::size_t>();
-        else if (key == "min_range") c.min_range = kv.second.as<double>();
-        else if (key == "max_range") c.max_range = kv.second.as<double>();
-        else if (key == "max_frame_ranges") c.max_frame_ranges = kv.second.as<std::size_t>();
-        else fail(where, "unknown global map key '" + key + "'");
-      }
-    }
-  } catch (const YAML::Exception& e) {
-    fail(where, std::string("invalid YAML: ") + e.what());
-  }
-  try {
-    c.validate();
-  } catch (const Error& e) {
-    fail(where, e.what());
-  }
-  return c;
-}
-
 // ---- the map -----------------------------------------------------------------------------------
 
 struct GlobalMap::Impl {

@@ -16,36 +16,6 @@
 
 namespace hazmap {
 
-void HazardConfig::validate() const {
-  if (link_cells < 1 || link_cells > 5) fail("hazards: link_cells", "must be between 1 and 5");
-  if (min_cells < 1) fail("hazards: min_cells", "must be >= 1");
-}
-
-HazardConfig HazardConfig::fromYamlString(const std::string& yaml, const std::string& where) {
-  HazardConfig c;
-  try {
-    const YAML::Node n = YAML::Load(yaml);
-    if (n && !n.IsNull()) {
-      if (!n.IsMap()) fail(where, "hazard config must be a YAML mapping");
-      for (const auto& kv : n) {
-        const std::string key = kv.first.as<std::string>();
-        if (key == "link_cells") c.link_cells = kv.second.as<int>();
-        else if (key == "min_cells") c.min_cells = kv.second.as<std::size_t>();
-        else if (key == "min_points") c.min_points = kv.second.as<std::size_t>();
-        else fail(where, "unknown hazard key '" + key + "'");
-      }
-    }
-  } catch (const YAML::Exception& e) {
-    fail(where, std::string("invalid YAML: ") + e.what());
-  }
-  try {
-    c.validate();
-  } catch (const Error& e) {
-    fail(where, e.what());
-  }
-  return c;
-}
-
 namespace {
 
 struct IndexHash {

@@ -23,17 +23,6 @@ std::uint64_t packKey(std::int64_t x, std::int64_t y, std::int64_t z) {
 
 }  // namespace
 
-void LocalMapConfig::validate() const {
-  if (!(voxel_size > 0.0) || !std::isfinite(voxel_size))
-    fail("local map", "voxel_size must be > 0 (got " + std::to_string(voxel_size) + ")");
-  if (max_points_per_voxel < 1) fail("local map", "max_points_per_voxel must be >= 1");
-  if (normal_updates < 0 || normal_updates > 255) fail("local map", "normal_updates must be in [0, 255]");
-  if (!(min_point_distance >= 0.0) || !std::isfinite(min_point_distance))
-    fail("local map", "min_point_distance must be >= 0");
-  if (!(max_distance > 0.0) || !std::isfinite(max_distance))
-    fail("local map", "max_distance must be > 0 (got " + std::to_string(max_distance) + ")");
-}
-
 LocalMap::LocalMap(const LocalMapConfig& config) : config_(config) { config_.validate(); }
 
 void LocalMap::clear() {

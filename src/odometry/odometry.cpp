@@ -27,29 +27,6 @@ const char* toString(FrameStatus status) {
   return "unknown";
 }
 
-OdometryConfig OdometryConfig::defaults() { return OdometryConfig{}; }
-
-void OdometryConfig::validate() const {
-  registration.validate();
-  map.validate();
-  const auto need = [](bool ok, const std::string& param, const std::string& what) {
-    if (!ok) fail("odometry config", param + " " + what);
-  };
-  need(std::isfinite(min_range) && min_range >= 0.0, "min_range", "must be >= 0");
-  need(std::isfinite(max_range) && max_range > min_range, "max_range", "must be > min_range");
-  need(std::isfinite(voxel_size) && voxel_size > 0.0, "voxel_size", "must be > 0");
-  need(std::isfinite(source_voxel_size) && source_voxel_size >= 0.0, "source_voxel_size", "must be >= 0");
-  need(min_fitness >= 0.0 && min_fitness <= 1.0, "min_fitness", "must be in [0, 1]");
-  need(std::isfinite(max_correction_translation) && max_correction_translation > 0.0,
-       "max_correction_translation", "must be > 0");
-  need(std::isfinite(max_correction_rotation) && max_correction_rotation > 0.0,
-       "max_correction_rotation", "must be > 0");
-  need(std::isfinite(fallback_sigma_translation) && fallback_sigma_translation > 0.0,
-       "fallback_sigma_translation", "must be > 0");
-  need(std::isfinite(fallback_sigma_rotation) && fallback_sigma_rotation > 0.0,
-       "fallback_sigma_rotation", "must be > 0");
-}
-
 struct Odometry::Impl {
   std::unique_ptr<RegistrationTarget> previous;  ///< FrameToFrame: the last non-empty scan
   Eigen::Isometry3d previous_pose = Eigen::Isometry3d::Identity();  ///< its pose (world ← scan)

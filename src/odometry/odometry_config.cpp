@@ -1,93 +1,67 @@
-// OdometryConfig from YAML.
-#include <yaml-cpp/yaml.h>
-
-#include <fstream>
-#include <sstream>
-
-#include "hazmap/core/error.hpp"
+// OdometryConfig and LocalMapConfig: their field tables (core/config_fields.hpp) and the
+// YAML entry points derived from them.
+#include "hazmap/core/config_fields.hpp"
+#include "hazmap/io/atomic_file.hpp"
 #include "hazmap/odometry/odometry.hpp"
 
 namespace hazmap {
 
+const ConfigFields<LocalMapConfig>& configFields(ConfigTag<LocalMapConfig>) {
+  using C = LocalMapConfig;
+  static const ConfigFields<C> fields =
+      ConfigFields<C>("Frame-to-map tracking: the bounded local voxel map that keeps classes.")
+          .number("voxel_size", &C::voxel_size, positive(), "m; voxel edge of the local map")
+          .integer("max_points_per_voxel", &C::max_points_per_voxel, atLeast(1), "Points kept per voxel")
+          .number("min_point_distance", &C::min_point_distance, nonNegative(),
+                  "m; a point this close to one already in its voxel is not added (0 = off)")
+          .number("max_distance", &C::max_distance, positive(),
+                  "m; voxels farther from the robot are dropped")
+          .integer("normal_updates", &C::normal_updates, closed(0, 255),
+                   "Cap on re-estimating one map point's normal (0 = exact: whenever its "
+                   "neighbourhood changed)");
+  return fields;
+}
+
+const ConfigFields<OdometryConfig>& configFields(ConfigTag<OdometryConfig>) {
+  using C = OdometryConfig;
+  static const ConfigFields<C> fields =
+      ConfigFields<C>("Tracking: preprocessing, (property-)ICP against the previous scan or the local "
+                      "map, failure detection.")
+          .choice("mode", &C::mode, {{"map", OdometryMode::FrameToMap}, {"frame", OdometryMode::FrameToFrame}},
+                  "map: scan to local map; frame: scan to previous scan (the paper)")
+          .section("registration", &C::registration, "The tracking ICP")
+          .number("min_range", &C::min_range, nonNegative(), "m; closer points are dropped (the robot's body)")
+          .number("max_range", &C::max_range, positive(), "m; farther points are dropped")
+          .number("voxel_size", &C::voxel_size, positive(),
+                  "m; the scan as it enters the map / the next frame's target")
+          .number("source_voxel_size", &C::source_voxel_size, nonNegative(),
+                  "m; the scan registered (0 = voxel_size)")
+          .section("map", &C::map, "The local map (mode map)")
+          .number("min_fitness", &C::min_fitness, closed(0, 1),
+                  "Fraction of source points with a partner below which the frame falls back to the guess")
+          .number("max_correction_translation", &C::max_correction_translation, positive(),
+                  "m; ICP farther from the guess = diverged")
+          .number("max_correction_rotation", &C::max_correction_rotation, positive(), "rad")
+          .flag("keep_guess_along_degenerate", &C::keep_guess_along_degenerate,
+                "Replace ICP's degenerate directions by the guess")
+          .number("fallback_sigma_translation", &C::fallback_sigma_translation, positive(),
+                  "m; covariance of a fallback increment (and along degenerate directions)")
+          .number("fallback_sigma_rotation", &C::fallback_sigma_rotation, positive(), "rad")
+          .rule("max_range", [](const C& c) { return c.max_range > c.min_range; }, "must be > min_range");
+  return fields;
+}
+
+void LocalMapConfig::validate() const { validateConfig(*this, "odometry.map"); }
+void OdometryConfig::validate() const { validateConfig(*this, "odometry"); }
+OdometryConfig OdometryConfig::defaults() { return OdometryConfig{}; }
+
 OdometryConfig odometryConfigFromYaml(const std::string& yaml, const std::string& where,
                                       const OdometryConfig& base) {
-  YAML::Node root;
-  try {
-    root = YAML::Load(yaml);
-  } catch (const YAML::Exception& e) {
-    fail(where, std::string("invalid YAML: ") + e.msg + " at line " + std::to_string(e.mark.line + 1));
-  }
-  OdometryConfig c = base;
-  if (!root || root.IsNull()) return c;
-  if (!root.IsMap()) fail(where, "odometry config must be a YAML mapping");
-  if (root["odometry"] && root["odometry"].IsMap()) root = root["odometry"];
-  for (const auto& kv : root) {
-    const std::string key = kv.first.as<std::string>();
-    const YAML::Node& v = kv.second;
-    const auto get = [&](auto& field, const std::string& name) {
-      try {
-        field = v.as<std::remove_reference_t<decltype(field)>>();
-      } catch (const YAML::Exception&) {
-        fail(where, "bad value for '" + name + "'");
-      }
-    };
-    if (key == "mode") {
-      std::string s;
-      get(s, key);
-      if (s == "frame") c.mode = OdometryMode::FrameToFrame;
-      else if (s == "map") c.mode = OdometryMode::FrameToMap;
-      else fail(where, "mode must be 'frame' or 'map' (got '" + s + "')");
-    } else if (key == "min_range") get(c.min_range, key);
-    else if (key == "max_range") get(c.max_range, key);
-    else if (key == "voxel_size") get(c.voxel_size, key);
-    else if (key == "source_voxel_size") get(c.source_voxel_size, key);
-    else if (key == "min_fitness") get(c.min_fitness, key);
-    else if (key == "max_correction_translation") get(c.max_correction_translation, key);
-    else if (key == "max_correction_rotation") get(c.max_correction_rotation, key);
-    else if (key == "keep_guess_along_degenerate") get(c.keep_guess_along_degenerate, key);
-    else if (key == "fallback_sigma_translation") get(c.fallback_sigma_translation, key);
-    else if (key == "fallback_sigma_rotation") get(c.fallback_sigma_rotation, key);
-    else if (key == "map") {
-      if (!v.IsMap()) fail(where, "'map' must be a mapping");
-      for (const auto& m : v) {
-        const std::string k = m.first.as<std::string>();
-        const YAML::Node& mv = m.second;
-        const auto getm = [&](auto& field) {
-          try {
-            field = mv.as<std::remove_reference_t<decltype(field)>>();
-          } catch (const YAML::Exception&) {
-            fail(where, "bad value for 'map." + k + "'");
-          }
-        };
-        if (k == "voxel_size") getm(c.map.voxel_size);
-        else if (k == "max_points_per_voxel") getm(c.map.max_points_per_voxel);
-        else if (k == "min_point_distance") getm(c.map.min_point_distance);
-        else if (k == "max_distance") getm(c.map.max_distance);
-        else if (k == "normal_updates") getm(c.map.normal_updates);
-        else fail(where, "unknown map setting '" + k + "'");
-      }
-    } else if (key == "registration") {
-      YAML::Emitter out;
-      out << v;
-      c.registration = registrationConfigFromYaml(out.c_str(), where, c.registration);
-    } else {
-      fail(where, "unknown odometry setting '" + key + "'");
-    }
-  }
-  try {
-    c.validate();
-  } catch (const Error& e) {
-    fail(where, e.what());
-  }
-  return c;
+  return configFromYaml(yaml, where, "odometry", base);
 }
 
 OdometryConfig loadOdometryConfig(const std::string& path, const OdometryConfig& base) {
-  std::ifstream in(path);
-  if (!in) fail(path, "cannot open odometry config");
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return odometryConfigFromYaml(ss.str(), path, base);
+  return odometryConfigFromYaml(readTextFile(path), path, base);
 }
 
 }  // namespace hazmap

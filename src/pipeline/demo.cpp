@@ -101,6 +101,8 @@ DemoReport runDemo(const DemoConfig& config, std::ostream& out) {
     for (std::size_t m = 0; m < config.methods.size(); ++m) {
       const SlamMethod method = config.methods[m];
       SlamConfig slam = SlamConfig::forMethod(method);
+      slam.property_icp = config.property_icp;
+      for (const auto& s : config.settings) slam.applySetting(s);
       slam.odometry.mode = mode;
       slam.threads = config.threads;
       ProgressBar bar(fmt::format("{} ({})", toString(method), tag), sequence.size(), config.progress ? -1 : 0);

@@ -1,3 +1,4 @@
+#include "hazmap/core/config_fields.hpp"
 #include "hazmap/pipeline/run_outputs.hpp"
 
 #include <nlohmann/json.hpp>
@@ -59,11 +60,8 @@ nlohmann::json runJson(const Sequence& sequence, const SlamResult& r, const Slam
                    {"iterations", o.iterations}, {"seconds", o.total_seconds}});
   j["pose_graph"] = {{"nodes", r.graph.numNodes()}, {"edges", r.graph.numEdges()},
                      {"loop_edges", r.graph.numLoopEdges()}, {"optimisations", opt}};
-  j["parameters"] = {{"registration", toYamlString(config.odometry.registration)},
-                     {"odometry_mode", toString(config.odometry.mode)},
-                     {"loop_closure", config.loop_closure.toYamlString()},
-                     {"keyframe_distance", config.keyframe_distance},
-                     {"keyframe_angle", config.keyframe_angle}};
+  // Every setting of the run, nested as in the YAML (`hazmap run --config` reads it back).
+  j["parameters"] = configToJson(config);
   j["map"] = {{"cells", summary.map_cells}, {"memory_bytes", summary.map_memory_bytes},
               {"hazards", summary.hazards}};
   if (summary.map_error) {

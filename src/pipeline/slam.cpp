@@ -2,7 +2,6 @@
 
 #include <tbb/global_control.h>
 #include <Eigen/Eigenvalues>
-#include <yaml-cpp/yaml.h>
 
 #include <chrono>
 #include <cmath>
@@ -56,81 +55,6 @@ SlamConfig SlamConfig::forMethod(SlamMethod method) {
   return c;
 }
 
-void SlamConfig::applyYamlFile(const std::filesystem::path& path) {
-  const std::string text = readTextFile(path);
-  YAML::Node root;
-  try {
-    root = YAML::Load(text);
-  } catch (const YAML::Exception& e) {
-    fail(path.string(), std::string("invalid YAML: ") + e.msg);
-  }
-  if (!root.IsMap()) fail(path.string(), "expected a mapping with sections tracking/loop_closure/graph/slam");
-  const auto section = [&](const char* key) {
-    std::stringstream s;
-    s << root[key];
-    return s.str();
-  };
-  for (const auto& kv : root) {
-    const auto key = kv.first.as<std::string>();
-    if (key != "odometry" && key != "loop_closure" && key != "graph" && key != "slam" &&
-        key != "wheel_noise")
-      fail(path.string(), "unknown section '" + key + "'");
-  }
-  if (root["odometry"]) odometry = odometryConfigFromYaml(section("odometry"), path.string(), odometry);
-  if (root["loop_closure"]) {
-    YAML::Node wrapped;
-    wrapped["loop_closure"] = root["loop_closure"];
-    std::stringstream s;
-    s << wrapped;
-    loop_closure = LoopClosureConfig::fromYamlString(s.str(), path.string());
-  }
-  if (root["graph"]) graph = loadPoseGraphConfig(path);
-  const auto number = [&](const YAML::Node& node, const std::string& key, double& out) {
-    if (!node[key]) return;
-    try {
-      out = node[key].as<double>();
-    } catch (const YAML::Exception&) {
-      fail(path.string(), "bad value for '" + key + "'");
-    }
-  };
-  if (const YAML::Node s = root["slam"]) {
-    for (const auto& kv : s) {
-      const auto key = kv.first.as<std::string>();
-      if (key != "keyframe_distance" && key != "keyframe_angle" && key != "optimise_online" &&
-          key != "min_translation_sigma" && key != "min_rotation_sigma")
-        fail(path.string(), "slam: unknown key '" + key + "'");
-    }
-    number(s, "keyframe_distance", keyframe_distance);
-    number(s, "keyframe_angle", keyframe_angle);
-    number(s, "min_translation_sigma", min_translation_sigma);
-    number(s, "min_rotation_sigma", min_rotation_sigma);
-    if (s["optimise_online"]) optimise_online = s["optimise_online"].as<bool>();
-  }
-  if (const YAML::Node w = root["wheel_noise"]) {
-    number(w, "translation_sigma", wheel_noise.translation_sigma);
-    number(w, "vertical_sigma", wheel_noise.vertical_sigma);
-    number(w, "yaw_sigma", wheel_noise.yaw_sigma);
-    number(w, "tilt_sigma", wheel_noise.tilt_sigma);
-  }
-  validate();
-}
-
-void SlamConfig::validate() const {
-  const auto positive = [](double v, const char* name) {
-    if (!(v > 0.0) || !std::isfinite(v)) fail("slam config", std::string(name) + " must be > 0");
-  };
-  positive(keyframe_distance, "keyframe_distance");
-  positive(keyframe_angle, "keyframe_angle");
-  positive(wheel_noise.translation_sigma, "wheel_noise.translation_sigma");
-  positive(wheel_noise.vertical_sigma, "wheel_noise.vertical_sigma");
-  positive(wheel_noise.yaw_sigma, "wheel_noise.yaw_sigma");
-  positive(wheel_noise.tilt_sigma, "wheel_noise.tilt_sigma");
-  positive(min_translation_sigma, "min_translation_sigma");
-  positive(min_rotation_sigma, "min_rotation_sigma");
-  odometry.validate();
-  loop_closure.validate();
-}
-
 double SlamResult::framesPerSecond() const {
   return timings.total_s > 0 ? static_cast<double>(frames.size()) / timings.total_s : 0.0;
 }
@@ -166,6 +90,8 @@ SlamResult runSlam(const Sequence& sequence, const SlamConfig& config, const Fra
     result.odometry_only = trajectoryOf(odom_poses);
   }
 
+  // α and the class search radii, set once for tracking and loop verification alike.
+  const ClassTable classes = config.property_icp.applyTo(sequence.classTable(), where);
   PoseGraph& graph = result.graph;
   graph.dimension = 3;
   std::vector<Eigen::Isometry3d> tracked;
@@ -173,11 +99,11 @@ SlamResult runSlam(const Sequence& sequence, const SlamConfig& config, const Fra
   std::unique_ptr<LoopDetector> loops;
   std::vector<std::size_t> keyframe_frames;  // keyframe index → frame index
   if (pgo) {
-    loops = std::make_unique<LoopDetector>(sequence.classTable(), config.loop_closure);
+    loops = std::make_unique<LoopDetector>(classes, config.loop_closure);
     // Old keyframes are re-read from the sequence when a loop needs them (bounded memory).
     loops->setCloudLoader([&](std::size_t k) { return sequence.frame(keyframe_frames.at(k)); });
   }
-  Odometry tracker(sequence.classTable(), config.odometry, start);
+  Odometry tracker(classes, config.odometry, start);
   Eigen::Isometry3d last_keyframe_pose = Eigen::Isometry3d::Identity();
 
   const auto keyframeEstimate = [&] {

@@ -1,12 +1,7 @@
-// RegistrationConfig: validation and YAML loading.
-#include <yaml-cpp/yaml.h>
-
-#include <cmath>
-#include <fstream>
-#include <set>
-#include <sstream>
-
-#include "hazmap/core/error.hpp"
+// RegistrationConfig: its field table (core/config_fields.hpp) — the one place that names each
+// setting, its range and its meaning — and the YAML/JSON entry points derived from it.
+#include "hazmap/core/config_fields.hpp"
+#include "hazmap/io/atomic_file.hpp"
 #include "hazmap/registration/registration.hpp"
 
 namespace hazmap {
@@ -25,176 +20,98 @@ const char* toString(SpatialIndexKind k) { return k == SpatialIndexKind::VoxelHa
 
 namespace {
 
-void require(bool ok, const std::string& param, const std::string& what) {
-  if (!ok) fail("registration config", param + " " + what);
-}
+using C = RegistrationConfig;
 
-bool finitePositive(double v) { return std::isfinite(v) && v > 0.0; }
+ConfigFields<C> makeFields() {
+  ConfigFields<C> f("Property-aware ICP (paper eq. 2): correspondence search, robust kernel, "
+                    "convergence, normals, covariance. α and the class search radii are the class "
+                    "table's (section property_icp).");
+  f.flag("use_classes", &C::use_classes, "Property ICP (true) or conventional ICP (false)")
+      .choice("metric", &C::metric,
+              {{"plane", IcpMetric::PointToPlane}, {"point", IcpMetric::PointToPoint},
+               {"point-to-plane", IcpMetric::PointToPlane}, {"point-to-point", IcpMetric::PointToPoint}},
+              "Residual: point-to-plane or point-to-point")
+      .number("max_correspondence_distance", &C::max_correspondence_distance, positive(),
+              "m; search radius of unlabelled points")
+      .integer("max_iterations", &C::max_iterations, atLeast(1), "Iteration limit (per stage)")
+      .choice("label_mode", &C::label_mode, {{"hard", LabelMode::Hard}, {"soft", LabelMode::Soft}},
+              "hard: a class mismatch costs α (the paper); soft: α·c² and the pair is discounted by 1 − c²")
+      .number("label_confidence", &C::label_confidence, openClosed(0, 1),
+              "Soft mode: probability c that a label is right")
+      .flag("use_class_weights", &C::use_class_weights,
+            "Multiply a pair's weight by the class table's weight of the source point's class")
+      .number("property_weight", &C::property_weight, nonNegative(),
+              "m² per unit²; adds weight·(v_p − v_q)² of the continuous property channel (0 = off)")
+      .flag("property_point_to_point", &C::property_point_to_point,
+            "Point-to-plane: a property point matched to its own class gets a 3-D residual")
+      .number("property_tangent_weight", &C::property_tangent_weight, closed(0, 1),
+              "Weight of that residual's in-plane part (1 = plain 3-D residual)")
+      .number("min_label_agreement", &C::min_label_agreement, atMost(1),
+              "Label gate: Cohen's κ of the labels at the initial guess below which labels are "
+              "ignored (<= -1 = never ignore them)")
+      .integer("min_label_pairs", &C::min_label_pairs, nonNegative(),
+               "The label gate decides only with at least this many labelled pairs")
+      .choice("robust_kernel", &C::robust_kernel,
+              {{"geman-mcclure", RobustKernel::GemanMcClure}, {"huber", RobustKernel::Huber},
+               {"none", RobustKernel::None}, {"gm", RobustKernel::GemanMcClure}},
+              "Robust kernel on the residuals")
+      .number("robust_scale_factor", &C::robust_scale_factor, positive(),
+              "Kernel scale = max(robust_min_scale, factor · 1.4826 · median |residual|)")
+      .number("robust_min_scale", &C::robust_min_scale, positive(), "m; floor of the kernel scale")
+      .number("translation_tolerance", &C::translation_tolerance, nonNegative(),
+              "m; converged when the update is below both tolerances")
+      .number("rotation_tolerance", &C::rotation_tolerance, nonNegative(), "rad")
+      .number("correspondence_reuse_distance", &C::correspondence_reuse_distance, nonNegative(),
+              "m; keep the correspondences while no source point moved more than this (0 = search "
+              "every iteration)")
+      .integer("min_correspondences", &C::min_correspondences, atLeast(6),
+               "Fewer pairs = not converged (six unknowns)")
+      .integer("normal_neighbors", &C::normal_neighbors, atLeast(3), "k nearest target points per normal")
+      .number("normal_radius", &C::normal_radius, positive(), "m; farther neighbours are ignored")
+      .choice("index", &C::index,
+              {{"voxel", SpatialIndexKind::VoxelHash}, {"kdtree", SpatialIndexKind::KdTree},
+               {"voxel-hash", SpatialIndexKind::VoxelHash}, {"k-d tree", SpatialIndexKind::KdTree}},
+              "Spatial index of the target")
+      .number("index_cell_size", &C::index_cell_size, nonNegative(),
+              "m; voxel edge of the hash index (0 = max_correspondence_distance)")
+      .integer("max_source_points", &C::max_source_points, nonNegative(),
+               "Use at most this many source points, evenly strided (0 = all)")
+      .integer("coarse_source_points", &C::coarse_source_points, nonNegative(),
+               "Coarse to fine: a source of >= 4× this many points first converges on this many "
+               "(0 = off)")
+      .integer("threads", &C::threads, nonNegative(), "0 = TBB's default")
+      .number("degeneracy_threshold", &C::degeneracy_threshold, closedOpen(0, 1),
+              "A Hessian direction below this fraction of the total weight is degenerate")
+      .number("degeneracy_length", &C::degeneracy_length, positive(),
+              "m; a rotation θ weighs like a translation θ·length")
+      .rule("coarse_source_points",
+            [](const C& c) { return c.coarse_source_points == 0 || c.coarse_source_points >= c.min_correspondences; },
+            "must be 0 (off) or >= min_correspondences");
+  return f;
+}
 
 }  // namespace
 
-void RegistrationConfig::validate() const {
-  require(finitePositive(max_correspondence_distance), "max_correspondence_distance",
-          "must be > 0 (got " + std::to_string(max_correspondence_distance) + ")");
-  require(max_iterations >= 1, "max_iterations", "must be >= 1 (got " + std::to_string(max_iterations) + ")");
-  require(std::isfinite(mismatch_penalty), "mismatch_penalty", "must be finite (< 0 = use the class table's)");
-  require(label_confidence > 0.0 && label_confidence <= 1.0, "label_confidence", "must be in (0, 1]");
-  require(std::isfinite(property_weight) && property_weight >= 0.0, "property_weight", "must be >= 0");
-  require(property_tangent_weight >= 0.0 && property_tangent_weight <= 1.0, "property_tangent_weight",
-          "must be in [0, 1]");
-  require(std::isfinite(min_label_agreement) && min_label_agreement <= 1.0, "min_label_agreement",
-          "must be finite and <= 1 (<= -1 = never ignore the labels)");
-  require(finitePositive(robust_scale_factor), "robust_scale_factor", "must be > 0");
-  require(finitePositive(robust_min_scale), "robust_min_scale", "must be > 0");
-  require(std::isfinite(translation_tolerance) && translation_tolerance >= 0.0, "translation_tolerance", "must be >= 0");
-  require(std::isfinite(rotation_tolerance) && rotation_tolerance >= 0.0, "rotation_tolerance", "must be >= 0");
-  require(std::isfinite(correspondence_reuse_distance) && correspondence_reuse_distance >= 0.0,
-          "correspondence_reuse_distance", "must be >= 0");
-  require(min_correspondences >= 6, "min_correspondences", "must be >= 6 (six unknowns)");
-  require(normal_neighbors >= 3, "normal_neighbors", "must be >= 3");
-  require(finitePositive(normal_radius), "normal_radius", "must be > 0");
-  require(std::isfinite(index_cell_size) && index_cell_size >= 0.0, "index_cell_size", "must be >= 0 (0 = automatic)");
-  require(threads >= 0, "threads", "must be >= 0 (0 = automatic)");
-  require(coarse_source_points == 0 || coarse_source_points >= min_correspondences, "coarse_source_points",
-          "must be 0 (off) or >= min_correspondences");
-  require(std::isfinite(degeneracy_threshold) && degeneracy_threshold >= 0.0 && degeneracy_threshold < 1.0,
-          "degeneracy_threshold", "must be in [0, 1)");
-  require(finitePositive(degeneracy_length), "degeneracy_length", "must be > 0");
+const ConfigFields<RegistrationConfig>& configFields(ConfigTag<RegistrationConfig>) {
+  static const ConfigFields<RegistrationConfig> fields = makeFields();
+  return fields;
 }
 
+void RegistrationConfig::validate() const { validateConfig(*this, "registration"); }
+
 double RegistrationConfig::effectiveMismatchPenalty(const ClassTable& classes) const {
-  if (!use_classes) return 0.0;
-  return mismatch_penalty >= 0.0 ? mismatch_penalty : classes.mismatch_penalty;
+  return use_classes ? classes.mismatch_penalty : 0.0;
 }
 
 RegistrationConfig registrationConfigFromYaml(const std::string& yaml, const std::string& where,
                                               const RegistrationConfig& base) {
-  YAML::Node root;
-  try {
-    root = YAML::Load(yaml);
-  } catch (const YAML::Exception& e) {
-    fail(where, std::string("invalid YAML: ") + e.msg + " at line " + std::to_string(e.mark.line + 1));
-  }
-  RegistrationConfig c = base;
-  if (!root || root.IsNull()) return c;
-  if (!root.IsMap()) fail(where, "registration config must be a YAML mapping");
-  // A file may hold the settings at the top level or under `registration:`.
-  if (root["registration"] && root["registration"].IsMap()) root = root["registration"];
-  std::set<std::string> seen;
-  for (const auto& kv : root) {
-    const std::string key = kv.first.as<std::string>();
-    const YAML::Node& v = kv.second;
-    seen.insert(key);
-    const auto get = [&](auto& field) {
-      try {
-        field = v.as<std::remove_reference_t<decltype(field)>>();
-      } catch (const YAML::Exception&) {
-        fail(where, "bad value for '" + key + "'");
-      }
-    };
-    const auto text = [&] {
-      std::string s;
-      get(s);
-      return s;
-    };
-    if (key == "use_classes") get(c.use_classes);
-    else if (key == "metric") {
-      const std::string s = text();
-      if (s == "point" || s == "point-to-point") c.metric = IcpMetric::PointToPoint;
-      else if (s == "plane" || s == "point-to-plane") c.metric = IcpMetric::PointToPlane;
-      else fail(where, "metric must be 'point' or 'plane' (got '" + s + "')");
-    } else if (key == "max_correspondence_distance") get(c.max_correspondence_distance);
-    else if (key == "max_iterations") get(c.max_iterations);
-    else if (key == "mismatch_penalty") get(c.mismatch_penalty);
-    else if (key == "label_mode") {
-      const std::string s = text();
-      if (s == "hard") c.label_mode = LabelMode::Hard;
-      else if (s == "soft") c.label_mode = LabelMode::Soft;
-      else fail(where, "label_mode must be 'hard' or 'soft' (got '" + s + "')");
-    } else if (key == "label_confidence") get(c.label_confidence);
-    else if (key == "use_class_weights") get(c.use_class_weights);
-    else if (key == "property_weight") get(c.property_weight);
-    else if (key == "property_point_to_point") get(c.property_point_to_point);
-    else if (key == "property_tangent_weight") get(c.property_tangent_weight);
-    else if (key == "min_label_agreement") get(c.min_label_agreement);
-    else if (key == "min_label_pairs") get(c.min_label_pairs);
-    else if (key == "robust_kernel") {
-      const std::string s = text();
-      if (s == "none") c.robust_kernel = RobustKernel::None;
-      else if (s == "huber") c.robust_kernel = RobustKernel::Huber;
-      else if (s == "geman-mcclure" || s == "gm") c.robust_kernel = RobustKernel::GemanMcClure;
-      else fail(where, "robust_kernel must be none, huber or geman-mcclure (got '" + s + "')");
-    } else if (key == "robust_scale_factor") get(c.robust_scale_factor);
-    else if (key == "robust_min_scale") get(c.robust_min_scale);
-    else if (key == "translation_tolerance") get(c.translation_tolerance);
-    else if (key == "rotation_tolerance") get(c.rotation_tolerance);
-    else if (key == "correspondence_reuse_distance") get(c.correspondence_reuse_distance);
-    else if (key == "min_correspondences") get(c.min_correspondences);
-    else if (key == "normal_neighbors") get(c.normal_neighbors);
-    else if (key == "normal_radius") get(c.normal_radius);
-    else if (key == "index") {
-      const std::string s = text();
-      if (s == "voxel" || s == "voxel-hash") c.index = SpatialIndexKind::VoxelHash;
-      else if (s == "kdtree" || s == "k-d tree") c.index = SpatialIndexKind::KdTree;
-      else fail(where, "index must be 'voxel' or 'kdtree' (got '" + s + "')");
-    } else if (key == "index_cell_size") get(c.index_cell_size);
-    else if (key == "max_source_points") get(c.max_source_points);
-    else if (key == "coarse_source_points") get(c.coarse_source_points);
-    else if (key == "threads") get(c.threads);
-    else if (key == "degeneracy_threshold") get(c.degeneracy_threshold);
-    else if (key == "degeneracy_length") get(c.degeneracy_length);
-    else fail(where, "unknown registration setting '" + key + "'");
-  }
-  try {
-    c.validate();
-  } catch (const Error& e) {
-    fail(where, e.what());
-  }
-  return c;
+  return configFromYaml(yaml, where, "registration", base);
 }
 
 RegistrationConfig loadRegistrationConfig(const std::string& path, const RegistrationConfig& base) {
-  std::ifstream in(path);
-  if (!in) fail(path, "cannot open registration config");
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return registrationConfigFromYaml(ss.str(), path, base);
+  return registrationConfigFromYaml(readTextFile(path), path, base);
 }
 
-std::string toYamlString(const RegistrationConfig& c) {
-  YAML::Emitter out;
-  out << YAML::BeginMap;
-  out << YAML::Key << "use_classes" << YAML::Value << c.use_classes;
-  out << YAML::Key << "metric" << YAML::Value << toString(c.metric);
-  out << YAML::Key << "max_correspondence_distance" << YAML::Value << c.max_correspondence_distance;
-  out << YAML::Key << "max_iterations" << YAML::Value << c.max_iterations;
-  out << YAML::Key << "mismatch_penalty" << YAML::Value << c.mismatch_penalty;
-  out << YAML::Key << "label_mode" << YAML::Value << toString(c.label_mode);
-  out << YAML::Key << "label_confidence" << YAML::Value << c.label_confidence;
-  out << YAML::Key << "use_class_weights" << YAML::Value << c.use_class_weights;
-  out << YAML::Key << "property_weight" << YAML::Value << c.property_weight;
-  out << YAML::Key << "property_point_to_point" << YAML::Value << c.property_point_to_point;
-  out << YAML::Key << "property_tangent_weight" << YAML::Value << c.property_tangent_weight;
-  out << YAML::Key << "min_label_agreement" << YAML::Value << c.min_label_agreement;
-  out << YAML::Key << "min_label_pairs" << YAML::Value << c.min_label_pairs;
-  out << YAML::Key << "robust_kernel" << YAML::Value << toString(c.robust_kernel);
-  out << YAML::Key << "robust_scale_factor" << YAML::Value << c.robust_scale_factor;
-  out << YAML::Key << "robust_min_scale" << YAML::Value << c.robust_min_scale;
-  out << YAML::Key << "translation_tolerance" << YAML::Value << c.translation_tolerance;
-  out << YAML::Key << "rotation_tolerance" << YAML::Value << c.rotation_tolerance;
-  out << YAML::Key << "correspondence_reuse_distance" << YAML::Value << c.correspondence_reuse_distance;
-  out << YAML::Key << "min_correspondences" << YAML::Value << c.min_correspondences;
-  out << YAML::Key << "normal_neighbors" << YAML::Value << c.normal_neighbors;
-  out << YAML::Key << "normal_radius" << YAML::Value << c.normal_radius;
-  out << YAML::Key << "index" << YAML::Value << toString(c.index);
-  out << YAML::Key << "index_cell_size" << YAML::Value << c.index_cell_size;
-  out << YAML::Key << "max_source_points" << YAML::Value << c.max_source_points;
-  out << YAML::Key << "coarse_source_points" << YAML::Value << c.coarse_source_points;
-  out << YAML::Key << "threads" << YAML::Value << c.threads;
-  out << YAML::Key << "degeneracy_threshold" << YAML::Value << c.degeneracy_threshold;
-  out << YAML::Key << "degeneracy_length" << YAML::Value << c.degeneracy_length;
-  out << YAML::EndMap;
-  return std::string(out.c_str()) + "\n";
-}
+std::string toYamlString(const RegistrationConfig& c) { return configToYaml(c); }
 
 }  // namespace hazmap

@@ -24,7 +24,7 @@ mkdir -p "$fuzz_build"
 CC="$cc" CXX="$cxx" cmake -S "$src" -B "$fuzz_build" -DHAZMAP_FUZZ=ON -DHAZMAP_BUILD_TESTS=OFF \
   -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -gline-tables-only" \
   -DHAZMAP_SANITIZE=OFF > "$log" 2>&1 || { cat "$log"; exit 1; }
-targets=(fuzz_pcd fuzz_ply fuzz_kitti fuzz_trajectory fuzz_class_table fuzz_velodyne fuzz_pcap fuzz_ouster)
+targets=(fuzz_pcd fuzz_ply fuzz_kitti fuzz_trajectory fuzz_class_table fuzz_velodyne fuzz_pcap fuzz_ouster fuzz_config)
 cmake --build "$fuzz_build" -j 2 --target "${targets[@]}" hazmap_fuzz_seeds hazmap_fuzz_sensor_seeds >> "$log" 2>&1 || { tail -50 "$log"; exit 1; }
 seeds="$fuzz_build/seeds"
 rm -rf "$seeds"
@@ -34,7 +34,7 @@ status=0
 for t in "${targets[@]}"; do
   name=${t#fuzz_}
   corpus="$fuzz_build/corpus/$name"   # grows across runs; the seeds are re-read every time
-  mkdir -p "$corpus"
+  mkdir -p "$corpus" "$seeds/$name"
   if ! (cd "$fuzz_build" && "$fuzz_build/fuzz/$t" -max_total_time="$seconds" -rss_limit_mb=2048 \
          -malloc_limit_mb=1024 -timeout=10 -max_len=65536 -print_final_stats=1 \
          -artifact_prefix="$fuzz_build/crash-$name-" "$corpus" "$seeds/$name" > "$fuzz_build/$name.log" 2>&1); then

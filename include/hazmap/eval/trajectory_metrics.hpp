@@ -126,7 +126,10 @@ KittiResult computeKittiErrors(const Trajectory& gt, const Trajectory& est, cons
 
 // ---- everything at once ---------------------------------------------------------------------
 struct TrajectoryEvalConfig {
-  Alignment ape_alignment = Alignment::SE3;  ///< evo_ape --align (Sim3 adds --correct_scale)
+  /// evo_ape --align (Sim3 adds --correct_scale). With Sim3 the alignment's scale also applies
+  /// to the estimate for RPE and the KITTI segment errors (evo_rpe --correct_scale,
+  /// kitti-odom-eval --align 7dof): a monocular estimate is judged at the right scale.
+  Alignment ape_alignment = Alignment::SE3;
   RpeConfig rpe;
   KittiConfig kitti;
 };

@@ -13,6 +13,7 @@
 #include <filesystem>
 #include <string>
 
+#include "hazmap/core/config_fwd.hpp"
 #include "hazmap/graph/costs.hpp"
 #include "hazmap/graph/pose_graph.hpp"
 
@@ -56,6 +57,9 @@ struct PoseGraphConfig {
   int threads = 1;                  ///< threads for residual/Jacobian evaluation
   bool verbose = false;             ///< Ceres progress to stderr
 };
+
+/// The field table (keys, ranges, docs; core/config_fields.hpp, docs/configuration.md).
+const ConfigFields<PoseGraphConfig>& configFields(ConfigTag<PoseGraphConfig>);
 
 /// Reads the `graph:` section (or the whole document when it has none) of a YAML file; keys are
 /// the field names above, enums as strings. Unknown keys are an error naming the file and key.

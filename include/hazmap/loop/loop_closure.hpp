@@ -11,6 +11,7 @@
 
 #include "hazmap/core/class_table.hpp"
 #include "hazmap/core/labeled_cloud.hpp"
+#include "hazmap/core/config_fwd.hpp"
 #include "hazmap/loop/candidates.hpp"
 #include "hazmap/loop/consistency.hpp"
 #include "hazmap/loop/landmarks.hpp"
@@ -84,6 +85,14 @@ struct LoopClosureConfig {
   /// Throws hazmap::Error naming the first invalid parameter.
   void validate() const;
 };
+
+/// Field tables (keys, ranges, docs; core/config_fields.hpp, docs/configuration.md).
+const ConfigFields<LandmarkConfig>& configFields(ConfigTag<LandmarkConfig>);
+const ConfigFields<ConstellationConfig>& configFields(ConfigTag<ConstellationConfig>);
+const ConfigFields<CandidateSearchConfig>& configFields(ConfigTag<CandidateSearchConfig>);
+const ConfigFields<VerificationConfig>& configFields(ConfigTag<VerificationConfig>);
+const ConfigFields<ConsistencyConfig>& configFields(ConfigTag<ConsistencyConfig>);
+const ConfigFields<LoopClosureConfig>& configFields(ConfigTag<LoopClosureConfig>);
 
 /// What happened to one query keyframe.
 struct LoopDetection {

@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "hazmap/core/config_fwd.hpp"
 #include "hazmap/core/class_table.hpp"
 #include "hazmap/core/labeled_cloud.hpp"
 
@@ -37,6 +38,9 @@ struct GlobalMapConfig {
   /// Throws hazmap::Error("global map: <param> ...") on an invalid value.
   void validate() const;
 };
+
+/// The field table (keys, ranges, docs; core/config_fields.hpp, docs/configuration.md).
+const ConfigFields<GlobalMapConfig>& configFields(ConfigTag<GlobalMapConfig>);
 
 /// Inclusive range of frame indices.
 struct FrameRange {

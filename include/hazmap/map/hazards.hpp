@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "hazmap/core/config_fwd.hpp"
 #include "hazmap/core/class_table.hpp"
 #include "hazmap/map/global_map.hpp"
 
@@ -24,6 +25,9 @@ struct HazardConfig {
   static HazardConfig fromYamlString(const std::string& yaml, const std::string& where);
   void validate() const;
 };
+
+/// The field table (keys, ranges, docs; core/config_fields.hpp, docs/configuration.md).
+const ConfigFields<HazardConfig>& configFields(ConfigTag<HazardConfig>);
 
 struct Hazard {
   int id = 0;  ///< 1-based, in output order (class id, then size)

@@ -51,11 +51,12 @@ struct OdometryConfig {
   void validate() const;
 };
 
-/// YAML: top-level keys mode (frame|map), min_range, max_range, voxel_size, source_voxel_size,
-/// min_fitness, max_correction_translation, max_correction_rotation, keep_guess_along_degenerate,
-/// fallback_sigma_translation, fallback_sigma_rotation; `map:` (voxel_size,
-/// max_points_per_voxel, min_point_distance, max_distance); `registration:` (see
-/// registrationConfigFromYaml). Unknown keys are errors.
+/// Field tables (keys, ranges, docs; core/config_fields.hpp, docs/configuration.md).
+const ConfigFields<OdometryConfig>& configFields(ConfigTag<OdometryConfig>);
+const ConfigFields<LocalMapConfig>& configFields(ConfigTag<LocalMapConfig>);
+
+/// YAML: the keys of the field table, at top level or under `odometry:`; `map:` and
+/// `registration:` are nested sections. Unknown keys are errors naming the closest valid key.
 OdometryConfig odometryConfigFromYaml(const std::string& yaml, const std::string& where,
                                       const OdometryConfig& base = OdometryConfig::defaults());
 OdometryConfig loadOdometryConfig(const std::string& path,

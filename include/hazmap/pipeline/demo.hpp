@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "hazmap/core/property_icp_config.hpp"
 #include "hazmap/odometry/odometry.hpp"
 #include "hazmap/pipeline/slam_method.hpp"
 
@@ -24,6 +25,10 @@ struct DemoConfig {
   /// Besides the paper's set-up (ICP frame to frame from the wheel-odometry guess), also run the
   /// ICP methods with hazmap's default tracking (frame to a local map) into frame-to-map/.
   bool frame_to_map = true;
+  /// α and class search radii for every method (empty = the class table's).
+  PropertyIcpConfig property_icp;
+  /// `section.key=value` run settings applied to every method's SlamConfig (SlamConfig::applySetting).
+  std::vector<std::string> settings;
 };
 
 struct DemoRow {

@@ -9,6 +9,8 @@
 #include <string>
 #include <vector>
 
+#include "hazmap/core/config_fwd.hpp"
+#include "hazmap/core/property_icp_config.hpp"
 #include "hazmap/graph/optimizer.hpp"
 #include "hazmap/graph/pose_graph.hpp"
 #include "hazmap/io/sequence.hpp"
@@ -37,6 +39,9 @@ struct SlamConfig {
   /// odometry-edge information (m, rad): an over-confident covariance must not make edges rigid.
   double min_translation_sigma = 0.005;
   double min_rotation_sigma = 0.0005;
+  /// α and the class search radii (paper eq. 2), applied to the sequence's class table that
+  /// tracking and loop verification share.
+  PropertyIcpConfig property_icp;
   LoopClosureConfig loop_closure; ///< PGO methods only; candidate method follows `method`
   PoseGraphConfig graph;          ///< geodesic cost, Cauchy loss on loop edges
   WheelOdometryNoise wheel_noise;
@@ -50,12 +55,20 @@ struct SlamConfig {
   /// Defaults for a method: classes on/off in tracking and verification, loop candidates by
   /// property constellations (property methods) or by distance (conventional baseline).
   static SlamConfig forMethod(SlamMethod method);
-  /// Applies a YAML file with optional sections `odometry:`, `loop_closure:`, `graph:`,
-  /// `wheel_noise:`, `slam:` (keyframe_distance, keyframe_angle, optimise_online) on top of the
-  /// method defaults. Errors name the file and key.
+  /// Applies a YAML file with optional sections `odometry:`, `property_icp:`, `loop_closure:`,
+  /// `graph:`, `wheel_noise:`, `slam:` (keyframe_distance, keyframe_angle, optimise_online,
+  /// min_translation_sigma, min_rotation_sigma) on top of the current values (the method's
+  /// defaults). Errors name the file and key (docs/configuration.md lists them all).
   void applyYamlFile(const std::filesystem::path& path);
+  void applyYamlString(const std::string& yaml, const std::string& where);
+  /// One `section.key=value` override (value in YAML syntax), e.g. "odometry.mode=frame".
+  void applySetting(const std::string& assignment);
   void validate() const;
 };
+
+/// Field tables (keys, ranges, docs; core/config_fields.hpp, docs/configuration.md).
+const ConfigFields<SlamConfig>& configFields(ConfigTag<SlamConfig>);
+const ConfigFields<WheelOdometryNoise>& configFields(ConfigTag<WheelOdometryNoise>);
 
 struct FrameRecord {
   std::size_t index = 0;

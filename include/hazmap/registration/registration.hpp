@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "hazmap/core/class_table.hpp"
+#include "hazmap/core/config_fwd.hpp"
 #include "hazmap/core/labeled_cloud.hpp"
 #include "hazmap/core/se3.hpp"
 #include "hazmap/preprocess/voxel_downsample.hpp"
@@ -46,9 +47,9 @@ struct RegistrationConfig {
   double max_correspondence_distance = 1.0;  ///< m, for unlabelled points (> 0)
   int max_iterations = 50;                   ///< >= 1
 
-  // --- the paper's penalty ---
-  /// α (m²) override; < 0 = take ClassTable::mismatch_penalty. Ignored when use_classes=false.
-  double mismatch_penalty = -1.0;
+  // --- the paper's penalty: α is ClassTable::mismatch_penalty and the wider same-class search
+  // radii are ClassInfo::search_radius, set once for tracking and loop verification alike
+  // (PropertyIcpConfig, the `property_icp:` section and --mismatch-penalty / --class-radius) ---
   LabelMode label_mode = LabelMode::Hard;
   double label_confidence = 0.9;  ///< soft mode: probability that a label is right, (0, 1]
   /// Multiply a pair's residual weight by ClassInfo::weight of the source point's class.
@@ -121,15 +122,18 @@ struct RegistrationConfig {
   double degeneracy_threshold = 0.01;
   double degeneracy_length = 1.0;  ///< m: a rotation θ weighs like a translation θ·length
 
-  /// Throws hazmap::Error naming the offending parameter.
+  /// Throws hazmap::Error naming the offending parameter ("registration.<key>: ...").
   void validate() const;
-  /// The α actually used (0 when use_classes=false).
+  /// The α actually used: the class table's (0 when use_classes=false).
   double effectiveMismatchPenalty(const ClassTable& classes) const;
 };
 
-/// Reads a YAML mapping (keys = field names above; enums as text: metric point|plane,
-/// robust_kernel none|huber|geman-mcclure, label_mode hard|soft, index voxel|kdtree). Unknown keys
-/// are an error. `base` supplies the defaults for keys that are absent.
+/// The field table (keys, ranges, docs; core/config_fields.hpp, docs/configuration.md).
+const ConfigFields<RegistrationConfig>& configFields(ConfigTag<RegistrationConfig>);
+
+/// Reads a YAML mapping (keys = field names above, at top level or under `registration:`; enums
+/// as text: metric point|plane, robust_kernel none|huber|geman-mcclure, label_mode hard|soft,
+/// index voxel|kdtree). Unknown keys are an error. `base` supplies the values of absent keys.
 RegistrationConfig registrationConfigFromYaml(const std::string& yaml, const std::string& where,
                                               const RegistrationConfig& base = {});
 RegistrationConfig loadRegistrationConfig(const std::string& path,

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "hazmap/core/config_fwd.hpp"
 #include "hazmap/core/class_table.hpp"
 #include "hazmap/core/labeled_cloud.hpp"
 #include "hazmap/sim/lidar.hpp"
@@ -51,6 +52,14 @@ struct SimulatorConfig {
   /// Throws hazmap::Error("<where>: <parameter> ...") for any invalid value.
   void validate(const std::string& where = "simulator config") const;
 };
+
+/// Field tables (keys, ranges, docs; core/config_fields.hpp, docs/configuration.md).
+const ConfigFields<LidarConfig>& configFields(ConfigTag<LidarConfig>);
+const ConfigFields<LabelNoiseConfig>& configFields(ConfigTag<LabelNoiseConfig>);
+const ConfigFields<TemperatureConfig>& configFields(ConfigTag<TemperatureConfig>);
+const ConfigFields<RobotConfig>& configFields(ConfigTag<RobotConfig>);
+const ConfigFields<OdometryNoiseConfig>& configFields(ConfigTag<OdometryNoiseConfig>);
+const ConfigFields<SimulatorConfig>& configFields(ConfigTag<SimulatorConfig>);
 
 /// The scene a config asks for (built-in or loaded), validated against `table`.
 Scene loadConfiguredScene(const SimulatorConfig& config, const ClassTable& table);

@@ -1,0 +1,65 @@
+// SlamConfig: the run's YAML (every stage's section) through the field tables of
+// core/config_fields.hpp — one parse from the file to the ICP.
+#include "hazmap/core/config_fields.hpp"
+#include "hazmap/io/atomic_file.hpp"
+#include "hazmap/pipeline/slam.hpp"
+
+namespace hazmap {
+
+const ConfigFields<WheelOdometryNoise>& configFields(ConfigTag<WheelOdometryNoise>) {
+  using C = WheelOdometryNoise;
+  static const ConfigFields<C> fields =
+      ConfigFields<C>("Uncertainty of a wheel-odometry increment (odometry edges of frames where ICP failed).")
+          .number("translation_sigma", &C::translation_sigma, positive(), "m, x and y")
+          .number("vertical_sigma", &C::vertical_sigma, positive(), "m, z")
+          .number("yaw_sigma", &C::yaw_sigma, positive(), "rad")
+          .number("tilt_sigma", &C::tilt_sigma, positive(), "rad, roll and pitch");
+  return fields;
+}
+
+namespace {
+
+// The `slam:` section: settings of SlamConfig itself, grouped under one key.
+const ConfigFields<SlamConfig>& slamSectionFields() {
+  using C = SlamConfig;
+  static const ConfigFields<C> fields =
+      ConfigFields<C>("Keyframes and the pose graph's odometry edges.")
+          .number("keyframe_distance", &C::keyframe_distance, positive(),
+                  "m of travel after which a frame becomes a loop-closure keyframe")
+          .number("keyframe_angle", &C::keyframe_angle, positive(), "rad of turn, likewise")
+          .flag("optimise_online", &C::optimise_online, "Re-optimise the graph whenever a loop is accepted")
+          .number("min_translation_sigma", &C::min_translation_sigma, positive(),
+                  "m; floor on an ICP increment's standard deviation before inverting it")
+          .number("min_rotation_sigma", &C::min_rotation_sigma, positive(), "rad");
+  return fields;
+}
+
+}  // namespace
+
+const ConfigFields<SlamConfig>& configFields(ConfigTag<SlamConfig>) {
+  using C = SlamConfig;
+  static const ConfigFields<C> fields =
+      ConfigFields<C>("A whole run (hazmap run --config, hazmap demo): every stage's section.")
+          .section("odometry", &C::odometry, "Tracking")
+          .section("property_icp", &C::property_icp, "α and class search radii, for tracking and loops")
+          .section("loop_closure", &C::loop_closure, "Loop closure (PGO methods)")
+          .section("graph", &C::graph, "Pose-graph optimisation")
+          .section("wheel_noise", &C::wheel_noise, "Wheel-odometry edge uncertainty")
+          .section<SlamConfig>("slam", [](C& c) -> C& { return c; }, slamSectionFields(),
+                               "Keyframes and odometry-edge floors");
+  return fields;
+}
+
+void SlamConfig::applyYamlString(const std::string& yaml, const std::string& where) {
+  *this = readConfig(parseConfigYaml(yaml, where), ConfigPlace{where, ""}, *this);
+}
+
+void SlamConfig::applyYamlFile(const std::filesystem::path& path) {
+  applyYamlString(readTextFile(path), path.string());
+}
+
+void SlamConfig::applySetting(const std::string& assignment) { applyConfigSetting(*this, assignment); }
+
+void SlamConfig::validate() const { validateConfig(*this, ""); }
+
+}  // namespace hazmap
