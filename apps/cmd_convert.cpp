@@ -1,4 +1,5 @@
-// hazmap convert IN OUT: between .bin(+.label), .pcd and .ply, keeping classes and intensity.
+// hazmap convert IN OUT: between .bin(+.label), .pcd and .ply, keeping classes and intensity; or a
+// recording (bag, capture) into a sequence folder (recording.hpp).
 #include <fmt/format.h>
 
 #include <filesystem>
@@ -10,6 +11,7 @@
 #include "hazmap/io/cloud_file.hpp"
 #include "hazmap/io/pcd.hpp"
 #include "hazmap/io/ply.hpp"
+#include "recording.hpp"
 
 namespace hazmap::cli {
 namespace {
@@ -22,6 +24,8 @@ struct ConvertOptions {
   std::string label;
   std::string pcd_encoding = "binary";
   bool ply_ascii = false;
+  bool quiet = false;
+  SourceFlags source;
 };
 
 std::string lowerExt(const fs::path& p) {
@@ -30,7 +34,16 @@ std::string lowerExt(const fs::path& p) {
   return e;
 }
 
+bool isCloudFile(const fs::path& p) {
+  const std::string ext = lowerExt(p);
+  return ext == ".bin" || ext == ".pcd" || ext == ".ply";
+}
+
 void run(const ConvertOptions& o) {
+  if (!isCloudFile(o.input)) {
+    convertRecording(o.input, o.output, o.source, o.quiet);
+    return;
+  }
   const ClassTable table = ClassTable::load(o.classes);
   ReadStats st;
   std::optional<fs::path> label;
@@ -58,13 +71,18 @@ void run(const ConvertOptions& o) {
 }
 
 const RegisterCommand kRegister{
-    {"convert", "Convert a cloud between .bin(+.label), .pcd and .ply, keeping classes and intensity",
+    {"convert",
+     "Convert a cloud between .bin(+.label), .pcd and .ply, keeping classes and intensity; or a bag or "
+     "capture into a sequence folder (velodyne/NNNNNN.pcd, times.txt, odometry.txt)",
      [](CLI::App& app) {
        auto o = std::make_shared<ConvertOptions>();
-       app.add_option("input", o->input, "Input cloud (.bin [+ .label beside it or in ../labels/], .pcd, .ply)")
+       app.add_option("input", o->input,
+                      "Input cloud (.bin [+ .label beside it or in ../labels/], .pcd, .ply), or a bag (.bag, "
+                      ".mcap, rosbag2 folder) or capture (.pcap)")
            ->required();
        app.add_option("output", o->output,
-                      "Output cloud (.bin writes a .label beside it when any point has a class)")
+                      "Output cloud (.bin writes a .label beside it when any point has a class); for a "
+                      "recording, the sequence folder to create")
            ->required();
        app.add_option("--classes", o->classes,
                       "Class table mapping the input's raw labels to classes: 'default', 'semantic-kitti' or "
@@ -73,6 +91,8 @@ const RegisterCommand kRegister{
        app.add_option("--pcd-encoding", o->pcd_encoding, "PCD output encoding")
            ->check(CLI::IsMember({"ascii", "binary", "binary_compressed"}));
        app.add_flag("--ply-ascii", o->ply_ascii, "Write PLY as ascii instead of binary_little_endian");
+       app.add_flag("--quiet", o->quiet, "No notices and no summary");
+       o->source.add(app, /*with_deskew=*/false);
        app.callback([o] { run(*o); });
      }}};
 

@@ -1,4 +1,4 @@
-// hazmap info PATH [--json]: what a cloud file or a sequence directory holds.
+// hazmap info PATH [--json]: what a cloud file, a sequence directory, a bag or a capture holds.
 #include <fmt/format.h>
 
 #include <filesystem>
@@ -11,6 +11,7 @@
 #include "hazmap/core/error.hpp"
 #include "hazmap/io/cloud_file.hpp"
 #include "hazmap/io/sequence.hpp"
+#include "recording.hpp"
 
 namespace hazmap::cli {
 namespace {
@@ -22,6 +23,7 @@ struct InfoOptions {
   std::string path;
   std::string classes;  // empty: default table (or the sequence's hazmap.yaml)
   bool json = false;
+  SourceFlags source;
 };
 
 /// Running totals over one or more clouds.
@@ -142,17 +144,24 @@ void infoSequence(const InfoOptions& o) {
   printSummary(total, seq.classTable());
 }
 
-const RegisterCommand kRegister{{"info", "Describe a cloud file (.bin/.pcd/.ply) or a sequence directory",
+const RegisterCommand kRegister{{"info",
+                                 "Describe a cloud file (.bin/.pcd/.ply), a sequence directory, a bag "
+                                 "(.bag, .mcap, rosbag2 folder) or a capture (.pcap)",
                                  [](CLI::App& app) {
                                    auto o = std::make_shared<InfoOptions>();
-                                   app.add_option("path", o->path, "Cloud file or sequence directory")->required();
+                                   app.add_option("path", o->path,
+                                                  "Cloud file, sequence directory, bag or capture")
+                                       ->required();
                                    app.add_flag("--json", o->json, "Print JSON instead of text");
                                    app.add_option("--classes", o->classes,
                                                   "Class table: 'default', 'semantic-kitti' or a YAML file "
                                                   "(for a sequence: overrides hazmap.yaml)");
+                                   o->source.add(app, /*with_deskew=*/false);
                                    app.callback([o] {
                                      std::error_code ec;
-                                     if (fs::is_directory(o->path, ec))
+                                     if (isRecording(o->path))
+                                       infoRecording(o->path, o->source, o->json);
+                                     else if (fs::is_directory(o->path, ec))
                                        infoSequence(*o);
                                      else
                                        infoCloud(*o);

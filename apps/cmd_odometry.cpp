@@ -1,4 +1,5 @@
-// hazmap odometry: LiDAR odometry over a sequence directory with (property-aware) ICP.
+// hazmap odometry: LiDAR odometry over a sequence directory, a bag or a capture with
+// (property-aware) ICP, the scans read as a stream.
 #include <tbb/global_control.h>
 
 #include <cmath>
@@ -18,6 +19,8 @@
 #include "hazmap/io/sequence.hpp"
 #include "hazmap/io/trajectory.hpp"
 #include "hazmap/odometry/odometry.hpp"
+#include "hazmap/preprocess/deskew.hpp"
+#include "source_flags.hpp"
 
 namespace hazmap::cli {
 namespace {
@@ -28,7 +31,29 @@ struct OdometryOptions {
   int threads = 0;
   bool no_wheel = false;
   bool quiet = false;
+  SourceFlags source;
 };
+
+/// One line of frames.csv and of covariances.txt.
+void appendFrameRows(std::size_t i, const OdometryFrame& f, std::ostringstream& csv, std::ostringstream& cov) {
+  std::string reason = f.reason;
+  for (char& c : reason)
+    if (c == ',' || c == '\n') c = ';';
+  char line[512];
+  std::snprintf(line, sizeof line, "%zu,%.6f,%s,%d,%.4f,%.4f,%zu,%zu,%zu,%.3f,%.3f,%.3f,%d,%.3f,%d,%s\n", i, f.stamp,
+                toString(f.status), f.registration.iterations, f.registration.fitness, f.registration.inlier_rmse,
+                f.scan_points, f.source_points, f.map_points, f.preprocess_ms, f.registration_ms, f.total_ms,
+                int(f.wheel_guess), f.registration.label_agreement, int(f.registration.labels_used), reason.c_str());
+  csv << line;
+  cov << i;
+  for (int r = 0; r < 6; ++r)
+    for (int c = 0; c < 6; ++c) {
+      char v[32];
+      std::snprintf(v, sizeof v, " %.9g", f.covariance(r, c));
+      cov << v;
+    }
+  cov << "\n";
+}
 
 void run(const OdometryOptions& o, const ParameterOptions& params) {
   OdometryConfig cfg = o.config.empty() ? OdometryConfig::defaults() : loadOdometryConfig(o.config);
@@ -49,17 +74,13 @@ void run(const OdometryOptions& o, const ParameterOptions& params) {
 
   std::optional<ClassTable> table_override;
   if (!o.classes.empty()) table_override = ClassTable::load(o.classes);
-  const Sequence seq = Sequence::open(o.sequence, table_override);
-  if (seq.size() == 0) fail(o.sequence, "no scans in velodyne/");
-  const std::size_t n = o.max_frames > 0 ? std::min(o.max_frames, seq.size()) : seq.size();
-  const auto& wheel = seq.odometry();
-  const bool use_wheel = wheel && !o.no_wheel;
-  if (use_wheel && wheel->size() < n)
-    fail(seq.directory().string() + "/odometry.txt",
-         "has " + std::to_string(wheel->size()) + " poses for " + std::to_string(n) + " scans");
+  const auto scans = openScanSource(o.sequence, o.source.options(table_override, !o.quiet));
+  DeskewConfig deskew;
+  deskew.enabled = !o.source.no_deskew;
+  StreamDeskewer deskewer(deskew);
 
   std::filesystem::create_directories(o.out);
-  Odometry odo(params.propertyIcp().applyTo(seq.classTable()), cfg);
+  Odometry odo(params.propertyIcp().applyTo(scans->classTable()), cfg);
   std::ostringstream csv, cov;
   csv << "frame,stamp,status,iterations,fitness,rmse,scan_points,source_points,map_points,"
          "preprocess_ms,registration_ms,total_ms,wheel_guess,label_agreement,labels_used,reason\n";
@@ -67,37 +88,29 @@ void run(const OdometryOptions& o, const ParameterOptions& params) {
          " translation first [x y z rx ry rz]\n";
   std::size_t fallbacks = 0, degenerate = 0;
   double total_ms = 0.0;
-  for (std::size_t i = 0; i < n; ++i) {
-    const LabeledCloud scan = seq.frame(i);
+  std::size_t n = 0;
+  bool use_wheel = false;
+  std::optional<Eigen::Isometry3d> prev_wheel;
+  for (std::optional<Scan> scan; (o.max_frames == 0 || n < o.max_frames) && (scan = scans->next()); ++n) {
+    const std::size_t i = n;
+    if (i == 0) use_wheel = scan->odometry && !o.no_wheel;
+    if (use_wheel && !scan->odometry)
+      fail(scans->describe(), "scan " + std::to_string(i) + " has no wheel odometry while the first had");
     std::optional<Eigen::Isometry3d> inc;
-    if (use_wheel && i > 0) inc = wheel->poses[i - 1].inverse() * wheel->poses[i];
-    const double stamp = use_wheel ? wheel->stamps[i] : static_cast<double>(i);
-    const OdometryFrame& f = odo.addFrame(scan, inc, stamp);
+    if (use_wheel && prev_wheel) inc = prev_wheel->inverse() * *scan->odometry;
+    if (use_wheel) prev_wheel = scan->odometry;
+    deskewer.apply(scan->cloud, scan->stamp, inc);
+    const OdometryFrame& f = odo.addFrame(scan->cloud, inc, scan->stamp);
+    deskewer.tracked(f.increment);
     fallbacks += f.status == FrameStatus::Fallback;
     degenerate += f.status == FrameStatus::Degenerate;
     total_ms += f.total_ms;
-    std::string reason = f.reason;
-    for (char& c : reason)
-      if (c == ',' || c == '\n') c = ';';
-    char line[512];
-    std::snprintf(line, sizeof line, "%zu,%.6f,%s,%d,%.4f,%.4f,%zu,%zu,%zu,%.3f,%.3f,%.3f,%d,%.3f,%d,%s\n", i, f.stamp,
-                  toString(f.status), f.registration.iterations, f.registration.fitness,
-                  f.registration.inlier_rmse, f.scan_points, f.source_points, f.map_points,
-                  f.preprocess_ms, f.registration_ms, f.total_ms, int(f.wheel_guess),
-                  f.registration.label_agreement, int(f.registration.labels_used), reason.c_str());
-    csv << line;
-    cov << i;
-    for (int r = 0; r < 6; ++r)
-      for (int c = 0; c < 6; ++c) {
-        char v[32];
-        std::snprintf(v, sizeof v, " %.9g", f.covariance(r, c));
-        cov << v;
-      }
-    cov << "\n";
+    appendFrameRows(i, f, csv, cov);
     if (!o.quiet && f.status == FrameStatus::Fallback)
       std::fprintf(stderr, "frame %zu: fell back to the %s guess: %s\n", i,
                    f.wheel_guess ? "wheel-odometry" : "constant-velocity", f.reason.c_str());
   }
+  if (n == 0) fail(o.sequence, "has no scans");
   const Trajectory traj = odo.trajectory();
   const std::filesystem::path out(o.out);
   writeKittiTrajectory(out / "poses.txt", traj);
@@ -121,11 +134,13 @@ void run(const OdometryOptions& o, const ParameterOptions& params) {
 
 const RegisterCommand kOdometry{{
     "odometry",
-    "LiDAR odometry over a sequence directory (frame-to-frame or frame-to-local-map, property-aware "
+    "LiDAR odometry over a sequence directory, a bag or a capture (frame-to-frame or frame-to-local-map, property-aware "
     "ICP); writes poses.txt (KITTI), poses_tum.txt, frames.csv, covariances.txt, summary.json",
     [](CLI::App& app) {
       auto o = std::make_shared<OdometryOptions>();
-      app.add_option("sequence", o->sequence, "Sequence directory (velodyne/, labels/, odometry.txt, ...)")
+      app.add_option("sequence", o->sequence,
+                     "Sequence directory (velodyne/, labels/, odometry.txt, ...), bag (.bag, .mcap, rosbag2 "
+                     "folder) or capture (.pcap)")
           ->required();
       app.add_option("--out", o->out, "Output directory")->required();
       app.add_option("--method", o->method, "icp | property-icp");
@@ -135,7 +150,8 @@ const RegisterCommand kOdometry{{
       app.add_option("--classes", o->classes, "Class table overriding the sequence's: default, semantic-kitti or YAML");
       app.add_option("--max-frames", o->max_frames, "Process only the first N frames (0 = all)");
       app.add_option("--threads", o->threads, "Worker threads (0 = all)");
-      app.add_flag("--no-wheel", o->no_wheel, "Ignore odometry.txt (constant-velocity guess)");
+      app.add_flag("--no-wheel", o->no_wheel, "Ignore odometry.txt / the odometry topic (constant-velocity guess)");
+      o->source.add(app);
       app.add_flag("--quiet", o->quiet, "No progress output");
       auto params = addParameterOptions(app, "keys of the odometry section, e.g. registration.max_iterations=30");
       app.callback([o, params] { run(*o, *params); });

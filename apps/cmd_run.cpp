@@ -1,4 +1,5 @@
-// hazmap run SEQ --method M --out DIR: the whole SLAM run and its outputs.
+// hazmap run INPUT --method M --out DIR: the whole SLAM run and its outputs. INPUT is a sequence
+// folder, a bag (ROS 1, rosbag2, MCAP) or a packet capture, read as a stream.
 #include <fmt/format.h>
 
 #include <iostream>
@@ -8,6 +9,7 @@
 #include "config_options.hpp"
 #include "hazmap/pipeline/progress.hpp"
 #include "hazmap/pipeline/run_outputs.hpp"
+#include "source_flags.hpp"
 
 namespace hazmap::cli {
 namespace {
@@ -20,6 +22,7 @@ struct RunOptions {
   std::string classes;
   int threads = 0;
   bool quiet = false;
+  SourceFlags source;
 };
 
 void run(const RunOptions& o, const ParameterOptions& params) {
@@ -32,11 +35,14 @@ void run(const RunOptions& o, const ParameterOptions& params) {
   config.threads = o.threads;
   std::optional<ClassTable> table;
   if (!o.classes.empty()) table = ClassTable::load(o.classes);
-  const Sequence sequence = Sequence::open(o.sequence, table);
-  ProgressBar bar(o.method, sequence.size(), o.quiet ? 0 : -1);
-  const SlamResult result = runSlam(sequence, config, [&](std::size_t d, std::size_t) { bar.update(d); });
+  config.deskew.enabled = !o.source.no_deskew;
+  const auto scans = openScanSource(o.sequence, o.source.options(table, !o.quiet));
+  ProgressBar bar(o.method, scans->size().value_or(0), o.quiet ? 0 : -1);
+  const SlamResult result = runSlam(*scans, config, [&](std::size_t d, std::size_t) { bar.update(d); });
   bar.finish();
-  const RunSummary summary = writeRunOutputs(sequence, result, config, OutputConfig{}, o.out);
+  // The map is a second pass over the recording with the final poses.
+  const auto second_pass = openScanSource(o.sequence, o.source.options(table));
+  const RunSummary summary = writeRunOutputs(*second_pass, result, config, OutputConfig{}, o.out);
   if (o.quiet) return;
   std::cout << fmt::format("{}: {} frames, {:.1f} frames/s, {} loops accepted, {} hazards, map {} cells\n",
                            o.method, result.frames.size(), result.framesPerSecond(), result.loops.size(),
@@ -53,10 +59,13 @@ void run(const RunOptions& o, const ParameterOptions& params) {
 
 const RegisterCommand registration{{
     "run",
-    "Run SLAM on a sequence directory and write trajectory, graph, map, hazards, PNGs and run.json",
+    "Run SLAM on a sequence directory, a bag or a packet capture and write trajectory, graph, map, "
+    "hazards, PNGs and run.json",
     [](CLI::App& app) {
       auto o = std::make_shared<RunOptions>();
-      app.add_option("sequence", o->sequence, "Sequence directory (velodyne/, labels/, odometry.txt, ...)")
+      app.add_option("sequence", o->sequence,
+                     "Sequence directory (velodyne/, labels/, odometry.txt, ...), bag (.bag, .mcap, rosbag2 "
+                     "folder) or capture (.pcap)")
           ->required();
       app.add_option("--method", o->method,
                      "odometry | icp | icp+pgo | property-icp | property-icp+pgo (the paper's Table 2 rows)");
@@ -68,6 +77,7 @@ const RegisterCommand registration{{
                      "Class table: 'default', 'semantic-kitti' or a YAML file (overrides hazmap.yaml)");
       app.add_option("--threads", o->threads, "Worker threads (0 = all cores)");
       app.add_flag("--quiet", o->quiet, "No progress bar and no summary");
+      o->source.add(app);
       auto params = addParameterOptions(app, "keys as in --config, e.g. odometry.registration.max_iterations=30");
       app.callback([o, params] { run(*o, *params); });
     }}};

@@ -2,13 +2,17 @@
 #include <fmt/format.h>
 
 #include <iostream>
+#include <random>
 
 #include "command.hpp"
+#include "hazmap/core/error.hpp"
 #include "hazmap/io/ply.hpp"
 #include "hazmap/io/sequence.hpp"
 #include "hazmap/map/render.hpp"
 #include "hazmap/preprocess/voxel_downsample.hpp"
 #include "hazmap/sim/simulator.hpp"
+#include "hazmap/sources/mcap_export.hpp"
+#include "hazmap/sources/scan_source.hpp"
 
 namespace hazmap::cli {
 namespace {
@@ -57,7 +61,34 @@ struct SimulateOptions {
   bool overwrite = false;
   bool temperature = false;
   bool png = false;
+  std::string format = "folder";
 };
+
+/// --format mcap: the sequence is simulated into a temporary folder next to the bag, then written
+/// as a ROS 2 MCAP bag (sources/mcap_export.hpp) and the folder removed.
+void writeSimulationAsMcap(const sim::SimulatorConfig& config, const std::filesystem::path& bag, bool overwrite) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (fs::exists(bag, ec) && !overwrite) fail(bag.string(), "exists (pass --overwrite to replace it)");
+  if (fs::is_directory(bag, ec)) fail(bag.string(), "is a folder; --format mcap writes one .mcap file");
+  const fs::path absolute = fs::absolute(bag);
+  const fs::path folder =
+      absolute.parent_path() / ("." + absolute.filename().string() + ".sequence-" + std::to_string(std::random_device{}() % 1000000));
+  struct RemoveFolder {
+    fs::path path;
+    ~RemoveFolder() {
+      std::error_code ignored;
+      fs::remove_all(path, ignored);
+    }
+  } cleanup{folder};
+  const auto summary = sim::writeSimulation(config, folder, /*overwrite=*/false);
+  const auto scans = sequenceScanSource(Sequence::open(folder));
+  const McapExportSummary written = writeScansAsMcap(*scans, bag);
+  std::cout << fmt::format("wrote {}: {} frames ({} PointCloud2 on /velodyne_points, {} Odometry on /odom, {} "
+                           "PoseStamped on /ground_truth), {:.1f} m route\n",
+                           bag.string(), written.scans, written.scans, written.odometry, written.ground_truth,
+                           summary.route_length);
+}
 
 void setupSimulate(CLI::App& app) {
   auto opt = std::make_shared<SimulateOptions>();
@@ -76,6 +107,10 @@ void setupSimulate(CLI::App& app) {
   app.add_flag("--overwrite", opt->overwrite, "Replace --out if it exists and is not empty");
   auto* temperature = app.add_flag("--temperature", opt->temperature,
                                    "Also write the temperature channel (temperature/*.bin)");
+  app.add_option("--format", opt->format,
+                 "folder: a sequence folder; mcap: a ROS 2 MCAP bag (PointCloud2 with a class field, "
+                 "Odometry, PoseStamped ground truth on /ground_truth) at --out")
+      ->check(CLI::IsMember({"folder", "mcap"}));
   app.add_flag("--png", opt->png,
                "Also render reference_map.png and odometry_map.png (top-down, classes coloured)");
   app.callback([opt, scenario, seed, frames, scene, regions, temperature]() {
@@ -87,6 +122,11 @@ void setupSimulate(CLI::App& app) {
     if (scene->count()) config.scene_file = opt->scene;
     if (regions->count()) config.regions_file = opt->regions;
     if (temperature->count()) config.temperature.enabled = opt->temperature;
+    if (opt->format == "mcap") {
+      if (opt->png) fail("--png", "renders a sequence folder; not with --format mcap");
+      writeSimulationAsMcap(config, opt->out, opt->overwrite);
+      return;
+    }
     const auto summary = sim::writeSimulation(config, opt->out, opt->overwrite);
     const double fps = summary.scan_seconds > 0.0 ? summary.frames / summary.scan_seconds : 0.0;
     std::cout << fmt::format(

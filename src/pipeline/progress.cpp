@@ -18,10 +18,15 @@ ProgressBar::~ProgressBar() { finish(); }
 void ProgressBar::update(std::size_t done) {
   if (!enabled_ || finished_) return;
   const auto now = std::chrono::steady_clock::now();
-  if (done < total_ && now - last_draw_ < std::chrono::milliseconds(100)) return;
+  if ((total_ == 0 || done < total_) && now - last_draw_ < std::chrono::milliseconds(100)) return;
   last_draw_ = now;
   const double elapsed = std::chrono::duration<double>(now - start_).count();
   const double fps = elapsed > 0 ? static_cast<double>(done) / elapsed : 0.0;
+  if (total_ == 0) {  // a stream of unknown length (a bag, a capture): no bar, no ETA
+    std::fprintf(stderr, "\r%-18s %zu frames  %6.1f frames/s", label_.c_str(), done, fps);
+    std::fflush(stderr);
+    return;
+  }
   const double eta = fps > 0 && total_ > done ? static_cast<double>(total_ - done) / fps : 0.0;
   constexpr int kWidth = 30;
   const int filled = total_ ? static_cast<int>(kWidth * done / total_) : kWidth;

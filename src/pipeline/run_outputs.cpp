@@ -21,10 +21,9 @@ nlohmann::json statsJson(const DistanceStats& s) {
           {"max", s.max}, {"rmse", s.rmse}};
 }
 
-nlohmann::json runJson(const Sequence& sequence, const SlamResult& r, const SlamConfig& config,
-                       const RunSummary& summary) {
+nlohmann::json runJson(const SlamResult& r, const SlamConfig& config, const RunSummary& summary) {
   nlohmann::json j;
-  j["sequence"] = sequence.directory().string();
+  j["sequence"] = r.source;
   j["method"] = toString(r.method);
   j["frames"] = r.frames.size();
   j["frames_per_s"] = r.framesPerSecond();
@@ -73,33 +72,61 @@ nlohmann::json runJson(const Sequence& sequence, const SlamResult& r, const Slam
   return j;
 }
 
+
+/// The scans once more, as tracking saw them (deskewed), placed with the final poses: the map,
+/// and the paper's map error (Table 2) when every scan has a ground-truth pose.
+Trajectory assembleMap(ScanSource& scans, const SlamResult& result, GlobalMap& map,
+                       const MapErrorConfig& error_config, std::optional<MapErrorResult>& map_error,
+                       const std::string& where) {
+  const std::size_t n = result.estimate.size();
+  std::optional<MapErrorAccumulator> error;
+  Trajectory truth;
+  std::size_t i = 0;
+  for (std::optional<Scan> scan; (scan = scans.next()); ++i) {
+    if (i >= n) break;
+    redoDeskew(scan->cloud, result.frames.at(i));
+    map.insert(i, scan->cloud, result.estimate.poses[i]);
+    if (i == 0 && scan->ground_truth) error.emplace(error_config);
+    if (!scan->ground_truth) error.reset();
+    if (!error) continue;
+    error->addFrame(scan->cloud, result.estimate.poses[i], *scan->ground_truth);
+    truth.push_back(result.estimate.stamps[i], *scan->ground_truth);
+  }
+  if (i != n)
+    fail(where, "the second pass over " + scans.describe() + " gave " + std::to_string(i) +
+                    " scans, the run had " + std::to_string(n));
+  if (!error) return {};
+  map_error = error->result();
+  return truth;
+}
+
 }  // namespace
 
-RunSummary writeRunOutputs(const Sequence& sequence, const SlamResult& result,
-                           const SlamConfig& config, const OutputConfig& output,
-                           const std::filesystem::path& out_dir, RunArtifacts* artifacts) {
+RunSummary writeRunOutputs(const Sequence& sequence, const SlamResult& result, const SlamConfig& config,
+                           const OutputConfig& output, const std::filesystem::path& out_dir,
+                           RunArtifacts* artifacts) {
+  const auto scans = sequenceScanSource(sequence);
+  return writeRunOutputs(*scans, result, config, output, out_dir, artifacts);
+}
+
+RunSummary writeRunOutputs(ScanSource& scans, const SlamResult& result, const SlamConfig& config,
+                           const OutputConfig& output, const std::filesystem::path& out_dir,
+                           RunArtifacts* artifacts) {
   const auto t0 = std::chrono::steady_clock::now();
   std::error_code ec;
   std::filesystem::create_directories(out_dir, ec);
   if (ec) fail(out_dir.string(), "cannot create output folder: " + ec.message());
   const std::size_t n = result.estimate.size();
-  if (n != sequence.size()) fail(out_dir.string(), "result does not match the sequence's frame count");
+  if (scans.size() && *scans.size() != n)
+    fail(out_dir.string(), "result does not match the sequence's frame count");
 
   RunSummary summary;
   summary.frames = n;
-  const auto& truth = sequence.groundTruth();
-  const bool with_truth = truth && truth->size() == n;
-
-  // Second pass: the map with the final poses (+ the Table 2 map error against the truth).
-  GlobalMap map(output.map, sequence.classTable());
-  std::optional<MapErrorAccumulator> error;
-  if (with_truth) error.emplace(output.map_error);
-  for (std::size_t i = 0; i < n; ++i) {
-    const LabeledCloud scan = sequence.frame(i);
-    map.insert(i, scan, result.estimate.poses[i]);
-    if (error) error->addFrame(scan, result.estimate.poses[i], truth->poses[i]);
-  }
-  if (error) summary.map_error = error->result();
+  GlobalMap map(output.map, scans.classTable());
+  const Trajectory truth_poses =
+      assembleMap(scans, result, map, output.map_error, summary.map_error, out_dir.string());
+  const bool with_truth = truth_poses.size() == n;
+  const Trajectory* truth = with_truth ? &truth_poses : nullptr;
   if (with_truth) {
     // SE(3)-aligned APE as evo reports it; a straight-line run (a corridor) cannot be aligned
     // rotationally, and then — estimate and truth share the start pose — no alignment is used.
@@ -130,14 +157,14 @@ RunSummary writeRunOutputs(const Sequence& sequence, const SlamResult& result,
   if (files.top_down.title.empty()) files.top_down.title = std::string("hazmap ") + toString(result.method);
   files.plot.title = std::string("Trajectory: ") + toString(result.method);
   MapOutputs written =
-      writeMapOutputs(out_dir, map, result.estimate, with_truth ? &*truth : nullptr,
+      writeMapOutputs(out_dir, map, result.estimate, truth,
                       result.odometry_only.empty() ? nullptr : &result.odometry_only, files);
   summary.map_cells = map.size();
   summary.map_memory_bytes = map.memoryBytes();
   summary.hazards = written.hazards.size();
   summary.output_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  writeTextAtomically(out_dir / "run.json", runJson(sequence, result, config, summary).dump(2) + "\n");
+  writeTextAtomically(out_dir / "run.json", runJson(result, config, summary).dump(2) + "\n");
   if (artifacts) {
     artifacts->map = std::move(written.cloud);
     artifacts->hazards = std::move(written.hazards);

@@ -11,6 +11,7 @@
 #include "hazmap/core/error.hpp"
 #include "hazmap/core/se3.hpp"
 #include "hazmap/io/atomic_file.hpp"
+#include "pipeline/keyframe_spill.hpp"
 
 namespace hazmap {
 
@@ -29,12 +30,6 @@ Matrix6d flooredInformation(const Matrix6d& covariance, double min_translation_s
   Eigen::SelfAdjointEigenSolver<Matrix6d> eig(c);
   Eigen::Matrix<double, 6, 1> values = eig.eigenvalues().cwiseMax(1e-12);
   return eig.eigenvectors() * values.cwiseInverse().asDiagonal() * eig.eigenvectors().transpose();
-}
-
-Trajectory trajectoryOf(const std::vector<Eigen::Isometry3d>& poses) {
-  Trajectory t;
-  for (std::size_t i = 0; i < poses.size(); ++i) t.push_back(static_cast<double>(i), poses[i]);
-  return t;
 }
 
 }  // namespace
@@ -59,150 +54,241 @@ double SlamResult::framesPerSecond() const {
   return timings.total_s > 0 ? static_cast<double>(frames.size()) / timings.total_s : 0.0;
 }
 
-SlamResult runSlam(const Sequence& sequence, const SlamConfig& config, const FrameProgress& progress) {
-  config.validate();
-  const std::string where = sequence.directory().string();
-  const std::size_t n = sequence.size();
-  if (n == 0) fail(where, "sequence has no scans");
-  const auto& odometry = sequence.odometry();
-  if (odometry && odometry->size() != n)
-    fail(where, "odometry.txt has " + std::to_string(odometry->size()) + " poses for " +
-                    std::to_string(n) + " scans");
-  if (config.method == SlamMethod::Odometry && !odometry)
-    fail(where, "method 'odometry' needs wheel odometry (odometry.txt)");
-  std::unique_ptr<tbb::global_control> threads;
-  if (config.threads > 0)
-    threads = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
-                                                    static_cast<std::size_t>(config.threads));
+namespace {
 
-  const auto t_start = Clock::now();
-  SlamResult result;
-  result.method = config.method;
-  const auto& truth = sequence.groundTruth();
-  const Eigen::Isometry3d start = truth && !truth->empty() ? truth->poses.front()
-                                  : odometry                ? odometry->poses.front()
-                                                            : Eigen::Isometry3d::Identity();
-  // Wheel odometry expressed from the common start pose.
-  std::vector<Eigen::Isometry3d> odom_poses;
-  if (odometry) {
-    const Eigen::Isometry3d T_start_odom0 = start * odometry->poses.front().inverse();
-    for (const auto& p : odometry->poses) odom_poses.push_back(normalized(T_start_odom0 * p));
-    result.odometry_only = trajectoryOf(odom_poses);
+// One SLAM run, frame by frame: each public step is one box of the paper's Fig. 1.
+class SlamRun {
+ public:
+  SlamRun(ScanSource& source, const SlamConfig& config)
+      : source_(source), config_(config), deskewer_(config.deskew) {
+    result_.method = config.method;
+    result_.graph.dimension = 3;
   }
 
-  // α and the class search radii, set once for tracking and loop verification alike.
-  const ClassTable classes = config.property_icp.applyTo(sequence.classTable(), where);
-  PoseGraph& graph = result.graph;
-  graph.dimension = 3;
-  std::vector<Eigen::Isometry3d> tracked;
-  const bool pgo = usesPoseGraph(config.method);
-  std::unique_ptr<LoopDetector> loops;
-  std::vector<std::size_t> keyframe_frames;  // keyframe index → frame index
-  if (pgo) {
-    loops = std::make_unique<LoopDetector>(classes, config.loop_closure);
-    // Old keyframes are re-read from the sequence when a loop needs them (bounded memory).
-    loops->setCloudLoader([&](std::size_t k) { return sequence.frame(keyframe_frames.at(k)); });
-  }
-  Odometry tracker(classes, config.odometry, start);
-  Eigen::Isometry3d last_keyframe_pose = Eigen::Isometry3d::Identity();
-
-  const auto keyframeEstimate = [&] {
-    PoseList poses;
-    for (std::size_t f : keyframe_frames) poses.push_back(graph.poses[f]);
-    return poses;
-  };
-  const auto optimise = [&] {
-    const auto t = Clock::now();
-    result.optimisations.push_back(optimizePoseGraph(graph, config.graph));
-    result.timings.graph_s += secondsSince(t);
-  };
-
-  for (std::size_t i = 0; i < n; ++i) {
+  void addScan(Scan scan) {
     const auto t_frame = Clock::now();
+    if (frames() == 0) start(scan);
+    const std::optional<Eigen::Isometry3d> wheel_increment = wheelIncrement(scan);
+    FrameRecord record = track(scan, wheel_increment);
+    record.milliseconds = 1e3 * secondsSince(t_frame);
+    result_.timings.tracking_s += secondsSince(t_frame);
+    const Eigen::Isometry3d pose = addToTrajectory(record);
+    addOdometryEdge(record);
+    result_.frames.push_back(std::move(record));
+    if (pgo_ && isKeyframe(pose)) closeLoops(pose, std::move(scan.cloud));
+  }
+
+  std::size_t frames() const { return result_.frames.size(); }
+
+  SlamResult finish() {
+    result_.source = source_.describe();  // after the scans: a decoder knows its sensor by then
+    result_.tracked = trajectoryOf(tracked_);
+    if (pgo_) {
+      result_.keyframes = keyframe_frames_.size();
+      const auto consistent = loops_->consistentLoops(keyframeEstimate());
+      setLoopEdges(consistent);
+      for (const auto& l : consistent)
+        result_.loops.push_back({keyframe_frames_[l.from], keyframe_frames_[l.to], toString(l.source),
+                                 l.fitness, l.rmse});
+      if (!consistent.empty()) optimise();
+      result_.estimate = trajectoryOf(result_.graph.poses);
+    } else if (config_.method == SlamMethod::Odometry) {
+      result_.estimate = result_.odometry_only;
+    } else {
+      result_.estimate = result_.tracked;
+    }
+    return std::move(result_);
+  }
+
+ private:
+  /// The first scan fixes the common start pose (its ground truth, else its wheel odometry), the
+  /// frame the wheel odometry is expressed in, and builds the tracker and the loop detector.
+  void start(const Scan& first) {
+    const std::string where = source_.describe();
+    if (config_.method == SlamMethod::Odometry && !first.odometry)
+      fail(where, "method 'odometry' needs wheel odometry (odometry.txt or an odometry topic)");
+    start_ = first.ground_truth ? *first.ground_truth
+             : first.odometry   ? *first.odometry
+                                : Eigen::Isometry3d::Identity();
+    has_odometry_ = first.odometry.has_value();
+    if (has_odometry_) T_start_odom0_ = start_ * first.odometry->inverse();
+    // α and the class search radii, set once for tracking and loop verification alike.
+    classes_ = config_.property_icp.applyTo(source_.classTable(), where);
+    tracker_.emplace(classes_, config_.odometry, start_);
+    pgo_ = usesPoseGraph(config_.method);
+    if (!pgo_) return;
+    loops_ = std::make_unique<LoopDetector>(classes_, config_.loop_closure);
+    // Old keyframes are re-read when a loop needs them (bounded memory): from the recording when
+    // it allows that, else from the copies a stream's keyframes leave on disk.
+    if (source_.canReread()) {
+      loops_->setCloudLoader([this](std::size_t k) {
+        const std::size_t f = keyframe_frames_.at(k);
+        LabeledCloud cloud = source_.reread(f);
+        redoDeskew(cloud, result_.frames.at(f));
+        return cloud;
+      });
+    } else {
+      spill_.emplace();
+      loops_->setCloudLoader(
+          [this](std::size_t k) { return spill_->load(keyframe_frames_.at(k), source_.classTable()); });
+    }
+  }
+
+  /// Wheel odometry from the common start pose; the increment from the previous scan.
+  std::optional<Eigen::Isometry3d> wheelIncrement(const Scan& scan) {
+    if (!has_odometry_) return std::nullopt;
+    if (!scan.odometry)
+      fail(source_.describe(), "scan " + std::to_string(scan.index) +
+                                   " has no wheel odometry while the first scan had some");
+    const Eigen::Isometry3d pose = normalized(T_start_odom0_ * *scan.odometry);
+    result_.odometry_only.push_back(scan.stamp, pose);
+    const auto& poses = result_.odometry_only.poses;
+    if (poses.size() < 2) return std::nullopt;
+    return poses[poses.size() - 2].inverse() * poses.back();
+  }
+
+  /// Deskewing, then (property-)ICP against the previous scan or the local map with the wheel
+  /// increment as the initial guess (the odometry method takes the wheel increment as it is).
+  FrameRecord track(Scan& scan, const std::optional<Eigen::Isometry3d>& wheel_increment) {
     FrameRecord rec;
-    rec.index = i;
-    std::optional<Eigen::Isometry3d> odom_increment;
-    if (odometry && i > 0) odom_increment = odom_poses[i - 1].inverse() * odom_poses[i];
-    LabeledCloud scan;
-    if (usesIcp(config.method)) {
-      scan = sequence.frame(i);
-      const OdometryFrame& f = tracker.addFrame(scan, odom_increment, static_cast<double>(i));
-      rec.T_prev_curr = f.increment;
-      rec.covariance = f.covariance;
-      rec.icp_used = f.status == FrameStatus::Registered || f.status == FrameStatus::Degenerate ||
-                     f.status == FrameStatus::First;
-      rec.fallback_reason = f.reason;
-      rec.fitness = f.registration.fitness;
-      rec.rmse = f.registration.inlier_rmse;
-      rec.iterations = f.registration.iterations;
-      rec.points = f.source_points;
-    } else if (odom_increment) {
-      rec.T_prev_curr = *odom_increment;
+    rec.index = frames();
+    rec.stamp = scan.stamp;
+    if (!usesIcp(config_.method)) {
+      if (wheel_increment) rec.T_prev_curr = *wheel_increment;
+      return rec;
     }
-    rec.milliseconds = 1e3 * secondsSince(t_frame);
-    result.timings.tracking_s += secondsSince(t_frame);
-
-    result.frames.push_back(rec);
-    const Eigen::Isometry3d pose = i == 0 ? start : normalized(tracked.back() * rec.T_prev_curr);
-    tracked.push_back(pose);
-    // Every method records its graph (graph.g2o); only the PGO methods add loops and optimise.
-    // A new node continues from the (possibly already optimised) previous node.
-    graph.addNode(i == 0 ? start : normalized(graph.poses.back() * rec.T_prev_curr));
-    if (i > 0) {
-      const Matrix6d info = rec.icp_used
-                                ? flooredInformation(rec.covariance, config.min_translation_sigma,
-                                                     config.min_rotation_sigma)
-                                : config.wheel_noise.information();
-      graph.addEdge(static_cast<int>(i - 1), static_cast<int>(i), rec.T_prev_curr, info,
-                    EdgeKind::Odometry);
-    }
-    if (pgo) {
-      const Eigen::Isometry3d since = last_keyframe_pose.inverse() * pose;
-      if (i == 0 || translationNorm(since) >= config.keyframe_distance ||
-          rotationAngle(since) >= config.keyframe_angle) {
-        const auto t_loop = Clock::now();
-        last_keyframe_pose = pose;
-        keyframe_frames.push_back(i);
-        const std::size_t k = loops->addKeyframe(std::move(scan));
-        const LoopDetection detection = loops->detect(k, keyframeEstimate());
-        result.loop_candidates += detection.candidates.size();
-        for (const auto& v : detection.verifications) result.loops_verified += v.accepted ? 1 : 0;
-        result.timings.loop_s += secondsSince(t_loop);
-        if (!detection.accepted.empty() && config.optimise_online) {
-          const auto consistent = loops->consistentLoops(keyframeEstimate());
-          // Rebuild the loop edges from the consistent set, then optimise.
-          std::erase_if(graph.edges, [](const PoseGraphEdge& e) { return e.kind == EdgeKind::Loop; });
-          for (const auto& l : consistent)
-            graph.addEdge(static_cast<int>(keyframe_frames[l.from]),
-                          static_cast<int>(keyframe_frames[l.to]), l.T_from_to, l.information,
-                          EdgeKind::Loop);
-          optimise();
-        }
-      }
-    }
-    if (progress) progress(i + 1, n);
+    rec.deskew_velocity = deskewer_.apply(scan.cloud, scan.stamp, wheel_increment);
+    const OdometryFrame& f = tracker_->addFrame(scan.cloud, wheel_increment, scan.stamp);
+    deskewer_.tracked(f.increment);
+    rec.T_prev_curr = f.increment;
+    rec.covariance = f.covariance;
+    rec.icp_used = f.status == FrameStatus::Registered || f.status == FrameStatus::Degenerate ||
+                   f.status == FrameStatus::First;
+    rec.fallback_reason = f.reason;
+    rec.fitness = f.registration.fitness;
+    rec.rmse = f.registration.inlier_rmse;
+    rec.iterations = f.registration.iterations;
+    rec.points = f.source_points;
+    return rec;
   }
 
-  result.tracked = trajectoryOf(tracked);
-  if (pgo) {
-    result.keyframes = keyframe_frames.size();
-    const auto consistent = loops->consistentLoops(keyframeEstimate());
+  /// The tracked pose, and the graph's new node continuing from the (possibly already
+  /// optimised) previous node. Every method records its graph (graph.g2o).
+  Eigen::Isometry3d addToTrajectory(const FrameRecord& rec) {
+    const bool first = tracked_.empty();
+    tracked_.push_back(first ? start_ : normalized(tracked_.back() * rec.T_prev_curr));
+    PoseGraph& graph = result_.graph;
+    graph.addNode(first ? start_ : normalized(graph.poses.back() * rec.T_prev_curr));
+    return tracked_.back();
+  }
+
+  /// Odometry edge, information = inverse ICP covariance (eq. 3), or the wheel noise when the
+  /// tracker fell back to the encoders.
+  void addOdometryEdge(const FrameRecord& rec) {
+    if (rec.index == 0) return;
+    const Matrix6d info = rec.icp_used ? flooredInformation(rec.covariance, config_.min_translation_sigma,
+                                                            config_.min_rotation_sigma)
+                                       : config_.wheel_noise.information();
+    result_.graph.addEdge(static_cast<int>(rec.index - 1), static_cast<int>(rec.index), rec.T_prev_curr,
+                          info, EdgeKind::Odometry);
+  }
+
+  bool isKeyframe(const Eigen::Isometry3d& pose) const {
+    if (keyframe_frames_.empty()) return true;
+    const Eigen::Isometry3d since = last_keyframe_pose_.inverse() * pose;
+    return translationNorm(since) >= config_.keyframe_distance ||
+           rotationAngle(since) >= config_.keyframe_angle;
+  }
+
+  /// Property-landmark (or distance) loop candidates, verified by ICP; online re-optimisation
+  /// as soon as one is accepted.
+  void closeLoops(const Eigen::Isometry3d& pose, LabeledCloud cloud) {
+    const auto t_loop = Clock::now();
+    last_keyframe_pose_ = pose;
+    keyframe_frames_.push_back(frames() - 1);
+    if (spill_) spill_->store(keyframe_frames_.back(), cloud);
+    const std::size_t k = loops_->addKeyframe(std::move(cloud));
+    const LoopDetection detection = loops_->detect(k, keyframeEstimate());
+    result_.loop_candidates += detection.candidates.size();
+    for (const auto& v : detection.verifications) result_.loops_verified += v.accepted ? 1 : 0;
+    result_.timings.loop_s += secondsSince(t_loop);
+    if (!detection.accepted.empty() && config_.optimise_online) {
+      setLoopEdges(loops_->consistentLoops(keyframeEstimate()));
+      optimise();
+    }
+  }
+
+  /// Replaces the graph's loop edges by the pairwise-consistent set.
+  void setLoopEdges(const std::vector<LoopClosure>& consistent) {
+    PoseGraph& graph = result_.graph;
     std::erase_if(graph.edges, [](const PoseGraphEdge& e) { return e.kind == EdgeKind::Loop; });
-    for (const auto& l : consistent) {
-      graph.addEdge(static_cast<int>(keyframe_frames[l.from]), static_cast<int>(keyframe_frames[l.to]),
+    for (const auto& l : consistent)
+      graph.addEdge(static_cast<int>(keyframe_frames_[l.from]), static_cast<int>(keyframe_frames_[l.to]),
                     l.T_from_to, l.information, EdgeKind::Loop);
-      result.loops.push_back({keyframe_frames[l.from], keyframe_frames[l.to], toString(l.source),
-                              l.fitness, l.rmse});
-    }
-    if (!consistent.empty()) optimise();
-    result.estimate = trajectoryOf(graph.poses);
-  } else if (config.method == SlamMethod::Odometry) {
-    result.estimate = result.odometry_only;
-  } else {
-    result.estimate = result.tracked;
   }
+
+  PoseList keyframeEstimate() const {
+    PoseList poses;
+    for (std::size_t f : keyframe_frames_) poses.push_back(result_.graph.poses[f]);
+    return poses;
+  }
+
+  void optimise() {
+    const auto t = Clock::now();
+    result_.optimisations.push_back(optimizePoseGraph(result_.graph, config_.graph));
+    result_.timings.graph_s += secondsSince(t);
+  }
+
+  Trajectory trajectoryOf(const std::vector<Eigen::Isometry3d>& poses) const {
+    Trajectory t;
+    for (std::size_t i = 0; i < poses.size(); ++i) t.push_back(result_.frames[i].stamp, poses[i]);
+    return t;
+  }
+
+  ScanSource& source_;
+  const SlamConfig& config_;
+  SlamResult result_;
+  Eigen::Isometry3d start_ = Eigen::Isometry3d::Identity();
+  ClassTable classes_;
+  bool has_odometry_ = false;
+  Eigen::Isometry3d T_start_odom0_ = Eigen::Isometry3d::Identity();
+  StreamDeskewer deskewer_;
+  std::optional<Odometry> tracker_;
+  std::vector<Eigen::Isometry3d> tracked_;
+  bool pgo_ = false;
+  std::unique_ptr<LoopDetector> loops_;
+  std::optional<KeyframeSpill> spill_;
+  std::vector<std::size_t> keyframe_frames_;  // keyframe index → frame index
+  Eigen::Isometry3d last_keyframe_pose_ = Eigen::Isometry3d::Identity();
+};
+
+}  // namespace
+
+void redoDeskew(LabeledCloud& cloud, const FrameRecord& record) {
+  if (record.deskew_velocity) deskewScan(cloud, *record.deskew_velocity, record.stamp);
+}
+
+SlamResult runSlam(ScanSource& source, const SlamConfig& config, const FrameProgress& progress) {
+  config.validate();
+  std::optional<tbb::global_control> threads;
+  if (config.threads > 0)
+    threads.emplace(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(config.threads));
+  const auto t_start = Clock::now();
+  SlamRun run(source, config);
+  const std::size_t total = source.size().value_or(0);
+  while (std::optional<Scan> scan = source.next()) {
+    run.addScan(std::move(*scan));
+    if (progress) progress(run.frames(), total);
+  }
+  if (run.frames() == 0) fail(source.describe(), "has no scans");
+  SlamResult result = run.finish();
   result.timings.total_s = secondsSince(t_start);
   return result;
+}
+
+SlamResult runSlam(const Sequence& sequence, const SlamConfig& config, const FrameProgress& progress) {
+  const auto source = sequenceScanSource(sequence);
+  return runSlam(*source, config, progress);
 }
 
 }  // namespace hazmap

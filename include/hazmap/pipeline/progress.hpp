@@ -9,7 +9,8 @@ namespace hazmap {
 
 class ProgressBar {
  public:
-  /// `enabled` = nullopt → on exactly when stderr is a terminal.
+  /// `total` = 0: unknown (a stream), frames and rate only. `enabled` < 0 → on exactly when
+  /// stderr is a terminal.
   ProgressBar(std::string label, std::size_t total, int enabled = -1);
   ~ProgressBar();
   void update(std::size_t done);

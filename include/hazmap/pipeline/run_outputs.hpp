@@ -2,7 +2,7 @@
 // Everything `hazmap run` writes for a finished SLAM run, each file atomically:
 //   trajectory.kitti, trajectory.tum, odometry_only.kitti, graph.g2o,
 //   map.ply, map.pcd, hazards.json, hazards.csv, map_top.png, trajectory.png, run.json.
-// The map is assembled in a second pass over the scans with the final poses; when the sequence
+// The map is assembled in a second pass over the scans with the final poses; when the recording
 // has ground truth the same pass measures the paper's map error (Table 2) and the ATE.
 #include <filesystem>
 #include <optional>
@@ -44,6 +44,11 @@ struct RunArtifacts {
   std::vector<Hazard> hazards;
 };
 
+/// `scans` is a fresh stream of the run's input (the map needs a second pass over the scans);
+/// the map error and the ATE are measured when every scan has a ground-truth pose.
+RunSummary writeRunOutputs(ScanSource& scans, const SlamResult& result, const SlamConfig& config,
+                           const OutputConfig& output, const std::filesystem::path& out_dir,
+                           RunArtifacts* artifacts = nullptr);
 RunSummary writeRunOutputs(const Sequence& sequence, const SlamResult& result,
                            const SlamConfig& config, const OutputConfig& output,
                            const std::filesystem::path& out_dir, RunArtifacts* artifacts = nullptr);

@@ -1,8 +1,10 @@
 #pragma once
-// The whole SLAM run over a sequence directory (paper Fig. 1): wheel-odometry guess →
+// The whole SLAM run over a stream of scans (paper Fig. 1): wheel-odometry guess → deskewing →
 // (property-)ICP tracking → property-landmark (or distance) loop closure → pose-graph
-// optimisation with information = inverse ICP covariance (eq. 3). Plain data in, plain data out;
-// writing files is run_outputs.hpp's job.
+// optimisation with information = inverse ICP covariance (eq. 3). The scans come one at a time
+// from a ScanSource (a sequence folder, a bag, a capture), so memory is bounded by the map and
+// the keyframes, not by the recording. Plain data in, plain data out; writing files is
+// run_outputs.hpp's job.
 #include <Eigen/Geometry>
 #include <filesystem>
 #include <functional>
@@ -17,6 +19,8 @@
 #include "hazmap/loop/loop_closure.hpp"
 #include "hazmap/pipeline/slam_method.hpp"
 #include "hazmap/odometry/odometry.hpp"
+#include "hazmap/preprocess/deskew.hpp"
+#include "hazmap/sources/scan_source.hpp"
 
 namespace hazmap {
 
@@ -51,6 +55,9 @@ struct SlamConfig {
   /// Re-optimise the graph as soon as a loop is accepted (online), and once at the end.
   bool optimise_online = true;
   int threads = 0;  ///< 0 = TBB default
+  /// Motion compensation of scans with per-point times (spinning LiDARs in bags and captures;
+  /// sequence folders of .bin scans have no times and are never touched).
+  DeskewConfig deskew;
 
   /// Defaults for a method: classes on/off in tracking and verification, loop candidates by
   /// property constellations (property methods) or by distance (conventional baseline).
@@ -72,6 +79,7 @@ const ConfigFields<WheelOdometryNoise>& configFields(ConfigTag<WheelOdometryNois
 
 struct FrameRecord {
   std::size_t index = 0;
+  double stamp = 0.0;  ///< the scan's time (s; the frame index for folders without times.txt)
   Eigen::Isometry3d T_prev_curr = Eigen::Isometry3d::Identity();  ///< tracked increment
   Matrix6d covariance = Matrix6d::Identity();                     ///< of the increment
   bool icp_used = false;   ///< false: the wheel-odometry increment was used
@@ -80,6 +88,9 @@ struct FrameRecord {
   int iterations = 0;
   double milliseconds = 0.0;  ///< preprocessing + registration of this frame
   std::size_t points = 0;     ///< after preprocessing
+  /// Body-frame velocity the scan was deskewed with (so a second pass over the scans can redo
+  /// it); nullopt when it was not deskewed.
+  std::optional<Vector6d> deskew_velocity;
 };
 
 struct LoopRecord {
@@ -94,6 +105,7 @@ struct SlamTimings {
 
 struct SlamResult {
   SlamMethod method = SlamMethod::PropertyIcpPgo;
+  std::string source;        ///< ScanSource::describe() of the input
   Trajectory estimate;       ///< final (optimised when PGO ran), T_world_sensor per frame
   Trajectory tracked;        ///< before pose-graph optimisation
   Trajectory odometry_only;  ///< wheel odometry, same start pose
@@ -106,13 +118,20 @@ struct SlamResult {
   double framesPerSecond() const;
 };
 
+/// Called after each frame; `total` is 0 when the source does not know its length (a bag).
 using FrameProgress = std::function<void(std::size_t done, std::size_t total)>;
 
-/// Runs `config.method` over the sequence. The start pose is the ground truth's first pose when
-/// poses.txt exists (so estimate and truth share a frame, as in the paper), else the odometry's,
-/// else identity. Throws hazmap::Error naming the sequence on unusable input (e.g. the odometry
-/// method without odometry.txt).
+/// Runs `config.method` over the scans of `source`, reading each once. The start pose is the
+/// first scan's ground truth when the recording has one (so estimate and truth share a frame, as
+/// in the paper), else its wheel odometry, else identity. Throws hazmap::Error naming the source
+/// on unusable input (e.g. the odometry method without wheel odometry).
+SlamResult runSlam(ScanSource& source, const SlamConfig& config, const FrameProgress& progress = {});
+/// The same over a sequence folder.
 SlamResult runSlam(const Sequence& sequence, const SlamConfig& config,
                    const FrameProgress& progress = {});
+
+/// A scan as tracking saw it: deskewed again with the velocity `record` says it was deskewed with
+/// (for passes over the scans after the run: keyframe reloads, the map).
+void redoDeskew(LabeledCloud& cloud, const FrameRecord& record);
 
 }  // namespace hazmap

@@ -5,19 +5,25 @@
 // the file.
 #include <Eigen/Geometry>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
 
 #include "hazmap/core/class_table.hpp"
 #include "hazmap/core/labeled_cloud.hpp"
+#include "hazmap/io/sequence.hpp"
 #include "hazmap/io/trajectory.hpp"
 
 namespace hazmap {
 
 struct Scan {
   std::size_t index = 0;
-  double stamp = 0.0;  ///< seconds: the scan's reference time (its first point's time for spinning LiDARs)
+  /// Seconds: the scan's reference time. For a spinning LiDAR with per-point times, the middle of
+  /// its sweep: an undistorted scan looks on average like the scene seen from there, so the
+  /// first scans (before any motion is known to deskew them) and the deskewed ones agree, and
+  /// the pose estimated for the scan, its odometry and its ground truth are all at this time.
+  double stamp = 0.0;
   LabeledCloud cloud;  ///< sensor frame; per-point absolute times in cloud.timestamps when known
   /// Wheel odometry pose at `stamp` (T_odom_sensor) when the recording has one.
   std::optional<Eigen::Isometry3d> odometry;
@@ -31,6 +37,9 @@ struct ScanSourceOptions {
   std::filesystem::path sensor_metadata;     ///< Ouster metadata JSON (else from a bag topic)
   std::filesystem::path velodyne_calibration;  ///< optional calibration YAML (else factory)
   std::optional<ClassTable> class_table;     ///< overrides the recording's
+  /// One-line notices (topics not read, odometry clamped at the recording's ends, bytes a
+  /// truncated bag lost); none when unset.
+  std::function<void(const std::string&)> notice;
 };
 
 class ScanSource {
@@ -43,7 +52,16 @@ class ScanSource {
   virtual const ClassTable& classTable() const = 0;
   /// Human-readable description, e.g. "rosbag2 (sqlite3) /velodyne_points".
   virtual std::string describe() const = 0;
+  /// Whether reread() works: the recording allows random access (sequence folders). Otherwise a
+  /// consumer keeps in memory what it needs again.
+  virtual bool canReread() const { return false; }
+  /// Scan `index`'s cloud again, without disturbing the stream (only when canReread()).
+  virtual LabeledCloud reread(std::size_t index) const;
 };
+
+/// A sequence folder as a stream: scans in name order, odometry.txt → Scan::odometry, poses.txt
+/// → Scan::ground_truth, times.txt (when it has one line per scan) → Scan::stamp, else the index.
+std::unique_ptr<ScanSource> sequenceScanSource(Sequence sequence);
 
 /// Opens a sequence folder, a bag or a capture. Throws hazmap::Error naming the path.
 std::unique_ptr<ScanSource> openScanSource(const std::filesystem::path& path,

@@ -1,0 +1,44 @@
+#pragma once
+// The flags every command that reads a recording shares (run, odometry, loops, info, convert):
+// which topics of a bag, the sensor's metadata or calibration, deskewing.
+#include <CLI/CLI.hpp>
+#include <iostream>
+#include <optional>
+#include <string>
+
+#include "hazmap/core/class_table.hpp"
+#include "hazmap/sources/scan_source.hpp"
+
+namespace hazmap::cli {
+
+struct SourceFlags {
+  std::string lidar_topic, odom_topic, sensor_metadata, velodyne_calibration;
+  bool no_deskew = false;
+
+  void add(CLI::App& app, bool with_deskew = true) {
+    app.add_option("--lidar-topic", lidar_topic,
+                   "Bag topic of the LiDAR (PointCloud2, VelodyneScan or Ouster packets); default: the only one");
+    app.add_option("--odom-topic", odom_topic,
+                   "Bag topic of the wheel odometry (nav_msgs/Odometry); default: the only one, if any");
+    app.add_option("--sensor-metadata", sensor_metadata,
+                   "Ouster metadata JSON (default: the bag's metadata topic, or the .json next to a .pcap)");
+    app.add_option("--velodyne-calibration", velodyne_calibration,
+                   "Velodyne calibration YAML (default: the model's factory calibration)");
+    if (with_deskew)
+      app.add_flag("--no-deskew", no_deskew, "Do not motion-compensate scans with per-point times");
+  }
+
+  /// `print_notices`: the source's one-line notices (topics not read, …) go to stderr.
+  ScanSourceOptions options(std::optional<ClassTable> table = std::nullopt, bool print_notices = false) const {
+    ScanSourceOptions o;
+    o.lidar_topic = lidar_topic;
+    o.odom_topic = odom_topic;
+    o.sensor_metadata = sensor_metadata;
+    o.velodyne_calibration = velodyne_calibration;
+    o.class_table = std::move(table);
+    if (print_notices) o.notice = [](const std::string& line) { std::cerr << "notice: " << line << "\n"; };
+    return o;
+  }
+};
+
+}  // namespace hazmap::cli

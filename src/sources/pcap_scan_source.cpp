@@ -1,0 +1,120 @@
+// A packet capture (.pcap) as a ScanSource. Which sensor sent it is sniffed from the datagrams:
+// Velodyne data packets are 1206-byte payloads (port 2368 by default), Ouster lidar packets go to
+// port 7502 by default and need the sensor's metadata JSON (by default the .json next to the
+// capture) to be decoded.
+#include <fstream>
+
+#include "hazmap/core/error.hpp"
+#include "hazmap/sources/ouster.hpp"
+#include "hazmap/sources/pcap_reader.hpp"
+#include "hazmap/sources/scan_source.hpp"
+#include "hazmap/sources/velodyne.hpp"
+#include "sources/packet_decoders.hpp"
+#include "sources/scan_assembler.hpp"
+
+namespace hazmap::sources {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+enum class CaptureSensor { Velodyne, Ouster };
+
+/// Looks at the first datagrams: a Velodyne data packet has a fixed size; anything else large
+/// is taken as Ouster when a metadata JSON is at hand.
+CaptureSensor sniffSensor(const fs::path& path, bool have_metadata) {
+  PcapReader reader(path);
+  UdpPacket packet;
+  std::size_t seen = 0, largest = 0;
+  std::uint16_t largest_port = 0;
+  while (seen < 200 && reader.next(packet)) {
+    ++seen;
+    if (packet.payload.size() == kVelodyneDataPacketSize) return CaptureSensor::Velodyne;
+    if (packet.payload.size() > largest) largest = packet.payload.size(), largest_port = packet.destination_port;
+  }
+  if (seen == 0) fail(path.string(), "capture holds no UDP datagram");
+  if (have_metadata || largest_port == 7502) return CaptureSensor::Ouster;
+  fail(path.string(), "no Velodyne data packet (1206 bytes) among the first " + std::to_string(seen) +
+                          " datagrams (largest " + std::to_string(largest) + " bytes to port " +
+                          std::to_string(largest_port) + "); an Ouster capture needs its metadata JSON "
+                          "(--sensor-metadata)");
+}
+
+/// The Ouster metadata: --sensor-metadata, else the .json recorded with the capture (its name a
+/// prefix of the capture's, as ouster-sdk pairs them).
+fs::path metadataPath(const fs::path& capture, const ScanSourceOptions& options) {
+  if (!options.sensor_metadata.empty()) return options.sensor_metadata;
+  return findOusterMetadata(capture).value_or(fs::path());
+}
+
+std::string readText(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) fail(path.string(), "cannot open the sensor metadata");
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+class PcapScanSource final : public ScanSource {
+ public:
+  PcapScanSource(const fs::path& path, const ScanSourceOptions& options)
+      : path_(path), options_(options), reader_(path) {
+    const fs::path metadata = metadataPath(path, options);
+    const CaptureSensor sensor = sniffSensor(path, !metadata.empty());
+    if (sensor == CaptureSensor::Velodyne) {
+      assembler_.emplace(LidarKind::VelodyneScan, makeVelodyneDecoderFor(options));
+    } else {
+      if (metadata.empty())
+        fail(path.string(), "an Ouster capture needs the sensor's metadata JSON: put it next to the capture "
+                            "(named as a prefix of the capture's name) or give --sensor-metadata");
+      assembler_.emplace(LidarKind::OusterPackets, makeOusterDecoderFor(readText(metadata), metadata.string()));
+    }
+    table_ = options.class_table ? *options.class_table : ClassTable::defaults();
+  }
+
+  std::optional<Scan> next() override {
+    while (pending_.empty() && !exhausted_) {
+      UdpPacket packet;
+      if (reader_.next(packet)) {
+        assembler_->addPacket(packet.payload, packet.time, path_.string() + ": datagram " +
+                                                               std::to_string(packet.frame_index),
+                              pending_);
+        continue;
+      }
+      exhausted_ = true;
+      if (const auto dropped = assembler_->flush(pending_)) notice(*dropped);
+      for (const auto& line : reader_.loss().notices) notice(line);
+    }
+    if (pending_.empty()) return std::nullopt;
+    Scan scan;
+    scan.index = next_index_++;
+    scan.stamp = pending_.front().stamp;
+    scan.cloud = std::move(pending_.front().cloud);
+    scan.cloud.classes.resize(scan.cloud.size(), 0);
+    pending_.pop_front();
+    return scan;
+  }
+  std::optional<std::size_t> size() const override { return std::nullopt; }
+  const ClassTable& classTable() const override { return table_; }
+  std::string describe() const override { return path_.string() + " (" + assembler_->describe() + ")"; }
+
+ private:
+  void notice(const std::string& line) const {
+    if (options_.notice) options_.notice(line.rfind(path_.string(), 0) == 0 ? line : path_.string() + ": " + line);
+  }
+
+  fs::path path_;
+  ScanSourceOptions options_;
+  PcapReader reader_;
+  std::optional<ScanAssembler> assembler_;
+  std::deque<RawScan> pending_;
+  ClassTable table_;
+  bool exhausted_ = false;
+  std::size_t next_index_ = 0;
+};
+
+}  // namespace
+
+std::unique_ptr<ScanSource> openPcapScanSource(const fs::path& path, const ScanSourceOptions& options) {
+  return std::make_unique<PcapScanSource>(path, options);
+}
+
+}  // namespace hazmap::sources

@@ -1,0 +1,82 @@
+#include "sources/scan_assembler.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "hazmap/core/error.hpp"
+#include "hazmap/sources/ros_messages.hpp"
+
+namespace hazmap::sources {
+
+double sweepMiddle(const LabeledCloud& cloud, double fallback) {
+  if (cloud.timestamps.empty()) return fallback;
+  double first = std::numeric_limits<double>::infinity(), last = -first;
+  for (double t : cloud.timestamps)
+    if (std::isfinite(t)) first = std::min(first, t), last = std::max(last, t);
+  return std::isfinite(first) ? 0.5 * (first + last) : fallback;
+}
+
+ScanAssembler::ScanAssembler(LidarKind kind, std::unique_ptr<PacketDecoder> decoder)
+    : kind_(kind), decoder_(std::move(decoder)) {
+  if (kind_ != LidarKind::PointCloud2 && !decoder_) fail("scan assembler", "packet topic without a decoder");
+}
+
+void ScanAssembler::addMessage(const BagMessage& message, const std::string& where, std::deque<RawScan>& out) {
+  const Serialization s = message.topic->serialization;
+  const double log_time = static_cast<double>(message.log_time_ns) * 1e-9;
+  switch (kind_) {
+    case LidarKind::PointCloud2: {
+      const PointCloud2 msg = decodePointCloud2(message.data, s, where);
+      RawScan scan;
+      scan.cloud = pointCloud2ToCloud(msg, where);
+      scan.stamp = sweepMiddle(scan.cloud, msg.header.stamp);
+      if (!scan.cloud.empty()) out.push_back(std::move(scan));
+      return;
+    }
+    case LidarKind::VelodyneScan: {
+      const VelodyneScanMsg msg = decodeVelodyneScan(message.data, s, where);
+      for (const LidarPacket& p : msg.packets)
+        addPacket(p.data, p.stamp, where, out);
+      return;
+    }
+    case LidarKind::OusterPackets: {
+      const LidarPacket p = decodeOusterPacket(message.data, s, where);
+      // ouster_ros/PacketMsg has no stamp: the recorder's receive time stands in.
+      addPacket(p.data, p.stamp > 0 ? p.stamp : log_time, where, out);
+      return;
+    }
+  }
+}
+
+void ScanAssembler::addPacket(std::span<const std::uint8_t> payload, double time, const std::string& where,
+                              std::deque<RawScan>& out) {
+  decoder_->addPacket(payload, time, where);
+  take(out);
+}
+
+void ScanAssembler::take(std::deque<RawScan>& out) {
+  while (std::optional<DecodedScan> d = decoder_->takeScan())
+    if (!d->cloud.empty()) {
+      last_points_ = d->cloud.size();
+      out.push_back({sweepMiddle(d->cloud, d->stamp), std::move(d->cloud)});
+    }
+}
+
+std::optional<std::string> ScanAssembler::flush(std::deque<RawScan>& out) {
+  if (!decoder_) return std::nullopt;
+  take(out);
+  std::optional<DecodedScan> d = decoder_->flush();
+  if (!d || d->cloud.empty()) return std::nullopt;
+  // The rotation the recording ended in: a scan only if it is not a small piece of one (a
+  // capture shorter than a rotation still gives its one partial scan).
+  if (last_points_ > 0 && 2 * d->cloud.size() < last_points_)
+    return "the last " + std::to_string(d->cloud.size()) + " points (a partial rotation at the end) dropped";
+  out.push_back({sweepMiddle(d->cloud, d->stamp), std::move(d->cloud)});
+  return std::nullopt;
+}
+
+std::string ScanAssembler::describe() const {
+  return decoder_ ? decoder_->describe() : std::string("PointCloud2");
+}
+
+}  // namespace hazmap::sources
