@@ -20,6 +20,7 @@ from ._hazmap import (  # noqa: F401
     read_cloud,
     register,
     simulate,
+    voxel_downsample,
     write_cloud,
 )
 from .config import Config, defaults, fields  # noqa: F401
@@ -28,5 +29,5 @@ from .run import METHODS, RunResult, run  # noqa: F401
 __all__ = [
     "Config", "Error", "LabeledCloud", "METHODS", "Odometry", "PoseGraph", "RegistrationResult",
     "RunResult", "Scan", "ScanSource", "defaults", "evaluate", "fields", "open", "read_cloud",
-    "register", "run", "simulate", "write_cloud",
+    "register", "run", "simulate", "voxel_downsample", "write_cloud",
 ]

@@ -6,6 +6,7 @@
 #include "bindings.hpp"
 #include "hazmap/core/error.hpp"
 #include "hazmap/io/cloud_file.hpp"
+#include "hazmap/preprocess/voxel_downsample.hpp"
 
 namespace hazmap::python {
 
@@ -130,6 +131,18 @@ void bindClouds(py::module_& m) {
       },
       py::arg("path"), py::arg("classes") = py::none(),
       "Reads a KITTI .bin (+ .label), PCD or PLY file by extension");
+  m.def(
+      "voxel_downsample",
+      [](const LabeledCloud& cloud, double voxel_size, const py::object& classes) {
+        VoxelDownsampleConfig config;
+        config.voxel_size = voxel_size;
+        if (!(voxel_size > 0)) fail("voxel_size", "must be > 0, got " + std::to_string(voxel_size));
+        const ClassTable table = classTableArg(classes);
+        py::gil_scoped_release release;
+        return voxelDownsample(cloud, config, table);
+      },
+      py::arg("cloud"), py::arg("voxel_size"), py::arg("classes") = py::none(),
+      "Voxel grid averaging that keeps classes (majority vote)");
   m.def(
       "write_cloud",
       [](const std::string& path, const LabeledCloud& cloud, const py::object& classes) {
