@@ -124,7 +124,7 @@ void bindClouds(py::module_& m) {
 
   m.def(
       "read_cloud",
-      [](const std::string& path, const py::object& classes) {
+      [](const std::filesystem::path& path, const py::object& classes) {
         const ClassTable table = classTableArg(classes);
         py::gil_scoped_release release;
         return readCloud(path, table);
@@ -145,7 +145,7 @@ void bindClouds(py::module_& m) {
       "Voxel grid averaging that keeps classes (majority vote)");
   m.def(
       "write_cloud",
-      [](const std::string& path, const LabeledCloud& cloud, const py::object& classes) {
+      [](const std::filesystem::path& path, const LabeledCloud& cloud, const py::object& classes) {
         const ClassTable table = classTableArg(classes);
         py::gil_scoped_release release;
         writeCloud(path, cloud, table);

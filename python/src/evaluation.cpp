@@ -46,12 +46,13 @@ py::object evaluateBinding(const py::object& gt_arg, const py::object& est_arg, 
   config.ape_alignment = *alignment;
   config.rpe.delta = delta;
   config.rpe.unit = delta_unit == "m" ? DeltaUnit::Metres : DeltaUnit::Frames;
+  const bool both_tum = isPath(gt_arg) && isPath(est_arg) && isTumFile(gt_name) && isTumFile(est_name);
   std::string json;
   {
     py::gil_scoped_release release;
     checkTrajectory(gt, gt_name);
     checkTrajectory(est, est_name);
-    if (isPath(gt_arg) && isPath(est_arg) && isTumFile(gt_name) && isTumFile(est_name)) {
+    if (both_tum) {
       std::tie(gt, est) = associateTrajectories(gt, est, max_dt);
     } else if (gt.size() != est.size()) {
       fail(est_name, "has " + std::to_string(est.size()) + " poses but the ground truth " + gt_name + " has " +

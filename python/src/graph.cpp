@@ -12,14 +12,14 @@ void bindGraph(py::module_& m) {
       .def(py::init<>())
       .def_static(
           "load",
-          [](const std::string& path, bool repair_information) {
+          [](const std::filesystem::path& path, bool repair_information) {
             py::gil_scoped_release release;
             return readG2o(path, nullptr, repair_information ? G2oInformation::NearestPositiveDefinite : G2oInformation::Strict);
           },
           py::arg("path"), py::arg("repair_information") = false)
       .def(
           "save",
-          [](const PoseGraph& g, const std::string& path) {
+          [](const PoseGraph& g, const std::filesystem::path& path) {
             py::gil_scoped_release release;
             writeG2o(path, g);
           },

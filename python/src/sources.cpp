@@ -67,7 +67,7 @@ void bindSources(py::module_& m) {
 
   m.def(
       "open",
-      [](const std::string& path, const std::string& lidar_topic, const std::string& odom_topic,
+      [](const std::filesystem::path& path, const std::string& lidar_topic, const std::string& odom_topic,
          const py::object& classes) {
         const ScanSourceOptions options = sourceOptions(lidar_topic, odom_topic, classes);
         py::gil_scoped_release release;
