@@ -1,6 +1,7 @@
 // LabeledCloud ↔ numpy. Reading a channel gives a view on the C++ vector (no copy: points are
 // Eigen::Vector3f, 12 contiguous bytes, so (N,3) float32 with strides (12, 4)); the view keeps
 // the cloud alive. Assigning a channel copies the array in.
+#include <cstring>
 #include <filesystem>
 
 #include "bindings.hpp"
@@ -64,9 +65,14 @@ void setPoints(LabeledCloud& c, const py::object& value) {
   auto a = py::array_t<float, py::array::c_style | py::array::forcecast>::ensure(value);
   if (!a || a.ndim() != 2 || a.shape(1) != 3) fail("points", "must be an (N,3) array");
   const std::size_t n = static_cast<std::size_t>(a.shape(0));
+  if (n != c.size()) {  // other channels cannot describe different points: unlabelled, no extras
+    c.classes.assign(n, 0);
+    c.intensity.clear();
+    c.timestamps.clear();
+    c.property.clear();
+  }
   c.points.resize(n);
-  std::memcpy(c.points.data(), a.data(), n * 3 * sizeof(float));
-  if (c.classes.size() != n) c.classes.assign(n, 0);
+  if (n > 0) std::memcpy(c.points.data(), a.data(), n * 3 * sizeof(float));
 }
 
 LabeledCloud makeCloud(const py::object& points, const py::object& classes, const py::object& intensity,

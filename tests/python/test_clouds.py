@@ -74,3 +74,14 @@ def test_bad_input_raises_hazmap_error(tmp_path, data):
         hazmap.LabeledCloud(np.zeros((5, 2)))
     with pytest.raises(hazmap.Error, match="classes"):
         hazmap.LabeledCloud(np.zeros((5, 3)), classes=np.zeros(4))
+
+
+def test_assigning_points_of_another_count_resets_channels(data):
+    cloud = hazmap.read_cloud(data / "scan-pair" / "251370668.pcd")
+    assert cloud.intensity is not None
+    cloud.points = np.zeros((10, 3), np.float32)
+    assert len(cloud) == 10 and cloud.classes.shape == (10,) and cloud.intensity is None
+    cloud.classes = np.arange(10, dtype=np.uint16)
+    cloud.points = np.ones((10, 3))  # same count: channels kept, float64 converted
+    np.testing.assert_array_equal(cloud.classes, np.arange(10))
+    assert cloud.points.dtype == np.float32 and cloud.points.sum() == 30
