@@ -22,6 +22,8 @@ const RegisterCommand registration{{
       app.add_option("--threads", o->threads, "Worker threads (0 = all cores)");
       app.add_flag("!--paper-only", o->frame_to_map,
                    "Only the paper's set-up (skip the frame-to-map tracking runs)");
+      app.add_flag("!--no-camera-labels", o->camera_labels,
+                   "Skip the rows with labels from the simulated thermal camera");
       auto params = addParameterOptions(app, "run settings for every method, as in `hazmap run --config`");
       app.callback([o, out, params] {
         o->out_dir = *out;

@@ -1,5 +1,6 @@
 // hazmap eval: trajectory metrics (evo-compatible APE/RPE, KITTI segment errors) and, with
 // --scans, the paper's map error.
+#include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <memory>
@@ -15,6 +16,7 @@
 #include "hazmap/eval/trajectory_metrics.hpp"
 #include "hazmap/io/sequence.hpp"
 #include "hazmap/io/trajectory.hpp"
+#include "hazmap/map/render.hpp"
 
 namespace hazmap::cli {
 namespace {
@@ -25,6 +27,8 @@ struct EvalOptions {
   double max_dt = 0.01;
   bool json = false;
   std::size_t map_points = 1000;
+  std::string plot;                  ///< PNG of the error against distance travelled
+  std::vector<std::string> compare;  ///< more estimates drawn on the plot
 };
 
 Trajectory readWith(const std::string& path, const std::string& format) {
@@ -48,7 +52,31 @@ bool isTumFile(const std::string& path, const std::string& format) {
   return false;
 }
 
+// A series' name: the folder a run wrote its trajectory into (hazmap-demo/icp/trajectory.kitti
+// → "icp"), else the file's stem.
+std::string seriesLabel(const std::string& path) {
+  const std::filesystem::path p = std::filesystem::absolute(path).lexically_normal();
+  const std::string folder = p.parent_path().filename().string();
+  return p.stem() == "trajectory" && !folder.empty() ? folder : p.stem().string();
+}
+
+void writeErrorPlot(const EvalOptions& o, const Trajectory& gt, const ApeResult& ape, Alignment align, bool tum) {
+  std::vector<ErrorSeries> series{{seriesLabel(o.est), distanceTravelled(gt), ape.errors, seriesColor(0)}};
+  for (const std::string& path : o.compare) {
+    Trajectory g = gt, e = readWith(path, o.format);
+    checkTrajectory(e, path);
+    if (tum) std::tie(g, e) = associateTrajectories(readWith(o.gt, o.format), e, o.max_dt);
+    if (g.size() != e.size())
+      fail(path, "has " + std::to_string(e.size()) + " poses but the ground truth has " + std::to_string(g.size()));
+    series.push_back({seriesLabel(path), distanceTravelled(g), computeApe(g, e, align).errors, seriesColor(series.size())});
+  }
+  ErrorPlotConfig config;
+  config.title = "Trajectory error (APE, " + o.align + " alignment) vs distance travelled";
+  writePng(o.plot, renderErrorPlot(series, config));
+}
+
 void run(const EvalOptions& o) {
+  if (!o.compare.empty() && o.plot.empty()) fail("--compare", "only draws on a --plot");
   const auto align = parseAlignment(o.align);
   if (!align) fail("--align", "expected se3, sim3 or none, got '" + o.align + "'");
   if (o.format != "auto" && o.format != "kitti" && o.format != "tum")
@@ -74,6 +102,7 @@ void run(const EvalOptions& o) {
   config.rpe.delta = o.delta;
   config.rpe.unit = o.delta_unit == "m" ? DeltaUnit::Metres : DeltaUnit::Frames;
   const TrajectoryEvaluation e = evaluateTrajectory(gt, est, config);
+  if (!o.plot.empty()) writeErrorPlot(o, gt, e.ape, *align, tum);
 
   std::optional<MapErrorResult> map_error;
   if (!o.scans.empty()) {
@@ -126,6 +155,10 @@ const RegisterCommand kRegister{{
                      "Sequence folder with one scan per pose: also report the map error");
       app.add_option("--map-points", o->map_points, "Map error: points used per scan (0 = all)");
       app.add_flag("--json", o->json, "Print one JSON object instead of text");
+      app.add_option("--plot", o->plot, "Write a PNG of the translation error against distance travelled");
+      app.add_option("--compare", o->compare,
+                     "More estimates (same format) drawn on the --plot, one curve each (repeatable)")
+          ->check(CLI::ExistingFile);
       app.callback([o] { run(*o); });
     },
 }};

@@ -8,8 +8,10 @@
 #include "command.hpp"
 #include "config_options.hpp"
 #include "hazmap/pipeline/progress.hpp"
+#include "hazmap/core/error.hpp"
 #include "hazmap/pipeline/run_outputs.hpp"
 #include "source_flags.hpp"
+#include "hazmap/properties/label_sequence.hpp"
 
 namespace hazmap::cli {
 namespace {
@@ -23,7 +25,30 @@ struct RunOptions {
   int threads = 0;
   bool quiet = false;
   SourceFlags source;
+  bool no_viewer = false;
+  std::vector<std::string> cameras;  ///< camera.yaml files: label from cameras first
+  std::string rules;
 };
+
+/// With --camera, the sequence is first labelled from the cameras (hazmap label) into
+/// <out>/labelled_sequence, and SLAM runs on that.
+std::string labelFromCameras(const RunOptions& o) {
+  if (o.cameras.empty()) {
+    if (!o.rules.empty()) fail("run", "--rules needs --camera");
+    return o.sequence;
+  }
+  LabelOptions options;
+  for (const auto& c : o.cameras) options.cameras.emplace_back(c);
+  options.rules = o.rules;
+  options.overwrite = true;
+  const std::filesystem::path dir = std::filesystem::path(o.out) / "labelled_sequence";
+  std::filesystem::create_directories(o.out);
+  const LabelReport r = labelSequence(o.sequence, dir, options);
+  if (!o.quiet)
+    std::cout << fmt::format("labelled {} frames from {} camera(s): {:.1f} % of points observed\n", r.frames,
+                             o.cameras.size(), r.points ? 100.0 * double(r.projection.observed) / double(r.points) : 0.0);
+  return dir.string();
+}
 
 void run(const RunOptions& o, const ParameterOptions& params) {
   const SlamMethod method = parseSlamMethod(o.method);
@@ -36,25 +61,18 @@ void run(const RunOptions& o, const ParameterOptions& params) {
   std::optional<ClassTable> table;
   if (!o.classes.empty()) table = ClassTable::load(o.classes);
   config.deskew.enabled = !o.source.no_deskew;
-  const auto scans = openScanSource(o.sequence, o.source.options(table, !o.quiet));
+  const std::string input = labelFromCameras(o);
+  const auto scans = openScanSource(input, o.source.options(table, !o.quiet));
   ProgressBar bar(o.method, scans->size().value_or(0), o.quiet ? 0 : -1);
   const SlamResult result = runSlam(*scans, config, [&](std::size_t d, std::size_t) { bar.update(d); });
   bar.finish();
   // The map is a second pass over the recording with the final poses.
-  const auto second_pass = openScanSource(o.sequence, o.source.options(table));
-  const RunSummary summary = writeRunOutputs(*second_pass, result, config, OutputConfig{}, o.out);
+  const auto second_pass = openScanSource(input, o.source.options(table));
+  OutputConfig outputs;
+  outputs.write_viewer = !o.no_viewer;
+  const RunSummary summary = writeRunOutputs(*second_pass, result, config, outputs, o.out);
   if (o.quiet) return;
-  std::cout << fmt::format("{}: {} frames, {:.1f} frames/s, {} loops accepted, {} hazards, map {} cells\n",
-                           o.method, result.frames.size(), result.framesPerSecond(), result.loops.size(),
-                           summary.hazards, summary.map_cells);
-  if (summary.map_error)
-    std::cout << fmt::format("map error vs true-pose map: mean {:.3f} m, median {:.3f} m, p95 {:.3f} m\n",
-                             summary.map_error->point.mean, summary.map_error->point.median,
-                             summary.map_error->point.p95);
-  if (summary.trajectory)
-    std::cout << fmt::format("ATE (SE(3)-aligned) rmse {:.3f} m\n", summary.trajectory->ape.translation.rmse);
-  std::cout << "wrote " << o.out << "/ (trajectory.kitti/.tum, graph.g2o, map.ply/.pcd, hazards.json/.csv, "
-               "map_top.png, trajectory.png, run.json)\n";
+  std::cout << formatRunSummary(result, summary, o.out, outputs);
 }
 
 const RegisterCommand registration{{
@@ -78,6 +96,10 @@ const RegisterCommand registration{{
       app.add_option("--threads", o->threads, "Worker threads (0 = all cores)");
       app.add_flag("--quiet", o->quiet, "No progress bar and no summary");
       o->source.add(app);
+      app.add_flag("--no-viewer", o->no_viewer, "Do not write viewer.html (the map in 3D in a browser)");
+      app.add_option("--camera", o->cameras,
+                     "Label the scans from this calibrated camera first (camera.yaml; repeatable; see hazmap label)");
+      app.add_option("--rules", o->rules, "Class rules YAML for --camera (default: built-in rules)");
       auto params = addParameterOptions(app, "keys as in --config, e.g. odometry.registration.max_iterations=30");
       app.callback([o, params] { run(*o, *params); });
     }}};

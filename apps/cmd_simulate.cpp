@@ -3,6 +3,7 @@
 
 #include <iostream>
 #include <random>
+#include <sstream>
 
 #include "command.hpp"
 #include "hazmap/core/error.hpp"
@@ -62,6 +63,11 @@ struct SimulateOptions {
   bool temperature = false;
   bool png = false;
   std::string format = "folder";
+  std::string cameras;
+  std::string calibration_error;
+  double time_offset = 0.0;
+  bool camera_blur = false;
+  std::string camera_size;
 };
 
 /// --format mcap: the sequence is simulated into a temporary folder next to the bag, then written
@@ -90,6 +96,30 @@ void writeSimulationAsMcap(const sim::SimulatorConfig& config, const std::filesy
                            summary.route_length);
 }
 
+
+/// The --cameras family of options into the simulator config.
+void applyCameraOptions(const SimulateOptions& o, sim::CameraSimConfig& cameras) {
+  if (o.cameras.empty()) {
+    if (!o.calibration_error.empty() || o.time_offset != 0.0 || o.camera_blur || !o.camera_size.empty())
+      fail("simulate", "--calibration-error, --time-offset, --camera-blur and --camera-size need --cameras");
+    return;
+  }
+  cameras.cameras = sim::CameraSimConfig::parseList(o.cameras);
+  if (!o.calibration_error.empty()) cameras.parseCalibrationError(o.calibration_error);
+  cameras.time_offset = o.time_offset;
+  for (auto& c : cameras.cameras) {
+    c.blur = o.camera_blur;
+    if (!o.camera_size.empty()) {
+      int w = 0, h = 0;
+      char x = 0;
+      std::istringstream in(o.camera_size);
+      if (!(in >> w >> x >> h) || x != 'x' || !in.eof()) fail("--camera-size", "expected WIDTHxHEIGHT, e.g. 640x512");
+      c.width = w;
+      c.height = h;
+    }
+  }
+}
+
 void setupSimulate(CLI::App& app) {
   auto opt = std::make_shared<SimulateOptions>();
   auto* scenario = app.add_option("--scenario", opt->scenario,
@@ -113,6 +143,14 @@ void setupSimulate(CLI::App& app) {
       ->check(CLI::IsMember({"folder", "mcap"}));
   app.add_flag("--png", opt->png,
                "Also render reference_map.png and odometry_map.png (top-down, classes coloured)");
+  app.add_option("--cameras", opt->cameras,
+                 "Also render property cameras (comma list of thermal, nir, gamma): "
+                 "cameras/<name>/NNNNNN.png, times.txt, camera.yaml");
+  app.add_option("--calibration-error", opt->calibration_error,
+                 "Perturb the written camera calibration, e.g. 1deg,2cm (random axis and direction)");
+  app.add_option("--time-offset", opt->time_offset, "Error (s) of the time_offset written to camera.yaml");
+  app.add_flag("--camera-blur", opt->camera_blur, "Blur camera images by about one pixel");
+  app.add_option("--camera-size", opt->camera_size, "Camera resolution WIDTHxHEIGHT (default 640x512, 50 deg HFOV)");
   app.callback([opt, scenario, seed, frames, scene, regions, temperature]() {
     sim::SimulatorConfig config;
     if (!opt->config.empty()) config = sim::SimulatorConfig::fromYamlFile(opt->config);
@@ -122,8 +160,10 @@ void setupSimulate(CLI::App& app) {
     if (scene->count()) config.scene_file = opt->scene;
     if (regions->count()) config.regions_file = opt->regions;
     if (temperature->count()) config.temperature.enabled = opt->temperature;
+    applyCameraOptions(*opt, config.cameras);
     if (opt->format == "mcap") {
       if (opt->png) fail("--png", "renders a sequence folder; not with --format mcap");
+      if (!opt->cameras.empty()) fail("--cameras", "writes camera images into a sequence folder; not with --format mcap");
       writeSimulationAsMcap(config, opt->out, opt->overwrite);
       return;
     }
@@ -140,6 +180,8 @@ void setupSimulate(CLI::App& app) {
         summary.drift.max_position_error, summary.drift.final_position_error,
         summary.drift.max_frame_translation_error, summary.drift.max_frame_rotation_error_deg,
         summary.drift.slips);
+    if (!config.cameras.empty())
+      std::cout << fmt::format("  cameras ({}): {:.2f} s\n", opt->cameras, summary.camera_seconds);
     if (opt->png) {
       // Clip 0.5 m below the lowest ceiling of the built-in scenes (3 m) to see inside.
       renderPngs(opt->out, config.reference_voxel, config.scene_file.empty() ? 2.5 : 1e9);

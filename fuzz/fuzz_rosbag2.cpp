@@ -3,6 +3,7 @@
 // the bytes are the .db3 itself (sqlite3 file from bytes), opened as a one-file rosbag2.
 #include <unistd.h>
 
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 
@@ -17,6 +18,10 @@ fs::path scratch() {
   static const fs::path dir = fs::temp_directory_path() / ("hazmap-fuzz-rosbag2-" + std::to_string(::getpid()));
   static bool made = [] {
     fs::create_directories(dir);
+    std::atexit([] {
+      std::error_code ec;
+      fs::remove_all(dir, ec);
+    });
     return true;
   }();
   (void)made;

@@ -54,7 +54,8 @@ int main(int argc, char** argv) {
   }
   const fs::path data = argv[1], source = argv[2], out = argv[3];
   try {
-    for (const char* d : {"pcd", "ply", "kitti", "trajectory", "class_table"}) fs::create_directories(out / d);
+    for (const char* d : {"pcd", "ply", "kitti", "trajectory", "class_table", "hazards_json"})
+      fs::create_directories(out / d);
     const auto scan = readKittiScan(data / "kitti-semantic-sample/velodyne/000000.bin",
                                     data / "kitti-semantic-sample/labels/000000.label", ClassTable::defaults());
     const auto pair = readPcd(data / "scan-pair/251370668.pcd");
@@ -122,6 +123,15 @@ int main(int argc, char** argv) {
 
     for (const auto& e : fs::directory_iterator(source / "config/classes"))
       fs::copy_file(e.path(), out / "class_table" / e.path().filename(), fs::copy_options::overwrite_existing);
+    // hazards.json as `hazmap run` writes it (two hazards of the demo's map).
+    writeTextAtomically(out / "hazards_json/hazards.json", R"({"count": 2, "voxel_size": 0.1, "hazards": [
+ {"id": 1, "class": "heat", "class_id": 1, "kind": "heat", "centroid": [12.59, 1.39, 0.21],
+  "min": [11.9, 1.2, -0.4], "max": [13.3, 1.6, 0.8], "extent": [1.4, 0.4, 1.2], "area_m2": 0.49,
+  "cells": 97, "points": 1203, "mean_property": null, "frame_count": 31, "frames": [[0, 12], [140, 162]]},
+ {"id": 2, "class": "water", "class_id": 2, "kind": "water", "centroid": [17.5, -0.2, -0.4],
+  "min": [16.4, -1.0, -0.5], "max": [18.5, 0.6, -0.3], "extent": [2.1, 1.6, 0.2], "area_m2": 2.48,
+  "cells": 250, "points": 4100, "mean_property": 1.0, "frame_count": 20, "frames": [[20, 39]]}]}
+)");
   } catch (const std::exception& e) {
     std::cerr << "hazmap_fuzz_seeds: " << e.what() << "\n";
     return 1;

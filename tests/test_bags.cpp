@@ -380,3 +380,30 @@ TEST(Rosbag2, ZstdPerMessageCompression) {
                                           "  compression_mode: FILE\n";
   EXPECT_THROW(openBag(dir), Error);
 }
+
+TEST(Rosbag2, TruncatedDb3ReadsWhatSqliteCanStillReach) {
+  // A .db3 cut short (disk full, a copy interrupted): sqlite refuses a file shorter than its
+  // header's page count outright (one line naming the file); a damage sqlite only meets while
+  // stepping ends the stream with a notice. Either way nothing is read silently wrong.
+  const auto dir = test::scratchDir();
+  const auto src = test::sharedData("sensors/velodyne-vlp16/1673400471837873222_0.db3");
+  const auto full = std::filesystem::file_size(src);
+  std::filesystem::copy_file(src, dir / "cut_0.db3");
+  std::filesystem::resize_file(dir / "cut_0.db3", full * 6 / 10);
+  try {
+    auto reader = openBag(dir / "cut_0.db3");
+    BagMessage m;
+    std::size_t n = 0;
+    while (reader->next(m)) {
+      EXPECT_NO_THROW(decodeVelodyneScan(m.data, Serialization::Cdr, "cut"));
+      ++n;
+    }
+    EXPECT_LT(n, 4u);
+    ASSERT_EQ(reader->loss().notices.size(), 1u);
+    EXPECT_NE(reader->loss().notices[0].find("cut_0.db3"), std::string::npos) << reader->loss().notices[0];
+    std::printf("truncated db3: %zu messages, notice: %s\n", n, reader->loss().notices[0].c_str());
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("cut_0.db3"), std::string::npos) << e.what();
+    std::printf("truncated db3: %s\n", e.what());
+  }
+}

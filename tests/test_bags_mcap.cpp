@@ -315,3 +315,17 @@ TEST(Mcap, ChunkStartingAfterItsMessagesIsSkipped) {
   EXPECT_NE(reader->loss().notices[0].find("precedes the chunk's declared start"), std::string::npos) << reader->loss().notices[0];
   EXPECT_EQ(r.counts.at("/velodyne_points"), 2);
 }
+
+TEST(Mcap, SummaryWithoutChannelsIsScanned) {
+  // A summary that does not repeat the Channel records (allowed by the spec; unknown opcodes
+  // are skipped): the reader scans the data section for them instead of losing every message.
+  auto bytes = readBytes(fixture("velodyne-zstd-chunked.mcap"));
+  for (const auto& r : topRecords(bytes))
+    if (r.opcode == 0x04) bytes[r.offset] = 0x80;  // only the summary has top-level channels
+  std::memset(bytes.data() + bytes.size() - 8 - 4, 0, 4);  // footer summary CRC: none
+  const auto path = test::scratchDir() / "no-channels.mcap";
+  writeBytes(path, bytes);
+  auto reader = openBag(path);
+  checkAgainstExpected("velodyne-zstd-chunked.mcap", readAll(*reader));
+  EXPECT_TRUE(reader->loss().notices.empty());
+}

@@ -13,6 +13,7 @@
 #include "hazmap/io/atomic_file.hpp"
 #include "hazmap/io/kitti.hpp"
 #include "hazmap/io/pcd.hpp"
+#include "hazmap/io/trajectory.hpp"
 #include "hazmap/io/ply.hpp"
 #include "hazmap/map/export.hpp"
 #include "hazmap/map/global_map.hpp"
@@ -407,7 +408,8 @@ TEST(MapRender, TopDownPngShowsHazardsAndTrajectory) {
   cfg.pixels_per_metre = 40;
   cfg.title = "test map";
   cfg.cell_size = map.voxelSize();
-  const Image img = renderTopDown(map.cloud(), map.classTable(), traj, hazards, cfg);
+  TopDownFrame frame;
+  const Image img = renderTopDown(map.cloud(), map.classTable(), traj, hazards, cfg, &frame);
   const auto dir = test::scratchDir();
   writePng(dir / "map_top.png", img);
   const Decoded d = readPngBack(dir / "map_top.png");
@@ -426,13 +428,23 @@ TEST(MapRender, TopDownPngShowsHazardsAndTrajectory) {
   const Image speckled = renderTopDown(map.cloud(), map.classTable(), traj, hazards, all_cells);
   writePng(dir / "speckled.png", speckled);
   EXPECT_GT(countColor(readPngBack(dir / "speckled.png"), cfg.colors.radiation), 0u);
-  // The pixel at the heat patch centre is heat red.
-  const double ppm = 40;
-  const ViewBox v = viewOf(map.cloud(), traj, 1.0);
-  const int title_h = textHeight(cfg.title, 2) + 12;
-  const int x = cfg.margin_px + int((0.5 - v.min.x()) * ppm);
-  const int y = title_h + cfg.margin_px + int((v.max.y() - 0.5) * ppm);
-  EXPECT_EQ(d.at(x, y), cfg.colors.heat);
+  // The pixel at the heat patch centre is heat red, and the frame maps metres to pixels at the
+  // requested scale.
+  EXPECT_DOUBLE_EQ(frame.pixels_per_metre, 40.0);
+  const Eigen::Vector2d heat = frame.pixelOf(0.5, 0.5);
+  EXPECT_EQ(d.at(int(heat.x()), int(heat.y())), cfg.colors.heat);
+  const Eigen::Vector2d puddle = frame.pixelOf(1.0, 4.0);
+  EXPECT_EQ(d.at(int(puddle.x()), int(puddle.y())), cfg.colors.water);
+  // Text, axes and the legend are drawn in dark anti-aliased strokes (real glyphs, not blocks).
+  std::size_t dark = 0, midtone = 0;
+  for (int y = 0; y < d.h; ++y)
+    for (int x = 0; x < d.w; ++x) {
+      const Rgb c = d.at(x, y);
+      dark += c[0] < 60 && c[1] < 60 && c[2] < 60;
+      midtone += c[0] == c[1] && c[1] == c[2] && c[0] > 60 && c[0] < 200 && int(y) < int(frame.origin.y());
+    }
+  EXPECT_GT(dark, 300u);
+  EXPECT_GT(midtone, 20u);  // anti-aliased title edges above the map
 }
 
 TEST(MapRender, TrajectoryComparisonAndMontagePngs) {
@@ -477,14 +489,34 @@ TEST(MapRender, TrajectoryComparisonAndMontagePngs) {
   EXPECT_GT(countColor(m, cfg.colors.heat), 5u * 50u);
 }
 
-TEST(MapRender, TextAndBadInput) {
+TEST(MapRender, ErrorPlotAndBadInput) {
+  // Two methods' error against distance: both curves and the legend are drawn.
+  std::vector<ErrorSeries> series(2);
+  for (int i = 0; i < 50; ++i) {
+    series[0].distance_m.push_back(i);
+    series[0].error_m.push_back(0.01 * i);
+    series[1].distance_m.push_back(i);
+    series[1].error_m.push_back(0.2 + 0.002 * i);
+  }
+  series[0].label = "icp";
+  series[0].color = seriesColor(0);
+  series[1].label = "property-icp";
+  series[1].color = seriesColor(1);
+  const Image plot = renderErrorPlot(series);
+  EXPECT_EQ(plot.width, 1200);
+  std::size_t first = 0, second = 0;
+  for (int y = 0; y < plot.height; ++y)
+    for (int x = 0; x < plot.width; ++x) {
+      first += plot.get(x, y) == seriesColor(0);
+      second += plot.get(x, y) == seriesColor(1);
+    }
+  EXPECT_GT(first, 500u);
+  EXPECT_GT(second, 500u);
+  series[1].error_m.pop_back();
+  EXPECT_THROW(renderErrorPlot(series), Error);
+  EXPECT_THROW(renderErrorPlot({}), Error);
+  EXPECT_EQ(distanceTravelled(Trajectory{}).size(), 0u);
   Image img(200, 50);
-  drawText(img, 5, 5, "Map 1.5 m", {0, 0, 0}, 2);
-  std::size_t dark = 0;
-  for (int y = 0; y < img.height; ++y)
-    for (int x = 0; x < img.width; ++x) dark += img.get(x, y) == Rgb{0, 0, 0};
-  EXPECT_GT(dark, 100u);
-  EXPECT_GT(textWidth("abc", 2), textWidth("abc", 1));
   const auto dir = test::scratchDir();
   EXPECT_THROW(writePng(dir / "missing" / "x.png", img), Error);
   EXPECT_FALSE(std::filesystem::exists(dir / "missing"));
@@ -494,6 +526,32 @@ TEST(MapRender, TextAndBadInput) {
   // An empty map still renders (blank with the trajectory) instead of failing.
   const Image blank = renderTopDown(LabeledCloud{}, ClassTable::defaults(), {});
   EXPECT_FALSE(blank.empty());
+}
+
+TEST(MapRender, EvalPlotDrawsEveryEstimateAgainstDistance) {
+  const auto dir = test::scratchDir();
+  Trajectory gt, a, b;
+  for (int i = 0; i < 80; ++i) {
+    const double t = 0.05 * i;
+    gt.push_back(i, fromXyYaw(20 * std::cos(t), 10 * std::sin(t), t));
+    a.push_back(i, fromXyYaw(20 * std::cos(t) + 0.01 * i, 10 * std::sin(t), t));
+    b.push_back(i, fromXyYaw(20 * std::cos(t), 10 * std::sin(t) - 0.02 * i, t));
+  }
+  std::filesystem::create_directories(dir / "icp");
+  std::filesystem::create_directories(dir / "property-icp");
+  writeKittiTrajectory(dir / "gt.kitti", gt);
+  writeKittiTrajectory(dir / "icp" / "trajectory.kitti", a);
+  writeKittiTrajectory(dir / "property-icp" / "trajectory.kitti", b);
+  const std::string args = "eval --gt " + (dir / "gt.kitti").string() + " --est " + (dir / "icp/trajectory.kitti").string() +
+                           " --compare " + (dir / "property-icp/trajectory.kitti").string();
+  const auto r = test::runCli(args + " --plot " + (dir / "errors.png").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const Decoded d = readPngBack(dir / "errors.png");
+  ASSERT_EQ(d.w, 1200);
+  EXPECT_GT(countColor(d, seriesColor(0)), 300u);
+  EXPECT_GT(countColor(d, seriesColor(1)), 300u);
+  EXPECT_NE(test::runCli(args).exit_code, 0);  // --compare draws only on a --plot
+  EXPECT_NE(test::runCli(args + " --plot " + (dir / "missing/errors.png").string()).exit_code, 0);
 }
 
 // ---- real data ---------------------------------------------------------------------------------

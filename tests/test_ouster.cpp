@@ -21,6 +21,7 @@
 #include "hazmap/sources/ros_messages.hpp"
 #include "hazmap/sources/ouster.hpp"
 #include "hazmap/sources/pcap_reader.hpp"
+#include "pcap_builder.hpp"
 #include "test_helpers.hpp"
 
 namespace hazmap {
@@ -156,6 +157,18 @@ TEST(OusterMetadata, NestedLayoutReadsTheSameSensor) {
   EXPECT_EQ(nested.imu_to_sensor, flat.imu_to_sensor);
   EXPECT_EQ(nested.pixel_shift_by_row, flat.pixel_shift_by_row);
   EXPECT_EQ(nested.udp_port_lidar, 7502);
+  // A recorder that left the profile and the mode out of the data format: the configuration
+  // and the data format's fps say them.
+  auto sparse = nestedFromFlat(flat_json);
+  sparse["lidar_data_format"].erase("udp_profile_lidar");
+  sparse["config_params"].erase("lidar_mode");
+  sparse["config_params"]["udp_profile_lidar"] = "RNG15_RFL8_NIR8";
+  sparse["lidar_data_format"]["columns_per_frame"] = 1024;
+  sparse["lidar_data_format"]["fps"] = 10;
+  const OusterMetadata from_config = parseOusterMetadata(sparse.dump(), "sparse");
+  EXPECT_EQ(from_config.profile, OusterProfile::Rng15Rfl8Nir8);
+  EXPECT_EQ(from_config.columns_per_frame, 1024u);
+  EXPECT_EQ(from_config.scan_rate_hz, 10.0);
   // Both decode the capture to the same points.
   const Decoded a = decodeCapture(os128Pcap(), flat), b = decodeCapture(os128Pcap(), nested);
   ASSERT_EQ(a.scans.size(), b.scans.size());
@@ -487,6 +500,31 @@ TEST(OusterBag, Os0_128RosBagDecodesItsScanWithTheMetadataTopic) {
   EXPECT_GT(zmax, 40.0f);
 }
 
+TEST(OusterCapture, Os1_64FragmentedAtTheMtuDecodesTheSame) {
+  // A legacy OS-1-64 packet (12,608 bytes) crosses a 1,500-byte MTU as 9 IPv4 fragments: the
+  // OS-1-64 capture re-sent that way decodes to the same scans, point for point.
+  namespace pc = test::pcap;
+  const OusterMetadata meta = readOusterMetadata(os64Json());
+  const Decoded direct = decodeCapture(os64Pcap(), meta);
+  std::vector<pc::Record> records;
+  PcapReader reader(os64Pcap());
+  UdpPacket p;
+  std::uint16_t id = 0;
+  while (reader.next(p)) {
+    const Bytes payload(p.payload.begin(), p.payload.end());
+    const auto sec = static_cast<std::uint32_t>(p.time_ns / 1'000'000'000), usec = static_cast<std::uint32_t>(p.time_ns % 1'000'000'000 / 1000);
+    for (const Bytes& ip : pc::ipv4Packets(pc::udpSegment(payload, p.source_port, p.destination_port), id++, 1500))
+      records.push_back({sec, usec, pc::ethernet(ip, false, false)});
+  }
+  EXPECT_EQ(records.size(), 900u);
+  const auto path = pc::writeFile(test::scratchDir() / "os1-64-fragmented.pcap", pc::pcapFile(1, false, records));
+  const Decoded fragmented = decodeCapture(path, meta);
+  ASSERT_EQ(fragmented.scans.size(), direct.scans.size());
+  EXPECT_EQ(fragmented.packets, direct.packets);
+  EXPECT_EQ(fragmented.scans[0].cloud.points, direct.scans[0].cloud.points);
+  EXPECT_EQ(fragmented.scans[0].cloud.timestamps, direct.scans[0].cloud.timestamps);
+}
+
 // ---- packets built by hand --------------------------------------------------------------
 
 /// A small sensor: 8 beams, 512 columns, 4 columns per packet, in the nested metadata layout.
@@ -721,6 +759,24 @@ TEST(OusterPackets, ScansAreCutAtTheFrameIdLatePacketsDroppedIncompleteScansCoun
   EXPECT_FALSE(decoder.flush().has_value());  // frame 9 incomplete: dropped
   EXPECT_EQ(decoder.stats().incomplete_scans_dropped, 2u);
   EXPECT_EQ(decoder.stats().scans_emitted, 1u);
+  const auto notices = decoder.notices("x.pcap");
+  ASSERT_EQ(notices.size(), 3u);
+  EXPECT_EQ(notices[0], "x.pcap: 2 incomplete Ouster scans dropped (started or ended mid-rotation, or packets lost)");
+  EXPECT_NE(notices[1].find("1 Ouster packets arrived after"), std::string::npos);
+  EXPECT_NE(notices[2].find("another sensor"), std::string::npos);
+}
+
+TEST(OusterPackets, MetadataOfAnotherSensorIsNamed) {
+  // The OS-1-64's metadata against the OS-1-128 capture: nothing decodes, and the notice says why.
+  const Decoded d = decodeCapture(os128Pcap(), readOusterMetadata(os64Json()));
+  EXPECT_TRUE(d.scans.empty());
+  OusterDecoder decoder(readOusterMetadata(os64Json()));
+  decoder.addPacket(d.packets[0], 0.0, "x");
+  const auto notices = decoder.notices("os1-128.pcap");
+  ASSERT_EQ(notices.size(), 1u);
+  EXPECT_EQ(notices[0], "os1-128.pcap: no packet of Ouster OS 1024x10 LEGACY (64 beams)'s lidar packet size "
+                        "(12608 bytes) among 1 packets (the last of 8448 bytes): the metadata does not belong "
+                        "to these packets");
 }
 
 TEST(OusterPackets, CaptureClockForAnUnsynchronisedSensor) {

@@ -94,8 +94,11 @@ TEST(SlamRun, WritesEveryOutputAndRunJson) {
   const RunSummary s = writeRunOutputs(seq, r, config, OutputConfig{}, out);
   for (const char* f : {"trajectory.kitti", "trajectory.tum", "odometry_only.kitti", "graph.g2o",
                         "map.ply", "map.pcd", "hazards.json", "hazards.csv", "map_top.png",
-                        "trajectory.png", "run.json"})
+                        "trajectory.png", "viewer.html", "run.json"})
     EXPECT_TRUE(fs::exists(out / f)) << f;
+  const std::string summary = formatRunSummary(r, s, out, OutputConfig{});
+  EXPECT_NE(summary.find("viewer.html"), std::string::npos) << summary;
+  EXPECT_NE(summary.find("Map error"), std::string::npos) << summary;
   EXPECT_EQ(readKittiTrajectory(out / "trajectory.kitti").size(), seq.size());
   const auto j = readJson(out / "run.json");
   EXPECT_EQ(j["method"], "property-icp+pgo");
@@ -200,7 +203,14 @@ TEST(Demo, BothSetUpsWriteTheTableAndOutputs) {
     }
     EXPECT_TRUE(fs::exists(dir / m / "map.ply")) << m;
     EXPECT_TRUE(fs::exists(dir / "frame-to-map" / m / "trajectory.kitti")) << m;
+    EXPECT_TRUE(fs::exists(dir / m / "viewer.html")) << m;
   }
+  // index.html links every method's viewer beside Table 2; the error plot is there.
+  const std::string index = readTextFile(dir / "index.html");
+  EXPECT_NE(index.find("href=\"property-icp+pgo/viewer.html\""), std::string::npos);
+  EXPECT_NE(index.find("href=\"frame-to-map/icp/viewer.html\""), std::string::npos);
+  EXPECT_TRUE(fs::exists(dir / "trajectory_error.png"));
+  EXPECT_TRUE(fs::exists(dir / "trajectory_error_frame_to_map.png"));
   // ICP must beat the drifting encoders on any sequence, in both set-ups
   EXPECT_LT(report.rows[1].map_error_m, report.rows[0].map_error_m);
   EXPECT_LT(report.map_rows[3].map_error_m, report.map_rows[0].map_error_m);
@@ -209,5 +219,11 @@ TEST(Demo, BothSetUpsWriteTheTableAndOutputs) {
   const std::string table = formatTable2(report);
   EXPECT_NE(table.find("paper's set-up"), std::string::npos);
   EXPECT_NE(table.find("Proposed ICP with pose graph optimization"), std::string::npos);
+  // The rows on labels from the simulated thermal camera (issue 16).
+  ASSERT_EQ(report.camera_rows.size(), 2u);
+  EXPECT_EQ(report.camera_rows[0].method, SlamMethod::PropertyIcp);
+  EXPECT_TRUE(t.at("camera_labels").at("property-icp+pgo").at("map_error_m").is_number());
+  EXPECT_TRUE(fs::exists(dir / "camera-labels" / "property-icp" / "map.ply"));
+  EXPECT_NE(table.find("camera labels"), std::string::npos);
   fs::remove_all(dir);
 }

@@ -195,6 +195,12 @@ TEST(RunOnRecording, WrongTopicIsAOneLineErrorListingTheCandidates) {
   r = test::runCli("odometry " + quoted(mcap) + " --lidar-topic /velodyne_points --out " + quoted(dir / "odo"));
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("/thermal/image_raw (sensor_msgs/msg/Image): not read"), std::string::npos) << r.output;
+  // A Velodyne calibration that is not there.
+  r = test::runCli("run " + quoted(test::sharedData("sensors/velodyne-vlp16")) + " --quiet --velodyne-calibration " +
+                   quoted(dir / "missing.yaml") + " --out " + quoted(dir / "out"));
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find((dir / "missing.yaml").string()), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(dir / "out"));
   // An Ouster capture without its metadata.
   fs::copy_file(test::sharedData("sensors/ouster-os1-64/ouster_example.pcap"), dir / "ouster.pcap");
   r = test::runCli("run " + quoted(dir / "ouster.pcap") + " --quiet --out " + quoted(dir / "out"));

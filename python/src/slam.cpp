@@ -127,6 +127,7 @@ py::dict runSlamBinding(const py::object& sequence, const std::string& method, c
   if (out.is_none()) {
     temp.emplace();
     output.write_pngs = false;
+    output.write_viewer = false;
   }
   const std::filesystem::path out_dir = out.is_none() ? temp->path : std::filesystem::path(py::str(out).cast<std::string>());
   SlamResult result;

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <cstring>
 #include <system_error>
 
 #include "hazmap/core/error.hpp"
@@ -98,6 +99,14 @@ Sequence Sequence::open(const fs::path& dir, const std::optional<ClassTable>& ta
         }
       }
       if (const YAML::Node s = root["sensor"]; s && !s.IsNull()) seq.sensor_yaml_ = YAML::Dump(s) + "\n";
+      if (const YAML::Node p = root["property_channel"]; p) {
+        if (!p.IsScalar() || p.as<std::string>().empty() || p.as<std::string>().find('/') != std::string::npos)
+          fail(where, "'property_channel' must be a channel (folder) name");
+        seq.property_channel_ = p.as<std::string>();
+        if (!fs::is_directory(dir / seq.property_channel_, ec))
+          fail(where, "property_channel '" + seq.property_channel_ + "' has no folder " +
+                          (dir / seq.property_channel_).string());
+      }
     }
   }
   if (table_override) seq.table_ = *table_override;
@@ -110,8 +119,21 @@ LabeledCloud Sequence::frame(std::size_t i, ReadStats* stats) const {
   if (i >= scans_.size())
     fail(dir_.string(), "frame " + std::to_string(i) + " out of range (" + std::to_string(scans_.size()) +
                             " frames)");
-  if (io_detail::extensionOf(scans_[i]) == ".bin") return readKittiScan(scans_[i], labels_[i], table_, stats);
-  return readCloud(scans_[i], table_, stats);
+  LabeledCloud scan = io_detail::extensionOf(scans_[i]) == ".bin" ? readKittiScan(scans_[i], labels_[i], table_, stats)
+                                                                    : readCloud(scans_[i], table_, stats);
+  if (!property_channel_.empty()) readPropertyChannel(i, scan);
+  return scan;
+}
+
+void Sequence::readPropertyChannel(std::size_t i, LabeledCloud& scan) const {
+  fs::path path = dir_ / property_channel_ / scans_[i].filename();
+  path.replace_extension(".bin");
+  const std::string bytes = readTextFile(path);
+  if (bytes.size() != scan.size() * sizeof(float))
+    fail(path.string(), "has " + std::to_string(bytes.size()) + " bytes; the scan's " + std::to_string(scan.size()) +
+                            " points need " + std::to_string(scan.size() * sizeof(float)));
+  scan.enableProperty();
+  std::memcpy(scan.property.data(), bytes.data(), bytes.size());
 }
 
 SequenceWriter::SequenceWriter(fs::path dir, ClassTable table, std::string sensor_yaml)
@@ -129,8 +151,23 @@ SequenceWriter::SequenceWriter(fs::path dir, ClassTable table, std::string senso
   if (ec) fail(dir_.string(), "cannot create sequence folders: " + ec.message());
 }
 
+void SequenceWriter::setPropertyChannel(const std::string& name) {
+  if (frames_ > 0) fail(dir_.string(), "property channel set after frames were written");
+  property_channel_ = name;
+  std::error_code ec;
+  fs::create_directories(dir_ / name, ec);
+  if (ec) fail(dir_.string(), "cannot create " + name + "/: " + ec.message());
+}
+
 void SequenceWriter::addFrame(const LabeledCloud& scan) {
   const std::string name = frameName(frames_);
+  if (!property_channel_.empty()) {
+    if (scan.property.size() != scan.size()) fail(dir_.string(), "frame " + name + " has no property channel");
+    writeFileAtomically(dir_ / property_channel_ / (name + ".bin"), [&](std::ostream& out) {
+      out.write(reinterpret_cast<const char*>(scan.property.data()),
+                static_cast<std::streamsize>(scan.property.size() * sizeof(float)));
+    });
+  }
   writeKittiBin(dir_ / "velodyne" / (name + ".bin"), scan);
   writeSemanticKittiLabels(dir_ / "labels" / (name + ".label"), scan);
   ++frames_;
@@ -149,6 +186,7 @@ void SequenceWriter::finish() {
   out << YAML::Key << "frames" << YAML::Value << frames_;
   out << YAML::Key << "class_table" << YAML::Value << YAML::Load(withoutRawMapping(table_).toYamlString());
   if (!sensor_yaml_.empty()) out << YAML::Key << "sensor" << YAML::Value << YAML::Load(sensor_yaml_);
+  if (!property_channel_.empty()) out << YAML::Key << "property_channel" << YAML::Value << property_channel_;
   out << YAML::EndMap;
   writeTextAtomically(dir_ / "hazmap.yaml", std::string(out.c_str()) + "\n");
 }

@@ -3,6 +3,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <limits>
 #include <array>
 #include <cmath>
 
@@ -60,6 +61,7 @@ struct Cell {
   std::uint8_t used_slots = 0;
   float property_sum = 0;
   std::uint32_t property_count = 0;
+  float property_max = -std::numeric_limits<float>::infinity();
 
   // Exact for up to kSlots distinct classes in one cell; beyond that the rarest slot is
   // replaced, which cannot change a clear majority.
@@ -185,6 +187,7 @@ struct GlobalMap::Impl {
       for (int s = 0; s < c.used_slots; ++s) m.vote(c.class_ids[s], c.class_counts[s]);
       m.property_sum += c.property_sum;
       m.property_count += c.property_count;
+      m.property_max = std::max(m.property_max, c.property_max);
     }
     detail::VoxelHashMap<FrameRecord> records;
     frame_records.dropIndex();
@@ -251,6 +254,7 @@ void GlobalMap::insert(std::size_t frame, const LabeledCloud& scan, const Eigen:
       if (has_property && std::isfinite(scan.property[i])) {
         c.property_sum += scan.property[i];
         ++c.property_count;
+        c.property_max = std::max(c.property_max, scan.property[i]);
       }
       m.frame_records[key].add(std::uint32_t(frame), m.config.max_frame_ranges);
     }
@@ -295,6 +299,7 @@ std::vector<MapCell> GlobalMap::cells() const {
     std::tie(v.label, v.label_points) = c.majority();
     v.property_samples = c.property_count;
     v.property_mean = c.property_count ? c.property_sum / float(c.property_count) : 0.0f;
+    v.property_max = c.property_count ? c.property_max : 0.0f;
     if (const FrameRecord* rec = m.frame_records.find(key)) {
       v.frames = rec->ranges;
       v.frame_count = rec->count;

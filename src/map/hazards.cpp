@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <iomanip>
+#include <limits>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <set>
@@ -80,7 +81,7 @@ std::vector<Hazard> findHazards(const GlobalMap& map, const HazardConfig& config
       h.min = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
       h.max = -h.min;
       std::set<std::pair<int, int>> footprint;
-      double prop_sum = 0;
+      double prop_sum = 0, prop_max = -std::numeric_limits<double>::infinity();
       std::size_t prop_n = 0;
       std::vector<FrameRange> frames;
       for (std::size_t m : members) {
@@ -93,6 +94,7 @@ std::vector<Hazard> findHazards(const GlobalMap& map, const HazardConfig& config
         footprint.emplace(cell.index.x(), cell.index.y());
         prop_sum += double(cell.property_mean) * cell.property_samples;
         prop_n += cell.property_samples;
+        if (cell.property_samples) prop_max = std::max(prop_max, double(cell.property_max));
         frames.insert(frames.end(), cell.frames.begin(), cell.frames.end());
       }
       h.cells = members.size();
@@ -100,6 +102,7 @@ std::vector<Hazard> findHazards(const GlobalMap& map, const HazardConfig& config
       h.centroid /= double(h.points);
       h.area_m2 = double(footprint.size()) * v * v;
       if (prop_n) h.mean_property = prop_sum / double(prop_n);
+      if (prop_n) h.max_property = prop_max;
       h.frames = unionRanges(std::move(frames));
       h.frame_count = countFrames(h.frames);  // exact unless a cell's list was capped
       regions.push_back(std::move(h));
@@ -130,6 +133,7 @@ std::string hazardsJson(const std::vector<Hazard>& hazards, double voxel_size, i
                     {"cells", h.cells},
                     {"points", h.points},
                     {"mean_property", h.mean_property ? nlohmann::json(*h.mean_property) : nlohmann::json()},
+                    {"max_property", h.max_property ? nlohmann::json(*h.max_property) : nlohmann::json()},
                     {"frame_count", h.frame_count},
                     {"frames", frames}});
   }
@@ -146,7 +150,7 @@ void writeHazardsCsv(const std::filesystem::path& path, const std::vector<Hazard
   std::ostringstream s;
   s << std::setprecision(10);
   s << "id,class,kind,centroid_x,centroid_y,centroid_z,extent_x,extent_y,extent_z,min_x,min_y,"
-       "min_z,max_x,max_y,max_z,area_m2,cells,points,mean_property,frame_count,frames\n";
+       "min_z,max_x,max_y,max_z,area_m2,cells,points,mean_property,frame_count,frames,max_property\n";
   for (const auto& h : hazards) {
     s << h.id << ',' << csvField(h.class_name) << ',' << toString(h.kind);
     s << ',' << h.centroid.x() << ',' << h.centroid.y() << ',' << h.centroid.z();
@@ -159,9 +163,12 @@ void writeHazardsCsv(const std::filesystem::path& path, const std::vector<Hazard
     s << ',' << h.frame_count << ',';
     for (std::size_t i = 0; i < h.frames.size(); ++i)
       s << (i ? ";" : "") << h.frames[i].first << '-' << h.frames[i].last;
+    s << ',';
+    if (h.max_property) s << *h.max_property;
     s << '\n';
   }
   writeTextAtomically(path, s.str());
 }
 
 }  // namespace hazmap
+

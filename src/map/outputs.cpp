@@ -40,6 +40,22 @@ MapOutputs writeMapOutputs(const std::filesystem::path& dir, const GlobalMap& ma
       out.files.push_back(dir / "trajectory.png");
     }
   }
+  if (config.write_viewer) {
+    ViewerScene scene;
+    scene.title = config.viewer_title.empty() ? config.top_down.title : config.viewer_title;
+    scene.source = dir.string();
+    scene.map = cloud;
+    scene.classes = table;
+    scene.colors = config.top_down.colors;
+    scene.hazards = out.hazards;
+    scene.trajectories.push_back({"estimate", positionsOf(estimate), {208, 64, 255}});
+    if (ground_truth) scene.trajectories.push_back({"ground truth", positionsOf(*ground_truth), {60, 220, 130}});
+    scene.clip_above = config.top_down.clip_above;
+    ViewerConfig viewer = config.viewer;
+    viewer.decimate_to_fit = true;
+    writeViewer(dir / "viewer.html", scene, viewer);
+    out.files.push_back(dir / "viewer.html");
+  }
   return out;
 }
 

@@ -9,6 +9,7 @@
 #include "hazmap/core/error.hpp"
 #include "hazmap/io/atomic_file.hpp"
 #include "hazmap/map/image.hpp"
+#include "hazmap/pipeline/demo_index.hpp"
 #include "hazmap/pipeline/progress.hpp"
 #include "hazmap/pipeline/run_outputs.hpp"
 #include "hazmap/sim/simulator.hpp"
@@ -57,6 +58,10 @@ std::string formatTable2(const DemoReport& report) {
     }
     s += "\n";
   }
+  for (const DemoRow& r : report.camera_rows)
+    s += fmt::format("{:<44} {:>9}   {:>9.3f} {:>8.3f} {:>8.3f} {:>9} {:>6}\n",
+                     r.method == SlamMethod::PropertyIcp ? "Proposed ICP, camera labels" : "Proposed ICP + PGO, camera labels", "", r.map_error_m, r.map_error_p95_m,
+                     r.ate_m, rate(r), r.loops);
   return s;
 }
 
@@ -72,6 +77,7 @@ DemoReport runDemo(const DemoConfig& config, std::ostream& out) {
   sim_config.scenario = config.scenario;
   sim_config.seed = config.seed;
   sim_config.max_frames = config.frames;
+  if (config.camera_labels) sim_config.cameras.cameras = {sim::SimCameraConfig::forName("thermal")};
   const auto seq_dir = config.out_dir / "sequence";
   out << "Simulating '" << config.scenario << "' (seed " << config.seed << ") into " << seq_dir.string()
       << " ..." << std::endl;
@@ -91,6 +97,7 @@ DemoReport runDemo(const DemoConfig& config, std::ostream& out) {
     top.clip_above = z / static_cast<double>(poses->poses.size()) + 1.5;  // drop the ceiling
   }
   top.draw_hazard_labels = false;
+  top.cell_size = OutputConfig{}.map.voxel_size;  // cells fill their footprint: no speckle
 
   // One pass over the methods with one tracking mode: outputs, rows, the side-by-side PNG.
   const auto runAll = [&](OdometryMode mode, const std::filesystem::path& dir, const std::string& png,
@@ -130,9 +137,13 @@ DemoReport runDemo(const DemoConfig& config, std::ostream& out) {
     MontageConfig montage;
     montage.title = title;
     writePng(config.out_dir / png, renderMapMontage(panels, sequence.classTable(), top, montage));
+    if (sequence.groundTruth())
+      writeMethodErrorPlot(config.out_dir / (tag == "map" ? "trajectory_error_frame_to_map.png" : "trajectory_error.png"),
+                           *sequence.groundTruth(), results, "Trajectory error vs distance travelled (" + tag + " tracking)");
   };
   runAll(OdometryMode::FrameToFrame, config.out_dir, "maps_side_by_side.png",
          "hazmap demo: Table 2's five methods, the paper's set-up (heat red, water blue)", report.rows);
+  if (config.camera_labels) runCameraLabelRows(config, seq_dir, report, out);
   if (config.frame_to_map)
     runAll(OdometryMode::FrameToMap, config.out_dir / "frame-to-map", "maps_side_by_side_frame_to_map.png",
            "hazmap demo: the five methods with frame-to-map tracking (heat red, water blue)", report.map_rows);
@@ -144,10 +155,18 @@ DemoReport runDemo(const DemoConfig& config, std::ostream& out) {
     for (const DemoRow& r : report.map_rows) f2m[toString(r.method)] = rowJson(r);
     table["frame_to_map"] = f2m;
   }
+  if (!report.camera_rows.empty()) {
+    nlohmann::json cam = nlohmann::json::object();
+    for (const DemoRow& r : report.camera_rows) cam[toString(r.method)] = rowJson(r);
+    cam["heat_precision"] = report.camera_heat_precision;
+    cam["heat_recall"] = report.camera_heat_recall;
+    table["camera_labels"] = cam;
+  }
   writeTextAtomically(config.out_dir / "table2.json", table.dump(2) + "\n");
+  writeDemoIndex(config.out_dir, report, config.frame_to_map);
   report.total_seconds = std::chrono::duration<double>(Clock::now() - t0).count();
   out << "\n" << formatTable2(report);
-  out << fmt::format("\nWrote {} (sequence/, one folder per method{}, maps_side_by_side*.png, table2.json) in {:.1f} s\n",
+  out << fmt::format("\nWrote {} (sequence/, index.html, one folder per method with viewer.html{}, maps_side_by_side*.png, trajectory_error*.png, table2.json) in {:.1f} s\n",
                      config.out_dir.string(), config.frame_to_map ? ", frame-to-map/" : "", report.total_seconds);
   return report;
 }

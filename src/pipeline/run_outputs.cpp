@@ -1,6 +1,7 @@
 #include "hazmap/core/config_fields.hpp"
 #include "hazmap/pipeline/run_outputs.hpp"
 
+#include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
 #include <chrono>
@@ -102,6 +103,29 @@ Trajectory assembleMap(ScanSource& scans, const SlamResult& result, GlobalMap& m
 
 }  // namespace
 
+std::string formatRunSummary(const SlamResult& result, const RunSummary& summary,
+                             const std::filesystem::path& out_dir, const OutputConfig& output) {
+  std::string s = fmt::format("\n{}: {} frames at {:.1f} frames/s, {} loop{} closed, {} hazard{} found, map of {} cells.\n",
+                              toString(result.method), result.frames.size(), result.framesPerSecond(),
+                              result.loops.size(), result.loops.size() == 1 ? "" : "s", summary.hazards,
+                              summary.hazards == 1 ? "" : "s", summary.map_cells);
+  if (summary.map_error)
+    s += fmt::format("Map error against the map from the true poses: mean {:.3f} m, median {:.3f} m, p95 {:.3f} m.\n",
+                     summary.map_error->point.mean, summary.map_error->point.median, summary.map_error->point.p95);
+  if (summary.trajectory)
+    s += fmt::format("Trajectory error (ATE, SE(3)-aligned): rmse {:.3f} m over {:.0f} m.\n",
+                     summary.trajectory->ape.translation.rmse, summary.trajectory->gt_length_m);
+  const std::string dir = out_dir.string() + (out_dir.string().ends_with('/') ? "" : "/");
+  s += "Files in " + dir + ":\n";
+  if (output.write_viewer) s += "  viewer.html             the map in 3D with its hazards: open it in a browser\n";
+  if (output.write_pngs) s += "  map_top.png             top-down map, hazards ringed and numbered\n"
+                              "  trajectory.png          the trajectory (and its error when the truth is known)\n";
+  s += "  hazards.json, .csv      the hazard list (class, position, size, frames that saw it)\n"
+       "  map.ply, map.pcd        the map (CloudCompare, PCL)\n"
+       "  trajectory.kitti, .tum, graph.g2o, run.json\n";
+  return s;
+}
+
 RunSummary writeRunOutputs(const Sequence& sequence, const SlamResult& result, const SlamConfig& config,
                            const OutputConfig& output, const std::filesystem::path& out_dir,
                            RunArtifacts* artifacts) {
@@ -149,6 +173,7 @@ RunSummary writeRunOutputs(ScanSource& scans, const SlamResult& result, const Sl
   files.hazards = output.hazards;
   files.top_down = output.top_down;
   files.write_pngs = output.write_pngs;
+  files.write_viewer = output.write_viewer;
   if (output.render_clip_above_sensor > 0 && !files.top_down.clip_above) {
     double z = 0;
     for (const auto& p : result.estimate.poses) z += p.translation().z();

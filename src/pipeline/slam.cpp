@@ -65,6 +65,8 @@ class SlamRun {
     result_.graph.dimension = 3;
   }
 
+  /// Fig. 1 for one scan: wheel-odometry guess → deskewing and (property-)ICP tracking → the
+  /// graph's node and odometry edge → on keyframes, loop closure (and online optimisation).
   void addScan(Scan scan) {
     const auto t_frame = Clock::now();
     if (frames() == 0) start(scan);

@@ -5,13 +5,14 @@
 #include <charconv>
 #include <chrono>
 #include <cstdio>
-#include <random>
 #include <sstream>
 
 #include "hazmap/core/error.hpp"
 #include "hazmap/io/atomic_file.hpp"
+#include "hazmap/io/kitti.hpp"
 #include "hazmap/io/ply.hpp"
 #include "hazmap/io/sequence.hpp"
+#include "hazmap/io/temporary_folder.hpp"
 #include "hazmap/io/trajectory.hpp"
 #include "hazmap/preprocess/voxel_downsample.hpp"
 #include "hazmap/sim/simulator.hpp"
@@ -26,30 +27,6 @@ using Clock = std::chrono::steady_clock;
 double secondsSince(Clock::time_point t0) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
 }
-
-/// A sibling folder of `out` that does not exist yet.
-fs::path temporarySibling(const fs::path& out) {
-  const fs::path parent = out.has_parent_path() ? out.parent_path() : fs::path(".");
-  std::random_device rd;
-  for (int attempt = 0; attempt < 100; ++attempt) {
-    const fs::path candidate =
-        parent / ("." + out.filename().string() + ".partial-" + std::to_string(rd() % 1000000));
-    if (!fs::exists(candidate)) return candidate;
-  }
-  fail(out.string(), "cannot find a free temporary folder name next to it");
-}
-
-/// Removes the temporary folder unless released (any failure leaves nothing behind).
-struct TemporaryFolder {
-  fs::path path;
-  bool keep = false;
-  ~TemporaryFolder() {
-    if (!keep) {
-      std::error_code ec;
-      fs::remove_all(path, ec);
-    }
-  }
-};
 
 /// scene.ply: one vertex triple per triangle so every face can carry its region's colour.
 TriangleMesh coloredSceneMesh(const Scene& scene, const ClassTable& table) {
@@ -94,49 +71,23 @@ std::string frameName(std::size_t i) {
   return buf;
 }
 
-}  // namespace
+void writeTrueLabels(const fs::path& path, const std::vector<ClassId>& classes) {
+  LabeledCloud labels;
+  labels.points.resize(classes.size(), Eigen::Vector3f::Zero());
+  labels.classes = classes;
+  writeSemanticKittiLabels(path, labels);
+}
 
-SimulationSummary writeSimulation(const SimulatorConfig& config, const fs::path& out_dir_arg,
-                                  bool overwrite) {
-  const auto t_start = Clock::now();
-  if (out_dir_arg.empty()) fail("simulate", "no output folder given");
-  // "seq/", "./seq" and "seq" are the same folder; its name must be a real name.
-  fs::path out_dir = fs::absolute(out_dir_arg).lexically_normal();
-  if (!out_dir.has_filename()) out_dir = out_dir.parent_path();
-  const std::string shown = out_dir_arg.string();
-  // Everything that can be wrong with the input is checked here, before anything is created.
-  Simulator sim(config);
-  bool replace = false;
-  if (fs::exists(out_dir)) {
-    if (!fs::is_directory(out_dir)) fail(shown, "exists and is not a folder");
-    const fs::path cwd = fs::current_path().lexically_normal();
-    const auto rel = cwd.lexically_relative(out_dir);
-    if (!rel.empty() && *rel.begin() != "..")
-      fail(shown, "is the current folder or contains it; choose another output folder");
-    if (!fs::is_empty(out_dir)) {
-      if (!overwrite) fail(shown, "exists and is not empty (pass --overwrite to replace it)");
-      // Only ever replace a previous sequence, never an arbitrary folder.
-      if (!fs::exists(out_dir / "hazmap.yaml") && !fs::exists(out_dir / "velodyne"))
-        fail(shown, "exists, is not empty and is not a hazmap sequence; refusing to replace it");
-    }
-    replace = true;
-  }
-
-  SimulationSummary summary;
-  summary.frames = sim.frames();
-  summary.route_length = sim.routeLength();
-  summary.bvh_seconds = sim.bvhBuildSeconds();
-  summary.drift = odometryDrift(sim.groundTruth(), sim.odometry(), sim.slips());
-
-  TemporaryFolder tmp{temporarySibling(out_dir)};
-  fs::create_directories(tmp.path);
-  const ClassTable& table = sim.classTable();
-  SequenceWriter writer(tmp.path, table, sim.config().sensorYaml());
+/// Generates and writes every scan (in parallel batches); returns the reference cloud: every
+/// scan placed with its true pose, with the true (noise-free) classes. It is ground truth, like
+/// poses.txt; the scans themselves carry the label noise.
+LabeledCloud writeScans(const Simulator& sim, SequenceWriter& writer, const fs::path& dir,
+                        SimulationSummary& summary) {
   const bool temperature = sim.config().temperature.enabled;
-  if (temperature) fs::create_directories(tmp.path / "temperature");
-
-  // Reference map: every scan placed with its true pose, with the true (noise-free) classes: it is
-  // ground truth, like poses.txt; the scans themselves carry the label noise.
+  if (temperature) fs::create_directories(dir / "temperature");
+  // With cameras the noise-free classes are kept per scan too: they judge the camera labels.
+  const bool true_labels = !sim.config().cameras.empty();
+  if (true_labels) fs::create_directories(dir / "labels_true");
   LabeledCloud reference;
   const std::size_t n = sim.frames();
   const std::size_t batch = 32;
@@ -153,7 +104,8 @@ SimulationSummary writeSimulation(const SimulatorConfig& config, const fs::path&
     for (std::size_t i = begin; i < end; ++i) {
       const LabeledCloud& scan = scans[i - begin];
       writer.addFrame(scan);
-      if (temperature) writeFloats(tmp.path / "temperature" / (frameName(i) + ".bin"), scan.property);
+      if (temperature) writeFloats(dir / "temperature" / (frameName(i) + ".bin"), scan.property);
+      if (true_labels) writeTrueLabels(dir / "labels_true" / (frameName(i) + ".label"), truths[i - begin]);
       summary.points += scan.size();
       const Eigen::Isometry3f T = sim.groundTruth()[i].cast<float>();
       reference.points.reserve(reference.points.size() + scan.size());
@@ -164,35 +116,36 @@ SimulationSummary writeSimulation(const SimulatorConfig& config, const fs::path&
     }
     summary.write_seconds += secondsSince(t_write);
   }
-  const auto t_trajectories = Clock::now();
+  return reference;
+}
+
+void writeTrajectories(const Simulator& sim, SequenceWriter& writer, const fs::path& dir) {
   writer.writeGroundTruth(toTrajectory(sim.groundTruth(), sim.samples()));
   writer.writeOdometry(toTrajectory(sim.odometry(), sim.samples()));
-  {
-    std::ostringstream times;
-    times.precision(9);
-    for (std::size_t i = 0; i < n; ++i) times << sim.samples()[i].time << "\n";
-    writeTextAtomically(tmp.path / "times.txt", times.str());
-  }
-  writer.finish();
-  summary.write_seconds += secondsSince(t_trajectories);
-  const auto t_reference = Clock::now();
+  std::ostringstream times;
+  times.precision(9);
+  for (std::size_t i = 0; i < sim.frames(); ++i) times << sim.samples()[i].time << "\n";
+  writeTextAtomically(dir / "times.txt", times.str());
+}
 
+/// reference_map.ply: the reference cloud downsampled, majority class per voxel, coloured.
+void writeReferenceMap(const Simulator& sim, const LabeledCloud& reference, const fs::path& dir) {
+  const ClassTable& table = sim.classTable();
   VoxelDownsampleConfig voxel;
   voxel.voxel_size = sim.config().reference_voxel;
   voxel.vote = ClassVote::Majority;
   const LabeledCloud map = voxelDownsample(reference, voxel, table);
-  reference = LabeledCloud{};
   PlyWriteOptions ply;
   ply.colors.reserve(map.size());
   for (ClassId c : map.classes) {
     const ClassInfo* info = table.find(c);
     ply.colors.push_back(info ? info->color : Rgb{160, 160, 160});
   }
-  writePly(tmp.path / "reference_map.ply", map, ply);
-  summary.reference_seconds = secondsSince(t_reference);
-  writePlyMesh(tmp.path / "scene.ply", coloredSceneMesh(sim.scene(), table));
-  writeTextAtomically(tmp.path / "regions.yaml", regionsToYaml(sim.scene(), table));
+  writePly(dir / "reference_map.ply", map, ply);
+}
 
+/// simulation.yaml: the effective config, the run's statistics and the first scan's world pose.
+std::string simulationInfo(const Simulator& sim, const SimulationSummary& summary) {
   std::ostringstream info;
   info << "# Effective configuration of `hazmap simulate` that wrote this sequence.\n"
        << sim.config().toYamlString() << "stats:\n"
@@ -208,24 +161,61 @@ SimulationSummary writeSimulation(const SimulatorConfig& config, const fs::path&
        << "# Pose of the first scan in scene.ply's frame (row-major 3x4, like a poses.txt line):\n"
        << "# poses.txt and reference_map.ply are in the first scan's frame (KITTI convention).\n"
        << "world_from_first_frame: [";
-  {
-    const Eigen::Isometry3d& W = sim.worldFromFirst();
-    char buf[64];
-    for (int r = 0; r < 3; ++r)
-      for (int k = 0; k < 4; ++k) {
-        const double v = k < 3 ? W.linear()(r, k) : W.translation()(r);
-        const auto res = std::to_chars(buf, buf + sizeof buf, v);
-        info << (r || k ? ", " : "") << std::string(buf, res.ptr);
-      }
-  }
+  const Eigen::Isometry3d& W = sim.worldFromFirst();
+  char buf[64];
+  for (int r = 0; r < 3; ++r)
+    for (int k = 0; k < 4; ++k) {
+      const double v = k < 3 ? W.linear()(r, k) : W.translation()(r);
+      const auto res = std::to_chars(buf, buf + sizeof buf, v);
+      info << (r || k ? ", " : "") << std::string(buf, res.ptr);
+    }
   info << "]\n";
-  writeTextAtomically(tmp.path / "simulation.yaml", info.str());
+  return info.str();
+}
 
-  if (replace) fs::remove_all(out_dir);
-  std::error_code ec;
-  fs::rename(tmp.path, out_dir, ec);
-  if (ec) fail(shown, "cannot move the finished sequence into place: " + ec.message());
-  tmp.keep = true;
+}  // namespace
+
+SimulationSummary writeSimulation(const SimulatorConfig& config, const fs::path& out_dir_arg,
+                                  bool overwrite) {
+  const auto t_start = Clock::now();
+  if (out_dir_arg.empty()) fail("simulate", "no output folder given");
+  // Everything that can be wrong with the input is checked here, before anything is created.
+  Simulator sim(config);
+  // "seq/", "./seq" and "seq" are the same folder; its name must be a real name.
+  fs::path out_dir = fs::absolute(out_dir_arg).lexically_normal();
+  if (!out_dir.has_filename()) out_dir = out_dir.parent_path();
+  const std::string shown = out_dir_arg.string();
+  const bool replace = checkSequenceOutput(out_dir, shown, overwrite);
+
+  SimulationSummary summary;
+  summary.frames = sim.frames();
+  summary.route_length = sim.routeLength();
+  summary.bvh_seconds = sim.bvhBuildSeconds();
+  summary.drift = odometryDrift(sim.groundTruth(), sim.odometry(), sim.slips());
+
+  TemporaryFolder tmp{temporarySibling(out_dir)};
+  fs::create_directories(tmp.path);
+  const ClassTable& table = sim.classTable();
+  SequenceWriter writer(tmp.path, table, sim.config().sensorYaml());
+  LabeledCloud reference = writeScans(sim, writer, tmp.path, summary);
+  const auto t_trajectories = Clock::now();
+  writeTrajectories(sim, writer, tmp.path);
+  writer.finish();
+  summary.write_seconds += secondsSince(t_trajectories);
+  const auto t_reference = Clock::now();
+  writeReferenceMap(sim, reference, tmp.path);
+  reference = LabeledCloud{};
+  summary.reference_seconds = secondsSince(t_reference);
+  writePlyMesh(tmp.path / "scene.ply", coloredSceneMesh(sim.scene(), table));
+  writeTextAtomically(tmp.path / "regions.yaml", regionsToYaml(sim.scene(), table));
+  if (!sim.config().cameras.empty()) {
+    const auto t_cameras = Clock::now();
+    writeCameraImages(sim, sim.config().cameras, tmp.path);
+    summary.camera_seconds = secondsSince(t_cameras);
+  }
+  writeTextAtomically(tmp.path / "simulation.yaml", simulationInfo(sim, summary));
+
+  commitFolder(tmp, out_dir, shown, replace);
   summary.total_seconds = secondsSince(t_start);
   return summary;
 }

@@ -135,6 +135,7 @@ void SimulatorConfig::validate(const std::string& where) const {
     fail(where, "a scene mesh (--scene) needs a regions file (--regions) with the route");
   }
   fieldsOf<SimulatorConfig>().check(*this, ConfigPlace{where, ""});
+  cameras.validate(where);
 }
 
 std::string SimulatorConfig::toYamlString() const { return configToYaml(*this); }

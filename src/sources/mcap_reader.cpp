@@ -3,6 +3,7 @@
 // recorder killed before the footer) the data section is scanned record by record up to the
 // last complete record. Chunks are loaded in start-time order and merged by log time; a chunk
 // whose CRC or decompression fails is reported with its offset and skipped, never decoded.
+#include <algorithm>
 #include <cstring>
 #include <map>
 #include <set>
@@ -250,7 +251,12 @@ bool McapReader::readSummary() {
     schemas_.clear(), channels_.clear(), blocks_.clear(), any_time_ = false;
     return false;
   }
-  if (blocks_.empty()) {  // a summary without chunk indexes: the messages are found by a scan
+  const bool declares_channels = std::any_of(channels_.begin(), channels_.end(),
+                                             [](const auto& c) { return !c.second.topic.empty(); });
+  // A summary without chunk indexes, or without the Channel records (a writer that does not
+  // repeat them): the messages and channels are found by a scan.
+  if (blocks_.empty() || !declares_channels) {
+    blocks_.clear();
     channels_.clear();
     any_time_ = false;
     return false;

@@ -180,6 +180,26 @@ std::optional<DecodedScan> OusterDecoder::flush() {
 }
 
 std::string OusterDecoder::describe() const { return impl_->meta.describe(); }
+
+std::vector<std::string> OusterDecoder::notices(const std::string& where) const {
+  const OusterDecoderStats& s = impl_->stats;
+  std::vector<std::string> out;
+  const auto n = [](std::uint64_t v) { return std::to_string(v); };
+  if (s.lidar_packets == 0 && s.other_packets > 0)
+    out.push_back(where + ": no packet of " + impl_->meta.describe() + "'s lidar packet size (" +
+                  n(impl_->layout.packet_size) + " bytes) among " + n(s.other_packets) +
+                  " packets (the last of " + n(s.last_other_size) +
+                  " bytes): the metadata does not belong to these packets");
+  if (s.incomplete_scans_dropped > 0)
+    out.push_back(where + ": " + n(s.incomplete_scans_dropped) +
+                  " incomplete Ouster scans dropped (started or ended mid-rotation, or packets lost)");
+  if (s.late_packets > 0)
+    out.push_back(where + ": " + n(s.late_packets) + " Ouster packets arrived after their scan was complete");
+  if (s.foreign_packets > 0)
+    out.push_back(where + ": " + n(s.foreign_packets) +
+                  " Ouster packets of another sensor (initialization id or serial number differ from the metadata's)");
+  return out;
+}
 const OusterDecoderStats& OusterDecoder::stats() const { return impl_->stats; }
 const OusterMetadata& OusterDecoder::metadata() const { return impl_->meta; }
 

@@ -134,8 +134,13 @@ void parseFormat(OusterMetadata& m, const Sections& s, const std::string& where)
   if (m.columns_per_frame != 0 && columns != m.columns_per_frame)
     fail(where, "columns_per_frame " + std::to_string(columns) + " does not match lidar_mode " + m.lidar_mode);
   m.columns_per_frame = columns;
-  m.columns_per_packet = count(find(f, "columns_per_packet"), where, "columns_per_packet", 16, columns);
-  m.profile = profileOf(text(find(f, "udp_profile_lidar"), where, "udp_profile_lidar"), where);
+  // The data format describes the packets; the sensor's configuration says the same and is the
+  // fallback when a recorder left the data format's entry out.
+  const auto either = [&](const char* key) { const json* v = find(f, key); return v ? v : find(s.config, key); };
+  m.columns_per_packet = count(either("columns_per_packet"), where, "columns_per_packet", 16, columns);
+  m.profile = profileOf(text(either("udp_profile_lidar"), where, "udp_profile_lidar"), where);
+  if (m.scan_rate_hz == 0.0)
+    if (const json* fps = find(f, "fps")) m.scan_rate_hz = number(*fps, where, "fps");
   m.pixels_per_column = count(find(f, "pixels_per_column"), where, "pixels_per_column",
                               static_cast<std::uint32_t>(m.beam_altitude_deg.size()), 1024);
   m.column_window_first = 0;

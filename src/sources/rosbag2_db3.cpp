@@ -82,7 +82,7 @@ class Db3Reader final : public MessageReader {
   sqlite3_stmt* prepare(const std::string& sql) {
     sqlite3_stmt* stmt = nullptr;
     if (sqlite3_prepare_v2(db_, sql.c_str(), -1, &stmt, nullptr) != SQLITE_OK)
-      fail(where_, "sqlite3: " + std::string(sqlite3_errmsg(db_)) + " (is this a rosbag2 .db3?)");
+      fail(where_, "sqlite3: " + std::string(sqlite3_errmsg(db_)) + " (not a rosbag2 .db3, or a damaged one)");
     return stmt;
   }
   static std::string text(sqlite3_stmt* stmt, int column) {
@@ -104,14 +104,27 @@ class Db3Reader final : public MessageReader {
     if (rc != SQLITE_DONE) fail(where_, "sqlite3: " + std::string(sqlite3_errmsg(db_)));
   }
   void readCountsAndRange() {
-    sqlite3_stmt* stmt = prepare("SELECT topic_id, COUNT(*), MIN(timestamp), MAX(timestamp) FROM messages GROUP BY topic_id");
+    // Counts and range are a convenience: a damaged file that cannot give them is still read
+    // message by message as far as sqlite reaches.
+    sqlite3_stmt* stmt = nullptr;
+    if (sqlite3_prepare_v2(db_, "SELECT topic_id, COUNT(*), MIN(timestamp), MAX(timestamp) FROM messages GROUP BY topic_id",
+                           -1, &stmt, nullptr) != SQLITE_OK) {
+      loss_.notices.push_back(where_ + ": sqlite3 cannot count the messages (" + sqlite3_errmsg(db_) + ")");
+      return;
+    }
     bool any = false;
-    while (sqlite3_step(stmt) == SQLITE_ROW) {
+    int rc;
+    while ((rc = sqlite3_step(stmt)) == SQLITE_ROW) {
       const auto it = topic_by_id_.find(sqlite3_column_int64(stmt, 0));
       if (it != topic_by_id_.end()) topics_[it->second].message_count = sqlite3_column_int64(stmt, 1);
       const std::int64_t lo = sqlite3_column_int64(stmt, 2), hi = sqlite3_column_int64(stmt, 3);
       range_ = any ? std::pair{std::min(range_.first, lo), std::max(range_.second, hi)} : std::pair{lo, hi};
       any = true;
+    }
+    if (rc != SQLITE_DONE) {
+      loss_.notices.push_back(where_ + ": sqlite3 cannot count the messages (" + sqlite3_errmsg(db_) + ")");
+      for (auto& t : topics_) t.message_count = 0;
+      range_ = {0, 0};
     }
     sqlite3_finalize(stmt);
   }

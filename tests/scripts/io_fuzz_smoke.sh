@@ -24,12 +24,16 @@ mkdir -p "$fuzz_build"
 CC="$cc" CXX="$cxx" cmake -S "$src" -B "$fuzz_build" -DHAZMAP_FUZZ=ON -DHAZMAP_BUILD_TESTS=OFF \
   -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -gline-tables-only" \
   -DHAZMAP_SANITIZE=OFF > "$log" 2>&1 || { cat "$log"; exit 1; }
-targets=(fuzz_pcd fuzz_ply fuzz_kitti fuzz_trajectory fuzz_class_table fuzz_velodyne fuzz_pcap fuzz_ouster fuzz_config)
-cmake --build "$fuzz_build" -j 2 --target "${targets[@]}" hazmap_fuzz_seeds hazmap_fuzz_sensor_seeds >> "$log" 2>&1 || { tail -50 "$log"; exit 1; }
+targets=(fuzz_pcd fuzz_ply fuzz_kitti fuzz_trajectory fuzz_class_table fuzz_velodyne fuzz_pcap fuzz_ouster
+         fuzz_mcap fuzz_ros1_bag fuzz_rosbag2 fuzz_ros_messages fuzz_hazards_json fuzz_config)
+cmake --build "$fuzz_build" -j 2 --target "${targets[@]}" hazmap_fuzz_seeds hazmap_fuzz_sensor_seeds \
+  hazmap_fuzz_bag_seeds >> "$log" 2>&1 || { tail -50 "$log"; exit 1; }
 seeds="$fuzz_build/seeds"
 rm -rf "$seeds"
 "$fuzz_build/fuzz/hazmap_fuzz_seeds" "$src/../shared/data" "$src" "$seeds"
 "$fuzz_build/fuzz/hazmap_fuzz_sensor_seeds" "$src/../shared/data" "$seeds"
+"$fuzz_build/fuzz/hazmap_fuzz_bag_seeds" "$src/../shared/data" "$seeds"
+export HAZMAP_FUZZ_DB3="$seeds/run_0.db3"  # the .db3 fuzz_rosbag2's metadata.yaml points at
 status=0
 for t in "${targets[@]}"; do
   name=${t#fuzz_}

@@ -4,7 +4,9 @@
 //   labels/NNNNNN.label                  optional per-point labels (for .bin scans)
 //   poses.txt                            optional ground truth, KITTI format, one line per scan
 //   odometry.txt                         optional wheel odometry, KITTI format, one line per scan
-//   hazmap.yaml                          optional: `class_table:` (a class table) and `sensor:`
+//   hazmap.yaml                          optional: `class_table:` (a class table), `sensor:` and
+//                                        `property_channel: NAME` (then NAME/NNNNNN.bin holds one
+//                                        float32 per point: LabeledCloud::property, NaN = unobserved)
 // Frames are read lazily, one at a time.
 #include <filesystem>
 #include <optional>
@@ -35,14 +37,18 @@ class Sequence {
   const std::optional<Trajectory>& odometry() const { return odometry_; }
   /// The `sensor:` section of hazmap.yaml as YAML text (empty if none).
   const std::string& sensorYaml() const { return sensor_yaml_; }
+  /// hazmap.yaml's `property_channel` (empty if none): frames then carry the property channel.
+  const std::string& propertyChannel() const { return property_channel_; }
 
  private:
+  void readPropertyChannel(std::size_t i, LabeledCloud& scan) const;
   std::filesystem::path dir_;
   std::vector<std::filesystem::path> scans_;
   std::vector<std::optional<std::filesystem::path>> labels_;
   ClassTable table_ = ClassTable::defaults();
   std::optional<Trajectory> ground_truth_, odometry_;
   std::string sensor_yaml_;
+  std::string property_channel_;
 };
 
 /// Writes a sequence directory frame by frame (velodyne/*.bin + labels/*.label), then the
@@ -51,6 +57,9 @@ class SequenceWriter {
  public:
   SequenceWriter(std::filesystem::path dir, ClassTable table, std::string sensor_yaml = "");
   void addFrame(const LabeledCloud& scan);
+  /// From now on addFrame() also writes scan.property to NAME/NNNNNN.bin (scans must carry it)
+  /// and finish() records `property_channel: NAME`. Call before the first addFrame().
+  void setPropertyChannel(const std::string& name);
   void writeGroundTruth(const Trajectory& poses);
   void writeOdometry(const Trajectory& odometry);
   /// Writes hazmap.yaml; call last.
@@ -61,6 +70,7 @@ class SequenceWriter {
   std::filesystem::path dir_;
   ClassTable table_;
   std::string sensor_yaml_;
+  std::string property_channel_;
   std::size_t frames_ = 0;
 };
 

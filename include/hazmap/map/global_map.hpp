@@ -61,6 +61,7 @@ struct MapCell {
   std::uint32_t label_points = 0;      ///< points of the majority class
   float property_mean = 0;             ///< mean property value of property-class points
   std::uint32_t property_samples = 0;  ///< how many values entered property_mean
+  float property_max = 0;              ///< largest of those values (0 when none)
   std::vector<FrameRange> frames;      ///< frames that put property points here (may be empty)
   std::uint32_t frame_count = 0;       ///< exact number of such frames
 };

@@ -42,6 +42,7 @@ struct Hazard {
   std::size_t cells = 0;
   std::size_t points = 0;  ///< scan points that fell in its cells
   std::optional<double> mean_property;  ///< mean property value when scans carried one
+  std::optional<double> max_property;   ///< largest property value (peak temperature, dose rate)
   std::vector<FrameRange> frames;       ///< frames that saw it (union over its cells)
   std::size_t frame_count = 0;
 };
@@ -51,12 +52,16 @@ struct Hazard {
 std::vector<Hazard> findHazards(const GlobalMap& map, const HazardConfig& config = {});
 
 /// hazards.json: {"voxel_size", "count", "hazards": [{id, class, kind, centroid[3], min[3],
-/// max[3], extent[3], area_m2, cells, points, mean_property|null, frame_count,
+/// max[3], extent[3], area_m2, cells, points, mean_property|null, max_property|null, frame_count,
 /// frames: [[first, last], …]}]}. Atomic.
 void writeHazardsJson(const std::filesystem::path& path, const std::vector<Hazard>& hazards,
                       double voxel_size);
-/// hazards.csv: one row per hazard; frames as "first-last;first-last". Atomic.
+/// hazards.csv: one row per hazard; frames as "first-last;first-last"; max_property is the last
+/// column. Atomic.
 void writeHazardsCsv(const std::filesystem::path& path, const std::vector<Hazard>& hazards);
 std::string hazardsJson(const std::vector<Hazard>& hazards, double voxel_size, int indent = 2);
+/// Reads hazards.json back (the fields above; frames are kept as ranges). Throws hazmap::Error
+/// naming the file on a missing file, broken JSON or a missing field.
+std::vector<Hazard> readHazardsJson(const std::filesystem::path& path);
 
 }  // namespace hazmap

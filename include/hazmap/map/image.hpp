@@ -1,6 +1,5 @@
 #pragma once
-// A small RGB raster with the few drawing operations the map renders need (points, lines,
-// circles, rectangles, text with a built-in bitmap font), and an atomic PNG writer (stb).
+// A small RGB raster (what the Cairo figures of render.hpp return) and an atomic PNG writer.
 #include <cstdint>
 #include <filesystem>
 #include <string>
@@ -24,21 +23,6 @@ struct Image {
   /// c·alpha + old·(1 − alpha), alpha in [0, 1].
   void blend(int x, int y, Rgb c, float alpha);
 };
-
-/// Fills [x0, x1) × [y0, y1) (clipped).
-void fillRect(Image& img, int x0, int y0, int x1, int y1, Rgb c);
-/// Rectangle outline, `thickness` pixels inwards.
-void drawRect(Image& img, int x0, int y0, int x1, int y1, Rgb c, int thickness = 1);
-/// Line between pixel-centre coordinates, `thickness` pixels wide.
-void drawLine(Image& img, double x0, double y0, double x1, double y1, Rgb c, int thickness = 1);
-void fillCircle(Image& img, double cx, double cy, double radius, Rgb c);
-void drawCircle(Image& img, double cx, double cy, double radius, Rgb c, int thickness = 1);
-
-/// Text with stb_easy_font's built-in bitmap font (ASCII), each font pixel drawn as a
-/// scale×scale block; (x, y) is the top-left corner. '\n' starts a new line.
-void drawText(Image& img, int x, int y, const std::string& text, Rgb c, int scale = 1);
-int textWidth(const std::string& text, int scale = 1);
-int textHeight(const std::string& text, int scale = 1);
 
 /// Copies `src` into `dst` with its top-left corner at (x, y) (clipped).
 void blit(Image& dst, const Image& src, int x, int y);

@@ -1,7 +1,7 @@
 #pragma once
 // Everything a run writes about its map, in one call: map.ply, map.pcd, hazards.json,
-// hazards.csv, map_top.png and trajectory.png (all atomic), so `hazmap run`, `hazmap demo` and
-// library users produce the same files.
+// hazards.csv, map_top.png, trajectory.png and viewer.html (all atomic), so `hazmap run`,
+// `hazmap demo` and library users produce the same files.
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -10,6 +10,7 @@
 #include "hazmap/map/global_map.hpp"
 #include "hazmap/map/hazards.hpp"
 #include "hazmap/map/render.hpp"
+#include "hazmap/map/viewer.hpp"
 
 namespace hazmap {
 
@@ -21,6 +22,10 @@ struct MapOutputConfig {
   bool write_pcd = true;
   bool write_hazards = true;
   bool write_pngs = true;
+  /// viewer.html (`hazmap view`'s page); a map too large for viewer.max_bytes is decimated.
+  bool write_viewer = false;
+  ViewerConfig viewer;
+  std::string viewer_title;  ///< empty = top_down.title
 };
 
 struct MapOutputs {

@@ -1,7 +1,9 @@
 #pragma once
-// PNG renders for people: a top-down map with hazards and the trajectory (map_top.png), the
-// trajectory comparison plot like the paper's Fig. 7 (trajectory.png), and a titled montage of
-// several top-down maps (the demo's five methods side by side).
+// PNG renders for people, drawn with Cairo (anti-aliased, DejaVu Sans text): a top-down map with
+// hazards, the trajectory, axes in metres, a legend and a scale bar (map_top.png), the
+// trajectory comparison plot like the paper's Fig. 7 (trajectory.png), the trajectory error
+// against distance travelled for several methods (`hazmap eval --plot`), and a titled montage
+// of several top-down maps (the demo's five methods side by side).
 #include <Eigen/Core>
 #include <optional>
 #include <string>
@@ -24,7 +26,7 @@ struct ViewBox {
 struct TopDownConfig {
   double pixels_per_metre = 20.0;  ///< reduced automatically to respect max_size_px
   int max_size_px = 1600;          ///< longest image side of the map area
-  int margin_px = 24;
+  int margin_px = 24;          ///< around the map area, besides the axis labels
   /// Points with world z above this are not drawn (e.g. ceilings hiding an indoor map);
   /// nullopt = draw everything.
   std::optional<double> clip_above;
@@ -32,6 +34,7 @@ struct TopDownConfig {
   /// footprint, so the render has no holes at high zoom. 0 = one pixel per point.
   double cell_size = 0.0;
   int property_point_px = 2;   ///< property points are drawn at least (2·this − 1) px wide
+  bool draw_axes = true;       ///< x/y ticks in metres around the map
   /// With hazards given, only property cells inside a hazard are coloured; isolated ones (too
   /// small to be a hazard, usually false labels) are drawn like plain cells.
   bool hazard_cells_only = true;
@@ -45,12 +48,24 @@ struct TopDownConfig {
   MapColorConfig colors;
 };
 
+/// Where the map area of a top-down render lies in its image.
+struct TopDownFrame {
+  ViewBox view;
+  double pixels_per_metre = 1.0;
+  Eigen::Vector2d origin = Eigen::Vector2d::Zero();  ///< pixel of the view's (min x, max y) corner
+  Eigen::Vector2d pixelOf(double x, double y) const {
+    return origin + pixels_per_metre * Eigen::Vector2d(x - view.min.x(), view.max.y() - y);
+  }
+};
+
 /// Top-down render: plain points grey by the highest point per pixel, property cells in their
 /// hazard colour on top, hazards ringed and numbered (ids of `hazards`), the trajectory as a
-/// line from a green start dot to a black end square, a scale bar and a legend.
+/// line from a green start dot to a black end square, axes in metres, a scale bar and a legend.
+/// `frame` (optional) receives where the map lies in the image.
 Image renderTopDown(const LabeledCloud& map, const ClassTable& table,
                     const std::vector<Eigen::Vector3d>& trajectory,
-                    const std::vector<Hazard>& hazards = {}, const TopDownConfig& config = {});
+                    const std::vector<Hazard>& hazards = {}, const TopDownConfig& config = {},
+                    TopDownFrame* frame = nullptr);
 
 /// x/y bounds of a map and a trajectory, with `pad` metres around (for shared montage views).
 ViewBox viewOf(const LabeledCloud& map, const std::vector<Eigen::Vector3d>& trajectory, double pad = 1.0);
@@ -60,7 +75,7 @@ struct PlotSeries {
   std::string label;
   std::vector<Eigen::Vector3d> positions;
   Rgb color{0, 0, 0};
-  int thickness = 2;
+  double thickness = 2.0;  ///< line width in pixels
 };
 
 struct TrajectoryPlotConfig {
@@ -89,7 +104,8 @@ struct MontagePanel {
 struct MontageConfig {
   int columns = 0;  ///< 0 = automatic (up to 3 per row)
   int gap_px = 16;
-  int title_scale = 2;
+  double panel_title_size = 18;  ///< font size (px) of each panel's title
+  double title_size = 24;        ///< font size (px) of the montage's title
   std::string title;  ///< over the whole montage
   Rgb background{255, 255, 255};
 };
@@ -104,6 +120,25 @@ struct MapPanel {
 };
 Image renderMapMontage(const std::vector<MapPanel>& panels, const ClassTable& table,
                        TopDownConfig config = {}, const MontageConfig& montage = {});
+
+/// One method's translation error against distance travelled along the ground truth.
+struct ErrorSeries {
+  std::string label;
+  std::vector<double> distance_m;  ///< distance travelled at each pose
+  std::vector<double> error_m;     ///< translation error at each pose
+  Rgb color{0, 0, 0};
+};
+struct ErrorPlotConfig {
+  int width = 1200, height = 600;
+  std::string title = "Trajectory error vs distance travelled";
+};
+/// Error curves of several methods on shared axes (metres against metres), with a legend that
+/// gives each one's mean error. Throws hazmap::Error on no series or mismatched lengths.
+Image renderErrorPlot(const std::vector<ErrorSeries>& series, const ErrorPlotConfig& config = {});
+/// Distance travelled at each pose (0 at the first).
+std::vector<double> distanceTravelled(const Trajectory& trajectory);
+/// A palette of distinguishable colours for series k.
+Rgb seriesColor(std::size_t k);
 
 /// Positions of a trajectory.
 std::vector<Eigen::Vector3d> positionsOf(const Trajectory& trajectory);

@@ -29,6 +29,9 @@ struct DemoConfig {
   PropertyIcpConfig property_icp;
   /// `section.key=value` run settings applied to every method's SlamConfig (SlamConfig::applySetting).
   std::vector<std::string> settings;
+  /// Also simulate the thermal camera (640×512, 50° HFOV, looking forward), label the sequence
+  /// from it (hazmap label) and run the property methods on those labels into camera-labels/.
+  bool camera_labels = true;
 };
 
 struct DemoRow {
@@ -45,6 +48,10 @@ struct DemoRow {
 struct DemoReport {
   std::vector<DemoRow> rows;      ///< the paper's set-up (frame-to-frame tracking)
   std::vector<DemoRow> map_rows;  ///< hazmap's frame-to-map tracking (empty if not run)
+  /// Property ICP (+PGO), paper's set-up, with classes from the simulated thermal camera
+  /// instead of the simulator's labels (empty if not run).
+  std::vector<DemoRow> camera_rows;
+  double camera_heat_precision = 0.0, camera_heat_recall = 0.0;  ///< inside the camera's view
   std::size_t frames = 0;
   double route_length_m = 0.0;
   double simulate_seconds = 0.0;
@@ -58,6 +65,12 @@ struct DemoReport {
 /// <out_dir>/table2.json holds per method map_error_m, ate_m, frames_per_s (paper set-up) and
 /// the same under "frame_to_map".
 DemoReport runDemo(const DemoConfig& config, std::ostream& out);
+
+/// The camera-label rows: labels `sequence_dir` from its cameras/thermal into
+/// <out_dir>/camera-labels/sequence and runs property ICP and property ICP+PGO (frame to frame)
+/// on it into <out_dir>/camera-labels/<method>/. Fills report.camera_rows and the precision.
+void runCameraLabelRows(const DemoConfig& config, const std::filesystem::path& sequence_dir,
+                        DemoReport& report, std::ostream& out);
 
 /// The table as text (paper's numbers beside ours).
 std::string formatTable2(const DemoReport& report);

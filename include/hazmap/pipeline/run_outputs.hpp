@@ -1,11 +1,13 @@
 #pragma once
 // Everything `hazmap run` writes for a finished SLAM run, each file atomically:
 //   trajectory.kitti, trajectory.tum, odometry_only.kitti, graph.g2o,
-//   map.ply, map.pcd, hazards.json, hazards.csv, map_top.png, trajectory.png, run.json.
+//   map.ply, map.pcd, hazards.json, hazards.csv, map_top.png, trajectory.png, viewer.html,
+//   run.json.
 // The map is assembled in a second pass over the scans with the final poses; when the recording
 // has ground truth the same pass measures the paper's map error (Table 2) and the ATE.
 #include <filesystem>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include "hazmap/eval/map_error.hpp"
@@ -26,6 +28,7 @@ struct OutputConfig {
   /// indoor map is not covered by its ceiling; <= 0 draws everything.
   double render_clip_above_sensor = 1.5;
   bool write_pngs = true;
+  bool write_viewer = true;  ///< viewer.html, the map in 3D in a browser (`hazmap view`)
 };
 
 struct RunSummary {
@@ -43,6 +46,11 @@ struct RunArtifacts {
   LabeledCloud map;
   std::vector<Hazard> hazards;
 };
+
+/// What a person reads at the end of `hazmap run`: frames, loops, hazards, the map error when
+/// known, and where the files are.
+std::string formatRunSummary(const SlamResult& result, const RunSummary& summary,
+                             const std::filesystem::path& out_dir, const OutputConfig& output);
 
 /// `scans` is a fresh stream of the run's input (the map needs a second pass over the scans);
 /// the map error and the ATE are measured when every scan has a ground-truth pose.

@@ -13,6 +13,7 @@
 #include "hazmap/core/config_fwd.hpp"
 #include "hazmap/core/class_table.hpp"
 #include "hazmap/core/labeled_cloud.hpp"
+#include "hazmap/sim/camera_sim.hpp"
 #include "hazmap/sim/lidar.hpp"
 #include "hazmap/sim/odometry_noise.hpp"
 #include "hazmap/sim/raycaster.hpp"
@@ -37,6 +38,8 @@ struct SimulatorConfig {
   RobotConfig robot;
   OdometryNoiseConfig odometry;
   double reference_voxel = 0.1;  ///< m, voxel size of reference_map.ply
+  /// Property cameras (none by default; `hazmap simulate --cameras thermal,nir,gamma`).
+  CameraSimConfig cameras;
 
   /// Reads a YAML file; unknown keys are errors (typos must not silently use defaults).
   /// Keys missing from the file keep the values already in `base`.
@@ -91,6 +94,8 @@ class Simulator {
   const ClassTable& classTable() const { return table_; }
   const SimulatorConfig& config() const { return config_; }
   double bvhBuildSeconds() const { return caster_->buildSeconds(); }
+  /// The scene's ray caster (thread-safe), e.g. for rendering camera images.
+  const RayCaster& caster() const { return *caster_; }
   /// Path length driven up to the last frame (m).
   double routeLength() const { return samples_.empty() ? 0.0 : samples_.back().travelled; }
 
@@ -127,13 +132,15 @@ struct SimulationSummary {
   double scan_seconds = 0.0;  ///< generating the scans (excluding the BVH and file writing)
   double write_seconds = 0.0;      ///< writing scans, labels and trajectories
   double reference_seconds = 0.0;  ///< building and writing reference_map.ply
+  double camera_seconds = 0.0;     ///< rendering and writing camera images
   double total_seconds = 0.0;
   OdometryDrift drift;
 };
 
 /// Writes the sequence directory `out_dir`: velodyne/*.bin, labels/*.label, poses.txt,
 /// odometry.txt, times.txt, hazmap.yaml, reference_map.ply, scene.ply, simulation.yaml (the
-/// effective config) and, with the temperature channel on, temperature/*.bin. Everything is
+/// effective config), with the temperature channel on temperature/*.bin and with cameras
+/// cameras/<name>/{NNNNNN.png, times.txt, camera.yaml}. Everything is
 /// written into a temporary sibling folder that is renamed to `out_dir` at the end, so a
 /// failure leaves no half-written sequence. `out_dir` must not exist or be empty; with
 /// `overwrite` a previous sequence (a folder with hazmap.yaml or velodyne/) is replaced, never

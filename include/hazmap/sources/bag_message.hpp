@@ -34,10 +34,11 @@ struct BagMessage {
   std::span<const std::uint8_t> data;
 };
 
-/// What a reader could not read (a recorder killed mid-write, a corrupt chunk).
+/// What a reader could not read (a recorder killed mid-write, a corrupt chunk). Filled while
+/// reading: complete once next() has returned false. Nothing in here was ever yielded.
 struct BagLoss {
-  std::uint64_t bytes_unread = 0;     ///< bytes after the last complete record
-  std::uint64_t chunks_skipped = 0;   ///< corrupt chunks (CRC mismatch, bad compression)
+  std::uint64_t bytes_unread = 0;     ///< bytes after the last complete record (truncated file)
+  std::uint64_t chunks_skipped = 0;   ///< corrupt chunks (CRC mismatch, bad compression, …), skipped whole
   std::vector<std::string> notices;   ///< one line each, naming the file and the offset
 };
 

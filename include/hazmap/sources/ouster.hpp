@@ -101,6 +101,10 @@ class OusterDecoder : public PacketDecoder {
   std::string describe() const override;
   const OusterDecoderStats& stats() const;
   const OusterMetadata& metadata() const;
+  /// One line each, naming `where`, for what was dropped so far (incomplete scans, late or
+  /// foreign packets) and for input that does not fit the metadata (no packet of its lidar
+  /// packet size). Empty when everything decoded.
+  std::vector<std::string> notices(const std::string& where) const;
 
  private:
   struct Impl;

@@ -1,0 +1,79 @@
+// hazmap label SEQ --camera CAM.yaml [--camera ...] [--rules RULES.yaml] --out SEQ2: classes and
+// property values from calibrated cameras (docs/properties.md).
+#include <fmt/format.h>
+
+#include <iostream>
+#include <memory>
+
+#include "command.hpp"
+#include "hazmap/properties/label_sequence.hpp"
+
+namespace hazmap::cli {
+namespace {
+
+struct LabelCliOptions {
+  std::string sequence, out, rules;
+  std::vector<std::string> cameras;
+  double time_tolerance = 0.1;
+  ProjectionConfig projection;
+  bool no_motion_compensation = false;
+  bool overwrite = false, json = false;
+  long overlay = -1;
+};
+
+void label(const LabelCliOptions& o) {
+  LabelOptions options;
+  for (const auto& c : o.cameras) options.cameras.emplace_back(c);
+  options.rules = o.rules;
+  options.labeler.time_tolerance = o.time_tolerance;
+  options.labeler.projection = o.projection;
+  options.labeler.motion_compensation = !o.no_motion_compensation;
+  options.overwrite = o.overwrite;
+  const LabelReport r = labelSequence(o.sequence, o.out, options);
+  if (o.overlay >= 0)
+    writeLabelOverlays(o.out, options.cameras, static_cast<std::size_t>(o.overlay), options.labeler);
+  if (o.json) {
+    std::cout << labelReportJson(r);
+    return;
+  }
+  const auto pct = [](std::size_t a, std::size_t b) { return b ? 100.0 * double(a) / double(b) : 0.0; };
+  std::cout << fmt::format("labelled {} frames ({} points) into {} in {:.1f} s: {:.1f} % in view, {:.1f} % observed, "
+                           "{} occluded, {} missing images\n",
+                           r.frames, r.points, o.out, r.seconds, pct(r.projection.in_view, r.points),
+                           pct(r.projection.observed, r.points), r.projection.occluded, r.images_missing);
+  if (r.truth_source.empty()) return;
+  std::cout << fmt::format("against {}/ (inside the cameras' view):\n", r.truth_source);
+  const auto show = [](const std::optional<double>& v) { return v ? fmt::format("{:.3f}", *v) : std::string("-"); };
+  for (const auto& [name, m] : r.classes)
+    std::cout << fmt::format("  {:<12} precision {}  recall {}  observed {} of {} points\n", name, show(m.precision()),
+                             show(m.recall()), show(m.observedFraction()), m.true_points);
+}
+
+const RegisterCommand registration{{
+    "label",
+    "Label a sequence from calibrated property cameras (thermal, NIR, gamma) and write it as a new sequence",
+    [](CLI::App& app) {
+      auto o = std::make_shared<LabelCliOptions>();
+      app.add_option("sequence", o->sequence, "Sequence directory (velodyne/, times.txt, poses.txt or odometry.txt)")
+          ->required();
+      app.add_option("--camera", o->cameras, "camera.yaml (ROS camera_info + T_camera_lidar, time_offset, channel); repeatable")
+          ->required();
+      app.add_option("--rules", o->rules, "Class rules YAML (e.g. 'heat: temperature >= 60'); default: built-in rules");
+      app.add_option("--out", o->out, "Output sequence folder")->required();
+      app.add_option("--time-tolerance", o->time_tolerance, "Largest |image time - scan time| used (s)");
+      app.add_option("--depth-cell", o->projection.depth_cell_px, "Depth-test z-buffer cell size (pixels)");
+      app.add_option("--depth-splat", o->projection.splat_cells, "Depth-test splat radius (cells)");
+      app.add_option("--edge-guard", o->projection.edge_guard_px,
+                     "No hazard class where a pixel within N pixels would not give it (robust to calibration error)");
+      app.add_option("--depth-tolerance", o->projection.depth_tolerance, "Depth-test tolerance (m)");
+      app.add_flag("--no-motion-compensation", o->no_motion_compensation,
+                   "Do not place images with the pose at their own time");
+      app.add_option("--overlay", o->overlay,
+                     "Also draw frame N's points on each camera's image: OUT/overlays/<camera>_NNNNNN.png");
+      app.add_flag("--overwrite", o->overwrite, "Replace --out if it is a previous sequence");
+      app.add_flag("--json", o->json, "Print the report as JSON (labels.<class>.precision, .recall, .observed_fraction)");
+      app.callback([o] { label(*o); });
+    }}};
+
+}  // namespace
+}  // namespace hazmap::cli

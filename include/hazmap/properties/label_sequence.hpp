@@ -1,0 +1,60 @@
+#pragma once
+// `hazmap label`: a sequence + calibrated cameras → the same sequence with classes (and the
+// first channel's values) from the cameras, and, when the input has ground-truth classes,
+// per-class precision and recall of the camera labels.
+#include <filesystem>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "hazmap/io/sequence.hpp"
+#include "hazmap/properties/labeler.hpp"
+
+namespace hazmap {
+
+struct LabelOptions {
+  std::vector<std::filesystem::path> cameras;  ///< camera.yaml files (images next to them or `images:`)
+  std::filesystem::path rules;                 ///< empty = built-in rules for the cameras' channels
+  LabelerConfig labeler;
+  bool overwrite = false;
+};
+
+/// Per property class, counted over all frames. "In view" = inside some camera's image.
+struct ClassLabelMetrics {
+  std::size_t true_points = 0;     ///< points of this class in the truth
+  std::size_t observed = 0;        ///< of those, the ones a camera observed (a finite value)
+  std::size_t true_positive = 0, false_positive = 0, false_negative = 0;  ///< in view
+  std::optional<double> precision() const;
+  std::optional<double> recall() const;
+  std::optional<double> observedFraction() const;
+};
+
+struct LabelReport {
+  std::size_t frames = 0, points = 0;
+  std::vector<std::string> channels;
+  ProjectionStats projection;
+  std::size_t images_missing = 0;  ///< (frame, camera) pairs without an image within the tolerance
+  std::string truth_source;        ///< labels_true/, labels/ or empty (no truth)
+  std::map<std::string, ClassLabelMetrics> classes;  ///< property classes by name
+  double seconds = 0.0;
+};
+
+/// The labeler for these camera files and rules over a sequence's class table.
+PropertyLabeler makeLabeler(const std::vector<std::filesystem::path>& cameras, const std::filesystem::path& rules,
+                            const ClassTable& table, const LabelerConfig& config);
+/// Scan times of a sequence: times.txt (one per scan). Throws naming the file if missing/short.
+std::vector<double> readScanTimes(const Sequence& sequence);
+/// Labels every frame of `sequence_dir` and writes the labelled sequence to `out_dir`
+/// atomically (velodyne/, labels/, the first channel as property, poses, odometry, times).
+LabelReport labelSequence(const std::filesystem::path& sequence_dir, const std::filesystem::path& out_dir,
+                          const LabelOptions& options);
+/// Writes <labelled_dir>/overlays/<camera>_NNNNNN.png for one frame of a labelled sequence:
+/// each camera's image nearest in time with the frame's points on it (overlay.hpp).
+void writeLabelOverlays(const std::filesystem::path& labelled_dir, const std::vector<std::filesystem::path>& cameras,
+                        std::size_t frame, const LabelerConfig& config);
+/// {"frames", "points", "channels", "observed_fraction", "images_missing", "truth",
+///  "labels": {class: {precision, recall, observed_fraction, true_points}}}
+std::string labelReportJson(const LabelReport& report);
+
+}  // namespace hazmap

@@ -1,0 +1,246 @@
+#include "hazmap/properties/label_sequence.hpp"
+
+#include <nlohmann/json.hpp>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <sstream>
+
+#include "hazmap/core/error.hpp"
+#include "hazmap/io/atomic_file.hpp"
+#include "hazmap/io/kitti.hpp"
+#include "hazmap/io/temporary_folder.hpp"
+#include "hazmap/properties/overlay.hpp"
+
+namespace hazmap {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+std::optional<double> ratio(std::size_t num, std::size_t den) {
+  if (den == 0) return std::nullopt;
+  return static_cast<double>(num) / static_cast<double>(den);
+}
+
+}  // namespace
+
+std::optional<double> ClassLabelMetrics::precision() const { return ratio(true_positive, true_positive + false_positive); }
+std::optional<double> ClassLabelMetrics::recall() const { return ratio(true_positive, true_positive + false_negative); }
+std::optional<double> ClassLabelMetrics::observedFraction() const { return ratio(observed, true_points); }
+
+PropertyLabeler makeLabeler(const std::vector<fs::path>& cameras, const fs::path& rules, const ClassTable& table,
+                            const LabelerConfig& config) {
+  if (cameras.empty()) fail("label", "no camera given (--camera CAM.yaml)");
+  std::vector<CameraInput> inputs;
+  std::vector<std::string> channels;
+  for (const fs::path& path : cameras) {
+    CameraInput in;
+    in.camera = readCameraYaml(path);
+    const fs::path images = in.camera.images.empty() ? fs::absolute(path).parent_path() : in.camera.images;
+    in.images = std::make_shared<FolderImages>(images);
+    channels.push_back(in.camera.channel.name);
+    inputs.push_back(std::move(in));
+  }
+  PropertyRules r = rules.empty() ? PropertyRules::defaults(channels, table) : PropertyRules::fromYamlFile(rules, table);
+  if (r.rules().empty())
+    fail("label", "no built-in rule applies to the cameras' channels; give --rules RULES.yaml");
+  if (!rules.empty()) r.checkChannels(channels, rules.string());
+  return PropertyLabeler(std::move(inputs), std::move(r), config);
+}
+
+std::vector<double> readScanTimes(const Sequence& sequence) {
+  const fs::path path = sequence.directory() / "times.txt";
+  if (!fs::exists(path)) fail(path.string(), "missing: scan times are needed to match camera images");
+  std::istringstream in(readTextFile(path));
+  std::vector<double> times;
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
+    try {
+      times.push_back(std::stod(line));
+    } catch (const std::logic_error&) {
+      fail(path.string(), "line " + std::to_string(times.size() + 1) + " is not a number");
+    }
+  }
+  if (times.size() != sequence.size())
+    fail(path.string(), "has " + std::to_string(times.size()) + " times for " + std::to_string(sequence.size()) + " scans");
+  return times;
+}
+
+namespace {
+
+/// The classes that judge the camera labels: the simulator's noise-free labels_true/ when
+/// present, else labels/ (what the scans carry); none without labels.
+std::string truthSource(const fs::path& dir) {
+  if (fs::is_directory(dir / "labels_true")) return "labels_true";
+  if (fs::is_directory(dir / "labels") && !fs::is_empty(dir / "labels")) return "labels";
+  return "";
+}
+
+std::vector<ClassId> truthOf(const Sequence& seq, std::size_t i, const LabeledCloud& scan, const std::string& source) {
+  if (source != "labels_true") return scan.classes;
+  fs::path path = seq.directory() / "labels_true" / seq.scanPath(i).filename();
+  path.replace_extension(".label");
+  const auto raw = readSemanticKittiLabels(path);
+  if (raw.size() != scan.size())
+    fail(path.string(), "has " + std::to_string(raw.size()) + " labels for " + std::to_string(scan.size()) + " points");
+  std::vector<ClassId> out(raw.size());
+  for (std::size_t k = 0; k < raw.size(); ++k) out[k] = static_cast<ClassId>(raw[k] & 0xFFFF);
+  return out;
+}
+
+/// Counts for the classes the rules can give (the others are not the cameras' business).
+void accumulate(const ScanLabels& labels, const std::vector<ClassId>& truth, const PropertyRules& rules,
+                const ClassTable& table, LabelReport& report) {
+  std::vector<ClassId> ruled;
+  for (const ClassRule& r : rules.rules())
+    if (std::find(ruled.begin(), ruled.end(), r.class_id) == ruled.end()) ruled.push_back(r.class_id);
+  for (ClassId id : ruled) {
+    ClassLabelMetrics& m = report.classes[table.at(id).name];
+    for (std::size_t i = 0; i < truth.size(); ++i) {
+      const bool is = truth[i] == id, said = labels.classes[i] == id;
+      if (is) {
+        ++m.true_points;
+        for (const auto& ch : labels.channels)
+          if (std::isfinite(ch[i])) {
+            ++m.observed;
+            break;
+          }
+      }
+      if (!labels.in_view[i]) continue;
+      m.true_positive += is && said;
+      m.false_positive += !is && said;
+      m.false_negative += is && !said;
+    }
+  }
+}
+
+void copyIfExists(const fs::path& from, const fs::path& to) {
+  if (fs::exists(from)) fs::copy_file(from, to, fs::copy_options::overwrite_existing);
+}
+
+}  // namespace
+
+LabelReport labelSequence(const fs::path& sequence_dir, const fs::path& out_arg, const LabelOptions& options) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const Sequence seq = Sequence::open(sequence_dir);
+  const std::vector<double> times = readScanTimes(seq);
+  const PropertyLabeler labeler = makeLabeler(options.cameras, options.rules, seq.classTable(), options.labeler);
+  if (out_arg.empty()) fail("label", "no output folder given (--out)");
+  fs::path out = fs::absolute(out_arg).lexically_normal();
+  if (!out.has_filename()) out = out.parent_path();
+  if (out == fs::absolute(sequence_dir).lexically_normal()) fail(out_arg.string(), "is the input sequence");
+  const bool replace = checkSequenceOutput(out, out_arg.string(), options.overwrite);
+
+  // Poses place each image where the LiDAR was when it was taken (truth, else odometry).
+  Trajectory poses;
+  if (const auto& t = seq.groundTruth() ? seq.groundTruth() : seq.odometry())
+    for (std::size_t i = 0; i < t->size(); ++i) poses.push_back(times[i], t->poses[i]);
+  const PoseAtTime pose_at = [&](double t) { return interpolatePose(poses, t); };
+
+  LabelReport report;
+  report.channels = labeler.channels();
+  report.truth_source = truthSource(sequence_dir);
+  TemporaryFolder tmp{temporarySibling(out)};
+  fs::create_directories(tmp.path);
+  SequenceWriter writer(tmp.path, seq.classTable(), seq.sensorYaml());
+  writer.setPropertyChannel(labeler.channels().front());
+  const std::size_t batch = 16;
+  std::vector<LabeledCloud> scans;
+  std::vector<ScanLabels> labels;
+  for (std::size_t begin = 0; begin < seq.size(); begin += batch) {
+    const std::size_t end = std::min(seq.size(), begin + batch);
+    scans.assign(end - begin, {});
+    labels.assign(end - begin, {});
+    tbb::parallel_for(begin, end, [&](std::size_t i) {
+      scans[i - begin] = seq.frame(i);
+      labels[i - begin] = labeler.label(scans[i - begin], times[i], poses.empty() ? PoseAtTime{} : pose_at);
+    });
+    for (std::size_t i = begin; i < end; ++i) {
+      LabeledCloud& scan = scans[i - begin];
+      const ScanLabels& l = labels[i - begin];
+      if (!report.truth_source.empty()) accumulate(l, truthOf(seq, i, scan, report.truth_source), labeler.rules(), seq.classTable(), report);
+      for (std::size_t c = 1; c < l.channels.size(); ++c) {
+        const fs::path dir = tmp.path / labeler.channels()[c];
+        fs::create_directories(dir);
+        char name[32];
+        std::snprintf(name, sizeof name, "%06zu.bin", i);
+        writeFileAtomically(dir / name, [&](std::ostream& o) {
+          o.write(reinterpret_cast<const char*>(l.channels[c].data()), static_cast<std::streamsize>(l.channels[c].size() * 4));
+        });
+      }
+      PropertyLabeler::apply(l, scan);
+      writer.addFrame(scan);
+      report.points += scan.size();
+      report.projection += l.projection;
+      report.images_missing += l.images_missing;
+    }
+  }
+  report.frames = seq.size();
+  if (seq.groundTruth()) writer.writeGroundTruth(*seq.groundTruth());
+  if (seq.odometry()) writer.writeOdometry(*seq.odometry());
+  writer.finish();
+  copyIfExists(sequence_dir / "times.txt", tmp.path / "times.txt");
+  for (const char* f : {"reference_map.ply", "scene.ply", "regions.yaml"}) copyIfExists(sequence_dir / f, tmp.path / f);
+  if (report.truth_source == "labels_true") fs::copy(sequence_dir / "labels_true", tmp.path / "labels_true");
+  writeTextAtomically(tmp.path / "labels.json", labelReportJson(report));
+  commitFolder(tmp, out, out_arg.string(), replace);
+  report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return report;
+}
+
+void writeLabelOverlays(const fs::path& labelled_dir, const std::vector<fs::path>& cameras, std::size_t frame,
+                        const LabelerConfig& config) {
+  const Sequence seq = Sequence::open(labelled_dir);
+  if (frame >= seq.size()) fail("--overlay", "frame " + std::to_string(frame) + " is beyond the sequence");
+  const double t = readScanTimes(seq).at(frame);
+  const LabeledCloud scan = seq.frame(frame);
+  fs::create_directories(labelled_dir / "overlays");
+  for (const fs::path& path : cameras) {
+    const CameraCalibration cam = readCameraYaml(path);
+    const FolderImages images(cam.images.empty() ? fs::absolute(path).parent_path() : cam.images);
+    const auto& stamps = images.stamps();
+    std::size_t best = 0;
+    for (std::size_t k = 1; k < stamps.size(); ++k)
+      if (std::abs(stamps[k] + cam.time_offset - t) < std::abs(stamps[best] + cam.time_offset - t)) best = k;
+    if (std::abs(stamps[best] + cam.time_offset - t) > config.time_tolerance) continue;
+    OverlayConfig overlay;
+    if (cam.channel.name != "temperature") {  // reflectance, dose rate: their own ranges
+      overlay.value_min = 0.0;
+      overlay.value_max = cam.channel.name == "nir_reflectance" ? 1.0 : 60.0;
+    }
+    char name[64];
+    std::snprintf(name, sizeof name, "_%06zu.png", frame);
+    writeOverlayPng(labelled_dir / "overlays" / (cam.name + name), images.load(best, cam), cam, scan, cam.T_camera_lidar,
+                    seq.classTable(), config.projection, overlay);
+  }
+}
+
+std::string labelReportJson(const LabelReport& r) {
+  const auto opt = [](const std::optional<double>& v) { return v ? nlohmann::json(*v) : nlohmann::json(); };
+  nlohmann::json j;
+  j["frames"] = r.frames;
+  j["points"] = r.points;
+  j["channels"] = r.channels;
+  j["in_view_fraction"] = opt(ratio(r.projection.in_view, r.points));
+  j["observed_fraction"] = opt(ratio(r.projection.observed, r.points));
+  j["occluded"] = r.projection.occluded;
+  j["images_missing"] = r.images_missing;
+  j["truth"] = r.truth_source.empty() ? nlohmann::json() : nlohmann::json(r.truth_source);
+  nlohmann::json classes = nlohmann::json::object();
+  for (const auto& [name, m] : r.classes)
+    classes[name] = {{"precision", opt(m.precision())},
+                     {"recall", opt(m.recall())},
+                     {"observed_fraction", opt(m.observedFraction())},
+                     {"true_points", m.true_points},
+                     {"true_positive", m.true_positive},
+                     {"false_positive", m.false_positive},
+                     {"false_negative", m.false_negative}};
+  j["labels"] = classes;
+  return j.dump(2) + "\n";
+}
+
+}  // namespace hazmap

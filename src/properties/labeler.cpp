@@ -1,0 +1,153 @@
+#include "hazmap/properties/labeler.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "hazmap/core/error.hpp"
+
+namespace hazmap {
+
+void MemoryImages::add(PropertyImage image) {
+  if (!stamps_.empty() && image.stamp < stamps_.back()) fail("images", "image stamps go back in time");
+  stamps_.push_back(image.stamp);
+  images_.push_back(std::move(image));
+}
+
+void LabelerConfig::validate(const std::string& where) const {
+  projection.validate(where);
+  if (!(time_tolerance >= 0)) fail(where, "time_tolerance must be >= 0");
+}
+
+std::optional<Eigen::Isometry3d> interpolatePose(const Trajectory& trajectory, double t) {
+  const auto& s = trajectory.stamps;
+  if (s.empty() || t < s.front() || t > s.back() || s.size() != trajectory.poses.size()) return std::nullopt;
+  const std::size_t hi = static_cast<std::size_t>(std::lower_bound(s.begin(), s.end(), t) - s.begin());
+  if (s[hi] == t || hi == 0) return trajectory.poses[hi];
+  const std::size_t lo = hi - 1;
+  const double a = (t - s[lo]) / (s[hi] - s[lo]);
+  const Eigen::Isometry3d& A = trajectory.poses[lo];
+  const Eigen::Isometry3d& B = trajectory.poses[hi];
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = Eigen::Quaterniond(A.linear()).slerp(a, Eigen::Quaterniond(B.linear())).toRotationMatrix();
+  T.translation() = (1 - a) * A.translation() + a * B.translation();
+  return T;
+}
+
+PropertyLabeler::PropertyLabeler(std::vector<CameraInput> cameras, PropertyRules rules, LabelerConfig config)
+    : cameras_(std::move(cameras)), rules_(std::move(rules)), config_(config) {
+  config_.validate("labeler");
+  for (const CameraInput& c : cameras_) {
+    if (!c.images) fail(c.camera.source.string(), "camera has no image source");
+    const auto it = std::find(channels_.begin(), channels_.end(), c.camera.channel.name);
+    camera_channel_.push_back(static_cast<int>(it - channels_.begin()));
+    if (it == channels_.end()) channels_.push_back(c.camera.channel.name);
+  }
+  rules_.checkChannels(channels_, "rules");
+}
+
+namespace {
+
+/// Index of the image nearest to `t` within `tolerance`, or -1.
+long nearestImage(const std::vector<double>& stamps, double offset, double t, double tolerance) {
+  const auto it = std::lower_bound(stamps.begin(), stamps.end(), t - offset);
+  long best = -1;
+  double best_dt = tolerance;
+  for (auto c : {it, it == stamps.begin() ? it : it - 1}) {
+    if (c == stamps.end()) continue;
+    const double dt = std::abs(*c + offset - t);
+    if (dt <= best_dt) {
+      best_dt = dt;
+      best = static_cast<long>(c - stamps.begin());
+    }
+  }
+  return best;
+}
+
+/// |z| of each point's unit normal in the world frame (NaN where no normal could be fitted).
+std::vector<float> normalZ(const LabeledCloud& scan, const Eigen::Matrix3d& R_world_lidar, const NormalConfig& config) {
+  const std::vector<Eigen::Vector3f> normals = estimateNormals(scan, config);
+  std::vector<float> out(scan.size(), std::numeric_limits<float>::quiet_NaN());
+  const Eigen::Vector3f up = R_world_lidar.transpose().col(2).cast<float>();  // world z in the LiDAR frame
+  for (std::size_t i = 0; i < normals.size(); ++i)
+    if (normals[i].squaredNorm() > 0.5f) out[i] = std::abs(normals[i].dot(up));
+  return out;
+}
+
+}  // namespace
+
+ScanLabels PropertyLabeler::label(const LabeledCloud& scan, double time, const PoseAtTime& pose_at) const {
+  ScanLabels out;
+  const std::size_t n = scan.size();
+  out.channels.assign(channels_.size(), std::vector<float>(n, std::numeric_limits<float>::quiet_NaN()));
+  out.in_view.assign(n, 0);
+  const bool guard = config_.projection.edge_guard_px > 0;
+  std::vector<std::vector<float>> low(guard ? channels_.size() : 0, std::vector<float>(n, NAN));
+  std::vector<std::vector<float>> high = low;
+  const std::optional<Eigen::Isometry3d> T_world_scan = pose_at ? pose_at(time) : std::nullopt;
+  ProjectionScratch scratch;
+  for (std::size_t c = 0; c < cameras_.size(); ++c) {
+    const CameraCalibration& cam = cameras_[c].camera;
+    const long k = nearestImage(cameras_[c].images->stamps(), cam.time_offset, time, config_.time_tolerance);
+    if (k < 0) {
+      ++out.images_missing;
+      continue;
+    }
+    const PropertyImage image = cameras_[c].images->load(static_cast<std::size_t>(k), cam);
+    Eigen::Isometry3d T_camera_scan = cam.T_camera_lidar;
+    if (config_.motion_compensation && T_world_scan) {
+      const double t_image = image.stamp + cam.time_offset;
+      if (const auto T_world_image = pose_at(t_image)) T_camera_scan = cam.T_camera_lidar * T_world_image->inverse() * *T_world_scan;
+    }
+    out.projection += projectIntoImage(scan.points, T_camera_scan, cam.model, image, config_.projection,
+                                       out.channels[camera_channel_[c]], out.in_view, &scratch,
+                                       guard ? std::span<float>(low[camera_channel_[c]]) : std::span<float>(),
+                                       guard ? std::span<float>(high[camera_channel_[c]]) : std::span<float>());
+    ++out.images_used;
+  }
+  // Rule variables per point: channels by name, normal_z computed only when asked for.
+  const auto& vars = rules_.variables();
+  std::vector<const std::vector<float>*> sources(vars.size(), nullptr), lows(vars.size()), highs(vars.size());
+  std::vector<float> nz;
+  for (std::size_t v = 0; v < vars.size(); ++v) {
+    if (vars[v] == "normal_z") {
+      if (nz.empty()) nz = normalZ(scan, T_world_scan ? Eigen::Matrix3d(T_world_scan->linear()) : Eigen::Matrix3d::Identity(), config_.normals);
+      sources[v] = lows[v] = highs[v] = &nz;
+    } else {
+      const auto ch = std::find(channels_.begin(), channels_.end(), vars[v]) - channels_.begin();
+      sources[v] = &out.channels[ch];
+      lows[v] = guard ? &low[ch] : sources[v];
+      highs[v] = guard ? &high[ch] : sources[v];
+    }
+  }
+  out.classes.assign(n, 0);
+  std::vector<float> values(vars.size());
+  for (std::size_t i = 0; i < n; ++i) {
+    for (std::size_t v = 0; v < vars.size(); ++v) values[v] = (*sources[v])[i];
+    ClassId c = rules_.classify(values.data());
+    // Edge guard: a hazard class that the darkest or brightest pixel nearby would not give is
+    // left out — a calibration error of that many pixels could have made it.
+    if (guard && c != 0) {
+      const auto at = [&](const std::vector<float>* range, std::size_t v) {
+        const float x = (*range)[i];
+        return std::isnan(x) ? (*sources[v])[i] : x;  // no range where another camera gave the value
+      };
+      for (std::size_t v = 0; v < vars.size(); ++v) values[v] = at(lows[v], v);
+      if (rules_.classify(values.data()) != c) c = 0;
+      for (std::size_t v = 0; v < vars.size(); ++v) values[v] = at(highs[v], v);
+      if (rules_.classify(values.data()) != c) c = 0;
+    }
+    out.classes[i] = c;
+  }
+  return out;
+}
+
+void PropertyLabeler::apply(const ScanLabels& labels, LabeledCloud& scan) {
+  scan.classes = labels.classes;
+  if (!labels.channels.empty()) {
+    scan.enableProperty();
+    scan.property = labels.channels.front();
+  }
+}
+
+}  // namespace hazmap
