@@ -116,6 +116,8 @@ TEST(ConfigFields, ErrorsNameTheFileAndTheKey) {
   EXPECT_EQ(errorOf([] { registrationConfigFromYaml("min_label_pairs: -3\n", "r.yaml"); }),
             "r.yaml: registration.min_label_pairs: must be a whole number >= 0, got '-3'");
   EXPECT_EQ(errorOf([] { registrationConfigFromYaml("max_iterations: [\n", "r.yaml"); }).rfind("r.yaml: invalid YAML", 0), 0u);
+  EXPECT_EQ(errorOf([] { configFromYaml<PropertyIcpConfig>("class_radius: {\"he\\x05at\": 1}\n", "p.yaml", "property_icp", {}); }),
+            "p.yaml: property_icp.class_radius: must be printable UTF-8 text");
   // No suggestion when nothing is close.
   EXPECT_EQ(errorOf([] { registrationConfigFromYaml("zzzzzzzzzzzzzzzz: 1\n", "r.yaml"); }),
             "r.yaml: registration: unknown key 'zzzzzzzzzzzzzzzz'");

@@ -107,8 +107,23 @@ bool readBool(const YAML::Node& node, const ConfigPlace& place) {
   }
 }
 
+// Valid UTF-8 without control characters: text that YAML and JSON write back unchanged.
+bool plainText(const std::string& s) {
+  for (std::size_t i = 0; i < s.size();) {
+    const auto c = static_cast<unsigned char>(s[i]);
+    const int extra = c < 0x80 ? 0 : (c >> 5) == 0x6 ? 1 : (c >> 4) == 0xe ? 2 : (c >> 3) == 0x1e ? 3 : -1;
+    if (extra < 0 || (extra == 0 && (c < 0x20 || c == 0x7f)) || i + extra >= s.size() + (extra ? 0 : 1)) return false;
+    for (int k = 1; k <= extra; ++k)
+      if ((static_cast<unsigned char>(s[i + k]) >> 6) != 0x2) return false;
+    i += 1 + extra;
+  }
+  return true;
+}
+
 std::string readString(const YAML::Node& node, const ConfigPlace& place) {
-  return scalarText(node, place, "a single value (text)");
+  std::string text = scalarText(node, place, "a single value (text)");
+  if (!plainText(text)) place.fail("must be printable UTF-8 text");
+  return text;
 }
 
 void checkRange(double value, const Range& range, const ConfigPlace& place) {

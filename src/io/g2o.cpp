@@ -129,23 +129,29 @@ struct RawEdge {
   int line;
 };
 
-}  // namespace
 
-PoseGraph parseG2o(const std::string& text, const std::string& name, G2oReadInfo* info,
-                   G2oInformation policy) {
-  LineParser p{name};
-  std::vector<int> adjusted;
+// Every line of a g2o text, checked, before the graph is assembled.
+struct G2oLines {
   int dimension = 0;
-  auto setDimension = [&](int d) {
-    if (dimension != 0 && dimension != d) p.error("mixes 2-D and 3-D vertices/edges");
-    dimension = d;
-  };
   std::vector<std::pair<std::int64_t, Eigen::Isometry3d>> vertices;
   std::map<std::int64_t, int> vertex_line;
   std::vector<RawEdge> raw;
   std::int64_t fix_id = -1;
   int fix_line = 0;
+  std::vector<int> adjusted;  ///< lines whose information was changed (G2oInformation)
+};
 
+G2oLines readLines(const std::string& text, LineParser& p, G2oInformation policy) {
+  G2oLines g;
+  int& dimension = g.dimension;
+  auto& vertices = g.vertices;
+  auto& vertex_line = g.vertex_line;
+  auto& raw = g.raw;
+  auto& adjusted = g.adjusted;
+  auto setDimension = [&](int d) {
+    if (dimension != 0 && dimension != d) p.error("mixes 2-D and 3-D vertices/edges");
+    dimension = d;
+  };
   std::size_t pos = 0;
   while (pos <= text.size()) {
     std::size_t end = text.find('\n', pos);
@@ -192,12 +198,27 @@ PoseGraph parseG2o(const std::string& text, const std::string& name, G2oReadInfo
       raw.push_back(e);
     } else if (tag == "FIX") {
       p.expectTokens(t, 2);
-      fix_id = p.integer(t[1]);
-      fix_line = p.line;
+      g.fix_id = p.integer(t[1]);
+      g.fix_line = p.line;
     } else {
       p.error("unknown tag '" + std::string(tag) + "'");
     }
   }
+  return g;
+}
+
+}  // namespace
+
+PoseGraph parseG2o(const std::string& text, const std::string& name, G2oReadInfo* info,
+                   G2oInformation policy) {
+  LineParser p{name};
+  G2oLines lines = readLines(text, p, policy);
+  const int dimension = lines.dimension;
+  const auto& vertices = lines.vertices;
+  const auto& raw = lines.raw;
+  const std::int64_t fix_id = lines.fix_id;
+  const int fix_line = lines.fix_line;
+  auto& adjusted = lines.adjusted;
   if (dimension == 0) fail(name, "no vertices or edges (not a g2o pose graph)");
 
   PoseGraph graph;

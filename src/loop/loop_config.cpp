@@ -73,7 +73,7 @@ const ConfigFields<CandidateSearchConfig>& configFields(ConfigTag<CandidateSearc
                    "Keyframes newer than query − gap are never candidates")
           .number("search_radius", &C::search_radius, positive(), "m; distance search radius")
           .integer("max_candidates", &C::max_candidates, atLeast(1), "Candidates per query, best first")
-          .section("constellation", &C::constellation, "Constellation matching");
+          .section("constellation", &C::constellation, "");
   return fields;
 }
 
@@ -130,10 +130,10 @@ const ConfigFields<LoopClosureConfig>& configFields(ConfigTag<LoopClosureConfig>
                    "Constellations merge the landmarks of this many keyframes")
           .number("landmark_merge_distance", &C::landmark_merge_distance, positive(),
                   "m; same-class landmarks closer than this fuse")
-          .section("landmarks", &C::landmarks, "Landmark extraction")
-          .section("candidates", &C::candidates, "Candidate search")
-          .section("verification", &C::verification, "ICP verification")
-          .section("consistency", &C::consistency, "Drift gate and pairwise consistency");
+          .section("landmarks", &C::landmarks, "")
+          .section("candidates", &C::candidates, "")
+          .section("verification", &C::verification, "")
+          .section("consistency", &C::consistency, "");
   return fields;
 }
 

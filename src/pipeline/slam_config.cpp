@@ -40,13 +40,13 @@ const ConfigFields<SlamConfig>& configFields(ConfigTag<SlamConfig>) {
   using C = SlamConfig;
   static const ConfigFields<C> fields =
       ConfigFields<C>("A whole run (hazmap run --config, hazmap demo): every stage's section.")
-          .section("odometry", &C::odometry, "Tracking")
-          .section("property_icp", &C::property_icp, "α and class search radii, for tracking and loops")
-          .section("loop_closure", &C::loop_closure, "Loop closure (PGO methods)")
-          .section("graph", &C::graph, "Pose-graph optimisation")
-          .section("wheel_noise", &C::wheel_noise, "Wheel-odometry edge uncertainty")
+          .section("odometry", &C::odometry, "")
+          .section("property_icp", &C::property_icp, "")
+          .section("loop_closure", &C::loop_closure, "PGO methods only")
+          .section("graph", &C::graph, "")
+          .section("wheel_noise", &C::wheel_noise, "")
           .section<SlamConfig>("slam", [](C& c) -> C& { return c; }, slamSectionFields(),
-                               "Keyframes and odometry-edge floors");
+                               "Settings of the run itself");
   return fields;
 }
 

@@ -93,11 +93,11 @@ const ConfigFields<SimulatorConfig>& configFields(ConfigTag<SimulatorConfig>) {
           .integer("seed", &C::seed, nonNegative(), "Random seed (same seed, same bytes)")
           .integer("frames", &C::max_frames, nonNegative(), "0 = the whole route")
           .number("reference_voxel", &C::reference_voxel, positive(), "m, voxel size of reference_map.ply")
-          .section("sensor", &C::sensor, "The LiDAR")
-          .section("labels", &C::labels, "Label noise")
-          .section("temperature", &C::temperature, "Temperature channel")
-          .section("robot", &C::robot, "Robot motion")
-          .section("odometry", &C::odometry, "Encoder noise")
+          .section("sensor", &C::sensor, "")
+          .section("labels", &C::labels, "")
+          .section("temperature", &C::temperature, "")
+          .section("robot", &C::robot, "")
+          .section("odometry", &C::odometry, "")
           // Written by `hazmap simulate` into simulation.yaml for information; not settings.
           .ignore("stats")
           .ignore("world_from_first_frame");

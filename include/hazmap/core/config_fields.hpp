@@ -203,7 +203,10 @@ class ConfigFields {
   ConfigFields& section(const char* name, Get get, const ConfigFields<C>& fields, const char* doc) {
     const ConfigFields<C>* f = &fields;
     const auto cget = [get](const S& s) -> const C& { return get(const_cast<S&>(s)); };
-    const std::string full_doc = fields.doc().empty() ? std::string(doc) : std::string(doc) + ". " + fields.doc();
+    // The struct's own description, after what this place adds (if anything).
+    const std::string full_doc = std::string(doc).empty() ? fields.doc()
+                                 : fields.doc().empty()   ? std::string(doc)
+                                                          : std::string(doc) + ". " + fields.doc();
     Field field{{name, "section", full_doc, "", {}, {}},
                 [f, get](S& s, const YAML::Node& n, const ConfigPlace& p) { f->read(get(s), n, p); },
                 [f, cget](const S& s) { return f->write(cget(s)); },
