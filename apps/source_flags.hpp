@@ -2,6 +2,8 @@
 // The flags every command that reads a recording shares (run, odometry, loops, info, convert):
 // which topics of a bag, the sensor's metadata or calibration, deskewing.
 #include <CLI/CLI.hpp>
+#include <unistd.h>
+
 #include <iostream>
 #include <optional>
 #include <string>
@@ -36,7 +38,11 @@ struct SourceFlags {
     o.sensor_metadata = sensor_metadata;
     o.velodyne_calibration = velodyne_calibration;
     o.class_table = std::move(table);
-    if (print_notices) o.notice = [](const std::string& line) { std::cerr << "notice: " << line << "\n"; };
+    // On a terminal the progress bar's line is cleared first (it is redrawn on the next frame).
+    if (print_notices)
+      o.notice = [](const std::string& line) {
+        std::cerr << (::isatty(STDERR_FILENO) ? "\r\033[K" : "") << "notice: " << line << "\n";
+      };
     return o;
   }
 };
