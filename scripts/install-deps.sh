@@ -12,6 +12,7 @@ packages=(
   libsqlite3-dev libzstd-dev liblz4-dev libbz2-dev zlib1g-dev
   libpcap-dev
   libcairo2-dev fonts-dejavu-core libjs-three chromium
+  python3-dev python3-pybind11 python3-pytest python3-numpy python3-dask python3-distributed
 )
 if [[ "${1:-}" == "--peers" ]]; then
   packages+=(libpcl-dev libopen3d-dev)

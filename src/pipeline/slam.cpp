@@ -115,11 +115,11 @@ class SlamRun {
     has_odometry_ = first.odometry.has_value();
     if (has_odometry_) T_start_odom0_ = start_ * first.odometry->inverse();
     // α and the class search radii, set once for tracking and loop verification alike.
-    const ClassTable classes = config_.property_icp.applyTo(source_.classTable(), where);
-    tracker_.emplace(classes, config_.odometry, start_);
+    classes_ = config_.property_icp.applyTo(source_.classTable(), where);
+    tracker_.emplace(classes_, config_.odometry, start_);
     pgo_ = usesPoseGraph(config_.method);
     if (!pgo_) return;
-    loops_ = std::make_unique<LoopDetector>(classes, config_.loop_closure);
+    loops_ = std::make_unique<LoopDetector>(classes_, config_.loop_closure);
     // Old keyframes are re-read when a loop needs them (bounded memory): from the recording when
     // it allows that, else from the copies a stream's keyframes leave on disk.
     if (source_.canReread()) {
@@ -251,6 +251,7 @@ class SlamRun {
   const SlamConfig& config_;
   SlamResult result_;
   Eigen::Isometry3d start_ = Eigen::Isometry3d::Identity();
+  ClassTable classes_;
   bool has_odometry_ = false;
   Eigen::Isometry3d T_start_odom0_ = Eigen::Isometry3d::Identity();
   StreamDeskewer deskewer_;

@@ -1,0 +1,44 @@
+"""Scan streams from bags and captures (openScanSource), against the recordings' known contents."""
+import json
+
+import numpy as np
+import pytest
+
+import hazmap
+
+
+def test_mcap_pointcloud2_scans(data):
+    d = data / "sensors" / "mcap"
+    expected = json.loads((d / "expected.json").read_text())
+    clouds = expected["bags"]["velodyne-zstd-chunked.mcap"]["clouds"]
+    scans = list(hazmap.open(d / "velodyne-zstd-chunked.mcap", lidar_topic="/velodyne_points"))
+    assert len(scans) == len(clouds) == 3
+    for scan, exp in zip(scans, clouds):
+        assert len(scan.cloud) == exp["points"]
+        np.testing.assert_allclose(scan.cloud.points[:, 0].astype(np.float64).sum(), exp["sum_x"], rtol=1e-6)
+        assert scan.odometry is not None and scan.odometry.shape == (4, 4)
+
+
+def test_ouster_capture_scans(data):
+    source = hazmap.open(data / "sensors" / "ouster-os1-128" / "OS-1-128_v2.3.0_1024x10_lb_n3.pcap")
+    scans = list(source)
+    assert len(scans) == 3  # as `hazmap info` reports
+    for s in scans:
+        assert len(s.cloud) > 100000
+        assert s.cloud.timestamps is not None and s.cloud.timestamps.dtype == np.float64
+    assert scans[0].stamp < scans[1].stamp < scans[2].stamp
+
+
+def test_sequence_folder(sim_sequence):
+    source = hazmap.open(sim_sequence)
+    assert len(source) == 15
+    first = next(source)
+    assert first.index == 0 and first.ground_truth is not None
+    np.testing.assert_array_equal(first.cloud.points, hazmap.read_cloud(sim_sequence / "velodyne" / "000000.bin").points)
+
+
+def test_bad_recording(tmp_path):
+    p = tmp_path / "nothing.mcap"
+    p.write_bytes(b"\x89MCAP0\r\n garbage")
+    with pytest.raises(hazmap.Error, match="nothing.mcap"):
+        list(hazmap.open(p))
