@@ -3,7 +3,7 @@
 #include "config_bridge.hpp"
 #include "hazmap/graph/optimizer.hpp"
 #include "hazmap/graph/pose_graph.hpp"
-#include "hazmap/io/g2o.hpp"
+#include "hazmap/graph/g2o.hpp"
 
 namespace hazmap::python {
 
