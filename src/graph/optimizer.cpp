@@ -88,10 +88,10 @@ struct Solved {
   std::string message;
 };
 
-Solved solve(PoseGraph& graph, const PoseGraphConfig& config) {
+/// One parameter block per node: x, y, yaw (2D) or translation + 3×3 rotation, column-major (3D).
+std::vector<double> packPoses(const PoseGraph& graph, int block) {
   const int n = graph.numNodes();
   const bool planar = graph.dimension == 2;
-  const int block = planar ? 3 : 12;
   std::vector<double> params(static_cast<std::size_t>(n) * block);
   for (int i = 0; i < n; ++i) {
     double* p = params.data() + static_cast<std::size_t>(i) * block;
@@ -105,43 +105,31 @@ Solved solve(PoseGraph& graph, const PoseGraphConfig& config) {
       Eigen::Map<Mat3>{p + 3} = T.linear();
     }
   }
+  return params;
+}
 
-  ceres::Problem::Options problem_options;
-  problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
-  problem_options.enable_fast_removal = false;
-  ceres::Problem problem(problem_options);
-  PoseManifold3 manifold;
-  for (int i = 0; i < n; ++i) {
-    double* p = params.data() + static_cast<std::size_t>(i) * block;
-    problem.AddParameterBlock(p, block, planar ? nullptr : &manifold);
+/// The residual of one edge for the configured cost (owned by the problem it is added to).
+ceres::CostFunction* edgeCost(const PoseGraphEdge& e, int dimension, const PoseGraphConfig& config) {
+  const bool planar = dimension == 2;
+  const Matrix6d info = informationLeftToRight(e.T_from_to, e.information);
+  if (config.cost == PoseGraphCost::Chordal) {
+    const ChordalWeights w = chordalWeights(e, dimension);
+    if (planar)
+      return new ChordalCost2(e.T_from_to.translation().x(), e.T_from_to.translation().y(),
+                              yawOf(e.T_from_to), w.kappa, w.tau);
+    return new ChordalCost3(e.T_from_to.linear(), e.T_from_to.translation(), w.kappa, w.tau);
   }
-  for (const auto& e : graph.edges) {
-    const Matrix6d info = informationLeftToRight(e.T_from_to, e.information);
-    double* pi = params.data() + static_cast<std::size_t>(e.from) * block;
-    double* pj = params.data() + static_cast<std::size_t>(e.to) * block;
-    ceres::CostFunction* cost = nullptr;
-    if (config.cost == PoseGraphCost::Chordal) {
-      const ChordalWeights w = chordalWeights(e, graph.dimension);
-      if (planar)
-        cost = new ChordalCost2(e.T_from_to.translation().x(), e.T_from_to.translation().y(),
-                                yawOf(e.T_from_to), w.kappa, w.tau);
-      else
-        cost = new ChordalCost3(e.T_from_to.linear(), e.T_from_to.translation(), w.kappa, w.tau);
-    } else if (planar) {
-      Eigen::Matrix3d info3;
-      for (int r = 0; r < 3; ++r)
-        for (int c = 0; c < 3; ++c) info3(r, c) = info(kPlanarIndex[r], kPlanarIndex[c]);
-      cost = new GeodesicCost2(e.T_from_to.translation().x(), e.T_from_to.translation().y(),
-                               yawOf(e.T_from_to), sqrtInformation(info3));
-    } else {
-      cost = new GeodesicCost3(e.T_from_to.linear(), e.T_from_to.translation(),
-                               sqrtInformation(info));
-    }
-    problem.AddResidualBlock(cost, makeLoss(config, e.kind), pi, pj);
+  if (planar) {
+    Eigen::Matrix3d info3;
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) info3(r, c) = info(kPlanarIndex[r], kPlanarIndex[c]);
+    return new GeodesicCost2(e.T_from_to.translation().x(), e.T_from_to.translation().y(),
+                             yawOf(e.T_from_to), sqrtInformation(info3));
   }
-  problem.SetParameterBlockConstant(params.data() +
-                                    static_cast<std::size_t>(graph.fixed_node) * block);
+  return new GeodesicCost3(e.T_from_to.linear(), e.T_from_to.translation(), sqrtInformation(info));
+}
 
+ceres::Solver::Options solverOptions(const PoseGraphConfig& config) {
   ceres::Solver::Options options;
   options.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
   options.sparse_linear_algebra_library_type = ceres::SUITE_SPARSE;
@@ -153,11 +141,13 @@ Solved solve(PoseGraph& graph, const PoseGraphConfig& config) {
   options.num_threads = config.threads;
   options.minimizer_progress_to_stdout = config.verbose;
   options.logging_type = config.verbose ? ceres::PER_MINIMIZER_ITERATION : ceres::SILENT;
-  ceres::Solver::Summary summary;
-  ceres::Solve(options, &problem, &summary);
-  if (config.verbose) std::fprintf(stderr, "%s\n", summary.FullReport().c_str());
+  return options;
+}
 
-  for (int i = 0; i < n; ++i) {
+/// Writes the optimised blocks back into graph.poses (the fixed node stays as it was).
+void unpackPoses(const std::vector<double>& params, int block, PoseGraph& graph) {
+  const bool planar = graph.dimension == 2;
+  for (int i = 0; i < graph.numNodes(); ++i) {
     if (i == graph.fixed_node) continue;
     const double* p = params.data() + static_cast<std::size_t>(i) * block;
     Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
@@ -170,6 +160,30 @@ Solved solve(PoseGraph& graph, const PoseGraphConfig& config) {
     }
     graph.poses[i] = T;
   }
+}
+
+Solved solve(PoseGraph& graph, const PoseGraphConfig& config) {
+  const bool planar = graph.dimension == 2;
+  const int block = planar ? 3 : 12;
+  std::vector<double> params = packPoses(graph, block);
+  const auto blockOf = [&](int node) { return params.data() + static_cast<std::size_t>(node) * block; };
+
+  ceres::Problem::Options problem_options;
+  problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  problem_options.enable_fast_removal = false;
+  ceres::Problem problem(problem_options);
+  PoseManifold3 manifold;   // outlives the problem's use of it (not owned)
+  for (int i = 0; i < graph.numNodes(); ++i)
+    problem.AddParameterBlock(blockOf(i), block, planar ? nullptr : &manifold);
+  for (const auto& e : graph.edges)
+    problem.AddResidualBlock(edgeCost(e, graph.dimension, config), makeLoss(config, e.kind), blockOf(e.from),
+                             blockOf(e.to));
+  problem.SetParameterBlockConstant(blockOf(graph.fixed_node));
+
+  ceres::Solver::Summary summary;
+  ceres::Solve(solverOptions(config), &problem, &summary);
+  if (config.verbose) std::fprintf(stderr, "%s\n", summary.FullReport().c_str());
+  unpackPoses(params, block, graph);
   Solved s;
   s.iterations = summary.num_successful_steps + summary.num_unsuccessful_steps;
   s.converged = summary.termination_type == ceres::CONVERGENCE;
