@@ -8,7 +8,7 @@
 # A stage may include itself and any stage to its left. core and io are below everything (core
 # includes only core). sim stands beside the flow: it may use core, io, sources, properties and preprocess, and only
 # demo (and apps/, tests/, bench/, which are not checked) may use it. Also rejects includes that
-# climb out of a stage's folder ("../").
+# climb out of a stage's folder ("../"). The few documented exceptions are listed below.
 #
 #   scripts/check-layers.sh        prints each violation as file:line: <stage> -> <stage>, exit 1
 set -euo pipefail
@@ -21,10 +21,11 @@ declare -A rank=(
 # sim: beside the flow. What it may use, and who may use it.
 sim_uses="core io sources properties preprocess"
 sim_users="demo sim"
-# Allowed exceptions, one a line: "<stage> <included header>  # why".
+# Allowed exceptions: "<stage> <included header>", each with its reason in a comment above it.
 exceptions=(
-  # Normals are shared low-level geometry (PCA over neighbours, only core below); properties needs
-  # them for the normal_z rule variable on the raw scan, preprocess for ICP targets.
+  # Normals are shared low-level geometry (PCA over neighbours; with the spatial index it uses,
+  # only core below): properties needs them for the normal_z rule variable on the raw scan,
+  # preprocess for ICP targets.
   "properties hazmap/preprocess/normals.hpp"
 )
 
