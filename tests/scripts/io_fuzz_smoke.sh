@@ -2,10 +2,10 @@
 # CI-sized fuzz smoke run: builds the libFuzzer targets (fuzz/) with clang in a separate build
 # folder and runs each for a few seconds on a seed corpus made from the real shared data.
 # Skips (passes with a message) when clang or its fuzzer runtime is missing.
-# Args: SOURCE_DIR BINARY_DIR HAZMAP_CLI. Env: HAZMAP_FUZZ_SECONDS (per target, default 8).
+# Args: SOURCE_DIR BINARY_DIR HAZMAP_CLI. Env: HAZMAP_FUZZ_SECONDS (per target, default 5).
 set -euo pipefail
 src=$1; bin=$2
-seconds=${HAZMAP_FUZZ_SECONDS:-8}
+seconds=${HAZMAP_FUZZ_SECONDS:-5}
 cc=$(command -v clang || command -v clang-14 || true)
 cxx=$(command -v clang++ || command -v clang++-14 || true)
 if [[ -z "$cc" || -z "$cxx" ]]; then
