@@ -18,7 +18,7 @@ namespace hazmap {
 namespace {
 
 constexpr std::uint64_t kEmpty = ~std::uint64_t{0};
-inline std::uint64_t hashKey(std::uint64_t key) { return splitmix64Mix(key); }
+inline std::uint64_t hashKey(std::uint64_t key) { return voxelProbeHash(key); }
 
 inline bool finite(const Eigen::Vector3f& p) { return std::isfinite(p.x()) && std::isfinite(p.y()) && std::isfinite(p.z()); }
 

@@ -90,7 +90,7 @@ VoxelGroups groupByVoxel(const std::vector<std::uint64_t>& keys) {
       point_voxel[i] = kNone;
       continue;
     }
-    std::size_t slot = splitmix64Mix(key) & mask;
+    std::size_t slot = voxelProbeHash(key) & mask;
     while (table_keys[slot] != kEmpty && table_keys[slot] != key) slot = (slot + 1) & mask;
     if (table_keys[slot] == kEmpty) {
       table_keys[slot] = key;
