@@ -10,6 +10,7 @@
 
 #include "bag_readers.hpp"
 #include "block_merge.hpp"
+#include "chunked_bag_reader.hpp"
 #include "byte_cursor.hpp"
 #include "compression.hpp"
 #include "hazmap/core/error.hpp"
@@ -82,35 +83,14 @@ Codec codecOf(const std::string& name, const std::string& where) {
   fail(where, "unsupported chunk compression '" + name + "'");
 }
 
-class McapReader final : public MessageReader {
+class McapReader final : public ChunkedBagReader {
  public:
-  explicit McapReader(const std::filesystem::path& path) : file_(path), where_(path.string()) {
+  explicit McapReader(const std::filesystem::path& path) : ChunkedBagReader(path.string()), file_(path) {
     const Bytes bytes = file_.bytes();
     if (bytes.size() < kMagicSize || std::memcmp(bytes.data(), kMcapMagic, kMagicSize) != 0)
       fail(where_, "not an MCAP file (no magic bytes at offset 0)");
     if (!readSummary()) linearScan();
     buildTopics();
-  }
-
-  const std::vector<TopicInfo>& topics() const override { return topics_; }
-  std::pair<std::int64_t, std::int64_t> timeRange() const override { return range_; }
-  void selectTopics(const std::vector<std::string>& names) override {
-    for (std::size_t i = 0; i < topics_.size(); ++i)
-      selected_[i] = names.empty() || std::find(names.begin(), names.end(), topics_[i].name) != names.end();
-  }
-
-  bool next(BagMessage& message) override {
-    if (!started_) {
-      merger_ = BlockMerger(std::move(blocks_), [this](const MergeBlock& b, std::vector<std::uint8_t>& buf,
-                                                       std::vector<MergeEntry>& out) { loadBlock(b, buf, out); });
-      started_ = true;
-    }
-    MergeEntry e;
-    if (!merger_.next(e)) return false;
-    message.topic = &topics_[e.topic];
-    message.log_time_ns = e.time;
-    message.data = e.data;
-    return true;
   }
 
  private:
@@ -163,10 +143,6 @@ class McapReader final : public MessageReader {
     ++channels_[channel].count;
     extendRange(time);
   }
-  void extendRange(std::int64_t t) {
-    range_ = any_time_ ? std::pair{std::min(range_.first, t), std::max(range_.second, t)} : std::pair{t, t};
-    any_time_ = true;
-  }
 
   // ---- summary --------------------------------------------------------------------------
   bool readSummary();
@@ -177,15 +153,10 @@ class McapReader final : public MessageReader {
   void prescanChunk(const Record& r);
   // ---- reading --------------------------------------------------------------------------
   void buildTopics();
-  void loadBlock(const MergeBlock& b, std::vector<std::uint8_t>& buffer, std::vector<MergeEntry>& out);
+  void loadBlock(const MergeBlock& b, std::vector<std::uint8_t>& buffer, std::vector<MergeEntry>& out) override;
   void loadChunk(const MergeBlock& b, std::vector<std::uint8_t>& buffer, std::vector<MergeEntry>& out);
   Bytes decodeChunk(const Record& r, std::vector<std::uint8_t>& buffer);
   void addMessage(const Record& r, const std::string& where, std::vector<MergeEntry>& out);
-  void skipChunk(std::uint64_t offset, const std::string& why) {
-    if (!bad_chunks_.insert(offset).second) return;
-    ++loss_.chunks_skipped;
-    loss_.notices.push_back(where_ + ": chunk at offset " + std::to_string(offset) + " skipped: " + why);
-  }
 
   void unknownChannel(std::uint16_t channel) {
     // Without a summary a channel is declared only in the chunk where it was first used; if
@@ -196,19 +167,10 @@ class McapReader final : public MessageReader {
   }
 
   MappedFile file_;
-  std::string where_;
   std::set<std::uint16_t> unknown_channels_;
   std::map<std::uint16_t, Schema> schemas_;
   std::map<std::uint16_t, Channel> channels_;
   std::vector<std::int32_t> channel_topic_ = std::vector<std::int32_t>(65536, -1);
-  std::vector<TopicInfo> topics_;
-  std::vector<char> selected_;
-  std::vector<MergeBlock> blocks_;
-  std::set<std::uint64_t> bad_chunks_;
-  std::pair<std::int64_t, std::int64_t> range_{0, 0};
-  bool any_time_ = false;
-  BlockMerger merger_;
-  bool started_ = false;
 };
 
 bool McapReader::readSummary() {

@@ -10,6 +10,7 @@
 
 #include "bag_readers.hpp"
 #include "block_merge.hpp"
+#include "chunked_bag_reader.hpp"
 #include "byte_cursor.hpp"
 #include "compression.hpp"
 #include "hazmap/core/error.hpp"
@@ -77,9 +78,9 @@ std::int64_t rosTime(std::uint64_t packed) {
   return static_cast<std::int64_t>(packed & 0xFFFFFFFFu) * 1000000000 + static_cast<std::int64_t>(packed >> 32);
 }
 
-class Ros1BagReader final : public MessageReader {
+class Ros1BagReader final : public ChunkedBagReader {
  public:
-  explicit Ros1BagReader(const std::filesystem::path& path) : file_(path), where_(path.string()) {
+  explicit Ros1BagReader(const std::filesystem::path& path) : ChunkedBagReader(path.string()), file_(path) {
     const Bytes bytes = file_.bytes();
     if (bytes.size() < kMagicSize || std::memcmp(bytes.data(), kRos1Magic, kMagicSize) != 0)
       fail(where_, "not a ROS 1 bag (no \"#ROSBAG V2.0\" at offset 0)");
@@ -88,25 +89,6 @@ class Ros1BagReader final : public MessageReader {
     selected_.assign(topics_.size(), 1);
   }
 
-  const std::vector<TopicInfo>& topics() const override { return topics_; }
-  std::pair<std::int64_t, std::int64_t> timeRange() const override { return range_; }
-  void selectTopics(const std::vector<std::string>& names) override {
-    for (std::size_t i = 0; i < topics_.size(); ++i)
-      selected_[i] = names.empty() || std::find(names.begin(), names.end(), topics_[i].name) != names.end();
-  }
-  bool next(BagMessage& message) override {
-    if (!started_) {
-      merger_ = BlockMerger(std::move(blocks_), [this](const MergeBlock& b, std::vector<std::uint8_t>& buf,
-                                                       std::vector<MergeEntry>& out) { loadChunk(b, buf, out); });
-      started_ = true;
-    }
-    MergeEntry e;
-    if (!merger_.next(e)) return false;
-    message.topic = &topics_[e.topic];
-    message.log_time_ns = e.time;
-    message.data = e.data;
-    return true;
-  }
 
  private:
   std::uint64_t readBagHeader();
@@ -115,29 +97,11 @@ class Ros1BagReader final : public MessageReader {
   void onConnection(const Record& r, const std::string& where);
   Bytes decodeChunk(const Record& r, std::vector<std::uint8_t>& buffer);
   void scanChunk(const Record& r);
-  void loadChunk(const MergeBlock& b, std::vector<std::uint8_t>& buffer, std::vector<MergeEntry>& out);
-  void extendRange(std::int64_t t) {
-    range_ = any_time_ ? std::pair{std::min(range_.first, t), std::max(range_.second, t)} : std::pair{t, t};
-    any_time_ = true;
-  }
-  void skipChunk(std::uint64_t offset, const std::string& why) {
-    if (!bad_chunks_.insert(offset).second) return;
-    ++loss_.chunks_skipped;
-    loss_.notices.push_back(where_ + ": chunk at offset " + std::to_string(offset) + " skipped: " + why);
-  }
+  void loadBlock(const MergeBlock& b, std::vector<std::uint8_t>& buffer, std::vector<MergeEntry>& out) override;
 
   MappedFile file_;
-  std::string where_;
   std::map<std::uint32_t, std::size_t> connection_topic_;  // conn id → topic index
   std::map<std::uint32_t, std::uint64_t> counts_;          // conn id → messages
-  std::vector<TopicInfo> topics_;
-  std::vector<char> selected_;
-  std::vector<MergeBlock> blocks_;
-  std::set<std::uint64_t> bad_chunks_;
-  std::pair<std::int64_t, std::int64_t> range_{0, 0};
-  bool any_time_ = false;
-  BlockMerger merger_;
-  bool started_ = false;
 };
 
 std::uint64_t Ros1BagReader::readBagHeader() {
@@ -279,7 +243,7 @@ void Ros1BagReader::scanChunk(const Record& r) {
   if (first != INT64_MAX) blocks_.push_back({first, r.offset, 0});
 }
 
-void Ros1BagReader::loadChunk(const MergeBlock& b, std::vector<std::uint8_t>& buffer, std::vector<MergeEntry>& out) {
+void Ros1BagReader::loadBlock(const MergeBlock& b, std::vector<std::uint8_t>& buffer, std::vector<MergeEntry>& out) {
   if (bad_chunks_.count(b.offset)) return;
   try {
     ByteCursor c(file_.bytes(), where_);
