@@ -39,17 +39,7 @@ Trajectory readWith(const std::string& path, const std::string& format) {
 
 bool isTumFile(const std::string& path, const std::string& format) {
   if (format != "auto") return format == "tum";
-  // Auto: KITTI rows have 12 numbers, TUM rows 8.
-  std::ifstream in(path);
-  std::string line;
-  while (std::getline(in, line)) {
-    if (line.empty() || line[0] == '#') continue;
-    std::istringstream s(line);
-    int n = 0;
-    for (double v; s >> v;) ++n;
-    return n == 8;
-  }
-  return false;
+  return detectTrajectoryFormat(path) == TrajectoryFormat::Tum;
 }
 
 // A series' name: the folder a run wrote its trajectory into (hazmap-demo/icp/trajectory.kitti

@@ -1,7 +1,5 @@
 // hazmap.evaluate: the numbers of `hazmap eval` (same readers, association and metrics), as a dict
 // shaped like `hazmap eval --json`.
-#include <fstream>
-#include <sstream>
 
 #include "bindings.hpp"
 #include "config_bridge.hpp"
@@ -13,18 +11,7 @@ namespace hazmap::python {
 namespace {
 
 /// As `hazmap eval`: a TUM file has 8 numbers on its first data line.
-bool isTumFile(const std::string& path) {
-  std::ifstream in(path);
-  std::string line;
-  while (std::getline(in, line)) {
-    if (line.empty() || line[0] == '#') continue;
-    std::istringstream s(line);
-    int n = 0;
-    for (double v; s >> v;) ++n;
-    return n == 8;
-  }
-  return false;
-}
+bool isTumFile(const std::string& path) { return detectTrajectoryFormat(path) == TrajectoryFormat::Tum; }
 
 bool isPath(const py::handle& v) { return py::isinstance<py::str>(v) || py::hasattr(v, "__fspath__"); }
 

@@ -82,22 +82,37 @@ Trajectory readTrajectory(const std::filesystem::path& path, TrajectoryFormat fo
   return format == TrajectoryFormat::Kitti ? readKittiTrajectory(path) : readTumTrajectory(path);
 }
 
-Trajectory readTrajectoryAuto(const std::filesystem::path& path) {
-  std::size_t columns = 0, line = 0;
-  {
-    const io_detail::FileBytes bytes = io_detail::readFileBytes(path);
-    io_detail::LineReader lines(bytes.view());
-    std::string_view l;
-    std::vector<std::string_view> tok;
-    while (lines.next(l)) {
-      const auto t = io_detail::trim(l);
-      if (t.empty() || t.front() == '#') continue;
-      io_detail::splitTokens(t, tok);
-      columns = tok.size();
-      line = lines.lineNumber();
-      break;
-    }
+namespace {
+
+struct FirstDataLine {
+  std::size_t columns = 0, line = 0;  // columns 0: no data line
+};
+
+FirstDataLine firstDataLine(const std::filesystem::path& path) {
+  const io_detail::FileBytes bytes = io_detail::readFileBytes(path);
+  io_detail::LineReader lines(bytes.view());
+  std::string_view l;
+  std::vector<std::string_view> tok;
+  while (lines.next(l)) {
+    const auto t = io_detail::trim(l);
+    if (t.empty() || t.front() == '#') continue;
+    io_detail::splitTokens(t, tok);
+    return {tok.size(), lines.lineNumber()};
   }
+  return {};
+}
+
+}  // namespace
+
+std::optional<TrajectoryFormat> detectTrajectoryFormat(const std::filesystem::path& path) {
+  const std::size_t columns = firstDataLine(path).columns;
+  if (columns == 12) return TrajectoryFormat::Kitti;
+  if (columns == 8) return TrajectoryFormat::Tum;
+  return std::nullopt;
+}
+
+Trajectory readTrajectoryAuto(const std::filesystem::path& path) {
+  const auto [columns, line] = firstDataLine(path);
   if (columns == 0) return {};
   if (columns == 12) return readKittiTrajectory(path);
   if (columns == 8) return readTumTrajectory(path);

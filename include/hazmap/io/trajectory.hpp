@@ -3,6 +3,7 @@
 // (`timestamp tx ty tz qx qy qz qw`, '#' comments allowed).
 #include <Eigen/Geometry>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -24,6 +25,9 @@ enum class TrajectoryFormat { Kitti, Tum };
 Trajectory readKittiTrajectory(const std::filesystem::path& path);
 Trajectory readTumTrajectory(const std::filesystem::path& path);
 Trajectory readTrajectory(const std::filesystem::path& path, TrajectoryFormat format);
+/// The format by content: 12 numbers on the first data line → KITTI, 8 → TUM; nullopt for a
+/// file without data lines or with another count. Throws hazmap::Error if it cannot be read.
+std::optional<TrajectoryFormat> detectTrajectoryFormat(const std::filesystem::path& path);
 /// Guesses by content: 12 numbers per line → KITTI, 8 → TUM.
 Trajectory readTrajectoryAuto(const std::filesystem::path& path);
 
