@@ -7,8 +7,11 @@
 #include <filesystem>
 #include <string>
 
+#include <unistd.h>
+
 #include "hazmap/core/class_table.hpp"
 #include "hazmap/io/kitti.hpp"
+#include "hazmap/sim/simulator.hpp"
 
 namespace hazmap::test {
 
@@ -58,6 +61,23 @@ inline CommandResult runCli(const std::string& args) {
   const int status = pclose(pipe);
   r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
   return r;
+}
+
+/// Writes a short simulated sequence under HAZMAP_TEST_TMP and returns its folder. The name
+/// carries the process id: CTest runs each test as its own process, so each writes its own copy
+/// (callers keep the path in a function-local static to write it once per process).
+inline std::filesystem::path writeSimulatedSequence(const std::string& tag, const std::string& scenario,
+                                                    std::uint64_t seed, std::size_t frames) {
+  const char* base = std::getenv("HAZMAP_TEST_TMP");
+  const std::filesystem::path d = std::filesystem::path(base ? base : "/tmp/hazmap-test") /
+                                  (tag + "-seq-" + std::to_string(::getpid()));
+  sim::SimulatorConfig c;
+  c.scenario = scenario;
+  c.seed = seed;
+  c.max_frames = frames;
+  std::filesystem::create_directories(d.parent_path());
+  sim::writeSimulation(c, d, /*overwrite=*/true);
+  return d;
 }
 
 }  // namespace hazmap::test

@@ -24,18 +24,7 @@ namespace {
 // A short simulated corridor sequence, made once per test process (CTest runs the tests of this
 // file as parallel processes, so each makes its own).
 const fs::path& corridorSequence() {
-  static const fs::path dir = [] {
-    const char* base = std::getenv("HAZMAP_TEST_TMP");
-    const fs::path d = fs::path(base ? base : "/tmp/hazmap-test") /
-                       ("pipeline-corridor-seq-" + std::to_string(::getpid()));
-    sim::SimulatorConfig c;
-    c.scenario = "corridor";
-    c.seed = 7;
-    c.max_frames = 25;
-    fs::create_directories(d.parent_path());
-    sim::writeSimulation(c, d, /*overwrite=*/true);
-    return d;
-  }();
+  static const fs::path dir = test::writeSimulatedSequence("pipeline-corridor", "corridor", 7, 25);
   return dir;
 }
 

@@ -24,18 +24,7 @@ namespace {
 
 // A short simulated corridor (made once per test process).
 const fs::path& corridorSequence() {
-  static const fs::path dir = [] {
-    const char* base = std::getenv("HAZMAP_TEST_TMP");
-    const fs::path d = fs::path(base ? base : "/tmp/hazmap-test") /
-                       ("sources-corridor-seq-" + std::to_string(::getpid()));
-    sim::SimulatorConfig c;
-    c.scenario = "corridor";
-    c.seed = 3;
-    c.max_frames = 12;
-    fs::create_directories(d.parent_path());
-    sim::writeSimulation(c, d, /*overwrite=*/true);
-    return d;
-  }();
+  static const fs::path dir = test::writeSimulatedSequence("sources-corridor", "corridor", 3, 12);
   return dir;
 }
 
