@@ -1,6 +1,8 @@
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
+#include <limits>
 #include <random>
 
 #include "hazmap/core/memory.hpp"
@@ -8,6 +10,7 @@
 #include "hazmap/core/error.hpp"
 #include "hazmap/core/labeled_cloud.hpp"
 #include "hazmap/core/se3.hpp"
+#include "hazmap/core/voxel_key.hpp"
 #include "test_helpers.hpp"
 
 using namespace hazmap;
@@ -219,3 +222,37 @@ TEST(Memory, RetainFreedMemoryIsAcceptedByGlibc) {
   EXPECT_EQ(big[(8 << 20) - 1], 1);
 }
 #endif
+
+// voxelOfPoint (the per-point path of the downsampling and the local map) must give exactly what
+// voxelCoordinate on each axis then voxelKey give: same coordinates, same key, same refusals.
+TEST(VoxelKey, PointPathAgreesWithCoordinateThenKey) {
+  const double B = double(kVoxelKeyBias);
+  std::vector<double> values = {0.0, -0.0, 0.5, -0.5, 1.0, -1.0, -1e-300, 1e-300, 3.999999999, -3.000000001,
+                                B - 1.0, B - 1e-9, B, B + 0.5, -B, -B + 0.5, -B - 1e-9, -B - 1.0, 1e300, -1e300,
+                                std::nan(""), INFINITY, -INFINITY, std::nextafter(B, 0.0), std::nextafter(-B, -2 * B)};
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> wide(-1.5 * B, 1.5 * B), narrow(-50.0, 50.0);
+  for (int i = 0; i < 2000; ++i) values.push_back(i % 2 ? wide(rng) : narrow(rng));
+  std::size_t accepted = 0;
+  for (std::size_t i = 0; i < values.size(); ++i) {
+    const double x = values[i], y = values[(i * 7 + 3) % values.size()], z = values[(i * 13 + 5) % values.size()];
+    std::int64_t cx = 0, cy = 0, cz = 0;
+    std::uint64_t expected = 0;
+    const bool ok = voxelCoordinate(x, cx) && voxelCoordinate(y, cy) && voxelCoordinate(z, cz) &&
+                    voxelKey(cx, cy, cz, expected);
+    std::array<std::int64_t, 3> c{};
+    std::uint64_t key = 0;
+    ASSERT_EQ(voxelOfPoint(x, y, z, c, key), ok) << x << " " << y << " " << z;
+    if (!ok) continue;
+    ++accepted;
+    EXPECT_EQ(c, (std::array<std::int64_t, 3>{cx, cy, cz}));
+    EXPECT_EQ(key, expected);
+    EXPECT_EQ(unpackVoxelKey(key), c);
+  }
+  EXPECT_GT(accepted, 500u);
+  std::uint64_t key = 0;
+  EXPECT_FALSE(voxelKey(-kVoxelKeyBias - 1, 0, 0, key));
+  EXPECT_FALSE(voxelKey(0, kVoxelKeyBias, 0, key));
+  EXPECT_TRUE(voxelKey(-kVoxelKeyBias, kVoxelKeyBias - 1, 0, key));
+  EXPECT_FALSE(voxelKey(0, 0, std::numeric_limits<std::int64_t>::min() / 2, key));
+}

@@ -43,13 +43,11 @@ void LocalMap::integrate(const LabeledCloud& scan, const Eigen::Vector3d& origin
   for (std::size_t i = 0; i < scan.size(); ++i) {
     const Eigen::Vector3f& p = scan.points[i];
     if (!p.allFinite()) continue;
-    std::int64_t x, y, z;
+    std::array<std::int64_t, 3> c;
     std::uint64_t key = 0;
-    if (!voxelCoordinate(p.x() * inv, x) || !voxelCoordinate(p.y() * inv, y) || !voxelCoordinate(p.z() * inv, z) ||
-        !voxelKey(x, y, z, key))
-      continue;  // beyond ±2^20 voxels
+    if (!voxelOfPoint(p.x() * inv, p.y() * inv, p.z() * inv, c, key)) continue;  // beyond ±2^20 voxels
     const auto [slot, inserted] = index_.tryEmplace(key, static_cast<std::uint32_t>(voxels_.size()));
-    if (inserted) voxels_.push_back(Voxel{x, y, z, {}, {}, {}, 0, {}, {}, {}, {}, true, false, true});
+    if (inserted) voxels_.push_back(Voxel{c[0], c[1], c[2], {}, {}, {}, 0, {}, {}, {}, {}, true, false, true});
     Voxel& v = voxels_[*slot];
     const ClassId cls = scan.classes[i];
     const bool prop = table.isProperty(cls);

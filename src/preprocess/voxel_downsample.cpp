@@ -4,6 +4,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <numeric>
 #include <string>
@@ -22,11 +23,10 @@ constexpr std::uint64_t kSkip = ~std::uint64_t{0};  // point dropped (crop, non-
 // Sorting by the voxel key (core/voxel_key.hpp, x-major) groups each voxel's points. kSkip for a
 // point beyond the key's range (±2^20 voxels).
 std::uint64_t voxelKeyOf(const Eigen::Vector3f& p, double inv) {
-  std::int64_t x, y, z;
+  std::array<std::int64_t, 3> c;
   std::uint64_t key = kSkip;
-  if (voxelCoordinate(static_cast<double>(p.x()) * inv, x) && voxelCoordinate(static_cast<double>(p.y()) * inv, y) &&
-      voxelCoordinate(static_cast<double>(p.z()) * inv, z))
-    voxelKey(x, y, z, key);
+  voxelOfPoint(static_cast<double>(p.x()) * inv, static_cast<double>(p.y()) * inv, static_cast<double>(p.z()) * inv,
+               c, key);
   return key;
 }
 

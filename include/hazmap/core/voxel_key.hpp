@@ -20,12 +20,12 @@ inline constexpr std::int64_t kVoxelKeyAxisMax = (std::int64_t{1} << 21) - 1;
 
 /// The key of voxel (x, y, z); false (key untouched) when a coordinate is out of range.
 constexpr bool voxelKey(std::int64_t x, std::int64_t y, std::int64_t z, std::uint64_t& key) {
-  x += kVoxelKeyBias;
-  y += kVoxelKeyBias;
-  z += kVoxelKeyBias;
-  if (x < 0 || y < 0 || z < 0 || x > kVoxelKeyAxisMax || y > kVoxelKeyAxisMax || z > kVoxelKeyAxisMax)
-    return false;
-  key = (std::uint64_t(x) << 42) | (std::uint64_t(y) << 21) | std::uint64_t(z);
+  // Biased into unsigned: a coordinate below the range wraps to a huge value, so one comparison of
+  // the three or-ed together checks all six bounds (this runs ~30 times per point in the local map).
+  const std::uint64_t ux = std::uint64_t(x + kVoxelKeyBias), uy = std::uint64_t(y + kVoxelKeyBias),
+                      uz = std::uint64_t(z + kVoxelKeyBias);
+  if ((ux | uy | uz) > std::uint64_t(kVoxelKeyAxisMax)) return false;
+  key = (ux << 42) | (uy << 21) | uz;
   return true;
 }
 
@@ -35,6 +35,28 @@ inline bool voxelCoordinate(double v, std::int64_t& c) {
   const double f = std::floor(v);
   if (!(f >= -double(kVoxelKeyBias) && f < double(kVoxelKeyBias))) return false;
   c = static_cast<std::int64_t>(f);
+  return true;
+}
+
+/// floor(v) as an integer for |v| <= 2^52: truncation toward zero, one less for a negative
+/// non-integer (cheaper than std::floor then a conversion: one conversion each way, no branch).
+inline std::int64_t floorToInt(double v) {
+  const auto t = static_cast<std::int64_t>(v);
+  return t - static_cast<std::int64_t>(static_cast<double>(t) > v);
+}
+
+/// The voxel holding point (x, y, z) (coordinates already divided by the voxel size): its integer
+/// coordinates and key; false when a coordinate is not finite or beyond the key's range. The same
+/// answer as voxelCoordinate on each axis then voxelKey, cheaper: the downsampling and the local
+/// map run it on every point of every scan.
+inline bool voxelOfPoint(double x, double y, double z, std::array<std::int64_t, 3>& c, std::uint64_t& key) {
+  // floor(v) is in [-2^20, 2^20) exactly when v is (the bounds are integers), so the range is
+  // tested before the conversion; NaN fails every comparison; `&`, not `&&`: no branch per test.
+  constexpr double lo = -double(kVoxelKeyBias), hi = double(kVoxelKeyBias);
+  if (!((x >= lo) & (x < hi) & (y >= lo) & (y < hi) & (z >= lo) & (z < hi))) return false;
+  c = {floorToInt(x), floorToInt(y), floorToInt(z)};
+  key = (std::uint64_t(c[0] + kVoxelKeyBias) << 42) | (std::uint64_t(c[1] + kVoxelKeyBias) << 21) |
+        std::uint64_t(c[2] + kVoxelKeyBias);
   return true;
 }
 
