@@ -344,7 +344,7 @@ StepSums IcpSolver::accumulate(bool fresh) const {
 
 // Residuals and robust weights at the current pose: the searched ones on a fresh iteration,
 // recomputed when the correspondences are reused. Flattened: GCC otherwise leaves the factors'
-// 6x6 updates as calls, which made this loop ~18 % more instructions than the unsplit ICP had.
+// 6x6 updates as out-of-line calls, slower than the unsplit ICP's loop (docs/measurements.md).
 [[gnu::flatten]] void IcpSolver::accumulateChunk(std::size_t chunk, bool fresh, StepSums& out) const {
   StepSums s;
   const std::size_t end = std::min(n_, (chunk + 1) * kChunk);

@@ -8,8 +8,7 @@ namespace hazmap {
 /// frame allocates and frees the same few megabytes (voxel tables, correspondences); by default
 /// glibc serves blocks over 128 KiB with fresh mmap()s and unmaps them on free, so each frame
 /// pays a page fault per 4 KiB touched. On the virtual machines we measured on a page fault costs
-/// microseconds, which made voxel downsampling of the scan pair 13× slower (27 → 2 ms per cloud)
-/// and registration about 2× slower (docs/registration.md, "What made it faster"). Resident
+/// microseconds, which made those faults the largest cost of a frame (docs/measurements.md). Resident
 /// memory then stays at its peak instead of shrinking between frames. Call once at start-up,
 /// before threads are started; a no-op returning false where glibc's mallopt is unavailable or
 /// not in charge (AddressSanitizer brings its own allocator).
