@@ -70,42 +70,34 @@ std::string formatNumber(double v) {
   return std::string(buf.data(), r.ptr);
 }
 
+namespace {
+
+// The scalar at `place` as a T, or a one-line error saying what it must be.
+template <typename T>
+T readScalar(const YAML::Node& node, const ConfigPlace& place, const char* expected, bool reject_minus = false) {
+  const std::string text = scalarText(node, place, expected);
+  const auto refuse = [&] { place.fail(std::string("must be ") + expected + ", got '" + text + "'"); };
+  if (reject_minus && !text.empty() && text[0] == '-') refuse();
+  try {
+    return node.as<T>();
+  } catch (const YAML::Exception&) {
+    refuse();
+  }
+  return T{};  // not reached: refuse() throws
+}
+
+}  // namespace
+
 double readNumber(const YAML::Node& node, const ConfigPlace& place) {
-  const std::string text = scalarText(node, place, "a number");
-  try {
-    return node.as<double>();
-  } catch (const YAML::Exception&) {
-    place.fail("must be a number, got '" + text + "'");
-  }
+  return readScalar<double>(node, place, "a number");
 }
-
 long long readInteger(const YAML::Node& node, const ConfigPlace& place) {
-  const std::string text = scalarText(node, place, "a whole number");
-  try {
-    return node.as<long long>();
-  } catch (const YAML::Exception&) {
-    place.fail("must be a whole number, got '" + text + "'");
-  }
+  return readScalar<long long>(node, place, "a whole number");
 }
-
 std::uint64_t readUnsigned(const YAML::Node& node, const ConfigPlace& place) {
-  const std::string text = scalarText(node, place, "a whole number >= 0");
-  if (!text.empty() && text[0] == '-') place.fail("must be a whole number >= 0, got '" + text + "'");
-  try {
-    return node.as<std::uint64_t>();
-  } catch (const YAML::Exception&) {
-    place.fail("must be a whole number >= 0, got '" + text + "'");
-  }
+  return readScalar<std::uint64_t>(node, place, "a whole number >= 0", true);
 }
-
-bool readBool(const YAML::Node& node, const ConfigPlace& place) {
-  const std::string text = scalarText(node, place, "true or false");
-  try {
-    return node.as<bool>();
-  } catch (const YAML::Exception&) {
-    place.fail("must be true or false, got '" + text + "'");
-  }
-}
+bool readBool(const YAML::Node& node, const ConfigPlace& place) { return readScalar<bool>(node, place, "true or false"); }
 
 // Valid UTF-8 without control characters: text that YAML and JSON write back unchanged.
 bool plainText(const std::string& s) {

@@ -2,6 +2,8 @@
 
 #include <cmath>
 #include <string>
+#include <type_traits>
+#include <vector>
 
 #include "hazmap/core/error.hpp"
 #include "hazmap/io/atomic_file.hpp"
@@ -11,7 +13,8 @@ namespace hazmap {
 
 namespace {
 
-/// Calls `row(line_number, tokens)` for every line that is neither blank nor a '#' comment.
+/// Calls `row(line_number, tokens)` for every line that is neither blank nor a '#' comment, until
+/// a `row` that returns bool returns false.
 template <typename Row>
 void forEachRow(const std::filesystem::path& path, Row&& row) {
   const io_detail::FileBytes bytes = io_detail::readFileBytes(path);
@@ -22,7 +25,11 @@ void forEachRow(const std::filesystem::path& path, Row&& row) {
     const auto t = io_detail::trim(line);
     if (t.empty() || t.front() == '#') continue;
     io_detail::splitTokens(t, tok);
-    row(lines.lineNumber(), tok);
+    if constexpr (std::is_same_v<decltype(row(lines.lineNumber(), tok)), bool>) {
+      if (!row(lines.lineNumber(), tok)) return;
+    } else {
+      row(lines.lineNumber(), tok);
+    }
   }
 }
 
@@ -89,17 +96,12 @@ struct FirstDataLine {
 };
 
 FirstDataLine firstDataLine(const std::filesystem::path& path) {
-  const io_detail::FileBytes bytes = io_detail::readFileBytes(path);
-  io_detail::LineReader lines(bytes.view());
-  std::string_view l;
-  std::vector<std::string_view> tok;
-  while (lines.next(l)) {
-    const auto t = io_detail::trim(l);
-    if (t.empty() || t.front() == '#') continue;
-    io_detail::splitTokens(t, tok);
-    return {tok.size(), lines.lineNumber()};
-  }
-  return {};
+  FirstDataLine first;
+  forEachRow(path, [&](std::size_t line, const std::vector<std::string_view>& tok) {
+    first = {tok.size(), line};
+    return false;
+  });
+  return first;
 }
 
 }  // namespace

@@ -186,10 +186,9 @@ void drawLegend(Canvas& canvas, double x, double top, const std::vector<LegendEn
 
 void drawScaleBar(Canvas& canvas, double x, double y, double metres, double pixels_per_metre) {
   const double w = metres * pixels_per_metre;
-  const Rgb black{0, 0, 0}, white{255, 255, 255};
-  canvas.fillRect(x, y - 6, w / 2, 6, black);
-  canvas.fillRect(x + w / 2, y - 6, w / 2, 6, white);
-  canvas.strokeRect(x, y - 6, w, 6, black, 1.0);
+  canvas.fillRect(x, y - 6, w / 2, 6, kBlack);
+  canvas.fillRect(x + w / 2, y - 6, w / 2, 6, kWhite);
+  canvas.strokeRect(x, y - 6, w, 6, kBlack, 1.0);
   const TextStyle style{12, {20, 20, 20}, false, Align::Center};
   canvas.text(x, y + 14, "0", style);
   canvas.text(x + w, y + 14, formatNumber(metres) + " m", style);

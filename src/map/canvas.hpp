@@ -12,6 +12,12 @@ namespace hazmap::figure {
 
 enum class Align { Left, Center, Right };
 
+// The figures' shared colours: one place, so the trajectory plot, the map render, the montage
+// and the legends agree.
+inline constexpr Rgb kBlack{0, 0, 0};
+inline constexpr Rgb kWhite{255, 255, 255};
+inline constexpr Rgb kText{30, 30, 30};  ///< titles, labels and legend text
+
 struct TextStyle {
   double size = 13.0;  ///< font size in pixels
   Rgb color{0, 0, 0};

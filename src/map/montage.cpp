@@ -7,16 +7,14 @@
 
 namespace hazmap {
 
-using figure::Align;
-using figure::Canvas;
-using figure::TextStyle;
+using namespace figure;  // Canvas, TextStyle, Align and the shared colours
 
 Image renderMontage(const std::vector<MontagePanel>& panels, const MontageConfig& config) {
   if (panels.empty()) fail("montage", "no panels");
   const int n = int(panels.size());
   const int cols = config.columns > 0 ? std::min(config.columns, n) : std::min(n, 3);
   const int rows = (n + cols - 1) / cols;
-  const TextStyle panel_title{config.panel_title_size, {30, 30, 30}, true, Align::Center};
+  const TextStyle panel_title{config.panel_title_size, kText, true, Align::Center};
   const TextStyle title{config.title_size, {20, 20, 20}, true};
   Canvas probe(1, 1);
   int cell_w = 0, cell_h = 0;

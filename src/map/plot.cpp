@@ -12,14 +12,10 @@
 
 namespace hazmap {
 
-using figure::Align;
-using figure::Canvas;
-using figure::TextStyle;
+using namespace figure;  // Canvas, TextStyle, Align and the shared colours
 
 namespace {
 
-constexpr Rgb kBlack{0, 0, 0};
-constexpr Rgb kText{30, 30, 30};
 constexpr Rgb kGrid{228, 228, 228};
 constexpr Rgb kAxis{110, 110, 110};
 

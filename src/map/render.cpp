@@ -11,14 +11,10 @@
 
 namespace hazmap {
 
-using figure::Align;
-using figure::Canvas;
-using figure::TextStyle;
+using namespace figure;  // Canvas, TextStyle, Align and the shared colours
 
 namespace {
 
-constexpr Rgb kBlack{0, 0, 0};
-constexpr Rgb kText{30, 30, 30};
 constexpr Rgb kFrame{120, 120, 120};
 
 Rgb darker(Rgb c, double f = 0.6) {
