@@ -16,6 +16,9 @@ set(CMAKE_CXX_STANDARD 20)
 find_package(hazmap 0.1 REQUIRED)
 add_executable(consumer main.cpp)
 target_link_libraries(consumer PRIVATE hazmap::hazmap)
+# One stage alone (cmake/stages.cmake): io brings core, and nothing above it.
+add_executable(consumer_io main.cpp)
+target_link_libraries(consumer_io PRIVATE hazmap::io)
 CMAKE
 cat > "$tmp/consumer/main.cpp" <<'CPP'
 #include <hazmap/io/cloud_file.hpp>
@@ -41,4 +44,6 @@ cmake -S "$tmp/consumer" -B "$tmp/build" -DCMAKE_PREFIX_PATH="$tmp/prefix" "${fl
 cmake --build "$tmp/build" > "$tmp/build.log" 2>&1 || { cat "$tmp/build.log"; echo "FAIL: consumer build"; exit 1; }
 out=$("$tmp/build/consumer" "$src/../shared/data/kitti-semantic-sample/velodyne/000000.bin")
 [[ "$out" == "124668 532" ]] || { echo "FAIL: consumer printed '$out', expected '124668 532'"; exit 1; }
+out_io=$("$tmp/build/consumer_io" "$src/../shared/data/kitti-semantic-sample/velodyne/000000.bin")
+[[ "$out_io" == "$out" ]] || { echo "FAIL: consumer linked to hazmap::io printed '$out_io'"; exit 1; }
 echo "OK: installed tree works with find_package(hazmap): $out"
