@@ -42,8 +42,12 @@ fi
 cmake -S "$tmp/consumer" -B "$tmp/build" -DCMAKE_PREFIX_PATH="$tmp/prefix" "${flags[@]}" > "$tmp/configure.log" 2>&1 \
   || { cat "$tmp/configure.log"; echo "FAIL: find_package(hazmap) against the installed tree"; exit 1; }
 cmake --build "$tmp/build" > "$tmp/build.log" 2>&1 || { cat "$tmp/build.log"; echo "FAIL: consumer build"; exit 1; }
-out=$("$tmp/build/consumer" "$src/../shared/data/kitti-semantic-sample/velodyne/000000.bin")
+# The shared data as configured (HAZMAP_SHARED_DATA_DIR), else beside the source tree.
+data=$(sed -n 's/^HAZMAP_SHARED_DATA_DIR:[A-Z]*=//p' "$bin/CMakeCache.txt")
+[[ -n "$data" ]] || data="$src/../shared/data"
+scan="$data/kitti-semantic-sample/velodyne/000000.bin"
+out=$("$tmp/build/consumer" "$scan")
 [[ "$out" == "124668 532" ]] || { echo "FAIL: consumer printed '$out', expected '124668 532'"; exit 1; }
-out_io=$("$tmp/build/consumer_io" "$src/../shared/data/kitti-semantic-sample/velodyne/000000.bin")
+out_io=$("$tmp/build/consumer_io" "$scan")
 [[ "$out_io" == "$out" ]] || { echo "FAIL: consumer linked to hazmap::io printed '$out_io'"; exit 1; }
 echo "OK: installed tree works with find_package(hazmap): $out"
