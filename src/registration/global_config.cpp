@@ -22,6 +22,7 @@ RegistrationConfig GlobalRegistrationConfig::defaultRefinement() {
   RegistrationConfig c;
   c.max_iterations = 30;
   c.coarse_source_points = 0;  // the downsampled scan is small already
+  c.max_source_points = 1500;  // plenty to tell a right hypothesis from a wrong one, and to refine it
   return c;
 }
 

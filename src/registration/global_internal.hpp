@@ -103,6 +103,7 @@ namespace hazmap {
 struct GlobalRegistrationTarget::Impl {
   global::FeatureCloud features;
   global::DescriptorIndexes descriptors;
+  std::unique_ptr<NeighborIndex> overlap_points;  ///< all points, cells of inlier_distance (scoring)
   std::map<ClassId, std::unique_ptr<NeighborIndex>> class_points;  ///< property classes
   std::vector<global::Landmark> landmarks;
   std::optional<RegistrationTarget> icp;

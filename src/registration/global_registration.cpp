@@ -79,18 +79,22 @@ struct Score {
   double overlap = 0.0;   ///< share of source points with a target point within inlier_distance
 };
 
+// `max_points` > 0: an even stride over the source of about that many points (ranking many
+// hypotheses needs no more); 0 = every point.
 Score scoreOf(const Eigen::Isometry3d& T, const global::FeatureCloud& src, const GlobalRegistrationTarget::Impl& tgt,
-              const ClassTable& classes, const GlobalRegistrationConfig& config) {
+              const ClassTable& classes, const GlobalRegistrationConfig& config, std::size_t max_points = 0) {
   const Eigen::Matrix3f R = T.linear().cast<float>();
   const Eigen::Vector3f t = T.translation().cast<float>();
   const float d2 = static_cast<float>(config.inlier_distance * config.inlier_distance);
   const double w = config.class_score_weight;
   double got = 0.0, possible = 0.0;
-  std::size_t hits = 0;
-  for (std::size_t i = 0; i < src.cloud.size(); ++i) {
+  std::size_t hits = 0, used = 0;
+  const std::size_t stride = max_points == 0 ? 1 : std::max<std::size_t>(1, src.cloud.size() / max_points);
+  for (std::size_t i = 0; i < src.cloud.size(); i += stride) {
+    ++used;
     const Eigen::Vector3f q = R * src.cloud.points[i] + t;
     float dist2 = 0.0f;
-    const bool hit = tgt.features.index->nearest(q, d2, dist2) >= 0;
+    const bool hit = tgt.overlap_points->nearest(q, d2, dist2) >= 0;
     hits += hit;
     got += hit;
     possible += 1.0;
@@ -100,7 +104,7 @@ Score scoreOf(const Eigen::Isometry3d& T, const global::FeatureCloud& src, const
     const auto it = tgt.class_points.find(c);
     if (it != tgt.class_points.end() && it->second->nearest(q, d2, dist2) >= 0) got += w;
   }
-  const double n = static_cast<double>(std::max<std::size_t>(src.cloud.size(), 1));
+  const double n = static_cast<double>(std::max<std::size_t>(used, 1));
   return {possible > 0.0 ? got / possible : 0.0, static_cast<double>(hits) / n};
 }
 
@@ -126,11 +130,12 @@ GlobalRegistrationTarget prepareGlobalTarget(const LabeledCloud& target, const C
   detail::runWithThreads(config.threads, [&] {
     impl.features = global::computeFeatures(target, classes, config, viewpoint);
     impl.descriptors = global::indexDescriptors(impl.features, classes, config.use_classes);
+    const float r = static_cast<float>(config.inlier_distance);
+    impl.overlap_points = std::make_unique<VoxelHashIndex>(impl.features.cloud.points, std::span<const std::uint32_t>{}, r, r);
     if (config.use_classes) {
       std::map<ClassId, std::vector<std::uint32_t>> per_class;
       for (std::uint32_t i = 0; i < impl.features.cloud.size(); ++i)
         if (classes.isProperty(impl.features.cloud.classes[i])) per_class[impl.features.cloud.classes[i]].push_back(i);
-      const float r = static_cast<float>(config.inlier_distance);
       for (auto& [c, ids] : per_class)
         impl.class_points.emplace(c, std::make_unique<VoxelHashIndex>(impl.features.cloud.points, ids, r, r));
       impl.landmarks = global::clusterLandmarks(impl.features.cloud, classes, config);
@@ -148,39 +153,49 @@ struct Candidate {
   RegistrationResult icp;
 };
 
-// Scores every hypothesis, refines the best few distinct ones by property ICP and rescores them.
-// Two candidates that ICP brings to the same pose are one.
+// Scores every hypothesis, refines the best few distinct ones by property ICP and rescores them
+// on every point; candidates that ICP brings to the same pose are one. Returns distinct
+// candidates, best first (the unrefined ones keep their ranking score: the rivals' scores).
 std::vector<Candidate> refineCandidates(const std::vector<global::Hypothesis>& hypotheses,
                                         const global::FeatureCloud& src, const GlobalRegistrationTarget::Impl& tgt,
                                         const ClassTable& classes, const GlobalRegistrationConfig& config) {
   std::vector<Candidate> scored(hypotheses.size());
   tbb::parallel_for(std::size_t{0}, hypotheses.size(), [&](std::size_t k) {
-    scored[k] = {hypotheses[k], scoreOf(hypotheses[k].transform, src, tgt, classes, config), {}};
+    constexpr std::size_t kRankingPoints = 800;
+    scored[k] = {hypotheses[k], scoreOf(hypotheses[k].transform, src, tgt, classes, config, kRankingPoints), {}};
   });
-  std::stable_sort(scored.begin(), scored.end(),
-                   [](const Candidate& a, const Candidate& b) { return a.score.weighted > b.score.weighted; });
-  if (scored.size() > static_cast<std::size_t>(config.candidates_refined)) scored.resize(config.candidates_refined);
+  auto by_score = [](const Candidate& a, const Candidate& b) { return a.score.weighted > b.score.weighted; };
+  std::stable_sort(scored.begin(), scored.end(), by_score);
+  auto thin = [&](std::vector<Candidate>& v) {
+    std::vector<Candidate> out;
+    for (auto& c : v) {
+      bool fresh = true;
+      for (const auto& o : out) fresh = fresh && global::distinct(c.hypothesis.transform, o.hypothesis.transform, config);
+      if (fresh) out.push_back(std::move(c));
+    }
+    v = std::move(out);
+  };
+  thin(scored);
+  // Refine the best few; none that scores below half the best (ICP would not lift it to a rival).
+  std::size_t refine = std::min<std::size_t>(scored.size(), config.candidates_refined);
+  while (refine > 1 && scored[refine - 1].score.weighted < 0.5 * scored[0].score.weighted) --refine;
   const RegistrationConfig icp = refinementOf(config);
-  tbb::parallel_for(std::size_t{0}, scored.size(), [&](std::size_t k) {
+  tbb::parallel_for(std::size_t{0}, refine, [&](std::size_t k) {
     Candidate& c = scored[k];
     c.icp = registerClouds(src.cloud, *tgt.icp, c.hypothesis.transform, classes, icp);
-    if (isFinite(c.icp.transform)) {
-      const Score s = scoreOf(c.icp.transform, src, tgt, classes, config);
-      if (s.weighted >= c.score.weighted) {
-        c.hypothesis.transform = c.icp.transform;
-        c.score = s;
-      }
-    }
+    // ICP's answer replaces the hypothesis whenever it ran to a usable pose (the overlap count is
+    // too coarse to judge centimetres); a failed ICP leaves the hypothesis.
+    const bool usable = c.icp.termination == Termination::Converged || c.icp.termination == Termination::MaxIterations;
+    if (usable && isFinite(c.icp.transform)) c.hypothesis.transform = c.icp.transform;
+    c.score = scoreOf(c.hypothesis.transform, src, tgt, classes, config);  // every point: the final word
   });
-  std::stable_sort(scored.begin(), scored.end(),
-                   [](const Candidate& a, const Candidate& b) { return a.score.weighted > b.score.weighted; });
-  std::vector<Candidate> out;
-  for (auto& c : scored) {
-    bool fresh = true;
-    for (const auto& o : out) fresh = fresh && global::distinct(c.hypothesis.transform, o.hypothesis.transform, config);
-    if (fresh) out.push_back(std::move(c));
-  }
-  return out;
+  // Refined first (the winner must be a refined one), each group by score.
+  std::stable_sort(scored.begin(), scored.end(), [&](const Candidate& a, const Candidate& b) {
+    const bool ra = a.icp.termination != Termination::NotRun, rb = b.icp.termination != Termination::NotRun;
+    return ra != rb ? ra : by_score(a, b);
+  });
+  thin(scored);
+  return scored;
 }
 
 GlobalRegistrationResult failWith(GlobalRegistrationResult r, GlobalStatus status, std::string reason) {

@@ -55,7 +55,7 @@ struct GlobalRegistrationConfig {
   double ambiguity_ratio = 0.9;    ///< second distinct hypothesis >= this × best → ambiguous
   double distinct_translation = 1.0;  ///< m, hypotheses farther apart are distinct …
   double distinct_rotation_deg = 10.0;  ///< … or rotated more than this (degrees)
-  int candidates_refined = 3;      ///< distinct hypotheses refined by ICP (>= 1)
+  int candidates_refined = 2;      ///< distinct hypotheses refined by ICP (>= 1; 2 = best + its rival)
   RegistrationConfig refinement = defaultRefinement();  ///< property ICP of the candidates
   int threads = 0;  ///< 0 = TBB's default (or the surrounding tbb::global_control)
 
