@@ -146,6 +146,7 @@ void hazmapGlobal(benchmark::State& state, const Case& c, bool classes, bool pre
     if (prepared) targets.push_back(prepareGlobalTarget(moved.back(), c.table, cfg, J.translation().cast<float>()));
   }
   std::size_t k = 0, ok = 0, accepted = 0;
+  double phases[4] = {0, 0, 0, 0}, points = 0, matches = 0;
   for (auto _ : state) {
     const std::size_t j = k++ % js.size();
     GlobalRegistrationResult r;
@@ -157,7 +158,20 @@ void hazmapGlobal(benchmark::State& state, const Case& c, bool classes, bool pre
     }
     accepted += r.success;
     ok += r.success && correct(r.transform, js[j] * c.reference);
+    phases[0] += r.timings.prepare_ms;
+    phases[1] += r.timings.match_ms;
+    phases[2] += r.timings.hypotheses_ms;
+    phases[3] += r.timings.refine_ms;
+    points += static_cast<double>(r.source_points);
+    matches += static_cast<double>(r.correspondences);
   }
+  const double n = static_cast<double>(std::max<std::size_t>(k, 1));
+  state.counters["features_ms"] = phases[0] / n;
+  state.counters["match_ms"] = phases[1] / n;
+  state.counters["hypotheses_ms"] = phases[2] / n;
+  state.counters["refine_ms"] = phases[3] / n;
+  state.counters["points"] = points / n;
+  state.counters["matches"] = matches / n;
   state.counters["correct"] = static_cast<double>(ok) / static_cast<double>(std::max<std::size_t>(k, 1));
   state.counters["accepted"] = static_cast<double>(accepted) / static_cast<double>(std::max<std::size_t>(k, 1));
 }

@@ -38,6 +38,8 @@ void addFeatureFields(ConfigFields<C>& f) {
       .integer("max_feature_neighbors", &C::max_feature_neighbors, atLeast(5),
                "Neighbours per FPFH histogram, nearest first")
       .number("max_range", &C::max_range, nonNegative(), "m from the cloud's origin; farther points ignored (0 = all)")
+      .integer("max_source_features", &C::max_source_features, nonNegative(),
+               "Match at most this many source descriptors (even stride, labelled points always; 0 = all)")
       .flag("mutual_filter", &C::mutual_filter,
             "Keep only mutual nearest neighbours in descriptor space (when at least min_correspondences)")
       .integer("min_correspondences", &C::min_correspondences, atLeast(3),

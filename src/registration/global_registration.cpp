@@ -74,6 +74,27 @@ std::vector<global::Match> matchDescriptors(const global::FeatureCloud& src, con
   return mutual.size() >= config.min_correspondences ? mutual : all;
 }
 
+// Keeps at most max_source_features descriptors: every labelled one (property-aware) and an even
+// stride over the rest.
+void thinSourceFeatures(global::FeatureCloud& src, const ClassTable& classes, const GlobalRegistrationConfig& config) {
+  const std::size_t n = src.descriptors.size();
+  if (config.max_source_features == 0 || n <= config.max_source_features) return;
+  const double step = static_cast<double>(n) / static_cast<double>(config.max_source_features);
+  double next = 0.0;
+  std::size_t kept = 0;
+  for (std::size_t f = 0; f < n; ++f) {
+    const bool labelled = config.use_classes && classes.isProperty(src.cloud.classes[src.feature_point[f]]);
+    const bool on_stride = static_cast<double>(f) >= next;
+    if (on_stride) next += step;
+    if (!labelled && !on_stride) continue;
+    src.descriptors[kept] = src.descriptors[f];
+    src.feature_point[kept] = src.feature_point[f];
+    ++kept;
+  }
+  src.descriptors.resize(kept);
+  src.feature_point.resize(kept);
+}
+
 struct Score {
   double weighted = 0.0;  ///< share of the achievable weight (labelled points on class count 1 + w)
   double overlap = 0.0;   ///< share of source points with a target point within inlier_distance
@@ -241,7 +262,7 @@ GlobalRegistrationResult registerPrepared(const LabeledCloud& source, const Glob
   GlobalRegistrationResult r;
   auto t0 = Clock::now();
   const auto start = t0;
-  const global::FeatureCloud src = global::computeFeatures(source, classes, config, Eigen::Vector3f::Zero());
+  global::FeatureCloud src = global::computeFeatures(source, classes, config, Eigen::Vector3f::Zero());
   r.source_points = src.cloud.size();
   r.source_features = src.feature_point.size();
   r.timings.prepare_ms = msSince(t0);
@@ -254,6 +275,7 @@ GlobalRegistrationResult registerPrepared(const LabeledCloud& source, const Glob
                     describeCounts("too few features", std::min(r.source_features, tgt.features.feature_point.size()),
                                    config.min_features));
   t0 = Clock::now();
+  thinSourceFeatures(src, classes, config);
   const std::vector<global::Match> matches = matchDescriptors(src, tgt, classes, config);
   r.correspondences = matches.size();
   r.timings.match_ms = msSince(t0);

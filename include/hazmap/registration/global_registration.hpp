@@ -33,9 +33,12 @@ struct GlobalRegistrationConfig {
   double normal_radius = 1.0;     ///< m, neighbourhood of the normals
   int normal_neighbors = 20;      ///< k of the normals (>= 3)
   double feature_radius = 2.5;    ///< m, FPFH neighbourhood (≈ 5 voxels)
-  int max_feature_neighbors = 64; ///< neighbours per FPFH histogram (nearest first)
+  int max_feature_neighbors = 40; ///< neighbours per FPFH histogram (nearest first)
   double max_range = 0.0;         ///< m from the cloud's origin; farther points ignored (0 = all)
   // --- correspondences ---
+  /// Match at most this many source descriptors (an even stride; labelled points always): a
+  /// dense scan has far more than RANSAC needs. 0 = all.
+  std::size_t max_source_features = 3000;
   bool mutual_filter = true;  ///< keep only mutual nearest neighbours (if at least min_correspondences)
   std::size_t min_correspondences = 10;
   // --- estimator ---
