@@ -7,6 +7,7 @@
 #include <fstream>
 #include <numbers>
 #include <random>
+#include <sstream>
 
 #include "hazmap/core/config_fields.hpp"
 #include "hazmap/core/error.hpp"
@@ -151,4 +152,195 @@ TEST(GlobalRegistration, NarahaPlainAndPropertyAware) {
     EXPECT_GE(t.correct, 5);
     EXPECT_EQ(t.wrong_accepted, 0);
   }
+}
+
+namespace {
+
+std::vector<LabeledCloud> readScans(const std::filesystem::path& path) {
+  std::vector<LabeledCloud> out;
+  auto src = openScanSource(path);
+  while (auto s = src->next()) out.push_back(std::move(s->cloud));
+  return out;
+}
+
+Eigen::Isometry3d kittiPoseRow(const std::string& line) {
+  std::istringstream in(line);
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 4; ++c) in >> T.matrix()(r, c);
+  return T;
+}
+
+}  // namespace
+
+TEST(GlobalRegistration, RealVlp16ScansRecoverJumps) {
+  // The real VLP-16 bag (a small room, stationary sensor): scan 3 → scan 0 after the jumps.
+  const auto scans = readScans(hazmap::test::sharedData("sensors/velodyne-vlp16"));
+  ASSERT_EQ(scans.size(), 4u);
+  const ClassTable table = ClassTable::defaults();
+  VoxelDownsampleConfig vd;
+  vd.voxel_size = 0.2;
+  const auto icp = registerScans(scans[3], scans[0], Eigen::Isometry3d::Identity(), table, vd);
+  ASSERT_TRUE(icp.converged);
+  const Trials t = runTrials(scans[3], scans[0], icp.transform, table, {}, 8, 180.0, 3.0, 21);
+  std::printf("VLP-16 room 0<-3: %d/%d correct, %d wrong accepted\n", t.correct, t.runs, t.wrong_accepted);
+  EXPECT_GE(t.correct, 7);
+  EXPECT_EQ(t.wrong_accepted, 0);
+}
+
+TEST(GlobalRegistration, RealOusterScansMatchTheSdkPoses) {
+  const auto dir = hazmap::test::sharedData("sensors/ouster-os1-128");
+  const auto scans = readScans(dir / "OS-1-128_v2.3.0_1024x10_lb_n3.pcap");
+  ASSERT_EQ(scans.size(), 3u);
+  std::ifstream in(dir / "OS-1-128_v2.3.0_1024x10_lb_n3_poses_kitti.txt");
+  std::vector<Eigen::Isometry3d> poses;
+  for (std::string line; std::getline(in, line);) poses.push_back(kittiPoseRow(line));
+  ASSERT_EQ(poses.size(), 3u);
+  const Eigen::Isometry3d reference = poses[0].inverse() * poses[2];
+  const ClassTable table = ClassTable::defaults();
+  // No guess at all, then a jump on top.
+  const auto r = registerGlobally(scans[2], scans[0], table);
+  std::printf("Ouster 0<-2: %s, %.3f m / %.2f° from ouster-sdk's poses, %.0f ms\n", r.success ? "accepted" : r.reason.c_str(),
+              transErr(r.transform, reference), rotErrDeg(r.transform, reference), r.timings.total_ms);
+  ASSERT_TRUE(r.success) << r.reason;
+  EXPECT_LT(transErr(r.transform, reference), 0.1);
+  EXPECT_LT(rotErrDeg(r.transform, reference), 0.5);
+  const Trials t = runTrials(scans[2], scans[0], reference, table, {}, 3, 180.0, 3.0, 5);
+  EXPECT_EQ(t.correct, 3);
+}
+
+// A rectangular room looks the same turned by 180°: plain global registration must call it
+// ambiguous (never pick one at random); one heat source on one wall and a puddle off-centre
+// break the symmetry for the property-aware variant.
+TEST(GlobalRegistration, SymmetricRoomIsAmbiguousUntilPropertiesBreakTheTie) {
+  using V = Eigen::Vector3d;
+  std::vector<hazmap::test::Patch> room;
+  room.push_back({V(-6, -4, 0), V(12, 0, 0), V(0, 8, 0), 0});
+  room.push_back({V(-6, -4, 3), V(12, 0, 0), V(0, 8, 0), 0});
+  room.push_back({V(-6, -4, 0), V(12, 0, 0), V(0, 0, 3), 0});
+  room.push_back({V(-6, 4, 0), V(12, 0, 0), V(0, 0, 3), 0});
+  room.push_back({V(-6, -4, 0), V(0, 8, 0), V(0, 0, 3), 0});
+  room.push_back({V(6, -4, 0), V(0, 8, 0), V(0, 0, 3), 0});
+  room.push_back({V(5.99, -1, 1), V(0, 1.2, 0), V(0, 0, 1.2), 1});  // heat on the +x wall
+  room.push_back({V(-3, 1, 0.01), V(1.5, 0, 0), V(0, 1.5, 0), 2});  // puddle
+  std::mt19937 rng(4);
+  const LabeledCloud source = hazmap::test::samplePatches(room, 40000, rng, 0.01);
+  Eigen::Isometry3d J = Eigen::Isometry3d::Identity();
+  J.linear() = Eigen::AngleAxisd(0.7, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  J.translation() = V(1.0, -0.5, 0.0);
+  const LabeledCloud target = hazmap::test::samplePatches(room, 40000, rng, 0.01, J);
+  const ClassTable table = ClassTable::defaults();
+
+  GlobalRegistrationConfig plain;
+  plain.use_classes = false;
+  const auto p = registerGlobally(source, prepareGlobalTarget(target, table, plain, J.translation().cast<float>()),
+                                  table, plain);
+  EXPECT_FALSE(p.success);
+  EXPECT_EQ(p.status, GlobalStatus::Ambiguous) << p.reason;
+  EXPECT_TRUE(p.ambiguous);
+  EXPECT_NE(p.reason.find("two distinct hypotheses"), std::string::npos) << p.reason;
+
+  GlobalRegistrationConfig property;
+  const auto q = registerGlobally(source, prepareGlobalTarget(target, table, property, J.translation().cast<float>()),
+                                  table, property);
+  ASSERT_TRUE(q.success) << q.reason;
+  EXPECT_LT(transErr(q.transform, J), 0.1);
+  EXPECT_LT(rotErrDeg(q.transform, J), 1.0);
+  EXPECT_GT(q.label_agreement, 0.8);
+  EXPECT_LT(q.second_best_score, property.ambiguity_ratio * q.score);
+}
+
+TEST(GlobalRegistration, ABarePlaneIsNeverAccepted) {
+  // Every in-plane motion fits a plane equally well.
+  std::vector<hazmap::test::Patch> floor{{Eigen::Vector3d(-10, -10, -1.5), Eigen::Vector3d(20, 0, 0),
+                                          Eigen::Vector3d(0, 20, 0), 0}};
+  std::mt19937 rng(9);
+  const LabeledCloud a = hazmap::test::samplePatches(floor, 20000, rng, 0.01);
+  const LabeledCloud b = hazmap::test::samplePatches(floor, 20000, rng, 0.01);
+  const auto r = registerGlobally(a, b, ClassTable::defaults());
+  EXPECT_FALSE(r.success) << "accepted a plane: score " << r.score << " second " << r.second_best_score;
+  EXPECT_TRUE(r.status == GlobalStatus::Degenerate || r.status == GlobalStatus::Ambiguous) << r.reason;
+  EXPECT_FALSE(r.reason.empty());
+}
+
+TEST(GlobalRegistration, TooFewPointsSaySo) {
+  LabeledCloud tiny;
+  for (int i = 0; i < 20; ++i) tiny.push_back(Eigen::Vector3f(static_cast<float>(i), 0.0f, 0.0f));
+  const LabeledCloud scan = kitti(0);
+  const ClassTable table = ClassTable::semanticKitti();
+  const auto r = registerGlobally(tiny, scan, table);
+  EXPECT_FALSE(r.success);
+  EXPECT_EQ(r.status, GlobalStatus::TooFewPoints);
+  EXPECT_NE(r.reason.find("too few source points: 20 < 50"), std::string::npos) << r.reason;
+  const auto empty = registerGlobally(scan, LabeledCloud{}, table);
+  EXPECT_EQ(empty.status, GlobalStatus::TooFewPoints);
+  EXPECT_NE(empty.reason.find("too few target points: 0"), std::string::npos) << empty.reason;
+  // Points enough, features not: a thin line of points has no surface to describe.
+  LabeledCloud line;
+  for (int i = 0; i < 400; ++i) line.push_back(Eigen::Vector3f(0.5f * static_cast<float>(i), 0.0f, 0.0f));
+  const auto l = registerGlobally(line, line, table);
+  EXPECT_FALSE(l.success);
+  EXPECT_EQ(l.status, GlobalStatus::TooFewFeatures) << l.reason;
+}
+
+TEST(GlobalRegistration, NonFinitePointsAreIgnored) {
+  const NarahaPair& p = narahaPair();
+  LabeledCloud source = p.source;
+  for (std::size_t i = 0; i < source.size(); i += 50) source.points[i].x() = std::numeric_limits<float>::quiet_NaN();
+  const auto r = registerGlobally(source, p.target, p.table);
+  ASSERT_TRUE(r.success) << r.reason;
+  EXPECT_LT(transErr(r.transform, p.reference), 0.2);
+}
+
+TEST(GlobalRegistration, ConfigReadsValidatesAndChecksTheTarget) {
+  const auto c = globalRegistrationConfigFromYaml(
+      "global_registration:\n  voxel_size: 0.4\n  use_classes: false\n  refinement:\n    max_iterations: 12\n", "g.yaml");
+  EXPECT_DOUBLE_EQ(c.voxel_size, 0.4);
+  EXPECT_FALSE(c.use_classes);
+  EXPECT_EQ(c.refinement.max_iterations, 12);
+  EXPECT_EQ(c.refinement.max_source_points, GlobalRegistrationConfig::defaultRefinement().max_source_points);
+  try {
+    globalRegistrationConfigFromYaml("voxel_sise: 0.4\n", "g.yaml");
+    FAIL() << "unknown key accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("voxel_size"), std::string::npos) << e.what();
+  }
+  GlobalRegistrationConfig bad;
+  bad.feature_radius = 0.3;  // below the voxel
+  EXPECT_THROW(bad.validate(), Error);
+  bad = {};
+  bad.ambiguity_ratio = 1.5;
+  EXPECT_THROW(bad.validate(), Error);
+  // A target prepared with other feature settings is refused, not silently mismatched.
+  const NarahaPair& p = narahaPair();
+  const auto target = prepareGlobalTarget(p.target, p.table);
+  GlobalRegistrationConfig other;
+  other.feature_radius = 2.0;
+  EXPECT_THROW(registerGlobally(p.source, target, p.table, other), Error);
+}
+
+TEST(GlobalRegistration, SameAnswerForAnyNumberOfThreads) {
+  const NarahaPair& p = narahaPair();
+  GlobalRegistrationConfig one, two;
+  one.threads = 1;
+  two.threads = 2;
+  const auto a = registerGlobally(p.source, p.target, p.table, one);
+  const auto b = registerGlobally(p.source, p.target, p.table, two);
+  EXPECT_TRUE(a.transform.matrix() == b.transform.matrix());
+  EXPECT_EQ(a.correspondences, b.correspondences);
+  EXPECT_EQ(a.score, b.score);
+}
+
+TEST(GlobalRegistration, Cli) {
+  const auto dir = hazmap::test::sharedData("scan-pair");
+  const std::string pair = (dir / "251371071.pcd").string() + " " + (dir / "251370668.pcd").string();
+  const auto ok = hazmap::test::runCli("register " + pair + " --global --json");
+  ASSERT_EQ(ok.exit_code, 0) << ok.output;
+  EXPECT_NE(ok.output.find("\"status\": \"success\""), std::string::npos) << ok.output;
+  const auto init = hazmap::test::runCli("register " + pair + " --global --init " + (dir / "relative.txt").string());
+  EXPECT_NE(init.exit_code, 0);
+  EXPECT_NE(init.output.find("--init"), std::string::npos) << init.output;
+  const auto set = hazmap::test::runCli("register " + pair + " --global --set ransac_iteration=5");
+  EXPECT_NE(set.exit_code, 0);
+  EXPECT_NE(set.output.find("ransac_iterations"), std::string::npos) << set.output;
 }

@@ -150,8 +150,12 @@ FeatureCloud computeFeatures(const LabeledCloud& raw, const ClassTable& classes,
   nc.neighbors = config.normal_neighbors;
   nc.radius = config.normal_radius;
   nc.viewpoint = viewpoint;
-  nc.min_planarity = 0.0;  // edges and poles get a normal too: FPFH needs every point it can get
+  // Lower than the ICP's: edges and corners get a normal too (FPFH needs every point it can get);
+  // only a true line (a pole, a lone scan ring) has none.
+  nc.min_planarity = 0.01;
   computeDescriptors(fc, config, nc);
+  for (std::uint32_t i = 0; i < fc.cloud.size(); ++i)
+    if (classes.isProperty(fc.cloud.classes[i])) fc.labelled.push_back(i);
   return fc;
 }
 

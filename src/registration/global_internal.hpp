@@ -25,6 +25,7 @@ struct FeatureCloud {
   std::vector<Eigen::Vector3f> normals;
   std::vector<Descriptor> descriptors;   ///< one per entry of feature_point
   std::vector<std::uint32_t> feature_point;  ///< cloud index of each descriptor
+  std::vector<std::uint32_t> labelled;       ///< cloud indices of property-class points
   std::unique_ptr<NeighborIndex> index;  ///< all points of `cloud`
 };
 

@@ -96,37 +96,35 @@ void thinSourceFeatures(global::FeatureCloud& src, const ClassTable& classes, co
 }
 
 struct Score {
-  double weighted = 0.0;  ///< share of the achievable weight (labelled points on class count 1 + w)
+  double weighted = 0.0;  ///< what hypotheses are ranked by (see label_score_share)
   double overlap = 0.0;   ///< share of source points with a target point within inlier_distance
+  double labels = 0.0;    ///< share of labelled source points with a same-class target point there
 };
 
 // `max_points` > 0: an even stride over the source of about that many points (ranking many
-// hypotheses needs no more); 0 = every point.
+// hypotheses needs no more); 0 = every point. Labelled points are always all counted.
 Score scoreOf(const Eigen::Isometry3d& T, const global::FeatureCloud& src, const GlobalRegistrationTarget::Impl& tgt,
-              const ClassTable& classes, const GlobalRegistrationConfig& config, std::size_t max_points = 0) {
+              const GlobalRegistrationConfig& config, std::size_t max_points = 0) {
   const Eigen::Matrix3f R = T.linear().cast<float>();
   const Eigen::Vector3f t = T.translation().cast<float>();
   const float d2 = static_cast<float>(config.inlier_distance * config.inlier_distance);
-  const double w = config.class_score_weight;
-  double got = 0.0, possible = 0.0;
+  float dist2 = 0.0f;
   std::size_t hits = 0, used = 0;
   const std::size_t stride = max_points == 0 ? 1 : std::max<std::size_t>(1, src.cloud.size() / max_points);
-  for (std::size_t i = 0; i < src.cloud.size(); i += stride) {
-    ++used;
-    const Eigen::Vector3f q = R * src.cloud.points[i] + t;
-    float dist2 = 0.0f;
-    const bool hit = tgt.overlap_points->nearest(q, d2, dist2) >= 0;
-    hits += hit;
-    got += hit;
-    possible += 1.0;
-    const ClassId c = src.cloud.classes[i];
-    if (!config.use_classes || !classes.isProperty(c)) continue;
-    possible += w;
-    const auto it = tgt.class_points.find(c);
-    if (it != tgt.class_points.end() && it->second->nearest(q, d2, dist2) >= 0) got += w;
+  for (std::size_t i = 0; i < src.cloud.size(); i += stride, ++used)
+    hits += tgt.overlap_points->nearest(R * src.cloud.points[i] + t, d2, dist2) >= 0;
+  Score s;
+  s.overlap = static_cast<double>(hits) / static_cast<double>(std::max<std::size_t>(used, 1));
+  s.weighted = s.overlap;
+  if (!config.use_classes || src.labelled.size() < config.min_labelled_points) return s;
+  std::size_t on_class = 0;
+  for (std::uint32_t i : src.labelled) {
+    const auto it = tgt.class_points.find(src.cloud.classes[i]);
+    on_class += it != tgt.class_points.end() && it->second->nearest(R * src.cloud.points[i] + t, d2, dist2) >= 0;
   }
-  const double n = static_cast<double>(std::max<std::size_t>(used, 1));
-  return {possible > 0.0 ? got / possible : 0.0, static_cast<double>(hits) / n};
+  s.labels = static_cast<double>(on_class) / static_cast<double>(src.labelled.size());
+  s.weighted = (1.0 - config.label_score_share) * s.overlap + config.label_score_share * s.labels;
+  return s;
 }
 
 std::size_t agreeingMatches(const Eigen::Isometry3d& T, const global::FeatureCloud& src,
@@ -183,7 +181,7 @@ std::vector<Candidate> refineCandidates(const std::vector<global::Hypothesis>& h
   std::vector<Candidate> scored(hypotheses.size());
   tbb::parallel_for(std::size_t{0}, hypotheses.size(), [&](std::size_t k) {
     constexpr std::size_t kRankingPoints = 800;
-    scored[k] = {hypotheses[k], scoreOf(hypotheses[k].transform, src, tgt, classes, config, kRankingPoints), {}};
+    scored[k] = {hypotheses[k], scoreOf(hypotheses[k].transform, src, tgt, config, kRankingPoints), {}};
   });
   auto by_score = [](const Candidate& a, const Candidate& b) { return a.score.weighted > b.score.weighted; };
   std::stable_sort(scored.begin(), scored.end(), by_score);
@@ -208,7 +206,7 @@ std::vector<Candidate> refineCandidates(const std::vector<global::Hypothesis>& h
     // too coarse to judge centimetres); a failed ICP leaves the hypothesis.
     const bool usable = c.icp.termination == Termination::Converged || c.icp.termination == Termination::MaxIterations;
     if (usable && isFinite(c.icp.transform)) c.hypothesis.transform = c.icp.transform;
-    c.score = scoreOf(c.hypothesis.transform, src, tgt, classes, config);  // every point: the final word
+    c.score = scoreOf(c.hypothesis.transform, src, tgt, config);  // every point: the final word
   });
   // Refined first (the winner must be a refined one), each group by score.
   std::stable_sort(scored.begin(), scored.end(), [&](const Candidate& a, const Candidate& b) {
@@ -237,6 +235,7 @@ GlobalRegistrationResult decide(GlobalRegistrationResult r, const std::vector<Ca
   r.transform = c[0].hypothesis.transform;
   r.score = c[0].score.weighted;
   r.overlap = c[0].score.overlap;
+  r.label_agreement = c[0].score.labels;
   r.refinement = c[0].icp;
   r.from_constellation = c[0].hypothesis.constellation;
   r.second_best_score = c.size() > 1 ? c[1].score.weighted : 0.0;
@@ -251,6 +250,11 @@ GlobalRegistrationResult decide(GlobalRegistrationResult r, const std::vector<Ca
     std::snprintf(text, sizeof text, "two distinct hypotheses score %.3f and %.3f (ratio >= %.2f)", r.score,
                   r.second_best_score, config.ambiguity_ratio);
     return failWith(std::move(r), GlobalStatus::Ambiguous, text);
+  }
+  if (config.reject_degenerate && !r.refinement.degenerate_directions.empty()) {
+    std::snprintf(text, sizeof text, "the geometry leaves %zu direction(s) of the pose unconstrained",
+                  r.refinement.degenerate_directions.size());
+    return failWith(std::move(r), GlobalStatus::Degenerate, text);
   }
   r.success = true;
   r.status = GlobalStatus::Success;
