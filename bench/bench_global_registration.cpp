@@ -13,12 +13,14 @@
 // The SuccessRate benchmarks run once and report the success rate per size of the jump.
 #include <tbb/global_control.h>
 
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <numbers>
 #include <random>
 
 #include "bench_main.hpp"
+#include "hazmap/io/kitti.hpp"
 #include "hazmap/preprocess/voxel_downsample.hpp"
 #include "hazmap/registration/global_registration.hpp"
 #include "hazmap/sim/simulator.hpp"
@@ -134,6 +136,11 @@ GlobalRegistrationConfig config(bool classes) {
   return c;
 }
 
+#ifdef HAZMAP_BENCH_HAVE_OPEN3D
+/// Open3D's FPFH + RANSAC + ICP of c.source to c.target moved by J (defined below).
+Eigen::Isometry3d open3dRegister(const Case& c, const Eigen::Isometry3d& J);
+#endif
+
 // ---------------------------------------------------------------------------------------------
 void hazmapGlobal(benchmark::State& state, const Case& c, bool classes, bool prepared) {
   tbb::global_control threads(tbb::global_control::max_allowed_parallelism, state.range(0));
@@ -213,26 +220,30 @@ std::shared_ptr<open3d::geometry::PointCloud> o3dPrepared(const LabeledCloud& cl
 // point-to-plane ICP, with hazmap's voxel size and radii.
 void open3dGlobal(benchmark::State& state, const Case& c) {
   omp_set_num_threads(static_cast<int>(state.range(0)));
-  const auto cfg = config(false);
   const auto js = jumps(16, 180.0, 3.0);
   std::size_t k = 0, ok = 0;
   for (auto _ : state) {
     const std::size_t j = k++ % js.size();
-    std::shared_ptr<o3r::Feature> fs, ft;
-    auto s = o3dPrepared(c.source, Eigen::Isometry3d::Identity(), cfg, fs);
-    auto t = o3dPrepared(c.target, js[j], cfg, ft);
-    const o3r::CorrespondenceCheckerBasedOnEdgeLength edges(0.9);
-    const o3r::CorrespondenceCheckerBasedOnDistance distance(cfg.inlier_distance);
-    auto coarse = o3r::RegistrationRANSACBasedOnFeatureMatching(
-        *s, *t, *fs, *ft, true, cfg.inlier_distance, o3r::TransformationEstimationPointToPoint(false), 3,
-        {edges, distance}, o3r::RANSACConvergenceCriteria(100000, 0.999));
-    auto fine = o3r::RegistrationICP(*s, *t, 1.0, coarse.transformation_, o3r::TransformationEstimationPointToPlane(),
-                                     o3r::ICPConvergenceCriteria(1e-6, 1e-6, 30));
-    Eigen::Isometry3d T;
-    T.matrix() = fine.transformation_;
-    ok += correct(T, js[j] * c.reference);
+    ok += correct(open3dRegister(c, js[j]), js[j] * c.reference);
   }
   state.counters["correct"] = static_cast<double>(ok) / static_cast<double>(std::max<std::size_t>(k, 1));
+}
+
+Eigen::Isometry3d open3dRegister(const Case& c, const Eigen::Isometry3d& J) {
+  const auto cfg = config(false);
+  std::shared_ptr<o3r::Feature> fs, ft;
+  auto s = o3dPrepared(c.source, Eigen::Isometry3d::Identity(), cfg, fs);
+  auto t = o3dPrepared(c.target, J, cfg, ft);
+  const o3r::CorrespondenceCheckerBasedOnEdgeLength edges(0.9);
+  const o3r::CorrespondenceCheckerBasedOnDistance distance(cfg.inlier_distance);
+  auto coarse = o3r::RegistrationRANSACBasedOnFeatureMatching(
+      *s, *t, *fs, *ft, true, cfg.inlier_distance, o3r::TransformationEstimationPointToPoint(false), 3,
+      {edges, distance}, o3r::RANSACConvergenceCriteria(100000, 0.999));
+  auto fine = o3r::RegistrationICP(*s, *t, 1.0, coarse.transformation_, o3r::TransformationEstimationPointToPlane(),
+                                   o3r::ICPConvergenceCriteria(1e-6, 1e-6, 30));
+  Eigen::Isometry3d T;
+  T.matrix() = fine.transformation_;
+  return T;
 }
 
 #define HAZMAP_OPEN3D_BENCH(name, data)                                                            \
@@ -245,6 +256,122 @@ HAZMAP_OPEN3D_BENCH(Vlp16Street_Open3D_FpfhRansac, vlp16Street)
 HAZMAP_OPEN3D_BENCH(Ouster_Open3D_FpfhRansac, ouster)
 HAZMAP_OPEN3D_BENCH(Naraha_Open3D_FpfhRansac, naraha)
 #endif
+
+// ---------------------------------------------------------------------------------------------
+// Success rate vs size of the jump (docs/registration.md's table). Bucket b draws |yaw| uniformly
+// in (kYaw[b-1], kYaw[b]] with a random sign and the translation in (kMove[b-1], kMove[b]] m, one
+// jump per pair and trial; every method sees the same jumps. Counters: share of trials accepted
+// and correct (0.2 m / 1°), share accepted but wrong (the dangerous case), mean ms per trial.
+constexpr double kYaw[] = {0.0, 10.0, 45.0, 90.0, 180.0};
+constexpr double kMove[] = {0.0, 0.5, 2.0, 3.0, 5.0};
+
+Eigen::Isometry3d bucketJump(std::mt19937& rng, int b) {
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  const double yaw = (kYaw[b - 1] + u(rng) * (kYaw[b] - kYaw[b - 1])) * (u(rng) < 0.5 ? -1.0 : 1.0) * kDeg;
+  const double dist = kMove[b - 1] + u(rng) * (kMove[b] - kMove[b - 1]);
+  const double heading = (2.0 * u(rng) - 1.0) * std::numbers::pi;
+  Eigen::Isometry3d J = Eigen::Isometry3d::Identity();
+  J.linear() = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  J.translation() = Eigen::Vector3d(dist * std::cos(heading), dist * std::sin(heading), 0.0);
+  return J;
+}
+
+const std::vector<Case>& narahaPairs() {
+  static const std::vector<Case> pairs = [] {
+    sim::SimulatorConfig cfg;
+    cfg.scenario = "naraha";
+    cfg.seed = 3;
+    const sim::Simulator sim(cfg);
+    std::vector<Case> out;
+    const std::size_t n = sim.frames();
+    for (std::size_t k = 0; k < 12; ++k) {
+      const std::size_t f = 5 + k * (n - 10) / 12;  // places spread along the whole route
+      Case c{sim.scan(f + 3), sim.scan(f)};
+      c.reference = sim.groundTruth()[f].inverse() * sim.groundTruth()[f + 3];
+      c.table = sim.classTable();
+      out.push_back(std::move(c));
+    }
+    return out;
+  }();
+  return pairs;
+}
+
+const std::vector<Case>& kittiPairs() {
+  static const std::vector<Case> pairs = [] {
+    const ClassTable table = ClassTable::semanticKitti();
+    auto scan = [&](int i) {
+      char name[16];
+      std::snprintf(name, sizeof name, "%06d", i);
+      const auto dir = kData / "kitti-semantic-sample";
+      return readKittiScan(dir / "velodyne" / (std::string(name) + ".bin"), dir / "labels" / (std::string(name) + ".label"), table);
+    };
+    std::vector<Case> out;
+    for (auto [s, t] : {std::pair{1, 0}, std::pair{2, 1}, std::pair{2, 0}}) {  // the labelled scans
+      Case c{scan(s), scan(t)};
+      c.table = table;
+      c.reference = icpReference(c);
+      out.push_back(std::move(c));
+    }
+    return out;
+  }();
+  return pairs;
+}
+
+struct Tally {
+  int runs = 0, correct = 0, wrong = 0;
+  double ms = 0.0;
+  void add(bool accepted, bool right, double elapsed_ms) {
+    ++runs;
+    correct += accepted && right;
+    wrong += accepted && !right;
+    ms += elapsed_ms;
+  }
+  void report(benchmark::State& state, const std::string& name) const {
+    state.counters[name + "_ok"] = runs ? static_cast<double>(correct) / runs : 0.0;
+    state.counters[name + "_wrong"] = runs ? static_cast<double>(wrong) / runs : 0.0;
+    state.counters[name + "_ms"] = runs ? ms / runs : 0.0;
+  }
+};
+
+Tally hazmapTrial(const Case& c, const Eigen::Isometry3d& J, bool classes, Tally t) {
+  const auto cfg = config(classes);
+  const auto target = prepareGlobalTarget(c.target.transformed(J), c.table, cfg, J.translation().cast<float>());
+  const auto r = registerGlobally(c.source, target, c.table, cfg);
+  t.add(r.success, correct(r.transform, J * c.reference), r.timings.total_ms);
+  return t;
+}
+
+void successRate(benchmark::State& state, const std::vector<Case>& pairs, int trials_per_pair) {
+  const int b = static_cast<int>(state.range(0));
+  Tally plain, property, peer;
+  for (auto _ : state) {
+    std::mt19937 rng(100 + b);
+    for (int trial = 0; trial < trials_per_pair; ++trial)
+      for (const Case& c : pairs) {
+        const Eigen::Isometry3d J = bucketJump(rng, b);
+        plain = hazmapTrial(c, J, false, plain);
+        property = hazmapTrial(c, J, true, property);
+#ifdef HAZMAP_BENCH_HAVE_OPEN3D
+        const auto t0 = std::chrono::steady_clock::now();
+        const Eigen::Isometry3d T = open3dRegister(c, J);
+        peer.add(true, correct(T, J * c.reference),
+                 std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+#endif
+      }
+  }
+  state.counters["yaw_max_deg"] = kYaw[b];
+  state.counters["move_max_m"] = kMove[b];
+  plain.report(state, "plain");
+  property.report(state, "property");
+#ifdef HAZMAP_BENCH_HAVE_OPEN3D
+  peer.report(state, "open3d");
+#endif
+}
+
+void BM_SuccessRate_Naraha(benchmark::State& s) { successRate(s, narahaPairs(), 2); }
+void BM_SuccessRate_Kitti(benchmark::State& s) { successRate(s, kittiPairs(), 4); }
+BENCHMARK(BM_SuccessRate_Naraha)->DenseRange(1, 4)->Iterations(1)->Unit(benchmark::kSecond);
+BENCHMARK(BM_SuccessRate_Kitti)->DenseRange(1, 4)->Iterations(1)->Unit(benchmark::kSecond);
 
 }  // namespace
 

@@ -78,6 +78,8 @@ void addVerificationFields(ConfigFields<C>& f) {
       .flag("reject_degenerate", &C::reject_degenerate,
             "Refuse a winner whose refinement ICP reports unconstrained directions (a plane, a bare corridor)")
       .integer("candidates_refined", &C::candidates_refined, atLeast(1), "Distinct hypotheses refined by ICP")
+      .number("final_voxel_size", &C::final_voxel_size, nonNegative(),
+              "m; the winner is polished by the refinement ICP on clouds downsampled to this (0 = off)")
       .integer("threads", &C::threads, nonNegative(), "0 = TBB's default")
       .section("refinement", &C::refinement, "Property ICP that refines and verifies the candidates");
 }

@@ -116,7 +116,7 @@ std::vector<Hypothesis> ransacBlock(std::uint64_t seed, int draws, const std::ve
     // best so far is not counted in full.
     const std::size_t pre = std::min<std::size_t>(m.size(), kPretest);
     const std::size_t pre_votes = countAgreeing(h.transform, src, dst, std::span(m).first(pre), d2);
-    if (static_cast<double>(pre_votes) * static_cast<double>(m.size()) / static_cast<double>(pre) < 0.7 * best_votes)
+    if (static_cast<double>(pre_votes) * static_cast<double>(m.size()) / static_cast<double>(pre) < 0.5 * best_votes)
       continue;
     h.votes = static_cast<double>(countAgreeing(h.transform, src, dst, m, d2));
     if (h.votes <= 3) continue;  // the triple alone: no support

@@ -108,6 +108,7 @@ struct GlobalRegistrationTarget::Impl {
   std::map<ClassId, std::unique_ptr<NeighborIndex>> class_points;  ///< property classes
   std::vector<global::Landmark> landmarks;
   std::optional<RegistrationTarget> icp;
+  std::optional<RegistrationTarget> final_icp;  ///< at final_voxel_size (when > 0)
   GlobalRegistrationConfig config;  ///< what it was prepared with
 };
 

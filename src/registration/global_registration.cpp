@@ -10,6 +10,7 @@
 
 #include "global_internal.hpp"
 #include "hazmap/core/error.hpp"
+#include "hazmap/preprocess/voxel_downsample.hpp"
 #include "thread_arena.hpp"
 
 namespace hazmap {
@@ -34,12 +35,32 @@ RegistrationConfig refinementOf(const GlobalRegistrationConfig& config) {
   return r;
 }
 
+VoxelDownsampleConfig polishDownsampling(const GlobalRegistrationConfig& config) {
+  VoxelDownsampleConfig vd;
+  vd.voxel_size = config.final_voxel_size;
+  vd.vote = ClassVote::PreferProperty;
+  return vd;
+}
+
+// The winner's last step: the refinement ICP on finer clouds. Kept only if it converged and
+// moved little (a polish, not a new answer).
+void polish(GlobalRegistrationResult& r, const LabeledCloud& source, const GlobalRegistrationTarget::Impl& tgt,
+            const ClassTable& classes, const GlobalRegistrationConfig& config) {
+  if (!tgt.final_icp || !r.success) return;
+  const LabeledCloud fine = voxelDownsample(source, polishDownsampling(config), classes);
+  const RegistrationResult p = registerClouds(fine, *tgt.final_icp, r.transform, classes, refinementOf(config));
+  const bool usable = p.termination == Termination::Converged || p.termination == Termination::MaxIterations;
+  if (!usable || !isFinite(p.transform) || global::distinct(p.transform, r.transform, config)) return;
+  r.transform = p.transform;
+  r.refinement = p;
+}
+
 bool sameFeatures(const GlobalRegistrationConfig& a, const GlobalRegistrationConfig& b) {
   return a.voxel_size == b.voxel_size && a.normal_radius == b.normal_radius &&
          a.normal_neighbors == b.normal_neighbors && a.feature_radius == b.feature_radius &&
          a.max_feature_neighbors == b.max_feature_neighbors && a.max_range == b.max_range &&
-         a.use_classes == b.use_classes && a.landmark_cluster_distance == b.landmark_cluster_distance &&
-         a.landmark_min_points == b.landmark_min_points;
+         a.use_classes == b.use_classes && a.final_voxel_size == b.final_voxel_size &&
+         a.landmark_cluster_distance == b.landmark_cluster_distance && a.landmark_min_points == b.landmark_min_points;
 }
 
 // Source descriptor → nearest target descriptor (own class for labelled points, property-aware);
@@ -160,6 +181,8 @@ GlobalRegistrationTarget prepareGlobalTarget(const LabeledCloud& target, const C
       impl.landmarks = global::clusterLandmarks(impl.features.cloud, classes, config);
     }
     impl.icp.emplace(impl.features.cloud, classes, refinementOf(config));
+    if (config.final_voxel_size > 0.0)
+      impl.final_icp.emplace(voxelDownsample(target, polishDownsampling(config), classes), classes, refinementOf(config));
   });
   return out;
 }
@@ -284,7 +307,7 @@ GlobalRegistrationResult registerPrepared(const LabeledCloud& source, const Glob
   r.correspondences = matches.size();
   r.timings.match_ms = msSince(t0);
   t0 = Clock::now();
-  constexpr std::size_t kKeep = 8;
+  constexpr std::size_t kKeep = 32;
   std::vector<global::Hypothesis> hypotheses =
       global::ransacHypotheses(src.cloud.points, tgt.features.cloud.points, matches, config, kKeep);
   if (config.use_classes) {
@@ -300,6 +323,7 @@ GlobalRegistrationResult registerPrepared(const LabeledCloud& source, const Glob
   const std::vector<Candidate> candidates = refineCandidates(hypotheses, src, tgt, classes, config);
   r.timings.refine_ms = msSince(t0);
   r = decide(std::move(r), candidates, config);
+  polish(r, source, tgt, classes, config);
   r.inliers = agreeingMatches(r.transform, src, tgt.features, matches, config.inlier_distance);
   r.timings.total_ms = msSince(start);
   return r;

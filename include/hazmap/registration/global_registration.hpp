@@ -68,6 +68,9 @@ struct GlobalRegistrationConfig {
   bool reject_degenerate = true;
   int candidates_refined = 2;      ///< distinct hypotheses refined by ICP (>= 1; 2 = best + its rival)
   RegistrationConfig refinement = defaultRefinement();  ///< property ICP of the candidates
+  /// The winner is polished by the same ICP on clouds downsampled to this (m; finer than
+  /// voxel_size: at 0.5 m a sparse scan has shallow local minima a few degrees wide). 0 = off.
+  double final_voxel_size = 0.25;
   int threads = 0;  ///< 0 = TBB's default (or the surrounding tbb::global_control)
 
   static RegistrationConfig defaultRefinement();
