@@ -15,6 +15,7 @@ const char* toString(GlobalStatus s) {
     case GlobalStatus::PoorOverlap: return "poor overlap";
     case GlobalStatus::Ambiguous: return "ambiguous";
     case GlobalStatus::Degenerate: return "degenerate";
+    case GlobalStatus::LabelsDisagree: return "labels disagree";
   }
   return "unknown";
 }
@@ -59,7 +60,9 @@ void addEstimatorFields(ConfigFields<C>& f) {
       .number("label_score_share", &C::label_score_share, closed(0, 1),
               "Score = (1 − share)·overlap + share·(labelled points on their own class / labelled points)")
       .integer("min_labelled_points", &C::min_labelled_points, atLeast(1),
-               "Labelled (downsampled) source points needed for the label term of the score")
+               "Labelled (downsampled) source points in landmarks needed for the label term of the score")
+      .number("min_label_agreement", &C::min_label_agreement, closed(0, 1),
+              "Refuse a winner on which fewer labelled points land on their own class than this share")
       .number("landmark_cluster_distance", &C::landmark_cluster_distance, positive(),
               "m; same-class points closer than this form one landmark")
       .integer("landmark_min_points", &C::landmark_min_points, atLeast(1), "Downsampled points per landmark");

@@ -154,8 +154,7 @@ FeatureCloud computeFeatures(const LabeledCloud& raw, const ClassTable& classes,
   // only a true line (a pole, a lone scan ring) has none.
   nc.min_planarity = 0.01;
   computeDescriptors(fc, config, nc);
-  for (std::uint32_t i = 0; i < fc.cloud.size(); ++i)
-    if (classes.isProperty(fc.cloud.classes[i])) fc.labelled.push_back(i);
+  if (config.use_classes) fc.landmarks = clusterLandmarks(fc.cloud, classes, config, &fc.labelled);
   return fc;
 }
 

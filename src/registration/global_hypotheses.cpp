@@ -71,14 +71,48 @@ std::vector<Hypothesis> bestDistinct(std::vector<Hypothesis> all, const GlobalRe
   return out;
 }
 
+// Pairwise consistency of matches: a rigid motion keeps distances, so two inlier matches span
+// source and target edges of about the same length (and long enough to fix a rotation). Drawing
+// the second and third match of a triple among those consistent with the first (and each other)
+// makes an all-inlier triple far likelier than uniform draws when few matches are right (as in
+// SC²-PCR / TEASER's consistency graph; here only to guide the sampling).
+struct Compatibility {
+  std::vector<std::vector<std::uint32_t>> partners;  ///< per match, the consistent ones
+  std::vector<std::uint64_t> bits;                   ///< row-major bit matrix of the same
+  std::size_t words = 0;
+  bool test(std::size_t i, std::size_t j) const { return (bits[i * words + j / 64] >> (j % 64)) & 1u; }
+};
+
+Compatibility compatibility(const std::vector<Eigen::Vector3f>& src, const std::vector<Eigen::Vector3f>& dst,
+                            const std::vector<Match>& m, const GlobalRegistrationConfig& config) {
+  Compatibility c;
+  const std::size_t n = m.size();
+  c.words = (n + 63) / 64;
+  c.bits.assign(n * c.words, 0);
+  c.partners.resize(n);
+  const float sim = static_cast<float>(config.edge_length_similarity);
+  const float min_edge = static_cast<float>(config.inlier_distance);
+  tbb::parallel_for(std::size_t{0}, n, [&](std::size_t i) {
+    for (std::size_t j = 0; j < n; ++j) {
+      if (j == i) continue;
+      const float ls = (src[m[i].source] - src[m[j].source]).norm();
+      const float lt = (dst[m[i].target] - dst[m[j].target]).norm();
+      if (ls < min_edge || !edgesAgree(ls, lt, sim)) continue;
+      c.partners[i].push_back(static_cast<std::uint32_t>(j));
+      c.bits[i * c.words + j / 64] |= std::uint64_t{1} << (j % 64);
+    }
+  });
+  return c;
+}
+
 // One block of RANSAC draws with its own generator: the result is the same for any number of
 // threads. Keeps the block's best few hypotheses.
 std::vector<Hypothesis> ransacBlock(std::uint64_t seed, int draws, const std::vector<Eigen::Vector3f>& src,
                                     const std::vector<Eigen::Vector3f>& dst, const std::vector<Match>& m,
-                                    const GlobalRegistrationConfig& config, std::size_t keep) {
+                                    const Compatibility& compat, const GlobalRegistrationConfig& config,
+                                    std::size_t keep) {
   std::mt19937_64 rng(seed);
   std::uniform_int_distribution<std::size_t> pick(0, m.size() - 1);
-  const float sim = static_cast<float>(config.edge_length_similarity);
   const float d2 = static_cast<float>(config.inlier_distance * config.inlier_distance);
   const float min_edge = static_cast<float>(config.inlier_distance);
   // Many more than `keep`: near-duplicates of the best crowd the top, and thinning keeps one each.
@@ -87,19 +121,20 @@ std::vector<Hypothesis> ransacBlock(std::uint64_t seed, int draws, const std::ve
   std::vector<Hypothesis> best;
   double best_votes = 0.0;
   std::vector<Eigen::Vector3f> a(3), b(3);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  auto among = [&](const std::vector<std::uint32_t>& v) { return v[static_cast<std::size_t>(unit(rng) * v.size()) % v.size()]; };
   for (int it = 0; it < draws; ++it) {
-    const std::size_t i = pick(rng), j = pick(rng), k = pick(rng);
-    if (i == j || j == k || i == k) continue;
-    const std::size_t idx[3] = {i, j, k};
-    bool ok = true;
-    for (int e = 0; e < 3 && ok; ++e) {
-      const Match& p = m[idx[e]];
-      const Match& q = m[idx[(e + 1) % 3]];
-      const float ls = (src[p.source] - src[q.source]).norm();
-      const float lt = (dst[p.target] - dst[q.target]).norm();
-      ok = ls >= min_edge && edgesAgree(ls, lt, sim);
+    const std::size_t i = pick(rng);
+    const auto& ci = compat.partners[i];
+    if (ci.size() < 2) continue;
+    const std::size_t j = among(ci);
+    std::size_t k = i;
+    for (int attempt = 0; attempt < 8 && k == i; ++attempt) {
+      const std::size_t cand = among(ci);
+      if (cand != j && compat.test(j, cand)) k = cand;
     }
-    if (!ok) continue;
+    if (k == i) continue;
+    const std::size_t idx[3] = {i, j, k};
     for (int e = 0; e < 3; ++e) {
       a[e] = src[m[idx[e]].source];
       b[e] = dst[m[idx[e]].target];
@@ -169,13 +204,14 @@ std::vector<Hypothesis> ransacHypotheses(const std::vector<Eigen::Vector3f>& src
   // Shuffled once (deterministically), so any prefix is a random sample for the pre-test.
   std::vector<Match> m = matches;
   std::shuffle(m.begin(), m.end(), std::mt19937_64(config.seed));
+  const Compatibility compat = compatibility(src, dst, m, config);
   constexpr int kBlock = 1000;
   const int blocks = (config.ransac_iterations + kBlock - 1) / kBlock;
   std::vector<std::vector<Hypothesis>> per_block(blocks);
   tbb::parallel_for(0, blocks, [&](int b) {
     const int draws = std::min(kBlock, config.ransac_iterations - b * kBlock);
     per_block[b] = ransacBlock(config.seed * 0x9E3779B97F4A7C15ULL + static_cast<std::uint64_t>(b), draws, src,
-                               dst, m, config, keep);
+                               dst, m, compat, config, keep);
   });
   std::vector<Hypothesis> all;
   for (auto& v : per_block) all.insert(all.end(), v.begin(), v.end());

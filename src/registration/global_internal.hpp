@@ -19,13 +19,22 @@ constexpr int kBins = 11;              ///< per angle, as in the FPFH paper
 constexpr int kDescriptorSize = 3 * kBins;
 using Descriptor = std::array<float, kDescriptorSize>;
 
+/// A cluster of same-class property points (centroid in the cloud's frame).
+struct Landmark {
+  ClassId cls = 0;
+  Eigen::Vector3f centroid = Eigen::Vector3f::Zero();
+  std::size_t points = 0;
+};
+
 /// A downsampled cloud with normals and FPFH descriptors of the points that have one.
 struct FeatureCloud {
   LabeledCloud cloud;
   std::vector<Eigen::Vector3f> normals;
   std::vector<Descriptor> descriptors;   ///< one per entry of feature_point
   std::vector<std::uint32_t> feature_point;  ///< cloud index of each descriptor
-  std::vector<std::uint32_t> labelled;       ///< cloud indices of property-class points
+  /// Cloud indices of property-class points in landmarks (isolated labels are label noise).
+  std::vector<std::uint32_t> labelled;
+  std::vector<Landmark> landmarks;
   std::unique_ptr<NeighborIndex> index;  ///< all points of `cloud`
 };
 
@@ -61,14 +70,10 @@ DescriptorIndexes indexDescriptors(const FeatureCloud& fc, const ClassTable& cla
 std::int64_t nearestFor(const Descriptor& d, ClassId cls, const DescriptorIndexes& idx, const ClassTable& classes,
                         bool use_classes);
 
-/// A cluster of same-class property points (centroid in the cloud's frame).
-struct Landmark {
-  ClassId cls = 0;
-  Eigen::Vector3f centroid = Eigen::Vector3f::Zero();
-  std::size_t points = 0;
-};
+/// `members` (optional) receives the cloud indices of the points of the landmarks kept, sorted.
 std::vector<Landmark> clusterLandmarks(const LabeledCloud& cloud, const ClassTable& classes,
-                                       const GlobalRegistrationConfig& config);
+                                       const GlobalRegistrationConfig& config,
+                                       std::vector<std::uint32_t>* members = nullptr);
 
 /// A descriptor match: cloud indices of the source and target point.
 struct Match {

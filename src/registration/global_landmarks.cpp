@@ -10,7 +10,7 @@
 namespace hazmap::global {
 
 std::vector<Landmark> clusterLandmarks(const LabeledCloud& cloud, const ClassTable& classes,
-                                       const GlobalRegistrationConfig& config) {
+                                       const GlobalRegistrationConfig& config, std::vector<std::uint32_t>* members) {
   std::vector<std::uint32_t> labelled;
   for (std::uint32_t i = 0; i < cloud.size(); ++i)
     if (classes.isProperty(cloud.classes[i])) labelled.push_back(i);
@@ -40,6 +40,9 @@ std::vector<Landmark> clusterLandmarks(const LabeledCloud& cloud, const ClassTab
     l.centroid += cloud.points[labelled[a]];
     ++l.points;
   }
+  if (members)
+    for (std::uint32_t a = 0; a < labelled.size(); ++a)
+      if (sums[find(a)].points >= config.landmark_min_points) members->push_back(labelled[a]);
   std::vector<Landmark> out;
   for (auto& l : sums) {
     if (l.points < config.landmark_min_points) continue;

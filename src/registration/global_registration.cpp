@@ -178,7 +178,7 @@ GlobalRegistrationTarget prepareGlobalTarget(const LabeledCloud& target, const C
         if (classes.isProperty(impl.features.cloud.classes[i])) per_class[impl.features.cloud.classes[i]].push_back(i);
       for (auto& [c, ids] : per_class)
         impl.class_points.emplace(c, std::make_unique<VoxelHashIndex>(impl.features.cloud.points, ids, r, r));
-      impl.landmarks = global::clusterLandmarks(impl.features.cloud, classes, config);
+      impl.landmarks = impl.features.landmarks;
     }
     impl.icp.emplace(impl.features.cloud, classes, refinementOf(config));
     if (config.final_voxel_size > 0.0)
@@ -195,9 +195,36 @@ struct Candidate {
   RegistrationResult icp;
 };
 
+bool refined(const Candidate& c) { return c.icp.termination != Termination::NotRun; }
+
+void refineOne(Candidate& c, const global::FeatureCloud& src, const GlobalRegistrationTarget::Impl& tgt,
+               const ClassTable& classes, const GlobalRegistrationConfig& config) {
+  c.icp = registerClouds(src.cloud, *tgt.icp, c.hypothesis.transform, classes, refinementOf(config));
+  // ICP's answer replaces the hypothesis whenever it ran to a usable pose (the overlap count is
+  // too coarse to judge centimetres); a failed ICP leaves the hypothesis.
+  const bool usable = c.icp.termination == Termination::Converged || c.icp.termination == Termination::MaxIterations;
+  if (usable && isFinite(c.icp.transform)) c.hypothesis.transform = c.icp.transform;
+  c.score = scoreOf(c.hypothesis.transform, src, tgt, config);  // every point: the final word
+}
+
+// Refined first (the winner must be a refined one), each group by score; then pairwise distinct
+// (candidates that ICP brought to the same pose are one).
+void sortAndThin(std::vector<Candidate>& v, const GlobalRegistrationConfig& config) {
+  std::stable_sort(v.begin(), v.end(), [](const Candidate& a, const Candidate& b) {
+    return refined(a) != refined(b) ? refined(a) : a.score.weighted > b.score.weighted;
+  });
+  std::vector<Candidate> out;
+  for (auto& c : v) {
+    bool fresh = true;
+    for (const auto& o : out) fresh = fresh && global::distinct(c.hypothesis.transform, o.hypothesis.transform, config);
+    if (fresh) out.push_back(std::move(c));
+  }
+  v = std::move(out);
+}
+
 // Scores every hypothesis, refines the best few distinct ones by property ICP and rescores them
-// on every point; candidates that ICP brings to the same pose are one. Returns distinct
-// candidates, best first (the unrefined ones keep their ranking score: the rivals' scores).
+// on every point. A rival that could still make the result ambiguous is refined too before it
+// counts (an unrefined score is a rough one). Returns distinct candidates, best first.
 std::vector<Candidate> refineCandidates(const std::vector<global::Hypothesis>& hypotheses,
                                         const global::FeatureCloud& src, const GlobalRegistrationTarget::Impl& tgt,
                                         const ClassTable& classes, const GlobalRegistrationConfig& config) {
@@ -206,37 +233,19 @@ std::vector<Candidate> refineCandidates(const std::vector<global::Hypothesis>& h
     constexpr std::size_t kRankingPoints = 800;
     scored[k] = {hypotheses[k], scoreOf(hypotheses[k].transform, src, tgt, config, kRankingPoints), {}};
   });
-  auto by_score = [](const Candidate& a, const Candidate& b) { return a.score.weighted > b.score.weighted; };
-  std::stable_sort(scored.begin(), scored.end(), by_score);
-  auto thin = [&](std::vector<Candidate>& v) {
-    std::vector<Candidate> out;
-    for (auto& c : v) {
-      bool fresh = true;
-      for (const auto& o : out) fresh = fresh && global::distinct(c.hypothesis.transform, o.hypothesis.transform, config);
-      if (fresh) out.push_back(std::move(c));
-    }
-    v = std::move(out);
-  };
-  thin(scored);
+  sortAndThin(scored, config);
   // Refine the best few; none that scores below half the best (ICP would not lift it to a rival).
   std::size_t refine = std::min<std::size_t>(scored.size(), config.candidates_refined);
   while (refine > 1 && scored[refine - 1].score.weighted < 0.5 * scored[0].score.weighted) --refine;
-  const RegistrationConfig icp = refinementOf(config);
-  tbb::parallel_for(std::size_t{0}, refine, [&](std::size_t k) {
-    Candidate& c = scored[k];
-    c.icp = registerClouds(src.cloud, *tgt.icp, c.hypothesis.transform, classes, icp);
-    // ICP's answer replaces the hypothesis whenever it ran to a usable pose (the overlap count is
-    // too coarse to judge centimetres); a failed ICP leaves the hypothesis.
-    const bool usable = c.icp.termination == Termination::Converged || c.icp.termination == Termination::MaxIterations;
-    if (usable && isFinite(c.icp.transform)) c.hypothesis.transform = c.icp.transform;
-    c.score = scoreOf(c.hypothesis.transform, src, tgt, config);  // every point: the final word
-  });
-  // Refined first (the winner must be a refined one), each group by score.
-  std::stable_sort(scored.begin(), scored.end(), [&](const Candidate& a, const Candidate& b) {
-    const bool ra = a.icp.termination != Termination::NotRun, rb = b.icp.termination != Termination::NotRun;
-    return ra != rb ? ra : by_score(a, b);
-  });
-  thin(scored);
+  tbb::parallel_for(std::size_t{0}, refine, [&](std::size_t k) { refineOne(scored[k], src, tgt, classes, config); });
+  sortAndThin(scored, config);
+  constexpr int kMoreRivals = 4;
+  for (int extra = 0; extra < kMoreRivals && scored.size() > 1 && !refined(scored[1]); ++extra) {
+    auto rival = std::find_if(scored.begin(), scored.end(), [](const Candidate& c) { return !refined(c); });
+    if (rival->score.weighted < 0.5 * scored[0].score.weighted) break;
+    refineOne(*rival, src, tgt, classes, config);
+    sortAndThin(scored, config);
+  }
   return scored;
 }
 
@@ -273,6 +282,11 @@ GlobalRegistrationResult decide(GlobalRegistrationResult r, const std::vector<Ca
     std::snprintf(text, sizeof text, "two distinct hypotheses score %.3f and %.3f (ratio >= %.2f)", r.score,
                   r.second_best_score, config.ambiguity_ratio);
     return failWith(std::move(r), GlobalStatus::Ambiguous, text);
+  }
+  if (r.label_agreement < config.min_label_agreement && c[0].score.weighted != c[0].score.overlap) {
+    std::snprintf(text, sizeof text, "the property labels disagree: %.0f %% of the labelled points land on their class (< %.0f %%)",
+                  100 * r.label_agreement, 100 * config.min_label_agreement);
+    return failWith(std::move(r), GlobalStatus::LabelsDisagree, text);
   }
   if (config.reject_degenerate && !r.refinement.degenerate_directions.empty()) {
     std::snprintf(text, sizeof text, "the geometry leaves %zu direction(s) of the pose unconstrained",
@@ -312,7 +326,7 @@ GlobalRegistrationResult registerPrepared(const LabeledCloud& source, const Glob
       global::ransacHypotheses(src.cloud.points, tgt.features.cloud.points, matches, config, kKeep);
   if (config.use_classes) {
     const auto constellations = global::constellationHypotheses(
-        global::clusterLandmarks(src.cloud, classes, config), tgt.landmarks, config, kKeep);
+        src.landmarks, tgt.landmarks, config, kKeep);
     r.constellation_hypotheses = constellations.size();
     hypotheses.insert(hypotheses.end(), constellations.begin(), constellations.end());
   }

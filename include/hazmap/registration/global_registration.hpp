@@ -54,6 +54,9 @@ struct GlobalRegistrationConfig {
   /// symmetry that thousands of geometric points cannot (a corridor, a rectangular room).
   double label_score_share = 0.3;
   std::size_t min_labelled_points = 3;
+  /// Property-aware: a winner on which fewer labelled source points (in landmarks) land on their
+  /// own class than this share is refused — the labels say the geometry matched the wrong place.
+  double min_label_agreement = 0.2;
   double landmark_cluster_distance = 1.0;  ///< m, same-class points closer are one landmark
   std::size_t landmark_min_points = 3;     ///< (downsampled) points for a landmark
   // --- verification ---
@@ -96,6 +99,7 @@ enum class GlobalStatus {
   PoorOverlap,            ///< the best refined hypothesis overlaps less than min_overlap
   Ambiguous,              ///< two distinct hypotheses of similar score
   Degenerate,             ///< the refinement leaves directions unconstrained (reject_degenerate)
+  LabelsDisagree,         ///< property-aware: the winner puts the labelled points off their class
 };
 const char* toString(GlobalStatus status);
 
