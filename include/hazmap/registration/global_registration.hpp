@@ -42,7 +42,7 @@ struct GlobalRegistrationConfig {
   bool mutual_filter = true;  ///< keep only mutual nearest neighbours (if at least min_correspondences)
   std::size_t min_correspondences = 10;
   // --- estimator ---
-  int ransac_iterations = 20000;      ///< triples drawn (fixed count: deterministic)
+  int ransac_iterations = 5000;       ///< triples drawn (fixed count: deterministic)
   double edge_length_similarity = 0.9;  ///< pre-check: every edge ratio of a triple >= this
   double inlier_distance = 0.75;      ///< m, a correspondence/point agrees within this
   std::uint64_t seed = 1;             ///< RANSAC seed (the result does not depend on threads)
