@@ -17,6 +17,8 @@ struct LabelCliOptions {
   double time_tolerance = 0.1;
   ProjectionConfig projection;
   bool no_motion_compensation = false;
+  bool no_view_fusion = false;
+  ViewFusionConfig fusion;
   bool overwrite = false, json = false;
   long overlay = -1;
 };
@@ -28,6 +30,8 @@ void label(const LabelCliOptions& o) {
   options.labeler.time_tolerance = o.time_tolerance;
   options.labeler.projection = o.projection;
   options.labeler.motion_compensation = !o.no_motion_compensation;
+  options.fuse_views = !o.no_view_fusion;
+  options.fusion = o.fusion;
   options.overwrite = o.overwrite;
   const LabelReport r = labelSequence(o.sequence, o.out, options);
   if (o.overlay >= 0)
@@ -68,6 +72,13 @@ const RegisterCommand registration{{
       app.add_option("--depth-tolerance", o->projection.depth_tolerance, "Depth-test tolerance (m)");
       app.add_flag("--no-motion-compensation", o->no_motion_compensation,
                    "Do not place images with the pose at their own time");
+      app.add_flag("--no-view-fusion", o->no_view_fusion,
+                   "Each scan from its own images only (default: each surface voxel from its best view in nearby scans)");
+      app.add_option("--fusion-voxel", o->fusion.voxel, "View fusion: surface voxel (m)");
+      app.add_option("--fusion-window", o->fusion.window, "View fusion: metres of travel a view may be used for");
+      app.add_option("--calibration-uncertainty", o->fusion.calibration_uncertainty_deg,
+                     "View fusion: the calibration's angular uncertainty (degrees)");
+      app.add_option("--odometry-drift", o->fusion.odometry_drift, "View fusion: odometry drift (m per m travelled)");
       app.add_option("--overlay", o->overlay,
                      "Also draw frame N's points on each camera's image: OUT/overlays/<camera>_NNNNNN.png");
       app.add_flag("--overwrite", o->overwrite, "Replace --out if it is a previous sequence");

@@ -50,7 +50,10 @@ TEST(PropertiesSim, ThermalCameraLabelsHeatWithExactCalibration) {
       EXPECT_EQ(scan.classes[i], 1);
     }
   }
-  EXPECT_GT(nan, scan.size() / 2);
+  // View fusion gives values to points a nearby scan's image saw; the rest (behind, above) stay NaN.
+  EXPECT_GT(nan, scan.size() / 4);
+  EXPECT_TRUE(j["view_fusion"].get<bool>());
+  EXPECT_GT(j["valued_fraction"].get<double>(), 2 * j["observed_fraction"].get<double>());
 }
 
 TEST(PropertiesSim, PerturbedCalibrationErrsAtEdges) {
@@ -62,9 +65,12 @@ TEST(PropertiesSim, PerturbedCalibrationErrsAtEdges) {
   EXPECT_NE(text.find("time_offset: 0.05"), std::string::npos);
   const auto j = labelJson(dir / "seq", dir / "labelled");
   const double precision = j["labels"]["heat"]["precision"].get<double>();
-  // Measured 0.82 (this seed), 0.91 and 0.96 (seeds 2, 3); exact calibration gives 0.998.
-  EXPECT_GE(precision, 0.78) << j.dump();
+  // Measured 0.854 with view fusion (seeds 1-5 of 60 frames: 0.854-0.954, docs/properties.md);
+  // each scan alone 0.819 here: the wall beside the hot panel, seen at a grazing angle.
+  EXPECT_GE(precision, 0.85) << j.dump();
   EXPECT_LT(precision, 0.99) << "a 1° error must cost something";
+  const auto alone = labelJson(dir / "seq", dir / "alone", "--no-view-fusion");
+  EXPECT_LT(alone["labels"]["heat"]["precision"].get<double>(), precision - 0.02) << alone.dump();
 }
 
 TEST(PropertiesSim, BadInputIsOneLineAndWritesNothing) {

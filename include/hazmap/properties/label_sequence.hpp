@@ -10,6 +10,7 @@
 
 #include "hazmap/io/sequence.hpp"
 #include "hazmap/properties/labeler.hpp"
+#include "hazmap/properties/view_fusion.hpp"
 
 namespace hazmap {
 
@@ -17,6 +18,10 @@ struct LabelOptions {
   std::vector<std::filesystem::path> cameras;  ///< camera.yaml files (images next to them or `images:`)
   std::filesystem::path rules;                 ///< empty = built-in rules for the cameras' channels
   LabelerConfig labeler;
+  /// Best-view fusion across scans (view_fusion.hpp), placed by the odometry (else the ground
+  /// truth); off, or without poses, each scan keeps its own image's values.
+  bool fuse_views = true;
+  ViewFusionConfig fusion;
   bool overwrite = false;
 };
 
@@ -35,6 +40,8 @@ struct LabelReport {
   std::vector<std::string> channels;
   ProjectionStats projection;
   std::size_t images_missing = 0;  ///< (frame, camera) pairs without an image within the tolerance
+  std::size_t valued = 0;          ///< points with a value after view fusion (= observed without it)
+  bool fused = false;              ///< view fusion was applied
   std::string truth_source;        ///< labels_true/, labels/ or empty (no truth)
   std::map<std::string, ClassLabelMetrics> classes;  ///< property classes by name
   double seconds = 0.0;
