@@ -5,7 +5,11 @@
 #include <iostream>
 #include <memory>
 
+#include <unistd.h>
+
 #include "command.hpp"
+#include "hazmap/core/error.hpp"
+#include "recording.hpp"
 #include "hazmap/properties/label_sequence.hpp"
 
 namespace hazmap::cli {
@@ -23,8 +27,29 @@ struct LabelCliOptions {
   long overlay = -1;
 };
 
+/// A recording (bag) is converted into a temporary folder next to --out first; its image topics
+/// feed the cameras with `topic:`. The folder goes when the labelling is done.
+struct ConvertedRecording {
+  std::filesystem::path path;
+  ~ConvertedRecording() {
+    std::error_code ignored;
+    if (!path.empty()) std::filesystem::remove_all(path, ignored);
+  }
+};
+
 void label(const LabelCliOptions& o) {
   LabelOptions options;
+  ConvertedRecording converted;
+  std::string sequence = o.sequence;
+  if (isRecording(o.sequence)) {
+    if (o.overlay >= 0) fail("--overlay", "draws images from camera folders, not from a bag");
+    const auto out = std::filesystem::absolute(o.out).lexically_normal();
+    converted.path = out.parent_path() / ("." + out.filename().string() + ".recording-" + std::to_string(::getpid()));
+    std::filesystem::remove_all(converted.path);
+    convertRecording(o.sequence, converted.path, SourceFlags{}, true);
+    sequence = converted.path.string();
+    options.image_bag = o.sequence;
+  }
   for (const auto& c : o.cameras) options.cameras.emplace_back(c);
   options.rules = o.rules;
   options.labeler.time_tolerance = o.time_tolerance;
@@ -33,7 +58,7 @@ void label(const LabelCliOptions& o) {
   options.fuse_views = !o.no_view_fusion;
   options.fusion = o.fusion;
   options.overwrite = o.overwrite;
-  const LabelReport r = labelSequence(o.sequence, o.out, options);
+  const LabelReport r = labelSequence(sequence, o.out, options);
   if (o.overlay >= 0)
     writeLabelOverlays(o.out, options.cameras, static_cast<std::size_t>(o.overlay), options.labeler);
   if (o.json) {
@@ -58,7 +83,7 @@ const RegisterCommand registration{{
     "Label a sequence from calibrated property cameras (thermal, NIR, gamma) and write it as a new sequence",
     [](CLI::App& app) {
       auto o = std::make_shared<LabelCliOptions>();
-      app.add_option("sequence", o->sequence, "Sequence directory (velodyne/, times.txt, poses.txt or odometry.txt)")
+      app.add_option("sequence", o->sequence, "Sequence directory (velodyne/, times.txt, poses.txt or odometry.txt) or a bag with image topics")
           ->required();
       app.add_option("--camera", o->cameras, "camera.yaml (ROS camera_info + T_camera_lidar, time_offset, channel); repeatable")
           ->required();

@@ -13,6 +13,7 @@
 #include "hazmap/io/atomic_file.hpp"
 #include "hazmap/io/kitti.hpp"
 #include "hazmap/io/temporary_folder.hpp"
+#include "hazmap/properties/bag_images.hpp"
 #include "hazmap/properties/overlay.hpp"
 
 namespace hazmap {
@@ -33,15 +34,19 @@ std::optional<double> ClassLabelMetrics::recall() const { return ratio(true_posi
 std::optional<double> ClassLabelMetrics::observedFraction() const { return ratio(observed, true_points); }
 
 PropertyLabeler makeLabeler(const std::vector<fs::path>& cameras, const fs::path& rules, const ClassTable& table,
-                            const LabelerConfig& config) {
+                            const LabelerConfig& config, const fs::path& image_bag) {
   if (cameras.empty()) fail("label", "no camera given (--camera CAM.yaml)");
   std::vector<CameraInput> inputs;
   std::vector<std::string> channels;
   for (const fs::path& path : cameras) {
     CameraInput in;
     in.camera = readCameraYaml(path);
-    const fs::path images = in.camera.images.empty() ? fs::absolute(path).parent_path() : in.camera.images;
-    in.images = std::make_shared<FolderImages>(images);
+    if (!image_bag.empty() && !in.camera.topic.empty() && in.camera.images.empty()) {
+      in.images = readBagImages(image_bag, in.camera);
+    } else {
+      const fs::path images = in.camera.images.empty() ? fs::absolute(path).parent_path() : in.camera.images;
+      in.images = std::make_shared<FolderImages>(images);
+    }
     channels.push_back(in.camera.channel.name);
     inputs.push_back(std::move(in));
   }
@@ -225,7 +230,8 @@ LabelReport labelSequence(const fs::path& sequence_dir, const fs::path& out_arg,
   const std::vector<double> times = readScanTimes(seq);
   LabelerConfig labeler_config = options.labeler;
   labeler_config.footprints = options.fuse_views;
-  const PropertyLabeler labeler = makeLabeler(options.cameras, options.rules, seq.classTable(), labeler_config);
+  const PropertyLabeler labeler =
+      makeLabeler(options.cameras, options.rules, seq.classTable(), labeler_config, options.image_bag);
   if (out_arg.empty()) fail("label", "no output folder given (--out)");
   options.fusion.validate("label");
   fs::path out = fs::absolute(out_arg).lexically_normal();
