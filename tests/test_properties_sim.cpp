@@ -118,5 +118,58 @@ TEST(PropertiesSim, RunWithCameraReportsPeakTemperaturePerHazard) {
   EXPECT_TRUE(hot) << hazards.dump();
 }
 
+TEST(PropertiesSim, BagImagesLabelLikeTheFolderAndMissingImagesAreCountedInRunJson) {
+  const fs::path dir = test::scratchDir();
+  ASSERT_EQ(test::runCli("simulate --frames 12 --cameras thermal --out " + (dir / "seq").string()).exit_code, 0);
+  const auto bag = test::runCli("simulate --frames 12 --cameras thermal --format mcap --out " + (dir / "sim.mcap").string());
+  ASSERT_EQ(bag.exit_code, 0) << bag.output;
+  ASSERT_TRUE(fs::exists(dir / "sim.thermal.yaml")) << bag.output;
+  EXPECT_NE(readTextFile(dir / "sim.thermal.yaml").find("topic: /thermal/image_raw"), std::string::npos);
+  // hazmap label on the bag: images from /thermal/image_raw (mono16 centikelvin), same labels.
+  const auto from_bag = test::runCli("label " + (dir / "sim.mcap").string() + " --camera " +
+                                     (dir / "sim.thermal.yaml").string() + " --out " + (dir / "bag-labelled").string());
+  ASSERT_EQ(from_bag.exit_code, 0) << from_bag.output;
+  const auto from_folder = test::runCli("label " + (dir / "seq").string() + " --camera " +
+                                        (dir / "seq/cameras/thermal/camera.yaml").string() + " --out " +
+                                        (dir / "folder-labelled").string());
+  ASSERT_EQ(from_folder.exit_code, 0) << from_folder.output;
+  std::size_t hot = 0;
+  for (int i = 0; i < 12; ++i) {
+    char name[32];
+    std::snprintf(name, sizeof name, "labels/%06d.label", i);
+    const std::string a = readTextFile(dir / "bag-labelled" / name), b = readTextFile(dir / "folder-labelled" / name);
+    EXPECT_EQ(a, b) << name;
+    for (std::size_t k = 0; k + 4 <= a.size(); k += 4) hot += a[k] == 1;
+  }
+  EXPECT_GT(hot, 100u);  // the corridor's heater panel is in view
+  for (const auto& entry : fs::directory_iterator(dir))  // the bag's converted scans are gone
+    EXPECT_EQ(entry.path().filename().string().find(".recording-"), std::string::npos) << entry.path();
+  // hazmap run on the bag with --camera: labelled, then SLAM; run.json reports the labelling.
+  auto r = test::runCli("run " + (dir / "sim.mcap").string() + " --method odometry --quiet --no-viewer --camera " +
+                        (dir / "sim.thermal.yaml").string() + " --out " + (dir / "run").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  auto run = nlohmann::json::parse(readTextFile(dir / "run/run.json"));
+  EXPECT_EQ(run["camera_labels"]["frames"].get<int>(), 12);
+  EXPECT_EQ(run["camera_labels"]["images_missing"].get<int>(), 0);
+  // No image within the time tolerance: a counted skip, not an error.
+  std::string yaml = readTextFile(dir / "sim.thermal.yaml");
+  yaml.replace(yaml.find("time_offset: 0"), 14, "time_offset: 1000");
+  writeTextAtomically(dir / "late.yaml", yaml);
+  r = test::runCli("run " + (dir / "sim.mcap").string() + " --method odometry --quiet --no-viewer --camera " +
+                   (dir / "late.yaml").string() + " --out " + (dir / "run-late").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  run = nlohmann::json::parse(readTextFile(dir / "run-late/run.json"));
+  EXPECT_EQ(run["camera_labels"]["images_missing"].get<int>(), 12);
+  // A bag without the camera's topic: one line naming the bag and the topic.
+  yaml = readTextFile(dir / "sim.thermal.yaml");
+  yaml.replace(yaml.find("/thermal/image_raw"), 18, "/nir/image_raw");
+  writeTextAtomically(dir / "nir.yaml", yaml);
+  r = test::runCli("label " + (dir / "sim.mcap").string() + " --camera " + (dir / "nir.yaml").string() + " --out " +
+                   (dir / "none").string());
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("sim.mcap: has no topic /nir/image_raw"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(dir / "none"));
+}
+
 }  // namespace
 }  // namespace hazmap
