@@ -144,18 +144,19 @@ void writeSimulationAsMcap(const sim::SimulatorConfig& config, const std::filesy
 }
 
 
-/// The --cameras family of options into the simulator config.
+/// The --cameras family of options into the simulator config (over the config file's
+/// `cameras:`; --cameras replaces its list, the others apply to the list in force).
 void applyCameraOptions(const SimulateOptions& o, sim::CameraSimConfig& cameras) {
-  if (o.cameras.empty()) {
+  if (!o.cameras.empty()) cameras.cameras = sim::CameraSimConfig::parseList(o.cameras);
+  if (cameras.cameras.empty()) {
     if (!o.calibration_error.empty() || o.time_offset != 0.0 || o.camera_blur || !o.camera_size.empty())
       fail("simulate", "--calibration-error, --time-offset, --camera-blur and --camera-size need --cameras");
     return;
   }
-  cameras.cameras = sim::CameraSimConfig::parseList(o.cameras);
   if (!o.calibration_error.empty()) cameras.parseCalibrationError(o.calibration_error);
-  cameras.time_offset = o.time_offset;
+  if (o.time_offset != 0.0) cameras.time_offset = o.time_offset;
   for (auto& c : cameras.cameras) {
-    c.blur = o.camera_blur;
+    if (o.camera_blur) c.blur = true;
     if (!o.camera_size.empty()) {
       int w = 0, h = 0;
       char x = 0;
@@ -226,8 +227,11 @@ void setupSimulate(CLI::App& app) {
         summary.drift.max_position_error, summary.drift.final_position_error,
         summary.drift.max_frame_translation_error, summary.drift.max_frame_rotation_error_deg,
         summary.drift.slips);
-    if (!config.cameras.empty())
-      std::cout << fmt::format("  cameras ({}): {:.2f} s\n", opt->cameras, summary.camera_seconds);
+    if (!config.cameras.empty()) {
+      std::string names;
+      for (const auto& c : config.cameras.cameras) names += (names.empty() ? "" : ",") + c.name;
+      std::cout << fmt::format("  cameras ({}): {:.2f} s\n", names, summary.camera_seconds);
+    }
     if (opt->png) {
       // Clip 0.5 m below the lowest ceiling of the built-in scenes (3 m) to see inside.
       renderPngs(opt->out, config.reference_voxel, config.scene_file.empty() ? 2.5 : 1e9);

@@ -171,5 +171,38 @@ TEST(PropertiesSim, BagImagesLabelLikeTheFolderAndMissingImagesAreCountedInRunJs
   EXPECT_FALSE(fs::exists(dir / "none"));
 }
 
+TEST(PropertiesSim, CamerasFromTheSimulatorConfig) {
+  const fs::path dir = test::scratchDir();
+  writeTextAtomically(dir / "sim.yaml",
+                      "frames: 2\ncameras:\n  list: [thermal, {name: nir, width: 64, height: 48, pitch_deg: 20}]\n"
+                      "  calibration_error_deg: 1\n");
+  auto r = test::runCli("simulate --config " + (dir / "sim.yaml").string() + " --out " + (dir / "seq").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("cameras (thermal,nir)"), std::string::npos) << r.output;
+  const std::string nir = readTextFile(dir / "seq/cameras/nir/camera.yaml");
+  EXPECT_NE(nir.find("image_width: 64"), std::string::npos) << nir;
+  EXPECT_NE(readTextFile(dir / "seq/simulation.yaml").find("calibration_error_deg: 1"), std::string::npos);
+  // simulation.yaml reads back (the cameras included) and reproduces the same images.
+  r = test::runCli("simulate --config " + (dir / "seq/simulation.yaml").string() + " --out " + (dir / "again").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_EQ(readTextFile(dir / "seq/cameras/nir/000001.png"), readTextFile(dir / "again/cameras/nir/000001.png"));
+  // Errors name the key (and the file, when reading; range checks run after the flags apply).
+  const std::pair<const char*, const char*> bad[] = {
+      {"cameras:\n  list: [{name: nir, pich_deg: 20}]\n", "cameras.list.0: unknown key 'pich_deg'"},
+      {"cameras:\n  list: [sonar]\n", "cameras.list.0.name: must be thermal, nir or gamma, got 'sonar'"},
+      {"cameras:\n  list: [{name: thermal, hfov_deg: -5}]\n", "cameras.list.0.hfov_deg"},
+      {"cameras:\n  list: [{name: thermal, position: [0, 1]}]\n", "cameras.list.0.position: must be a list of 3"},
+  };
+  for (const auto& [yaml, message] : bad) {
+    writeTextAtomically(dir / "bad.yaml", yaml);
+    r = test::runCli("simulate --config " + (dir / "bad.yaml").string() + " --out " + (dir / "bad").string());
+    EXPECT_NE(r.exit_code, 0) << yaml;
+    EXPECT_NE(r.output.find(message), std::string::npos) << r.output;
+    if (std::string(message).find("hfov") == std::string::npos)
+      EXPECT_NE(r.output.find("bad.yaml"), std::string::npos) << r.output;
+    EXPECT_FALSE(fs::exists(dir / "bad"));
+  }
+}
+
 }  // namespace
 }  // namespace hazmap
