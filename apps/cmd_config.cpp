@@ -49,6 +49,8 @@ void markdownSection(std::ostream& out, const std::string& path, const std::stri
   }
   for (const auto& f : fields)
     if (f.type == "section") markdownSection(out, path.empty() ? f.name : path + "." + f.name, f.doc, f.children);
+    else if (!f.children.empty())  // a list of sub-configs: the fields of one item
+      markdownSection(out, path + "." + f.name + "[]", "One item of `" + f.name + "`.", f.children);
 }
 
 std::string markdown() {

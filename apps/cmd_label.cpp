@@ -5,7 +5,11 @@
 #include <iostream>
 #include <memory>
 
+#include <unistd.h>
+
 #include "command.hpp"
+#include "hazmap/core/error.hpp"
+#include "recording.hpp"
 #include "hazmap/properties/label_sequence.hpp"
 
 namespace hazmap::cli {
@@ -17,19 +21,44 @@ struct LabelCliOptions {
   double time_tolerance = 0.1;
   ProjectionConfig projection;
   bool no_motion_compensation = false;
+  bool no_view_fusion = false;
+  ViewFusionConfig fusion;
   bool overwrite = false, json = false;
   long overlay = -1;
 };
 
+/// A recording (bag) is converted into a temporary folder next to --out first; its image topics
+/// feed the cameras with `topic:`. The folder goes when the labelling is done.
+struct ConvertedRecording {
+  std::filesystem::path path;
+  ~ConvertedRecording() {
+    std::error_code ignored;
+    if (!path.empty()) std::filesystem::remove_all(path, ignored);
+  }
+};
+
 void label(const LabelCliOptions& o) {
   LabelOptions options;
+  ConvertedRecording converted;
+  std::string sequence = o.sequence;
+  if (isRecording(o.sequence)) {
+    if (o.overlay >= 0) fail("--overlay", "draws images from camera folders, not from a bag");
+    const auto out = std::filesystem::absolute(o.out).lexically_normal();
+    converted.path = out.parent_path() / ("." + out.filename().string() + ".recording-" + std::to_string(::getpid()));
+    std::filesystem::remove_all(converted.path);
+    convertRecording(o.sequence, converted.path, SourceFlags{}, true);
+    sequence = converted.path.string();
+    options.image_bag = o.sequence;
+  }
   for (const auto& c : o.cameras) options.cameras.emplace_back(c);
   options.rules = o.rules;
   options.labeler.time_tolerance = o.time_tolerance;
   options.labeler.projection = o.projection;
   options.labeler.motion_compensation = !o.no_motion_compensation;
+  options.fuse_views = !o.no_view_fusion;
+  options.fusion = o.fusion;
   options.overwrite = o.overwrite;
-  const LabelReport r = labelSequence(o.sequence, o.out, options);
+  const LabelReport r = labelSequence(sequence, o.out, options);
   if (o.overlay >= 0)
     writeLabelOverlays(o.out, options.cameras, static_cast<std::size_t>(o.overlay), options.labeler);
   if (o.json) {
@@ -54,7 +83,7 @@ const RegisterCommand registration{{
     "Label a sequence from calibrated property cameras (thermal, NIR, gamma) and write it as a new sequence",
     [](CLI::App& app) {
       auto o = std::make_shared<LabelCliOptions>();
-      app.add_option("sequence", o->sequence, "Sequence directory (velodyne/, times.txt, poses.txt or odometry.txt)")
+      app.add_option("sequence", o->sequence, "Sequence directory (velodyne/, times.txt, poses.txt or odometry.txt) or a bag with image topics")
           ->required();
       app.add_option("--camera", o->cameras, "camera.yaml (ROS camera_info + T_camera_lidar, time_offset, channel); repeatable")
           ->required();
@@ -68,6 +97,13 @@ const RegisterCommand registration{{
       app.add_option("--depth-tolerance", o->projection.depth_tolerance, "Depth-test tolerance (m)");
       app.add_flag("--no-motion-compensation", o->no_motion_compensation,
                    "Do not place images with the pose at their own time");
+      app.add_flag("--no-view-fusion", o->no_view_fusion,
+                   "Each scan from its own images only (default: each surface voxel from its best view in nearby scans)");
+      app.add_option("--fusion-voxel", o->fusion.voxel, "View fusion: surface voxel (m)");
+      app.add_option("--fusion-window", o->fusion.window, "View fusion: metres of travel a view may be used for");
+      app.add_option("--calibration-uncertainty", o->fusion.calibration_uncertainty_deg,
+                     "View fusion: the calibration's angular uncertainty (degrees)");
+      app.add_option("--odometry-drift", o->fusion.odometry_drift, "View fusion: odometry drift (m per m travelled)");
       app.add_option("--overlay", o->overlay,
                      "Also draw frame N's points on each camera's image: OUT/overlays/<camera>_NNNNNN.png");
       app.add_flag("--overwrite", o->overwrite, "Replace --out if it is a previous sequence");

@@ -1,6 +1,7 @@
 // hazmap run INPUT --method M --out DIR: the whole SLAM run and its outputs. INPUT is a sequence
 // folder, a bag (ROS 1, rosbag2, MCAP) or a packet capture, read as a stream.
 #include <fmt/format.h>
+#include <nlohmann/json.hpp>
 
 #include <iostream>
 #include <memory>
@@ -9,7 +10,9 @@
 #include "config_options.hpp"
 #include "hazmap/pipeline/progress.hpp"
 #include "hazmap/core/error.hpp"
+#include "hazmap/io/atomic_file.hpp"
 #include "hazmap/pipeline/run_outputs.hpp"
+#include "recording.hpp"
 #include "source_flags.hpp"
 #include "hazmap/properties/label_sequence.hpp"
 
@@ -31,8 +34,9 @@ struct RunOptions {
 };
 
 /// With --camera, the sequence is first labelled from the cameras (hazmap label) into
-/// <out>/labelled_sequence, and SLAM runs on that.
-std::string labelFromCameras(const RunOptions& o) {
+/// <out>/labelled_sequence, and SLAM runs on that. A recording is first converted into
+/// <out>/recording_sequence, and cameras with a `topic:` read their images from it.
+std::string labelFromCameras(const RunOptions& o, LabelReport& report) {
   if (o.cameras.empty()) {
     if (!o.rules.empty()) fail("run", "--rules needs --camera");
     return o.sequence;
@@ -41,12 +45,24 @@ std::string labelFromCameras(const RunOptions& o) {
   for (const auto& c : o.cameras) options.cameras.emplace_back(c);
   options.rules = o.rules;
   options.overwrite = true;
-  const std::filesystem::path dir = std::filesystem::path(o.out) / "labelled_sequence";
-  std::filesystem::create_directories(o.out);
-  const LabelReport r = labelSequence(o.sequence, dir, options);
+  const std::filesystem::path out(o.out);
+  std::filesystem::create_directories(out);
+  std::filesystem::path input = o.sequence;
+  if (isRecording(input)) {
+    input = out / "recording_sequence";
+    std::filesystem::remove_all(input);  // a previous run's
+    convertRecording(o.sequence, input, o.source, true);
+    options.image_bag = o.sequence;
+  }
+  const std::filesystem::path dir = out / "labelled_sequence";
+  report = labelSequence(input, dir, options);
   if (!o.quiet)
-    std::cout << fmt::format("labelled {} frames from {} camera(s): {:.1f} % of points observed\n", r.frames,
-                             o.cameras.size(), r.points ? 100.0 * double(r.projection.observed) / double(r.points) : 0.0);
+    std::cout << fmt::format("labelled {} frames from {} camera(s): {:.1f} % of points observed, {:.1f} % with a "
+                             "value after view fusion, {} missing images\n",
+                             report.frames, o.cameras.size(),
+                             report.points ? 100.0 * double(report.projection.observed) / double(report.points) : 0.0,
+                             report.points ? 100.0 * double(report.valued) / double(report.points) : 0.0,
+                             report.images_missing);
   return dir.string();
 }
 
@@ -61,7 +77,8 @@ void run(const RunOptions& o, const ParameterOptions& params) {
   std::optional<ClassTable> table;
   if (!o.classes.empty()) table = ClassTable::load(o.classes);
   config.deskew.enabled = !o.source.no_deskew;
-  const std::string input = labelFromCameras(o);
+  LabelReport labels;
+  const std::string input = labelFromCameras(o, labels);
   const auto scans = openScanSource(input, o.source.options(table, !o.quiet));
   ProgressBar bar(o.method, scans->size().value_or(0), o.quiet ? 0 : -1);
   const SlamResult result = runSlam(*scans, config, [&](std::size_t d, std::size_t) { bar.update(d); });
@@ -71,6 +88,13 @@ void run(const RunOptions& o, const ParameterOptions& params) {
   OutputConfig outputs;
   outputs.write_viewer = !o.no_viewer;
   const RunSummary summary = writeRunOutputs(*second_pass, result, config, outputs, o.out);
+  if (!o.cameras.empty()) {
+    // run.json gains the labelling's report: images missing (counted skips), observed shares.
+    const std::filesystem::path run_json = std::filesystem::path(o.out) / "run.json";
+    nlohmann::json j = nlohmann::json::parse(readTextFile(run_json));
+    j["camera_labels"] = nlohmann::json::parse(labelReportJson(labels));
+    writeTextAtomically(run_json, j.dump(2) + "\n");
+  }
   if (o.quiet) return;
   std::cout << formatRunSummary(result, summary, o.out, outputs);
 }

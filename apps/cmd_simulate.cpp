@@ -12,7 +12,11 @@
 #include "hazmap/map/render.hpp"
 #include "hazmap/preprocess/voxel_downsample.hpp"
 #include "hazmap/sim/simulator.hpp"
+#include "hazmap/io/atomic_file.hpp"
+#include "hazmap/properties/camera.hpp"
+#include "hazmap/properties/property_image.hpp"
 #include "hazmap/sources/mcap_export.hpp"
+#include "hazmap/sources/ros_encode.hpp"
 #include "hazmap/sources/scan_source.hpp"
 
 namespace hazmap::cli {
@@ -72,6 +76,41 @@ struct SimulateOptions {
 
 /// --format mcap: the sequence is simulated into a temporary folder next to the bag, then written
 /// as a ROS 2 MCAP bag (sources/mcap_export.hpp) and the folder removed.
+/// Each simulated camera's images as sensor_msgs/Image (mono16, its 16-bit PNGs' raw counts) on
+/// /<name>/image_raw, stamped with its times.txt; `yamls` receives each camera.yaml's text
+/// pointing at that topic instead of the folder.
+std::vector<McapExtraTopic> cameraTopics(const std::filesystem::path& folder, const sim::CameraSimConfig& cameras,
+                                         std::vector<std::pair<std::string, std::string>>& yamls) {
+  std::vector<McapExtraTopic> topics;
+  for (const auto& c : cameras.cameras) {
+    const std::filesystem::path dir = folder / "cameras" / c.name;
+    CameraCalibration cal = readCameraYaml(dir / "camera.yaml");
+    cal.topic = "/" + c.name + "/image_raw";
+    yamls.emplace_back(c.name, cameraYaml(cal, ""));
+    const ImageFolder images(dir);
+    McapExtraTopic t{cal.topic, "sensor_msgs/msg/Image", images.stamps(), {}};
+    t.message = [dir, stamps = images.stamps(), name = c.name](std::size_t i) {
+      char file[32];
+      std::snprintf(file, sizeof file, "%06zu.png", i);
+      const Gray16 raw = readGray16(dir / file);
+      ImageMsg msg;
+      msg.header = {stamps[i], name};
+      msg.width = static_cast<std::uint32_t>(raw.width);
+      msg.height = static_cast<std::uint32_t>(raw.height);
+      msg.encoding = "mono16";
+      msg.step = msg.width * 2;
+      msg.data.resize(raw.pixels.size() * 2);
+      for (std::size_t k = 0; k < raw.pixels.size(); ++k) {  // little endian
+        msg.data[2 * k] = static_cast<std::uint8_t>(raw.pixels[k] & 0xFF);
+        msg.data[2 * k + 1] = static_cast<std::uint8_t>(raw.pixels[k] >> 8);
+      }
+      return encodeImage(msg);
+    };
+    topics.push_back(std::move(t));
+  }
+  return topics;
+}
+
 void writeSimulationAsMcap(const sim::SimulatorConfig& config, const std::filesystem::path& bag, bool overwrite) {
   namespace fs = std::filesystem;
   std::error_code ec;
@@ -89,26 +128,35 @@ void writeSimulationAsMcap(const sim::SimulatorConfig& config, const std::filesy
   } cleanup{folder};
   const auto summary = sim::writeSimulation(config, folder, /*overwrite=*/false);
   const auto scans = sequenceScanSource(Sequence::open(folder));
-  const McapExportSummary written = writeScansAsMcap(*scans, bag);
+  std::vector<std::pair<std::string, std::string>> yamls;
+  const auto cameras = cameraTopics(folder, config.cameras, yamls);
+  const McapExportSummary written = writeScansAsMcap(*scans, bag, cameras);
   std::cout << fmt::format("wrote {}: {} frames ({} PointCloud2 on /velodyne_points, {} Odometry on /odom, {} "
                            "PoseStamped on /ground_truth), {:.1f} m route\n",
                            bag.string(), written.scans, written.scans, written.odometry, written.ground_truth,
                            summary.route_length);
+  // The cameras' calibrations beside the bag: BAG_STEM.<camera>.yaml (topic: instead of images:).
+  for (std::size_t k = 0; k < yamls.size(); ++k) {
+    const fs::path yaml = absolute.parent_path() / (absolute.stem().string() + "." + yamls[k].first + ".yaml");
+    writeTextAtomically(yaml, yamls[k].second);
+    std::cout << fmt::format("  {} images on {}; calibration {}\n", cameras[k].stamps.size(), cameras[k].topic, yaml.string());
+  }
 }
 
 
-/// The --cameras family of options into the simulator config.
+/// The --cameras family of options into the simulator config (over the config file's
+/// `cameras:`; --cameras replaces its list, the others apply to the list in force).
 void applyCameraOptions(const SimulateOptions& o, sim::CameraSimConfig& cameras) {
-  if (o.cameras.empty()) {
+  if (!o.cameras.empty()) cameras.cameras = sim::CameraSimConfig::parseList(o.cameras);
+  if (cameras.cameras.empty()) {
     if (!o.calibration_error.empty() || o.time_offset != 0.0 || o.camera_blur || !o.camera_size.empty())
       fail("simulate", "--calibration-error, --time-offset, --camera-blur and --camera-size need --cameras");
     return;
   }
-  cameras.cameras = sim::CameraSimConfig::parseList(o.cameras);
   if (!o.calibration_error.empty()) cameras.parseCalibrationError(o.calibration_error);
-  cameras.time_offset = o.time_offset;
+  if (o.time_offset != 0.0) cameras.time_offset = o.time_offset;
   for (auto& c : cameras.cameras) {
-    c.blur = o.camera_blur;
+    if (o.camera_blur) c.blur = true;
     if (!o.camera_size.empty()) {
       int w = 0, h = 0;
       char x = 0;
@@ -163,7 +211,6 @@ void setupSimulate(CLI::App& app) {
     applyCameraOptions(*opt, config.cameras);
     if (opt->format == "mcap") {
       if (opt->png) fail("--png", "renders a sequence folder; not with --format mcap");
-      if (!opt->cameras.empty()) fail("--cameras", "writes camera images into a sequence folder; not with --format mcap");
       writeSimulationAsMcap(config, opt->out, opt->overwrite);
       return;
     }
@@ -180,8 +227,11 @@ void setupSimulate(CLI::App& app) {
         summary.drift.max_position_error, summary.drift.final_position_error,
         summary.drift.max_frame_translation_error, summary.drift.max_frame_rotation_error_deg,
         summary.drift.slips);
-    if (!config.cameras.empty())
-      std::cout << fmt::format("  cameras ({}): {:.2f} s\n", opt->cameras, summary.camera_seconds);
+    if (!config.cameras.empty()) {
+      std::string names;
+      for (const auto& c : config.cameras.cameras) names += (names.empty() ? "" : ",") + c.name;
+      std::cout << fmt::format("  cameras ({}): {:.2f} s\n", names, summary.camera_seconds);
+    }
     if (opt->png) {
       // Clip 0.5 m below the lowest ceiling of the built-in scenes (3 m) to see inside.
       renderPngs(opt->out, config.reference_voxel, config.scene_file.empty() ? 2.5 : 1e9);

@@ -9,6 +9,7 @@
 #include "hazmap/io/atomic_file.hpp"
 #include "hazmap/properties/camera.hpp"
 #include "hazmap/properties/labeler.hpp"
+#include "hazmap/properties/view_fusion.hpp"
 #include "hazmap/properties/projection.hpp"
 #include "hazmap/properties/property_image.hpp"
 #include "hazmap/properties/rules.hpp"
@@ -501,6 +502,68 @@ TEST(Labeler, EdgeGuardRefusesClassesACalibrationErrorCouldFlip) {
   const ScanLabels l = PropertyLabeler({{cam, images}}, rules, config).label(scan, 0.0);
   EXPECT_EQ(l.classes, (std::vector<ClassId>{0, 1}));
   EXPECT_EQ(l.channels[0][0], 90.0f);  // the value stays: only the class is withheld
+}
+
+TEST(ViewFusion, EachSurfaceVoxelIsSampledInItsMostFrontalViewNearby) {
+  // A wall along x at y = 2 seen by a forward camera from x = 0 (scan 0) and x = 2 (scan 1).
+  // Image 0 reads 90 °C everywhere (as a grazing view off by a calibration error would), image
+  // 1 reads 20 °C: the wall at x = 6 is seen more frontally from x = 2 (footprint 4.5 m / cos
+  // 64° = 10 m/rad against 6.3 m / cos 72° = 20 m/rad), so both scans take image 1's 20 °C.
+  CameraCalibration cam = smallCamera(41, 41);
+  cam.T_camera_lidar.linear() << 0, -1, 0, 0, 0, -1, 1, 0, 0;
+  auto images = std::make_shared<MemoryImages>();
+  for (int k = 0; k < 2; ++k) {
+    PropertyImage img;
+    img.width = img.height = 41;
+    img.stamp = 10.0 * k;
+    img.values.assign(41 * 41, k == 0 ? 90.0f : 20.0f);
+    images->add(img);
+  }
+  LabelerConfig config;
+  config.footprints = true;
+  config.projection.depth_cell_px = 1;  // no occluder here, and this 41-px camera's cells would be wide
+  config.projection.splat_cells = 0;
+  const PropertyLabeler labeler({{cam, images}}, PropertyRules::defaults({"temperature"}, ClassTable::defaults()), config);
+  Trajectory poses;
+  for (int k = 0; k < 2; ++k) poses.push_back(10.0 * k, Eigen::Isometry3d(Eigen::Translation3d(2.0 * k, 0, 0)));
+  std::vector<LabeledCloud> scans(2);
+  for (int k = 0; k < 2; ++k)
+    for (int ix = 0; ix <= 150; ++ix)
+      for (int iz = -10; iz <= 10; ++iz)  // off the 0.1 m voxel boundaries
+        scans[k].push_back({0.525f + 0.05f * ix - 2.0f * k, 2.03f, 0.025f + 0.05f * iz});
+  const auto index_of = [](int /*scan: same order in both*/, float world_x) {  // the point at (world_x, 2, 0)
+    return static_cast<std::size_t>(std::lround((world_x - 0.525f) / 0.05f)) * 21 + 10;
+  };
+  ViewFusionConfig fusion_config;
+  ViewFusion fusion(labeler, fusion_config);
+  std::vector<ScanLabels> labels(2);
+  for (int k = 0; k < 2; ++k) {
+    labels[k] = labeler.observe(scans[k], 10.0 * k);
+    fusion.add(k, scans[k], poses.poses[k], 2.0 * k, labels[k]);
+  }
+  EXPECT_EQ(labels[0].channels[0][index_of(0, 6.025f)], 90.0f);
+  EXPECT_TRUE(std::isnan(labels[1].channels[0][index_of(1, 2.525f)]));  // beside scan 1's camera: out of view
+  for (int k = 0; k < 2; ++k) {
+    fusion.fuse(k, scans[k], fusion.bestFrames(k, scans[k]), labels[k]);
+    labeler.classify(scans[k], poses.poses[k], labels[k]);
+  }
+  EXPECT_FLOAT_EQ(labels[0].channels[0][index_of(0, 6.025f)], 20.0f);
+  EXPECT_EQ(labels[0].classes[index_of(0, 6.025f)], 0);
+  EXPECT_FLOAT_EQ(labels[1].channels[0][index_of(1, 6.025f)], 20.0f);
+  // Scan 1 did not see x = 2.5, scan 0 did: the value comes from scan 0's image.
+  EXPECT_FLOAT_EQ(labels[1].channels[0][index_of(1, 2.525f)], 90.0f);
+  EXPECT_EQ(labels[1].classes[index_of(1, 2.525f)], 1);
+  // Views farther away than the window are not taken.
+  fusion_config.window = 1.0;
+  ViewFusion near_only(labeler, fusion_config);
+  for (int k = 0; k < 2; ++k) {
+    labels[k] = labeler.observe(scans[k], 10.0 * k);
+    near_only.add(k, scans[k], poses.poses[k], 2.0 * k, labels[k]);
+  }
+  near_only.fuse(0, scans[0], near_only.bestFrames(0, scans[0]), labels[0]);
+  EXPECT_EQ(labels[0].channels[0][index_of(0, 6.025f)], 90.0f);
+  near_only.fuse(1, scans[1], near_only.bestFrames(1, scans[1]), labels[1]);
+  EXPECT_TRUE(std::isnan(labels[1].channels[0][index_of(1, 2.525f)]));
 }
 
 }  // namespace

@@ -50,7 +50,10 @@ TEST(PropertiesSim, ThermalCameraLabelsHeatWithExactCalibration) {
       EXPECT_EQ(scan.classes[i], 1);
     }
   }
-  EXPECT_GT(nan, scan.size() / 2);
+  // View fusion gives values to points a nearby scan's image saw; the rest (behind, above) stay NaN.
+  EXPECT_GT(nan, scan.size() / 4);
+  EXPECT_TRUE(j["view_fusion"].get<bool>());
+  EXPECT_GT(j["valued_fraction"].get<double>(), 2 * j["observed_fraction"].get<double>());
 }
 
 TEST(PropertiesSim, PerturbedCalibrationErrsAtEdges) {
@@ -62,9 +65,12 @@ TEST(PropertiesSim, PerturbedCalibrationErrsAtEdges) {
   EXPECT_NE(text.find("time_offset: 0.05"), std::string::npos);
   const auto j = labelJson(dir / "seq", dir / "labelled");
   const double precision = j["labels"]["heat"]["precision"].get<double>();
-  // Measured 0.82 (this seed), 0.91 and 0.96 (seeds 2, 3); exact calibration gives 0.998.
-  EXPECT_GE(precision, 0.78) << j.dump();
+  // Measured 0.854 with view fusion (seeds 1-5 of 60 frames: 0.854-0.954, docs/properties.md);
+  // each scan alone 0.819 here: the wall beside the hot panel, seen at a grazing angle.
+  EXPECT_GE(precision, 0.85) << j.dump();
   EXPECT_LT(precision, 0.99) << "a 1° error must cost something";
+  const auto alone = labelJson(dir / "seq", dir / "alone", "--no-view-fusion");
+  EXPECT_LT(alone["labels"]["heat"]["precision"].get<double>(), precision - 0.02) << alone.dump();
 }
 
 TEST(PropertiesSim, BadInputIsOneLineAndWritesNothing) {
@@ -110,6 +116,92 @@ TEST(PropertiesSim, RunWithCameraReportsPeakTemperaturePerHazard) {
       hot = true;
     }
   EXPECT_TRUE(hot) << hazards.dump();
+}
+
+TEST(PropertiesSim, BagImagesLabelLikeTheFolderAndMissingImagesAreCountedInRunJson) {
+  const fs::path dir = test::scratchDir();
+  ASSERT_EQ(test::runCli("simulate --frames 12 --cameras thermal --out " + (dir / "seq").string()).exit_code, 0);
+  const auto bag = test::runCli("simulate --frames 12 --cameras thermal --format mcap --out " + (dir / "sim.mcap").string());
+  ASSERT_EQ(bag.exit_code, 0) << bag.output;
+  ASSERT_TRUE(fs::exists(dir / "sim.thermal.yaml")) << bag.output;
+  EXPECT_NE(readTextFile(dir / "sim.thermal.yaml").find("topic: /thermal/image_raw"), std::string::npos);
+  // hazmap label on the bag: images from /thermal/image_raw (mono16 centikelvin), same labels.
+  const auto from_bag = test::runCli("label " + (dir / "sim.mcap").string() + " --camera " +
+                                     (dir / "sim.thermal.yaml").string() + " --out " + (dir / "bag-labelled").string());
+  ASSERT_EQ(from_bag.exit_code, 0) << from_bag.output;
+  const auto from_folder = test::runCli("label " + (dir / "seq").string() + " --camera " +
+                                        (dir / "seq/cameras/thermal/camera.yaml").string() + " --out " +
+                                        (dir / "folder-labelled").string());
+  ASSERT_EQ(from_folder.exit_code, 0) << from_folder.output;
+  std::size_t hot = 0;
+  for (int i = 0; i < 12; ++i) {
+    char name[32];
+    std::snprintf(name, sizeof name, "labels/%06d.label", i);
+    const std::string a = readTextFile(dir / "bag-labelled" / name), b = readTextFile(dir / "folder-labelled" / name);
+    EXPECT_EQ(a, b) << name;
+    for (std::size_t k = 0; k + 4 <= a.size(); k += 4) hot += a[k] == 1;
+  }
+  EXPECT_GT(hot, 100u);  // the corridor's heater panel is in view
+  for (const auto& entry : fs::directory_iterator(dir))  // the bag's converted scans are gone
+    EXPECT_EQ(entry.path().filename().string().find(".recording-"), std::string::npos) << entry.path();
+  // hazmap run on the bag with --camera: labelled, then SLAM; run.json reports the labelling.
+  auto r = test::runCli("run " + (dir / "sim.mcap").string() + " --method odometry --quiet --no-viewer --camera " +
+                        (dir / "sim.thermal.yaml").string() + " --out " + (dir / "run").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  auto run = nlohmann::json::parse(readTextFile(dir / "run/run.json"));
+  EXPECT_EQ(run["camera_labels"]["frames"].get<int>(), 12);
+  EXPECT_EQ(run["camera_labels"]["images_missing"].get<int>(), 0);
+  // No image within the time tolerance: a counted skip, not an error.
+  std::string yaml = readTextFile(dir / "sim.thermal.yaml");
+  yaml.replace(yaml.find("time_offset: 0"), 14, "time_offset: 1000");
+  writeTextAtomically(dir / "late.yaml", yaml);
+  r = test::runCli("run " + (dir / "sim.mcap").string() + " --method odometry --quiet --no-viewer --camera " +
+                   (dir / "late.yaml").string() + " --out " + (dir / "run-late").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  run = nlohmann::json::parse(readTextFile(dir / "run-late/run.json"));
+  EXPECT_EQ(run["camera_labels"]["images_missing"].get<int>(), 12);
+  // A bag without the camera's topic: one line naming the bag and the topic.
+  yaml = readTextFile(dir / "sim.thermal.yaml");
+  yaml.replace(yaml.find("/thermal/image_raw"), 18, "/nir/image_raw");
+  writeTextAtomically(dir / "nir.yaml", yaml);
+  r = test::runCli("label " + (dir / "sim.mcap").string() + " --camera " + (dir / "nir.yaml").string() + " --out " +
+                   (dir / "none").string());
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("sim.mcap: has no topic /nir/image_raw"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(dir / "none"));
+}
+
+TEST(PropertiesSim, CamerasFromTheSimulatorConfig) {
+  const fs::path dir = test::scratchDir();
+  writeTextAtomically(dir / "sim.yaml",
+                      "frames: 2\ncameras:\n  list: [thermal, {name: nir, width: 64, height: 48, pitch_deg: 20}]\n"
+                      "  calibration_error_deg: 1\n");
+  auto r = test::runCli("simulate --config " + (dir / "sim.yaml").string() + " --out " + (dir / "seq").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("cameras (thermal,nir)"), std::string::npos) << r.output;
+  const std::string nir = readTextFile(dir / "seq/cameras/nir/camera.yaml");
+  EXPECT_NE(nir.find("image_width: 64"), std::string::npos) << nir;
+  EXPECT_NE(readTextFile(dir / "seq/simulation.yaml").find("calibration_error_deg: 1"), std::string::npos);
+  // simulation.yaml reads back (the cameras included) and reproduces the same images.
+  r = test::runCli("simulate --config " + (dir / "seq/simulation.yaml").string() + " --out " + (dir / "again").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_EQ(readTextFile(dir / "seq/cameras/nir/000001.png"), readTextFile(dir / "again/cameras/nir/000001.png"));
+  // Errors name the key (and the file, when reading; range checks run after the flags apply).
+  const std::pair<const char*, const char*> bad[] = {
+      {"cameras:\n  list: [{name: nir, pich_deg: 20}]\n", "cameras.list.0: unknown key 'pich_deg'"},
+      {"cameras:\n  list: [sonar]\n", "cameras.list.0.name: must be thermal, nir or gamma, got 'sonar'"},
+      {"cameras:\n  list: [{name: thermal, hfov_deg: -5}]\n", "cameras.list.0.hfov_deg"},
+      {"cameras:\n  list: [{name: thermal, position: [0, 1]}]\n", "cameras.list.0.position: must be a list of 3"},
+  };
+  for (const auto& [yaml, message] : bad) {
+    writeTextAtomically(dir / "bad.yaml", yaml);
+    r = test::runCli("simulate --config " + (dir / "bad.yaml").string() + " --out " + (dir / "bad").string());
+    EXPECT_NE(r.exit_code, 0) << yaml;
+    EXPECT_NE(r.output.find(message), std::string::npos) << r.output;
+    if (std::string(message).find("hfov") == std::string::npos)
+      EXPECT_NE(r.output.find("bad.yaml"), std::string::npos) << r.output;
+    EXPECT_FALSE(fs::exists(dir / "bad"));
+  }
 }
 
 }  // namespace

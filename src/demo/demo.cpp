@@ -68,13 +68,15 @@ std::string formatTable2(const DemoReport& report) {
 namespace {
 
 // 1. The simulated sequence: the paper's experiment with its fixed noise defaults (and the
-//    thermal camera when camera labels are asked for).
+//    thermal and NIR cameras when camera labels are asked for: heat and water, the classes the
+//    simulator's labels carry).
 sim::SimulationSummary simulate(const DemoConfig& config, const std::filesystem::path& seq_dir, std::ostream& out) {
   sim::SimulatorConfig sim_config;
   sim_config.scenario = config.scenario;
   sim_config.seed = config.seed;
   sim_config.max_frames = config.frames;
-  if (config.camera_labels) sim_config.cameras.cameras = {sim::SimCameraConfig::forName("thermal")};
+  if (config.camera_labels)
+    sim_config.cameras.cameras = {sim::SimCameraConfig::forName("thermal"), sim::SimCameraConfig::forName("nir")};
   out << "Simulating '" << config.scenario << "' (seed " << config.seed << ") into " << seq_dir.string()
       << " ..." << std::endl;
   const sim::SimulationSummary sim = sim::writeSimulation(sim_config, seq_dir, /*overwrite=*/true);

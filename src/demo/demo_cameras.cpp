@@ -1,5 +1,5 @@
-// The demo's camera-label rows: property ICP (+PGO) on classes from the simulated thermal
-// camera (hazmap label) instead of the simulator's labels, to see what a real robot — whose
+// The demo's camera-label rows: property ICP (+PGO) on classes from the simulated thermal and
+// NIR cameras (hazmap label) instead of the simulator's labels, to see what a real robot — whose
 // labels come from a camera with a 50° view, not from ground truth — would get.
 #include <fmt/format.h>
 
@@ -16,16 +16,23 @@ void runCameraLabelRows(const DemoConfig& config, const std::filesystem::path& s
   const std::filesystem::path dir = config.out_dir / "camera-labels";
   std::filesystem::create_directories(dir);
   LabelOptions options;
-  options.cameras = {sequence_dir / "cameras" / "thermal" / "camera.yaml"};
+  options.cameras = {sequence_dir / "cameras" / "thermal" / "camera.yaml", sequence_dir / "cameras" / "nir" / "camera.yaml"};
   options.overwrite = true;
   const LabelReport labels = labelSequence(sequence_dir, dir / "sequence", options);
   if (const auto it = labels.classes.find("heat"); it != labels.classes.end()) {
     report.camera_heat_precision = it->second.precision().value_or(0.0);
     report.camera_heat_recall = it->second.recall().value_or(0.0);
   }
-  out << fmt::format("  thermal camera labels: heat precision {:.3f}, recall {:.3f} in view; {:.1f} % of points observed\n",
-                     report.camera_heat_precision, report.camera_heat_recall,
-                     labels.points ? 100.0 * double(labels.projection.observed) / double(labels.points) : 0.0);
+  double water_precision = 0.0, water_recall = 0.0;
+  if (const auto it = labels.classes.find("water"); it != labels.classes.end()) {
+    water_precision = it->second.precision().value_or(0.0);
+    water_recall = it->second.recall().value_or(0.0);
+  }
+  const auto percent = [&](std::size_t n) { return labels.points ? 100.0 * double(n) / double(labels.points) : 0.0; };
+  out << fmt::format("  thermal + NIR camera labels: heat precision {:.3f}, recall {:.3f}; water precision {:.3f}, "
+                     "recall {:.3f} in view; {:.1f} % of points observed, {:.1f} % valued after view fusion\n",
+                     report.camera_heat_precision, report.camera_heat_recall, water_precision, water_recall,
+                     percent(labels.projection.observed), percent(labels.valued));
   const Sequence sequence = Sequence::open(dir / "sequence");
   for (SlamMethod method : {SlamMethod::PropertyIcp, SlamMethod::PropertyIcpPgo}) {
     SlamConfig slam = SlamConfig::forMethod(method);

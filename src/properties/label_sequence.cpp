@@ -6,12 +6,14 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <sstream>
 
 #include "hazmap/core/error.hpp"
 #include "hazmap/io/atomic_file.hpp"
 #include "hazmap/io/kitti.hpp"
 #include "hazmap/io/temporary_folder.hpp"
+#include "hazmap/properties/bag_images.hpp"
 #include "hazmap/properties/overlay.hpp"
 
 namespace hazmap {
@@ -32,15 +34,19 @@ std::optional<double> ClassLabelMetrics::recall() const { return ratio(true_posi
 std::optional<double> ClassLabelMetrics::observedFraction() const { return ratio(observed, true_points); }
 
 PropertyLabeler makeLabeler(const std::vector<fs::path>& cameras, const fs::path& rules, const ClassTable& table,
-                            const LabelerConfig& config) {
+                            const LabelerConfig& config, const fs::path& image_bag) {
   if (cameras.empty()) fail("label", "no camera given (--camera CAM.yaml)");
   std::vector<CameraInput> inputs;
   std::vector<std::string> channels;
   for (const fs::path& path : cameras) {
     CameraInput in;
     in.camera = readCameraYaml(path);
-    const fs::path images = in.camera.images.empty() ? fs::absolute(path).parent_path() : in.camera.images;
-    in.images = std::make_shared<FolderImages>(images);
+    if (!image_bag.empty() && !in.camera.topic.empty() && in.camera.images.empty()) {
+      in.images = readBagImages(image_bag, in.camera);
+    } else {
+      const fs::path images = in.camera.images.empty() ? fs::absolute(path).parent_path() : in.camera.images;
+      in.images = std::make_shared<FolderImages>(images);
+    }
     channels.push_back(in.camera.channel.name);
     inputs.push_back(std::move(in));
   }
@@ -124,22 +130,121 @@ void copyIfExists(const fs::path& from, const fs::path& to) {
 
 }  // namespace
 
+namespace {
+
+/// What one labelled frame leaves behind: the labels and where they go.
+struct FrameSink {
+  const Sequence& seq;
+  const PropertyLabeler& labeler;
+  const fs::path& dir;
+  SequenceWriter& writer;
+  LabelReport& report;
+
+  void operator()(std::size_t i, LabeledCloud& scan, const ScanLabels& l) const {
+    if (!report.truth_source.empty())
+      accumulate(l, truthOf(seq, i, scan, report.truth_source), labeler.rules(), seq.classTable(), report);
+    for (std::size_t c = 1; c < l.channels.size(); ++c) {
+      const fs::path channel_dir = dir / labeler.channels()[c];
+      fs::create_directories(channel_dir);
+      char name[32];
+      std::snprintf(name, sizeof name, "%06zu.bin", i);
+      writeFileAtomically(channel_dir / name, [&](std::ostream& o) {
+        o.write(reinterpret_cast<const char*>(l.channels[c].data()), static_cast<std::streamsize>(l.channels[c].size() * 4));
+      });
+    }
+    for (std::size_t k = 0; k < scan.size(); ++k)
+      for (const auto& ch : l.channels)
+        if (std::isfinite(ch[k])) {
+          ++report.valued;
+          break;
+        }
+    PropertyLabeler::apply(l, scan);
+    writer.addFrame(scan);
+    report.points += scan.size();
+    report.projection += l.projection;
+    report.images_missing += l.images_missing;
+  }
+};
+
+/// Runs `step(i, scan)` over the frames in parallel batches (bounded memory), then `done(i,
+/// scan)` in frame order.
+template <class Step, class Done>
+void forEachFrame(const Sequence& seq, Step step, Done done) {
+  const std::size_t batch = 16;
+  std::vector<LabeledCloud> scans;
+  for (std::size_t begin = 0; begin < seq.size(); begin += batch) {
+    const std::size_t end = std::min(seq.size(), begin + batch);
+    scans.assign(end - begin, {});
+    tbb::parallel_for(begin, end, [&](std::size_t i) {
+      scans[i - begin] = seq.frame(i);
+      step(i, scans[i - begin]);
+    });
+    for (std::size_t i = begin; i < end; ++i) done(i, scans[i - begin]);
+  }
+}
+
+/// Each scan from its own images only.
+void labelEachScan(const Sequence& seq, const std::vector<double>& times, const PropertyLabeler& labeler,
+                   const PoseAtTime& pose_at, const FrameSink& sink) {
+  std::vector<ScanLabels> labels(seq.size());
+  forEachFrame(
+      seq, [&](std::size_t i, const LabeledCloud& scan) { labels[i] = labeler.label(scan, times[i], pose_at); },
+      [&](std::size_t i, LabeledCloud& scan) {
+        sink(i, scan, labels[i]);
+        labels[i] = {};
+      });
+}
+
+/// Pass 1 records every scan's views, pass 2 samples each point in its voxel's best view nearby.
+void labelWithFusion(const Sequence& seq, const std::vector<double>& times, const PropertyLabeler& labeler,
+                     const PoseAtTime& pose_at, const Trajectory& placement, const ViewFusionConfig& config,
+                     const FrameSink& sink) {
+  const std::vector<double> travelled = travelledDistance(placement);
+  ViewFusion fusion(labeler, config);
+  std::vector<ScanLabels> observed(seq.size());
+  forEachFrame(
+      seq, [&](std::size_t i, const LabeledCloud& scan) { observed[i] = labeler.observe(scan, times[i], pose_at); },
+      [&](std::size_t i, const LabeledCloud& scan) {
+        fusion.add(i, scan, placement.poses[i], travelled[i], observed[i]);
+        observed[i].footprint = {};
+        observed[i].normals = {};
+      });
+  std::vector<std::vector<std::int32_t>> best(seq.size());
+  forEachFrame(
+      seq, [&](std::size_t i, const LabeledCloud& scan) { best[i] = fusion.bestFrames(i, scan); },
+      [&](std::size_t i, LabeledCloud& scan) {
+        ScanLabels& l = observed[i];
+        fusion.fuse(i, scan, best[i], l);
+        labeler.classify(scan, pose_at ? pose_at(times[i]) : std::nullopt, l);
+        sink(i, scan, l);
+        l = {};
+        best[i] = {};
+      });
+}
+
+}  // namespace
+
 LabelReport labelSequence(const fs::path& sequence_dir, const fs::path& out_arg, const LabelOptions& options) {
   const auto t0 = std::chrono::steady_clock::now();
   const Sequence seq = Sequence::open(sequence_dir);
   const std::vector<double> times = readScanTimes(seq);
-  const PropertyLabeler labeler = makeLabeler(options.cameras, options.rules, seq.classTable(), options.labeler);
+  LabelerConfig labeler_config = options.labeler;
+  labeler_config.footprints = options.fuse_views;
+  const PropertyLabeler labeler =
+      makeLabeler(options.cameras, options.rules, seq.classTable(), labeler_config, options.image_bag);
   if (out_arg.empty()) fail("label", "no output folder given (--out)");
+  options.fusion.validate("label");
   fs::path out = fs::absolute(out_arg).lexically_normal();
   if (!out.has_filename()) out = out.parent_path();
   if (out == fs::absolute(sequence_dir).lexically_normal()) fail(out_arg.string(), "is the input sequence");
   const bool replace = checkSequenceOutput(out, out_arg.string(), options.overwrite);
 
-  // Poses place each image where the LiDAR was when it was taken (truth, else odometry).
+  // Poses place each image where the LiDAR was when it was taken and the scans in the world
+  // for view fusion: the odometry (what the robot knows), else the ground truth.
   Trajectory poses;
-  if (const auto& t = seq.groundTruth() ? seq.groundTruth() : seq.odometry())
+  if (const auto& t = seq.odometry() ? seq.odometry() : seq.groundTruth())
     for (std::size_t i = 0; i < t->size(); ++i) poses.push_back(times[i], t->poses[i]);
-  const PoseAtTime pose_at = [&](double t) { return interpolatePose(poses, t); };
+  const PoseAtTime pose_at = poses.empty() ? PoseAtTime{} : [&](double t) { return interpolatePose(poses, t); };
 
   LabelReport report;
   report.channels = labeler.channels();
@@ -148,37 +253,12 @@ LabelReport labelSequence(const fs::path& sequence_dir, const fs::path& out_arg,
   fs::create_directories(tmp.path);
   SequenceWriter writer(tmp.path, seq.classTable(), seq.sensorYaml());
   writer.setPropertyChannel(labeler.channels().front());
-  const std::size_t batch = 16;
-  std::vector<LabeledCloud> scans;
-  std::vector<ScanLabels> labels;
-  for (std::size_t begin = 0; begin < seq.size(); begin += batch) {
-    const std::size_t end = std::min(seq.size(), begin + batch);
-    scans.assign(end - begin, {});
-    labels.assign(end - begin, {});
-    tbb::parallel_for(begin, end, [&](std::size_t i) {
-      scans[i - begin] = seq.frame(i);
-      labels[i - begin] = labeler.label(scans[i - begin], times[i], poses.empty() ? PoseAtTime{} : pose_at);
-    });
-    for (std::size_t i = begin; i < end; ++i) {
-      LabeledCloud& scan = scans[i - begin];
-      const ScanLabels& l = labels[i - begin];
-      if (!report.truth_source.empty()) accumulate(l, truthOf(seq, i, scan, report.truth_source), labeler.rules(), seq.classTable(), report);
-      for (std::size_t c = 1; c < l.channels.size(); ++c) {
-        const fs::path dir = tmp.path / labeler.channels()[c];
-        fs::create_directories(dir);
-        char name[32];
-        std::snprintf(name, sizeof name, "%06zu.bin", i);
-        writeFileAtomically(dir / name, [&](std::ostream& o) {
-          o.write(reinterpret_cast<const char*>(l.channels[c].data()), static_cast<std::streamsize>(l.channels[c].size() * 4));
-        });
-      }
-      PropertyLabeler::apply(l, scan);
-      writer.addFrame(scan);
-      report.points += scan.size();
-      report.projection += l.projection;
-      report.images_missing += l.images_missing;
-    }
-  }
+  const FrameSink sink{seq, labeler, tmp.path, writer, report};
+  report.fused = options.fuse_views && poses.size() == seq.size();
+  if (report.fused)
+    labelWithFusion(seq, times, labeler, pose_at, poses, options.fusion, sink);
+  else
+    labelEachScan(seq, times, labeler, pose_at, sink);
   report.frames = seq.size();
   if (seq.groundTruth()) writer.writeGroundTruth(*seq.groundTruth());
   if (seq.odometry()) writer.writeOdometry(*seq.odometry());
@@ -229,6 +309,8 @@ std::string labelReportJson(const LabelReport& r) {
   j["observed_fraction"] = opt(ratio(r.projection.observed, r.points));
   j["occluded"] = r.projection.occluded;
   j["images_missing"] = r.images_missing;
+  j["valued_fraction"] = opt(ratio(r.valued, r.points));
+  j["view_fusion"] = r.fused;
   j["truth"] = r.truth_source.empty() ? nlohmann::json() : nlohmann::json(r.truth_source);
   nlohmann::json classes = nlohmann::json::object();
   for (const auto& [name, m] : r.classes)

@@ -3,8 +3,10 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <memory>
 
 #include "hazmap/core/error.hpp"
+#include "hazmap/preprocess/spatial_index.hpp"
 
 namespace hazmap {
 
@@ -76,19 +78,57 @@ std::vector<float> normalZ(const LabeledCloud& scan, const Eigen::Matrix3d& R_wo
 
 }  // namespace
 
+namespace {
+
+/// Footprints of the points camera `c` just gave a value (finite value, no footprint yet).
+void addFootprints(const LabeledCloud& scan, const Eigen::Isometry3d& T_camera_scan, const std::vector<float>& values,
+                   const NormalConfig& config, std::unique_ptr<VoxelHashIndex>& index, std::vector<float>& footprint,
+                   std::vector<Eigen::Vector3f>& normals) {
+  if (!index)
+    index = std::make_unique<VoxelHashIndex>(scan.points, std::span<const std::uint32_t>{},
+                                             static_cast<float>(config.radius) * 0.5f, static_cast<float>(config.radius));
+  const Eigen::Vector3f centre = T_camera_scan.inverse().translation().cast<float>();
+  // Beyond ~87° of incidence the footprint is capped: the surface is seen edge-on either way.
+  constexpr float kMinCos = 0.05f;
+  for (std::size_t i = 0; i < values.size(); ++i) {
+    if (!std::isnan(footprint[i]) || std::isnan(values[i])) continue;
+    const Eigen::Vector3f ray = scan.points[i] - centre;
+    const float range = ray.norm();
+    if (normals[i].isZero()) normals[i] = normalAt(scan.points, *index, i, config);
+    const Eigen::Vector3f& n = normals[i];
+    const float cosine = n.squaredNorm() > 0.5f ? std::abs(n.dot(ray)) / std::max(range, 1e-6f) : 0.0f;
+    footprint[i] = range / std::max(cosine, kMinCos);
+  }
+}
+
+}  // namespace
+
 ScanLabels PropertyLabeler::label(const LabeledCloud& scan, double time, const PoseAtTime& pose_at) const {
+  ScanLabels out = observe(scan, time, pose_at);
+  classify(scan, pose_at ? pose_at(time) : std::nullopt, out);
+  return out;
+}
+
+ScanLabels PropertyLabeler::observe(const LabeledCloud& scan, double time, const PoseAtTime& pose_at) const {
   ScanLabels out;
   const std::size_t n = scan.size();
-  out.channels.assign(channels_.size(), std::vector<float>(n, std::numeric_limits<float>::quiet_NaN()));
+  const std::vector<float> nan_row(n, std::numeric_limits<float>::quiet_NaN());
+  out.channels.assign(channels_.size(), nan_row);
   out.in_view.assign(n, 0);
   const bool guard = config_.projection.edge_guard_px > 0;
-  std::vector<std::vector<float>> low(guard ? channels_.size() : 0, std::vector<float>(n, NAN));
-  std::vector<std::vector<float>> high = low;
+  if (guard) out.low = out.high = out.channels;
+  if (config_.footprints) {
+    out.footprint = out.channels;
+    out.normals.assign(n, Eigen::Vector3f::Zero());
+  }
+  std::unique_ptr<VoxelHashIndex> index;  // built on the first footprint asked for
   const std::optional<Eigen::Isometry3d> T_world_scan = pose_at ? pose_at(time) : std::nullopt;
   ProjectionScratch scratch;
   for (std::size_t c = 0; c < cameras_.size(); ++c) {
     const CameraCalibration& cam = cameras_[c].camera;
     const long k = nearestImage(cameras_[c].images->stamps(), cam.time_offset, time, config_.time_tolerance);
+    out.image_index.push_back(k);
+    out.T_camera_scan.push_back(cam.T_camera_lidar);
     if (k < 0) {
       ++out.images_missing;
       continue;
@@ -99,12 +139,22 @@ ScanLabels PropertyLabeler::label(const LabeledCloud& scan, double time, const P
       const double t_image = image.stamp + cam.time_offset;
       if (const auto T_world_image = pose_at(t_image)) T_camera_scan = cam.T_camera_lidar * T_world_image->inverse() * *T_world_scan;
     }
-    out.projection += projectIntoImage(scan.points, T_camera_scan, cam.model, image, config_.projection,
-                                       out.channels[camera_channel_[c]], out.in_view, &scratch,
-                                       guard ? std::span<float>(low[camera_channel_[c]]) : std::span<float>(),
-                                       guard ? std::span<float>(high[camera_channel_[c]]) : std::span<float>());
+    out.T_camera_scan.back() = T_camera_scan;
+    const int ch = camera_channel_[c];
+    out.projection += projectIntoImage(scan.points, T_camera_scan, cam.model, image, config_.projection, out.channels[ch],
+                                       out.in_view, &scratch, guard ? std::span<float>(out.low[ch]) : std::span<float>(),
+                                       guard ? std::span<float>(out.high[ch]) : std::span<float>());
+    if (config_.footprints) addFootprints(scan, T_camera_scan, out.channels[ch], config_.normals, index, out.footprint[ch],
+                                            out.normals);
     ++out.images_used;
   }
+  return out;
+}
+
+void PropertyLabeler::classify(const LabeledCloud& scan, const std::optional<Eigen::Isometry3d>& T_world_scan,
+                               ScanLabels& out) const {
+  const std::size_t n = scan.size();
+  const bool guard = out.low.size() == channels_.size() && out.high.size() == channels_.size();
   // Rule variables per point: channels by name, normal_z computed only when asked for.
   const auto& vars = rules_.variables();
   std::vector<const std::vector<float>*> sources(vars.size(), nullptr), lows(vars.size()), highs(vars.size());
@@ -116,8 +166,8 @@ ScanLabels PropertyLabeler::label(const LabeledCloud& scan, double time, const P
     } else {
       const auto ch = std::find(channels_.begin(), channels_.end(), vars[v]) - channels_.begin();
       sources[v] = &out.channels[ch];
-      lows[v] = guard ? &low[ch] : sources[v];
-      highs[v] = guard ? &high[ch] : sources[v];
+      lows[v] = guard ? &out.low[ch] : sources[v];
+      highs[v] = guard ? &out.high[ch] : sources[v];
     }
   }
   out.classes.assign(n, 0);
@@ -139,7 +189,6 @@ ScanLabels PropertyLabeler::label(const LabeledCloud& scan, double time, const P
     }
     out.classes[i] = c;
   }
-  return out;
 }
 
 void PropertyLabeler::apply(const ScanLabels& labels, LabeledCloud& scan) {

@@ -50,8 +50,9 @@ void minFilter(const std::vector<float>& in, std::vector<float>& tmp, std::vecto
     }
 }
 
-/// Smallest and largest finite pixel value within r pixels of (u, v).
-void localRange(const PropertyImage& image, float u, float v, int r, float& lo, float& hi) {
+}  // namespace
+
+void pixelRange(const PropertyImage& image, float u, float v, int r, float& lo, float& hi) {
   const int cx = static_cast<int>(std::lround(u)), cy = static_cast<int>(std::lround(v));
   lo = std::numeric_limits<float>::infinity();
   hi = -lo;
@@ -63,8 +64,6 @@ void localRange(const PropertyImage& image, float u, float v, int r, float& lo, 
       hi = std::max(hi, p);
     }
 }
-
-}  // namespace
 
 ProjectionStats projectIntoImage(std::span<const Eigen::Vector3f> points, const Eigen::Isometry3d& T,
                                  const CameraModel& camera, const PropertyImage& image,
@@ -129,7 +128,7 @@ ProjectionStats projectIntoImage(std::span<const Eigen::Vector3f> points, const 
     if (!std::isnan(values[i])) continue;
     values[i] = value;
     if (config.edge_guard_px > 0 && low.size() == n && high.size() == n)
-      localRange(image, s.u[i], s.v[i], config.edge_guard_px, low[i], high[i]);
+      pixelRange(image, s.u[i], s.v[i], config.edge_guard_px, low[i], high[i]);
   }
   return stats;
 }

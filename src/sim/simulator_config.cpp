@@ -79,6 +79,79 @@ const ConfigFields<OdometryNoiseConfig>& configFields(ConfigTag<OdometryNoiseCon
   return fields;
 }
 
+const ConfigFields<SimCameraConfig>& configFields(ConfigTag<SimCameraConfig>) {
+  using C = SimCameraConfig;
+  static const ConfigFields<C> fields =
+      ConfigFields<C>("One simulated property camera; `name` picks its channel and the defaults of the others.")
+          .text("name", &C::name, "thermal (temperature) | nir (nir_reflectance) | gamma (dose_rate)")
+          .integer("width", &C::width, closed(2, 16384), "pixels")
+          .integer("height", &C::height, closed(2, 16384), "pixels")
+          .number("hfov_deg", &C::hfov_deg, openClosed(0, 170), "° horizontal field of view")
+          .number("k1", &C::k1, anyNumber(), "plumb_bob radial distortion")
+          .number("k2", &C::k2, anyNumber(), "plumb_bob radial distortion")
+          .custom({"position", "list", "m, camera centre in the LiDAR frame", "[x, y, z]", {}, {}},
+                  [](C& c, const YAML::Node& n, const ConfigPlace& p) {
+                    if (!n.IsSequence() || n.size() != 3) p.fail("must be a list of 3 numbers [x, y, z]");
+                    for (int k = 0; k < 3; ++k) c.position[k] = config_detail::readNumber(n[k], p);
+                  },
+                  [](const C& c) { return nlohmann::json::array({c.position.x(), c.position.y(), c.position.z()}); },
+                  [](const C& c, const ConfigPlace& p) {
+                    if (!c.position.allFinite()) p.fail("must be finite");
+                  })
+          .number("pitch_deg", &C::pitch_deg, closed(-90, 90), "° down from looking forward along LiDAR x")
+          .number("background", &C::background, anyNumber(), "value outside regions of the camera's kind")
+          .number("region_value", &C::region_value, anyNumber(), "value inside regions of the camera's kind")
+          .number("noise_sigma", &C::noise_sigma, nonNegative(), "per-pixel Gaussian noise (thermal: NETD)")
+          .flag("blur", &C::blur, "3×3 binomial blur (about one pixel)");
+  return fields;
+}
+
+const ConfigFields<CameraSimConfig>& configFields(ConfigTag<CameraSimConfig>) {
+  using C = CameraSimConfig;
+  static const ConfigFields<C> fields =
+      ConfigFields<C>("Property cameras rendered per frame (hazmap simulate --cameras), docs/properties.md.")
+          .custom({"list", "list",
+                   "Cameras in order: a name (thermal | nir | gamma) or a mapping with `name` and any of the camera "
+                   "fields (width, height, hfov_deg, k1, k2, position, pitch_deg, background, region_value, "
+                   "noise_sigma, blur)",
+                   "[name | {name: ..., ...}]", {},
+                   // Documented with the thermal camera's defaults (nir and gamma have their own).
+                   fieldsOf<SimCameraConfig>().describe(SimCameraConfig::forName("thermal"))},
+                  [](C& c, const YAML::Node& n, const ConfigPlace& p) {
+                    if (!n.IsSequence()) p.fail("must be a list of camera names or mappings");
+                    c.cameras.clear();
+                    for (std::size_t k = 0; k < n.size(); ++k) {
+                      const ConfigPlace at = p.child(std::to_string(k));
+                      const YAML::Node& item = n[k];
+                      if (!item.IsMap() && !item.IsScalar()) at.fail("must be a camera name or a mapping");
+                      const YAML::Node name_node = item.IsMap() ? item["name"] : item;
+                      if (!name_node) at.fail("needs a name (thermal, nir or gamma)");
+                      const std::string name = config_detail::readString(name_node, at.child("name"));
+                      try {
+                        c.cameras.push_back(SimCameraConfig::forName(name));
+                      } catch (const Error&) {
+                        at.child("name").fail("must be thermal, nir or gamma, got '" + name + "'");
+                      }
+                      if (item.IsMap()) fieldsOf<SimCameraConfig>().read(c.cameras.back(), item, at);
+                    }
+                  },
+                  [](const C& c) {
+                    nlohmann::json j = nlohmann::json::array();
+                    for (const auto& cam : c.cameras) j.push_back(fieldsOf<SimCameraConfig>().write(cam));
+                    return j;
+                  },
+                  [](const C& c, const ConfigPlace& p) {
+                    for (std::size_t k = 0; k < c.cameras.size(); ++k)
+                      fieldsOf<SimCameraConfig>().check(c.cameras[k], p.child(std::to_string(k)));
+                  })
+          .number("calibration_error_deg", &C::calibration_error_deg, closed(0, 45),
+                  "° rotation error (random axis) of the written T_camera_lidar")
+          .number("calibration_error_m", &C::calibration_error_m, closed(0, 1),
+                  "m translation error (random direction) of the written T_camera_lidar")
+          .number("time_offset", &C::time_offset, anyNumber(), "s, error of the written time_offset");
+  return fields;
+}
+
 const ConfigFields<SimulatorConfig>& configFields(ConfigTag<SimulatorConfig>) {
   using C = SimulatorConfig;
   static const ConfigFields<C> fields =
@@ -98,6 +171,8 @@ const ConfigFields<SimulatorConfig>& configFields(ConfigTag<SimulatorConfig>) {
           .section("temperature", &C::temperature, "")
           .section("robot", &C::robot, "")
           .section("odometry", &C::odometry, "")
+          .section("cameras", &C::cameras, "")
+          .writeIf([](const C& c) { return !c.cameras.empty(); })  // simulation.yaml as before without cameras
           // Written by `hazmap simulate` into simulation.yaml for information; not settings.
           .ignore("stats")
           .ignore("world_from_first_frame");

@@ -216,6 +216,13 @@ class ConfigFields {
     fields_.push_back(std::move(field));
     return *this;
   }
+  /// A field with its own reading, writing and checking (e.g. a list of sub-configs); `info`
+  /// documents it (name, type, doc, allowed).
+  ConfigFields& custom(FieldInfo info, std::function<void(S&, const YAML::Node&, const ConfigPlace&)> read,
+                       std::function<nlohmann::json(const S&)> write,
+                       std::function<void(const S&, const ConfigPlace&)> check) {
+    return add(std::move(info), std::move(read), std::move(write), std::move(check));
+  }
   /// A check across fields; `key` is the field named in the error.
   ConfigFields& rule(const char* key, std::function<bool(const S&)> ok, std::string what) {
     rules_.push_back({key, std::move(ok), std::move(what)});

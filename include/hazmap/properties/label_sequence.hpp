@@ -10,13 +10,20 @@
 
 #include "hazmap/io/sequence.hpp"
 #include "hazmap/properties/labeler.hpp"
+#include "hazmap/properties/view_fusion.hpp"
 
 namespace hazmap {
 
 struct LabelOptions {
   std::vector<std::filesystem::path> cameras;  ///< camera.yaml files (images next to them or `images:`)
   std::filesystem::path rules;                 ///< empty = built-in rules for the cameras' channels
+  /// A bag whose image topics feed the cameras that name a `topic:` and no `images:` folder.
+  std::filesystem::path image_bag;
   LabelerConfig labeler;
+  /// Best-view fusion across scans (view_fusion.hpp), placed by the odometry (else the ground
+  /// truth); off, or without poses, each scan keeps its own image's values.
+  bool fuse_views = true;
+  ViewFusionConfig fusion;
   bool overwrite = false;
 };
 
@@ -35,14 +42,19 @@ struct LabelReport {
   std::vector<std::string> channels;
   ProjectionStats projection;
   std::size_t images_missing = 0;  ///< (frame, camera) pairs without an image within the tolerance
+  std::size_t valued = 0;          ///< points with a value after view fusion (= observed without it)
+  bool fused = false;              ///< view fusion was applied
   std::string truth_source;        ///< labels_true/, labels/ or empty (no truth)
   std::map<std::string, ClassLabelMetrics> classes;  ///< property classes by name
   double seconds = 0.0;
 };
 
 /// The labeler for these camera files and rules over a sequence's class table.
+/// Images come from the folder next to each camera.yaml (or its `images:`), or from `image_bag`'s
+/// topic for a camera with `topic:` and no `images:`.
 PropertyLabeler makeLabeler(const std::vector<std::filesystem::path>& cameras, const std::filesystem::path& rules,
-                            const ClassTable& table, const LabelerConfig& config);
+                            const ClassTable& table, const LabelerConfig& config,
+                            const std::filesystem::path& image_bag = {});
 /// Scan times of a sequence: times.txt (one per scan). Throws naming the file if missing/short.
 std::vector<double> readScanTimes(const Sequence& sequence);
 /// Labels every frame of `sequence_dir` and writes the labelled sequence to `out_dir`

@@ -66,6 +66,9 @@ struct LabelerConfig {
   double time_tolerance = 0.1;      ///< s, |image time − scan time| allowed
   bool motion_compensation = true;  ///< place each image with the pose at its own time
   NormalConfig normals{20, 1.0};    ///< for normal_z (only computed when a rule uses it)
+  /// Also compute each observed point's calibration footprint (ScanLabels::footprint), which
+  /// view fusion (view_fusion.hpp) needs to pick the best view of a surface.
+  bool footprints = false;
   void validate(const std::string& where) const;
 };
 
@@ -76,8 +79,19 @@ std::optional<Eigen::Isometry3d> interpolatePose(const Trajectory& trajectory, d
 
 struct ScanLabels {
   std::vector<std::vector<float>> channels;  ///< per channel (PropertyLabeler::channels()), NaN = not observed
+  /// Per channel, with the edge guard on: the smallest / largest pixel value near each point.
+  std::vector<std::vector<float>> low, high;
+  /// Per channel, with LabelerConfig::footprints: distance from the camera / |cos(incidence)|
+  /// of each observed point (m per radian of pointing error: how far along its surface an
+  /// angular calibration error moves the pixel it reads); NaN where not observed.
+  std::vector<std::vector<float>> footprint;
+  /// With footprints: each observed point's PCA normal (LiDAR frame; zero = none).
+  std::vector<Eigen::Vector3f> normals;
   std::vector<ClassId> classes;
   std::vector<std::uint8_t> in_view;  ///< 1 where the point lies inside some camera's image
+  /// Per camera: the image used (-1 = none within the tolerance) and where it was taken.
+  std::vector<long> image_index;
+  std::vector<Eigen::Isometry3d, Eigen::aligned_allocator<Eigen::Isometry3d>> T_camera_scan;
   std::size_t images_used = 0;
   std::size_t images_missing = 0;     ///< cameras without an image within the tolerance
   ProjectionStats projection;
@@ -89,11 +103,20 @@ class PropertyLabeler {
   PropertyLabeler(std::vector<CameraInput> cameras, PropertyRules rules, LabelerConfig config = {});
   /// Channel names in output order (first camera's channel first, duplicates merged).
   const std::vector<std::string>& channels() const { return channels_; }
+  /// Index into channels() of camera c's channel.
+  int cameraChannel(std::size_t c) const { return camera_channel_.at(c); }
   const std::vector<CameraInput>& cameras() const { return cameras_; }
   const PropertyRules& rules() const { return rules_; }
+  const LabelerConfig& config() const { return config_; }
 
-  /// Labels one scan (LiDAR frame, taken at `time` on the LiDAR clock). Thread-safe.
+  /// Labels one scan (LiDAR frame, taken at `time` on the LiDAR clock): observe + classify.
+  /// Thread-safe.
   ScanLabels label(const LabeledCloud& scan, double time, const PoseAtTime& pose_at = {}) const;
+  /// The cameras' values for one scan (channels, guard ranges, footprints), no classes yet.
+  ScanLabels observe(const LabeledCloud& scan, double time, const PoseAtTime& pose_at = {}) const;
+  /// Classes from the rules over labels.channels (normal_z in the world frame of T_world_scan
+  /// when given, else of the scan).
+  void classify(const LabeledCloud& scan, const std::optional<Eigen::Isometry3d>& T_world_scan, ScanLabels& labels) const;
   /// Writes the labels into the scan: classes, and property = the first channel.
   static void apply(const ScanLabels& labels, LabeledCloud& scan);
 

@@ -58,6 +58,9 @@ ProjectionStats projectIntoImage(std::span<const Eigen::Vector3f> points, const 
                                  std::span<std::uint8_t> in_view = {}, ProjectionScratch* scratch = nullptr,
                                  std::span<float> low = {}, std::span<float> high = {});
 
+/// Smallest and largest finite pixel value within r pixels of (u, v) (the edge guard's range).
+void pixelRange(const PropertyImage& image, float u, float v, int r, float& low, float& high);
+
 /// Bilinear interpolation at a pixel position (pixel centres at integers; clamped at the
 /// border); NaN if any of the four pixels is NaN.
 float sampleBilinear(const PropertyImage& image, float u, float v);

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "hazmap/core/config_fwd.hpp"
 #include "hazmap/properties/camera.hpp"
 #include "hazmap/properties/property_image.hpp"
 
@@ -51,6 +52,13 @@ struct CameraSimConfig {
   /// Parses "1deg,2cm" (units deg/rad and m/cm/mm) into the two calibration errors.
   void parseCalibrationError(const std::string& text);
 };
+
+/// Field tables: `cameras:` of the simulator config, e.g.
+///   cameras:
+///     list: [thermal, {name: nir, pitch_deg: 20, blur: true}]
+///     calibration_error_deg: 1
+const ConfigFields<SimCameraConfig>& configFields(ConfigTag<SimCameraConfig>);
+const ConfigFields<CameraSimConfig>& configFields(ConfigTag<CameraSimConfig>);
 
 /// The calibration camera `index` writes: true model and pose, perturbed by the configured
 /// errors (random axis and direction, fixed by the seed).
