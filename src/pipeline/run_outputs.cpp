@@ -70,6 +70,7 @@ nlohmann::json runJson(const SlamResult& r, const SlamConfig& config, const RunS
                       {"c2c_reverse", statsJson(m.c2c_reverse)}};
   }
   if (summary.trajectory) j["trajectory_eval"] = nlohmann::json::parse(toJson(*summary.trajectory));
+  if (summary.edge_nees) j["edge_nees"] = nlohmann::json::parse(toJson(*summary.edge_nees));
   return j;
 }
 
@@ -161,6 +162,9 @@ RunSummary writeRunOutputs(ScanSource& scans, const SlamResult& result, const Sl
       unaligned.ape_alignment = Alignment::None;
       summary.trajectory = evaluateTrajectory(*truth, result.estimate, unaligned);
     }
+    // How honest the edges' information is (NEES against the true relative poses).
+    if (result.graph.numNodes() == static_cast<int>(n))
+      summary.edge_nees = computeEdgeNees(result.graph, truth_poses.poses, out_dir.string());
   }
 
   writeKittiTrajectory(out_dir / "trajectory.kitti", result.estimate);
