@@ -8,6 +8,8 @@
 #include "hazmap/core/error.hpp"
 #include "hazmap/demo/demo_seeds.hpp"
 #include "hazmap/demo/demo_simulator.hpp"
+#include "hazmap/demo/noise_sweep.hpp"
+#include "hazmap/map/category_plot.hpp"
 #include "hazmap/io/atomic_file.hpp"
 #include "test_helpers.hpp"
 
@@ -195,6 +197,99 @@ TEST(DemoSeedsCli, TwoSeedsOnAShortRoute) {
   EXPECT_FALSE(std::filesystem::exists(dir / "bad"));
   r = test::runCli("demo --seeds 1 --seed 2" + common + " --out " + (dir / "bad").string());
   EXPECT_NE(r.exit_code, 0);
+  std::filesystem::remove_all(dir);
+}
+
+TEST(NoiseSweep, AxesPairsAndCombinations) {
+  const SweepAxis a = parseSweepAxis("odometry.slip_probability=0,0.08,0.3");
+  EXPECT_EQ(a.keys, (std::vector<std::string>{"odometry.slip_probability"}));
+  ASSERT_EQ(a.steps.size(), 3u);
+  EXPECT_EQ(a.steps[2], (std::vector<std::string>{"0.3"}));
+  EXPECT_EQ(a.name(), "slip_probability");
+  const SweepAxis pair = parseSweepAxis("odometry.slip_min:odometry.slip_max=0.2:0.5,1:2");
+  EXPECT_EQ(pair.name(), "slip_min:slip_max");
+  EXPECT_EQ(pair.steps[1], (std::vector<std::string>{"1", "2"}));
+  const SweepPoint c = parseSweepCombination("big slips@odometry.slip_min=1;odometry.slip_max=2");
+  EXPECT_EQ(c.label, "big slips");
+  EXPECT_EQ(c.settings, (std::vector<std::string>{"odometry.slip_min=1", "odometry.slip_max=2"}));
+  for (const char* bad : {"odometry.slip_probability", "=1,2", "odometry.slip_probability=", "slip=1",
+                          "odometry.slip_min:odometry.slip_max=0.2,1:2", "odometry.slip_probability=1,,2"})
+    EXPECT_THROW(parseSweepAxis(bad), Error) << bad;
+  for (const char* bad : {"odometry.slip_min=1", "@odometry.slip_min=1", "x@", "x@slip"})
+    EXPECT_THROW(parseSweepCombination(bad), Error) << bad;
+}
+
+TEST(NoiseSweep, PointsCarryTheirOverridesToTheSimulator) {
+  NoiseSweepConfig c;
+  c.demo.camera_labels = false;
+  c.axes = {parseSweepAxis("odometry.slip_min:odometry.slip_max=0.2:0.5,1:2"), parseSweepAxis("robot.frame_distance=2")};
+  c.combinations = {parseSweepCombination("both@odometry.slip_probability=0.5;robot.frame_distance=0.5")};
+  c.base = {"odometry.yaw_sigma_deg=0.5"};
+  const auto points = sweepPoints(c);
+  ASSERT_EQ(points.size(), 5u);
+  EXPECT_EQ(points[0].label, "defaults");
+  EXPECT_TRUE(points[0].settings.empty());
+  EXPECT_EQ(points[2].id, "p02-slip_min_slip_max-1-2");
+  EXPECT_EQ(points[4].axis, "combinations");
+  DemoConfig d = c.demo;
+  d.simulator_settings = c.base;
+  d.simulator_settings.insert(d.simulator_settings.end(), points[2].settings.begin(), points[2].settings.end());
+  const sim::SimulatorConfig s = demoSimulatorConfig(d);
+  EXPECT_EQ(s.odometry.slip_min, 1.0);
+  EXPECT_EQ(s.odometry.slip_max, 2.0);
+  EXPECT_EQ(s.odometry.yaw_sigma_deg, 0.5);
+  EXPECT_EQ(s.odometry.slip_probability, sim::OdometryNoiseConfig{}.slip_probability);
+  EXPECT_EQ(s.robot.frame_distance, sim::RobotConfig{}.frame_distance);
+  // A value the simulator refuses stops the sweep before anything runs.
+  c.axes.push_back(parseSweepAxis("odometry.slip_probability=0.1,1.5"));
+  EXPECT_THROW(sweepPoints(c), Error);
+}
+
+TEST(NoiseSweep, RatioIsIcpOverPropertyIcp) {
+  SweepPointResult r;
+  r.cells["frame_to_frame"]["icp"].map_error_m.mean = 0.3;
+  r.cells["frame_to_frame"]["property-icp"].map_error_m.mean = 0.1;
+  r.cells["frame_to_frame"]["icp+pgo"].map_error_m.mean = 0.2;
+  r.cells["frame_to_frame"]["property-icp+pgo"].map_error_m.mean = 0.4;
+  EXPECT_NEAR(r.ratio("frame_to_frame", false), 3.0, 1e-12);
+  EXPECT_NEAR(r.ratio("frame_to_frame", true), 0.5, 1e-12);
+  EXPECT_EQ(r.ratio("frame_to_map", false), 0.0);
+}
+
+TEST(CategoryPlot, DrawsAndRejectsMismatchedSeries) {
+  CategoryPlotConfig pc;
+  pc.categories = {"0", "0.08", "0.3"};
+  const Image img = renderCategoryPlot({{"icp", {0.01, 0.1, std::nan("")}, {0, 0, 255}}}, pc);
+  EXPECT_EQ(img.width, pc.width);
+  EXPECT_THROW(renderCategoryPlot({{"icp", {0.01, 0.1}, {0, 0, 255}}}, pc), Error);
+  pc.categories.clear();
+  EXPECT_THROW(renderCategoryPlot({}, pc), Error);
+}
+
+// The command end to end on a short corridor: a step at the default runs once, the files are
+// written, a second run reuses the finished points.
+TEST(NoiseSweepCli, ShortCorridorWritesTableAndPlotAndResumes) {
+  const auto dir = test::scratchDir();
+  const std::string args = "noise-sweep --scenario corridor --frames 5 --seeds 1 --threads 1 --paper-only "
+                           "--axis odometry.slip_probability=0.08,0.5 --out " + dir.string();
+  auto r = test::runCli(args);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("same simulator settings as p00-defaults"), std::string::npos) << r.output;
+  const auto j = nlohmann::json::parse(readTextFile(dir / "noise_sweep.json"));
+  ASSERT_EQ(j.at("points").size(), 3u);
+  const auto& high = j.at("points")[2];
+  EXPECT_EQ(high.at("settings")[0], "odometry.slip_probability=0.5");
+  const auto t2 = nlohmann::json::parse(readTextFile(dir / high.at("id").get<std::string>() / "table2.json"));
+  EXPECT_DOUBLE_EQ(high.at("results").at("frame_to_frame").at("icp").at("map_error_mean_m").get<double>(),
+                   t2.at("aggregate").at("frame_to_frame").at("icp").at("map_error_m").at("mean").get<double>());
+  EXPECT_FALSE(high.at("results").contains("frame_to_map"));
+  const std::string md = readTextFile(dir / "noise_sweep.md");
+  EXPECT_NE(md.find("| slip_probability = 0.5 |"), std::string::npos) << md;
+  EXPECT_TRUE(std::filesystem::exists(dir / "noise_sweep.png"));
+  r = test::runCli(args);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("reusing"), std::string::npos) << r.output;
+  EXPECT_EQ(nlohmann::json::parse(readTextFile(dir / "noise_sweep.json")), j);
   std::filesystem::remove_all(dir);
 }
 
