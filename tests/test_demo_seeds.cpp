@@ -2,6 +2,8 @@
 // the simulator overrides the noise sweep uses, and `hazmap demo --seeds` end to end on a short route.
 #include <gtest/gtest.h>
 
+#include <fmt/format.h>
+
 #include <cmath>
 #include <nlohmann/json.hpp>
 
@@ -176,6 +178,11 @@ TEST(DemoSeedsCli, TwoSeedsOnAShortRoute) {
     }
   EXPECT_TRUE(std::filesystem::exists(dir / "seeds" / "seed-2" / "icp" / "run.json"));
   EXPECT_TRUE(std::filesystem::exists(dir / "seeds" / "seed-1" / "index.html"));
+  const std::string index = readTextFile(dir / "seeds" / "index.html");
+  EXPECT_NE(index.find("href=\"seed-2/index.html\""), std::string::npos);
+  EXPECT_NE(index.find(fmt::format("{:.3f} ± {:.3f}", j.at("aggregate").at("frame_to_map").at("icp").at("map_error_m").at("mean").get<double>(),
+                                   j.at("aggregate").at("frame_to_map").at("icp").at("map_error_m").at("sd").get<double>())),
+            std::string::npos);
   // Seed 2's folder is the single-seed demo, bit for bit in its numbers.
   r = test::runCli("demo --seed 2" + common + " --out " + (dir / "single").string());
   ASSERT_EQ(r.exit_code, 0) << r.output;

@@ -11,6 +11,7 @@
 #include <set>
 
 #include "hazmap/core/error.hpp"
+#include "hazmap/demo/demo_index.hpp"
 #include "hazmap/io/atomic_file.hpp"
 
 namespace hazmap {
@@ -194,8 +195,9 @@ SeedsReport runDemoSeeds(const DemoConfig& config, const std::vector<std::uint64
   report.aggregate = aggregateSeeds(report.per_seed);
   report.total_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   writeTextAtomically(config.out_dir / "table2.json", seedsJson(report) + "\n");
+  writeSeedsIndex(config.out_dir, report);
   out << formatSeedsTables(report);
-  out << fmt::format("\nWrote {}/table2.json (mean ± sd and every seed's table) and seed-<N>/ per seed in {:.1f} s\n",
+  out << fmt::format("\nWrote {}/table2.json (mean ± sd and every seed's table) index.html and seed-<N>/ per seed in {:.1f} s\n",
                      config.out_dir.string(), report.total_seconds);
   return report;
 }
