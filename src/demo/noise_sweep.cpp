@@ -85,7 +85,8 @@ SweepPointResult runPoint(const SweepPoint& p, const NoiseSweepConfig& config, s
   if (ec) fail(dir.string(), "cannot create sweep folder: " + ec.message());
   writeTextAtomically(dir / "point.json", spec.dump(2) + "\n");  // before table2.json, which marks it done
   out << fmt::format("\n##### point {} ({}{}{})\n", p.id, p.axis.empty() ? "" : p.axis + " = ", p.label,
-                     p.settings.empty() ? "" : ": " + fmt::format("{}", fmt::join(p.settings, " ")));
+                     p.settings.empty() ? "" : ": " + fmt::format("{}", fmt::join(p.settings, " ")))
+      << std::flush;
   std::ostringstream log;  // the demo's own output goes to <point>/demo.log
   const SeedsReport seeds = runDemoSeeds(demo, config.seeds, log);
   writeTextAtomically(dir / "demo.log", log.str());
@@ -206,7 +207,8 @@ NoiseSweepReport runNoiseSweep(const NoiseSweepConfig& config, std::ostream& out
     const SweepPointResult& r = report.points.back();
     out << fmt::format("  ICP / property ICP: paper's set-up {:.2f} (with PGO {:.2f}), frame to map {:.2f} ({:.2f})\n",
                        r.ratio("frame_to_frame", false), r.ratio("frame_to_frame", true),
-                       r.ratio("frame_to_map", false), r.ratio("frame_to_map", true));
+                       r.ratio("frame_to_map", false), r.ratio("frame_to_map", true))
+        << std::flush;
   }
   const auto& dir = config.demo.out_dir;
   writeTextAtomically(dir / "noise_sweep.json", sweepJson(report, config).dump(2) + "\n");
