@@ -70,9 +70,9 @@ Image panel(const NoiseSweepReport& report, const std::string& axis, const SetUp
 
 std::string noiseSweepMarkdown(const NoiseSweepReport& report, const NoiseSweepConfig& config) {
   std::string s = fmt::format(
-      "Map error [m] against the map from the true poses, scenario {}, seeds {}, {}; mean{} over the seeds. "
+      "Map error [m] against the map from the true poses, scenario {}, seed{} {}, {}; mean{} over the seeds. "
       "ratio = ICP / property ICP (> 1: property ICP better), with PGO in brackets.\n\n",
-      config.demo.scenario, fmt::join(config.seeds, ","),
+      config.demo.scenario, config.seeds.size() > 1 ? "s" : "", fmt::join(config.seeds, ","),
       config.demo.frames ? fmt::format("first {} frames", config.demo.frames) : std::string("whole route"),
       config.seeds.size() > 1 ? " ± sd" : "");
   if (!config.base.empty()) s += fmt::format("Every point also sets: {}.\n\n", fmt::join(config.base, ", "));
@@ -106,7 +106,8 @@ void writeNoiseSweepPng(const std::filesystem::path& png, const NoiseSweepReport
   }
   MontageConfig montage;
   montage.columns = static_cast<int>(axes.size());
-  montage.title = fmt::format("hazmap noise sweep: map error of the five methods ({}, seeds {}{})", config.demo.scenario,
+  montage.title = fmt::format("hazmap noise sweep: map error of the five methods ({}, seed{} {}{})", config.demo.scenario,
+                              config.seeds.size() > 1 ? "s" : "",
                               fmt::join(config.seeds, ","),
                               config.demo.frames ? fmt::format(", first {} frames", config.demo.frames) : "");
   writePng(png, renderMontage(panels, montage));
