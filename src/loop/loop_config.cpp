@@ -130,6 +130,8 @@ const ConfigFields<LoopClosureConfig>& configFields(ConfigTag<LoopClosureConfig>
                    "Constellations merge the landmarks of this many keyframes")
           .number("landmark_merge_distance", &C::landmark_merge_distance, positive(),
                   "m; same-class landmarks closer than this fuse")
+          .integer("submap_keyframes", &C::submap_keyframes, atLeast(0),
+                   "Loops are verified against the matched keyframe and this many neighbours on each side (0 = its scan alone)")
           .section("landmarks", &C::landmarks, "")
           .section("candidates", &C::candidates, "")
           .section("verification", &C::verification, "")

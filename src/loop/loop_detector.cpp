@@ -38,6 +38,19 @@ std::shared_ptr<const LabeledCloud> LoopDetector::cloud(std::size_t k) const {
   return std::make_shared<const LabeledCloud>(prepare(std::move(raw)));
 }
 
+LabeledCloud LoopDetector::submap(std::size_t k, std::size_t query, const PoseList& estimate) const {
+  if (k >= size()) fail("loop closure", "keyframe " + std::to_string(k) + " does not exist");
+  const std::size_t w = config_.submap_keyframes;
+  if (w == 0) return *cloud(k);
+  if (estimate.size() < size()) fail("loop closure", "a submap needs a pose estimate for every keyframe");
+  const std::size_t gap = config_.candidates.min_index_gap;
+  const std::size_t last = std::min(k + w, query >= gap ? query - gap : k);
+  LabeledCloud merged = *cloud(k);
+  for (std::size_t j = k >= w ? k - w : 0; j <= last; ++j)
+    if (j != k) merged.append(cloud(j)->transformed(estimate[k].inverse() * estimate[j]));
+  return prepare(std::move(merged));
+}
+
 std::size_t LoopDetector::residentClouds() const {
   std::size_t n = 0;
   for (const auto& c : clouds_) n += c != nullptr;
@@ -90,8 +103,8 @@ LoopDetection LoopDetector::detect(std::size_t query, const PoseList& estimate) 
     fail("loop closure", "the drift gate needs a pose estimate for keyframe " + std::to_string(query));
   for (const auto& cand : det.candidates) {
     if (det.accepted.size() >= config_.max_loops_per_keyframe) break;
-    VerificationResult v =
-        verifyCandidate(cand, *cloud(cand.query), *cloud(cand.match), classes_, config_.verification);
+    const LabeledCloud target = submap(cand.match, query, estimate);
+    VerificationResult v = verifyCandidate(cand, *cloud(cand.query), target, classes_, config_.verification);
     det.verifications.push_back(v);
     if (!v.accepted) continue;
     if (gate) {
