@@ -34,13 +34,13 @@ void applySimulatorSettings(sim::SimulatorConfig& config, const std::vector<std:
   config.validate(where);
 }
 
-sim::SimulatorConfig demoSimulatorConfig(const DemoConfig& config) {
+sim::SimulatorConfig demoSimulatorConfig(const DemoConfig& config, const std::string& where) {
   sim::SimulatorConfig sim_config;
   sim_config.scenario = config.scenario;
   sim_config.seed = config.seed;
   sim_config.max_frames = config.frames;
   if (config.camera_labels) sim_config.cameras.cameras = {sim::SimCameraConfig::forName("thermal")};
-  applySimulatorSettings(sim_config, config.simulator_settings);
+  applySimulatorSettings(sim_config, config.simulator_settings, where);
   sim_config.validate("demo");
   return sim_config;
 }

@@ -180,7 +180,7 @@ std::vector<SweepPoint> sweepPoints(const NoiseSweepConfig& config) {
   for (const SweepPoint& p : points) {
     probe.simulator_settings = config.base;
     probe.simulator_settings.insert(probe.simulator_settings.end(), p.settings.begin(), p.settings.end());
-    demoSimulatorConfig(probe);
+    demoSimulatorConfig(probe, "noise-sweep point '" + p.label + "'");
   }
   return points;
 }

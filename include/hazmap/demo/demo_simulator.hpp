@@ -17,7 +17,7 @@ namespace hazmap {
 void applySimulatorSettings(sim::SimulatorConfig& config, const std::vector<std::string>& settings,
                             const std::string& where = "--sim-set");
 
-/// The simulator config of `config` (validated).
-sim::SimulatorConfig demoSimulatorConfig(const DemoConfig& config);
+/// The simulator config of `config` (validated; errors in the settings name `where`).
+sim::SimulatorConfig demoSimulatorConfig(const DemoConfig& config, const std::string& where = "--sim-set");
 
 }  // namespace hazmap
