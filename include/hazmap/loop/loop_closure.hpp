@@ -3,6 +3,7 @@
 //   keyframe → landmarks → candidates (constellation and/or distance) → property-ICP
 //   verification → drift gate → pairwise-consistent set → loop edges for the pose graph.
 // See docs/loop_closure.md.
+#include <deque>
 #include <filesystem>
 #include <string>
 #include <functional>
@@ -149,14 +150,25 @@ class LoopDetector {
   /// Every loop accepted so far that belongs to the largest pairwise-consistent set under
   /// `estimate` (all of them when use_pairwise is off).
   std::vector<LoopClosure> consistentLoops(const PoseList& estimate) const;
+  /// With this set, detect() gates verified loops by the calibrated innovation test
+  /// (innovationGate) with the covariance the caller's pose graph gives the relative pose of two
+  /// keyframes, instead of the drift model's gate.
+  using RelativeCovariance = std::function<Matrix6d(std::size_t from, std::size_t to)>;
+  void setRelativeCovariance(RelativeCovariance f) { relative_covariance_ = std::move(f); }
+  /// Forgets an accepted loop (the back end dropped it, e.g. its optimisation failed).
+  void dropLoop(std::size_t from, std::size_t to);
   const std::vector<LoopClosure>& acceptedLoops() const { return loops_; }
 
  private:
   ClassTable classes_;
   LoopClosureConfig config_;
   LabeledCloud prepare(LabeledCloud cloud) const;  ///< keyframe_voxel downsampling
+  bool candidatePlausible(const LoopCandidate& cand, const PoseList& estimate, LoopDetection& det) const;
   std::vector<std::shared_ptr<const LabeledCloud>> clouds_;  ///< null = evicted
   CloudLoader loader_;
+  static constexpr std::size_t kReloadCache = 24;
+  mutable std::deque<std::pair<std::size_t, std::shared_ptr<const LabeledCloud>>> reloaded_;
+  RelativeCovariance relative_covariance_;
   std::vector<std::vector<PropertyLandmark>> landmarks_;
   std::vector<LoopClosure> loops_;
 };
