@@ -81,6 +81,12 @@ TEST(SeedAggregate, MatchesRowsBySetUpAndMethod) {
             row(SlamMethod::PropertyIcp, OdometryMode::FrameToFrame, 0.3, 3.0)};
   b.rows = {row(SlamMethod::Icp, OdometryMode::FrameToFrame, 0.2, 2.0),
             row(SlamMethod::PropertyIcp, OdometryMode::FrameToFrame, 0.5, 5.0)};
+  a.rows[0].nees_odometry = 4.0;
+  a.rows[0].odometry_edges = 10;
+  b.rows[0].nees_odometry = 8.0;
+  b.rows[0].odometry_edges = 10;
+  b.rows[0].nees_loop = 3.0;
+  b.rows[0].loop_edges = 2;  // seed a has no loop edges: its 0 must not count
   a.map_rows = {row(SlamMethod::Icp, OdometryMode::FrameToMap, 0.01, 0.1)};
   b.map_rows = {row(SlamMethod::Icp, OdometryMode::FrameToMap, 0.03, 0.3)};
   const auto agg = aggregateSeeds({a, b});
@@ -89,6 +95,9 @@ TEST(SeedAggregate, MatchesRowsBySetUpAndMethod) {
   EXPECT_EQ(agg[0].method, SlamMethod::Icp);
   EXPECT_NEAR(agg[0].map_error_m.mean, 0.15, 1e-15);
   EXPECT_NEAR(agg[0].map_error_m.sd, std::sqrt(0.005), 1e-15);
+  EXPECT_NEAR(agg[0].nees_odometry.mean, 6.0, 1e-15);
+  EXPECT_EQ(agg[0].nees_loop.n, 1u);
+  EXPECT_NEAR(agg[0].nees_loop.mean, 3.0, 1e-15);
   EXPECT_NEAR(agg[1].map_error_m.mean, 0.4, 1e-15);
   EXPECT_NEAR(agg[1].ate_m.mean, 4.0, 1e-15);
   EXPECT_EQ(agg[2].setup, DemoSetUp::FrameToMap);

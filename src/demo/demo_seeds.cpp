@@ -104,7 +104,7 @@ std::vector<SeedAggregateRow> aggregateSeeds(const std::vector<DemoReport>& repo
   if (reports.empty()) return rows;
   for (DemoSetUp setup : kSetUps) {
     for (const DemoRow& first : rowsOf(reports.front(), setup)) {
-      std::vector<double> map, ate, fps, loops;
+      std::vector<double> map, ate, fps, loops, nees_odometry, nees_loop;
       for (const DemoReport& r : reports)
         for (const DemoRow& row : rowsOf(r, setup))
           if (row.method == first.method) {
@@ -112,8 +112,11 @@ std::vector<SeedAggregateRow> aggregateSeeds(const std::vector<DemoReport>& repo
             ate.push_back(row.ate_m);
             fps.push_back(row.frames_per_s);
             loops.push_back(static_cast<double>(row.loops));
+            if (row.odometry_edges) nees_odometry.push_back(row.nees_odometry);
+            if (row.loop_edges) nees_loop.push_back(row.nees_loop);
           }
-      rows.push_back({setup, first.method, seedStats(map), seedStats(ate), seedStats(fps), seedStats(loops)});
+      rows.push_back({setup, first.method, seedStats(map), seedStats(ate), seedStats(fps), seedStats(loops),
+                      seedStats(nees_odometry), seedStats(nees_loop)});
     }
   }
   return rows;
@@ -167,6 +170,8 @@ std::string seedsJson(const SeedsReport& report) {
                                                         {"ate_m", statsJson(a.ate_m)},
                                                         {"frames_per_s", statsJson(a.frames_per_s)},
                                                         {"loops", statsJson(a.loops)},
+                                                        {"edge_nees_odometry_mean", statsJson(a.nees_odometry)},
+                                                        {"edge_nees_loop_mean", statsJson(a.nees_loop)},
                                                         {"paper_map_error_m", paperMapError(a.method)}};
   nlohmann::json per_seed = nlohmann::json::object();
   for (std::size_t k = 0; k < report.per_seed.size(); ++k)

@@ -34,6 +34,7 @@ struct SeedAggregateRow {
   DemoSetUp setup = DemoSetUp::FrameToFrame;
   SlamMethod method = SlamMethod::PropertyIcpPgo;
   SeedStats map_error_m, ate_m, frames_per_s, loops;
+  SeedStats nees_odometry, nees_loop;  ///< each seed's mean edge NEES (loop: seeds with loop edges)
 };
 
 struct SeedsReport {
