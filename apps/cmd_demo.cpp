@@ -5,6 +5,7 @@
 #include "command.hpp"
 #include "config_options.hpp"
 #include "hazmap/demo/demo.hpp"
+#include "hazmap/demo/demo_seeds.hpp"
 
 namespace hazmap::cli {
 namespace {
@@ -15,9 +16,17 @@ const RegisterCommand registration{{
     [](CLI::App& app) {
       auto o = std::make_shared<DemoConfig>();
       auto out = std::make_shared<std::string>(o->out_dir.string());
+      auto seeds = std::make_shared<std::string>();
       app.add_option("--out", *out, "Output folder");
       app.add_option("--scenario", o->scenario, "Simulated scenario (naraha, corridor, tanks)");
-      app.add_option("--seed", o->seed, "Simulator seed");
+      auto* seed = app.add_option("--seed", o->seed, "Simulator seed");
+      app.add_option("--seeds", *seeds,
+                     "Several seeds (1-8, 1,3,5): one demo folder per seed (OUT/seed-N/) and Table 2 as "
+                     "mean ± sd over them in OUT/table2.json")
+          ->excludes(seed);
+      app.add_option("--sim-set", o->simulator_settings,
+                     "Simulator setting section.key=value over its defaults, e.g. odometry.slip_probability=0.3 "
+                     "or robot.frame_distance=0.5 (repeatable)");
       app.add_option("--frames", o->frames, "Use only the first N frames (0 = whole route)");
       app.add_option("--threads", o->threads, "Worker threads (0 = all cores)");
       app.add_flag("!--paper-only", o->frame_to_map,
@@ -25,11 +34,14 @@ const RegisterCommand registration{{
       app.add_flag("!--no-camera-labels", o->camera_labels,
                    "Skip the rows with labels from the simulated thermal camera");
       auto params = addParameterOptions(app, "run settings for every method, as in `hazmap run --config`");
-      app.callback([o, out, params] {
+      app.callback([o, out, params, seeds] {
         o->out_dir = *out;
         o->property_icp = params->propertyIcp();
         o->settings = params->settings;
-        runDemo(*o, std::cout);
+        if (!seeds->empty())
+          runDemoSeeds(*o, parseSeedList(*seeds), std::cout);
+        else
+          runDemo(*o, std::cout);
       });
     }}};
 

@@ -10,6 +10,7 @@
 #include "hazmap/io/atomic_file.hpp"
 #include "hazmap/map/image.hpp"
 #include "hazmap/demo/demo_index.hpp"
+#include "hazmap/demo/demo_simulator.hpp"
 #include "hazmap/pipeline/progress.hpp"
 #include "hazmap/pipeline/run_outputs.hpp"
 #include "hazmap/sim/simulator.hpp"
@@ -30,6 +31,8 @@ nlohmann::json rowJson(const DemoRow& r) {
           {"frames_per_s", r.frames_per_s},
           {"loops", r.loops},
           {"odometry_fallbacks", r.fallbacks},
+          {"edge_nees", {{"odometry_mean", r.nees_odometry}, {"odometry_edges", r.odometry_edges},
+                         {"loop_mean", r.nees_loop}, {"loop_edges", r.loop_edges}}},
           {"tracking", r.tracking == OdometryMode::FrameToFrame ? "frame-to-frame" : "frame-to-map"},
           {"paper_map_error_m", paperMapError(r.method)}};
 }
@@ -71,14 +74,10 @@ namespace {
 //    thermal and NIR cameras when camera labels are asked for: heat and water, the classes the
 //    simulator's labels carry).
 sim::SimulationSummary simulate(const DemoConfig& config, const std::filesystem::path& seq_dir, std::ostream& out) {
-  sim::SimulatorConfig sim_config;
-  sim_config.scenario = config.scenario;
-  sim_config.seed = config.seed;
-  sim_config.max_frames = config.frames;
-  if (config.camera_labels)
-    sim_config.cameras.cameras = {sim::SimCameraConfig::forName("thermal"), sim::SimCameraConfig::forName("nir")};
-  out << "Simulating '" << config.scenario << "' (seed " << config.seed << ") into " << seq_dir.string()
-      << " ..." << std::endl;
+  const sim::SimulatorConfig sim_config = demoSimulatorConfig(config);
+  out << "Simulating '" << config.scenario << "' (seed " << config.seed << ") into " << seq_dir.string();
+  for (const auto& setting : config.simulator_settings) out << " " << setting;
+  out << " ..." << std::endl;
   const sim::SimulationSummary sim = sim::writeSimulation(sim_config, seq_dir, /*overwrite=*/true);
   out << fmt::format("  {} frames, {:.1f} m route, odometry drift mean {:.2f} m / final {:.2f} m, {:.1f} s\n",
                      sim.frames, sim.route_length, sim.drift.mean_position_error,
@@ -116,6 +115,12 @@ DemoRow rowOf(SlamMethod method, OdometryMode mode, const RunSummary& summary, c
   row.frames_per_s = result.framesPerSecond();
   row.loops = result.loops.size();
   for (const auto& f : result.frames) row.fallbacks += (usesIcp(method) && f.index > 0 && !f.icp_used);
+  if (summary.edge_nees) {
+    row.nees_odometry = summary.edge_nees->odometry.mean;
+    row.nees_loop = summary.edge_nees->loop.mean;
+    row.odometry_edges = summary.edge_nees->odometry.count;
+    row.loop_edges = summary.edge_nees->loop.count;
+  }
   return row;
 }
 
@@ -157,8 +162,10 @@ std::vector<DemoRow> runMethods(const DemoConfig& config, const Sequence& sequen
   return rows;
 }
 
+}  // namespace
+
 // 3. table2.json: per method, the paper's set-up, frame to map and camera labels (when run).
-void writeTable2Json(const DemoReport& report, const std::filesystem::path& path) {
+std::string table2Json(const DemoReport& report) {
   nlohmann::json table = nlohmann::json::object();
   for (const DemoRow& r : report.rows) table[toString(r.method)] = rowJson(r);
   if (!report.map_rows.empty()) {
@@ -173,10 +180,8 @@ void writeTable2Json(const DemoReport& report, const std::filesystem::path& path
     cam["heat_recall"] = report.camera_heat_recall;
     table["camera_labels"] = cam;
   }
-  writeTextAtomically(path, table.dump(2) + "\n");
+  return table.dump(2);
 }
-
-}  // namespace
 
 DemoReport runDemo(const DemoConfig& config, std::ostream& out) {
   using Clock = std::chrono::steady_clock;
@@ -205,7 +210,7 @@ DemoReport runDemo(const DemoConfig& config, std::ostream& out) {
                                   "maps_side_by_side_frame_to_map.png",
                                   "hazmap demo: the five methods with frame-to-map tracking (heat red, water blue)"},
                                  out);
-  writeTable2Json(report, config.out_dir / "table2.json");
+  writeTextAtomically(config.out_dir / "table2.json", table2Json(report) + "\n");
   writeDemoIndex(config.out_dir, report, config.frame_to_map);
   report.total_seconds = std::chrono::duration<double>(Clock::now() - t0).count();
   out << "\n" << formatTable2(report);

@@ -1,6 +1,7 @@
 #include "hazmap/demo/demo_index.hpp"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "hazmap/core/error.hpp"
 #include "hazmap/eval/trajectory_metrics.hpp"
@@ -64,6 +65,55 @@ std::string demoIndexHtml(const DemoReport& report, bool frame_to_map) {
   return fmt::format("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>hazmap demo</title>"
                      "<style>{}</style></head>\n<body>\n{}</body></html>\n",
                      kStyle, body);
+}
+
+namespace {
+
+std::string meanSd(const SeedStats& s) { return fmt::format("{:.3f} ± {:.3f}", s.mean, s.sd); }
+
+// Per seed, one row of map errors per set-up.
+std::string perSeedHtml(const SeedsReport& report) {
+  std::string s = "<h2>Map error [m] per seed</h2>\n<table><thead><tr><th>seed</th><th>set-up</th>";
+  for (const DemoRow& r : report.per_seed.front().rows) s += "<th>" + std::string(toString(r.method)) + "</th>";
+  s += "<th>open</th></tr></thead><tbody>\n";
+  for (std::size_t k = 0; k < report.per_seed.size(); ++k) {
+    const DemoReport& r = report.per_seed[k];
+    for (const auto* rows : {&r.rows, &r.map_rows}) {
+      if (rows->empty()) continue;
+      s += fmt::format("<tr><td>{}</td><td>{}</td>", report.seeds[k], rows == &r.rows ? "paper's" : "frame to map");
+      for (const DemoRow& row : *rows) s += fmt::format("<td>{:.3f}</td>", row.map_error_m);
+      s += fmt::format("<td><a href=\"seed-{}/index.html\">seed {}</a></td></tr>\n", report.seeds[k], report.seeds[k]);
+    }
+  }
+  return s + "</tbody></table>\n";
+}
+
+}  // namespace
+
+std::string seedsIndexHtml(const SeedsReport& report) {
+  std::string body = fmt::format(
+      "<h1>hazmap demo over {} seeds</h1>\n<p>Map error (the paper's Table 2 metric) and ATE as mean ± sample "
+      "standard deviation over seeds {}. Numbers: table2.json.</p>\n<table><thead><tr><th>Method</th><th>paper [m]</th>"
+      "<th>paper's set-up [m]</th><th>ATE [m]</th><th>frame to map [m]</th><th>ATE [m]</th></tr></thead><tbody>\n",
+      report.seeds.size(), fmt::join(report.seeds, ", "));
+  for (const auto& a : report.aggregate) {
+    if (a.setup != DemoSetUp::FrameToFrame) continue;
+    std::string f2m = "<td>–</td><td>–</td>";
+    for (const auto& b : report.aggregate)
+      if (b.setup == DemoSetUp::FrameToMap && b.method == a.method)
+        f2m = fmt::format("<td><b>{}</b></td><td>{}</td>", meanSd(b.map_error_m), meanSd(b.ate_m));
+    body += fmt::format("<tr><td>{}</td><td>{:.3f}</td><td><b>{}</b></td><td>{}</td>{}</tr>\n", paperRowTitle(a.method),
+                        paperMapError(a.method), meanSd(a.map_error_m), meanSd(a.ate_m), f2m);
+  }
+  body += "</tbody></table>\n";
+  if (!report.per_seed.empty()) body += perSeedHtml(report);
+  return fmt::format("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>hazmap demo, seeds</title>"
+                     "<style>{}</style></head>\n<body>\n{}</body></html>\n",
+                     kStyle, body);
+}
+
+void writeSeedsIndex(const std::filesystem::path& out_dir, const SeedsReport& report) {
+  writeTextAtomically(out_dir / "index.html", seedsIndexHtml(report));
 }
 
 void writeMethodErrorPlot(const std::filesystem::path& png, const Trajectory& truth,

@@ -65,6 +65,21 @@ GateResult driftGate(const LoopClosure& loop, const PoseList& poses, const Consi
   return g;
 }
 
+GateResult innovationGate(const LoopClosure& loop, const PoseList& poses, const Matrix6d& relative_covariance,
+                          double probability) {
+  if (loop.from >= poses.size() || loop.to >= poses.size())
+    fail("innovationGate", "loop keyframe index out of range of the pose estimate");
+  if (!relative_covariance.allFinite()) fail("innovationGate", "non-finite relative covariance");
+  GateResult g;
+  g.path_length = pathLength(poses, loop.from, loop.to);
+  g.threshold = chiSquare6Quantile(probability);
+  const Eigen::Isometry3d predicted = poses[loop.from].inverse() * poses[loop.to];
+  const Vector6d e = se3Log(loop.T_from_to * predicted.inverse());
+  g.mahalanobis2 = mahalanobis2(e, loop.covariance + relative_covariance);
+  g.accepted = g.mahalanobis2 <= g.threshold;
+  return g;
+}
+
 double pairwiseDistance2(const LoopClosure& a, const LoopClosure& b, const PoseList& poses,
                          const ConsistencyConfig& c) {
   const std::size_t i = a.from, j = a.to, k = b.from, l = b.to;

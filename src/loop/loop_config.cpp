@@ -93,6 +93,12 @@ const ConfigFields<VerificationConfig>& configFields(ConfigTag<VerificationConfi
           .number("min_translation_sigma", &C::min_translation_sigma, nonNegative(),
                   "m; floor on the standard deviations before inverting")
           .number("min_rotation_sigma", &C::min_rotation_sigma, nonNegative(), "rad")
+          .number("covariance_scale", &C::covariance_scale, positive(),
+                  "Calibration: the ICP covariance is multiplied by this before the floors (fitted by NEES)")
+          .number("probe_distance", &C::probe_distance, nonNegative(),
+                  "m; basin probes: ICP again from ±this along x and y, their spread joins the covariance (0 = off)")
+          .number("max_probe_spread", &C::max_probe_spread, nonNegative(),
+                  "m; probes landing farther (RMS) from the result make the loop ambiguous: rejected (0 = keep)")
           .section("registration", &C::registration, "The verification ICP (α and class radii: property_icp)");
   return fields;
 }
@@ -130,6 +136,8 @@ const ConfigFields<LoopClosureConfig>& configFields(ConfigTag<LoopClosureConfig>
                    "Constellations merge the landmarks of this many keyframes")
           .number("landmark_merge_distance", &C::landmark_merge_distance, positive(),
                   "m; same-class landmarks closer than this fuse")
+          .integer("submap_keyframes", &C::submap_keyframes, atLeast(0),
+                   "Loops are verified against the matched keyframe and this many neighbours on each side (0 = its scan alone)")
           .section("landmarks", &C::landmarks, "")
           .section("candidates", &C::candidates, "")
           .section("verification", &C::verification, "")

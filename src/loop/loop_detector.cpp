@@ -33,9 +33,29 @@ std::size_t LoopDetector::addKeyframe(LabeledCloud cloud) {
 std::shared_ptr<const LabeledCloud> LoopDetector::cloud(std::size_t k) const {
   if (k >= clouds_.size()) fail("loop closure", "keyframe " + std::to_string(k) + " does not exist");
   if (clouds_[k]) return clouds_[k];
+  // Reloaded clouds: the last few stay cached, since a submap and the next queries (the robot
+  // moves on along the old path) need the same old keyframes again.
+  for (const auto& [index, c] : reloaded_)
+    if (index == k) return c;
   LabeledCloud raw = loader_(k);
   raw.checkConsistent("loop closure keyframe " + std::to_string(k) + " (reloaded)");
-  return std::make_shared<const LabeledCloud>(prepare(std::move(raw)));
+  auto c = std::make_shared<const LabeledCloud>(prepare(std::move(raw)));
+  reloaded_.emplace_back(k, c);
+  if (reloaded_.size() > kReloadCache) reloaded_.pop_front();
+  return c;
+}
+
+LabeledCloud LoopDetector::submap(std::size_t k, std::size_t query, const PoseList& estimate) const {
+  if (k >= size()) fail("loop closure", "keyframe " + std::to_string(k) + " does not exist");
+  const std::size_t w = config_.submap_keyframes;
+  if (w == 0) return *cloud(k);
+  if (estimate.size() < size()) fail("loop closure", "a submap needs a pose estimate for every keyframe");
+  const std::size_t gap = config_.candidates.min_index_gap;
+  const std::size_t last = std::min(k + w, query >= gap ? query - gap : k);
+  LabeledCloud merged = *cloud(k);
+  for (std::size_t j = k >= w ? k - w : 0; j <= last; ++j)
+    if (j != k) merged.append(cloud(j)->transformed(estimate[k].inverse() * estimate[j]));
+  return prepare(std::move(merged));
 }
 
 std::size_t LoopDetector::residentClouds() const {
@@ -90,18 +110,22 @@ LoopDetection LoopDetector::detect(std::size_t query, const PoseList& estimate) 
     fail("loop closure", "the drift gate needs a pose estimate for keyframe " + std::to_string(query));
   for (const auto& cand : det.candidates) {
     if (det.accepted.size() >= config_.max_loops_per_keyframe) break;
-    VerificationResult v =
-        verifyCandidate(cand, *cloud(cand.query), *cloud(cand.match), classes_, config_.verification);
+    if (relative_covariance_ && gate && !candidatePlausible(cand, estimate, det)) continue;
+    const LabeledCloud target = submap(cand.match, query, estimate);
+    VerificationResult v = verifyCandidate(cand, *cloud(cand.query), target, classes_, config_.verification);
     det.verifications.push_back(v);
     if (!v.accepted) continue;
     if (gate) {
-      const GateResult g = driftGate(v.closure, estimate, config_.consistency);
+      const bool innovation = static_cast<bool>(relative_covariance_);
+      const GateResult g = innovation ? innovationGate(v.closure, estimate, relative_covariance_(v.closure.from, v.closure.to),
+                                                       config_.consistency.gate_probability)
+                                      : driftGate(v.closure, estimate, config_.consistency);
       det.gates.push_back(g);
       if (!g.accepted) {
         det.verifications.back().accepted = false;
-        det.verifications.back().rejection = LoopRejection::DriftGate;
-        det.verifications.back().reason = "drift gate: d² = " + std::to_string(g.mahalanobis2) +
-                                          " > " + std::to_string(g.threshold);
+        det.verifications.back().rejection = innovation ? LoopRejection::InnovationGate : LoopRejection::DriftGate;
+        det.verifications.back().reason = std::string(innovation ? "innovation" : "drift") + " gate: d² = " +
+                                          std::to_string(g.mahalanobis2) + " > " + std::to_string(g.threshold);
         continue;
       }
     }
@@ -116,6 +140,33 @@ std::vector<LoopClosure> LoopDetector::consistentLoops(const PoseList& estimate)
   std::vector<LoopClosure> out;
   for (std::size_t i : consistentSubset(loops_, estimate, config_.consistency)) out.push_back(loops_[i]);
   return out;
+}
+
+// The innovation gate on the candidate's guess, before any ICP: the landmark constellation's guess
+// (σ = inlier_distance in x, y, z; its yaw error is bounded by the distance tolerance over the
+// pair baseline, taken as inlier_distance / min_pair_distance) against the graph's relative pose.
+// A candidate the tracking makes impossible costs no registration.
+bool LoopDetector::candidatePlausible(const LoopCandidate& cand, const PoseList& estimate, LoopDetection& det) const {
+  LoopClosure guess;
+  guess.from = cand.match;
+  guess.to = cand.query;
+  guess.T_from_to = cand.initial_guess;
+  const double st = config_.candidates.constellation.inlier_distance;
+  const double sr = st / config_.candidates.constellation.min_pair_distance;
+  guess.covariance = (Vector6d() << st * st, st * st, st * st, sr * sr, sr * sr, sr * sr).finished().asDiagonal();
+  const GateResult g = innovationGate(guess, estimate, relative_covariance_(cand.match, cand.query),
+                                      config_.consistency.gate_probability);
+  if (g.accepted) return true;
+  VerificationResult v;
+  v.closure = guess;
+  v.rejection = LoopRejection::InnovationGate;
+  v.reason = "candidate guess, innovation gate: d² = " + std::to_string(g.mahalanobis2) + " > " + std::to_string(g.threshold);
+  det.verifications.push_back(std::move(v));
+  return false;
+}
+
+void LoopDetector::dropLoop(std::size_t from, std::size_t to) {
+  std::erase_if(loops_, [&](const LoopClosure& l) { return l.from == from && l.to == to; });
 }
 
 bool isTrueLoop(const LoopClosure& loop, const PoseList& truth, double max_t, double max_r) {

@@ -62,7 +62,7 @@ VerificationResult evaluateRegistration(const LoopCandidate& cand, const Registr
                                                       fmt(rotationAngle(correction)) + " rad from the initial guess");
 
   // Covariance: symmetric, positive definite, bounded.
-  Matrix6d cov = 0.5 * (reg.covariance + reg.covariance.transpose());
+  Matrix6d cov = 0.5 * c.covariance_scale * (reg.covariance + reg.covariance.transpose());
   Eigen::SelfAdjointEigenSolver<Matrix6d> eig(cov);
   if (eig.info() != Eigen::Success || !(eig.eigenvalues().minCoeff() > 0.0))
     return reject(LoopRejection::CovarianceNotPositive, "covariance is not positive definite");
@@ -99,6 +99,11 @@ const char* toString(LoopRejection rejection) {
     case LoopRejection::UncertainTranslation: return "uncertain translation";
     case LoopRejection::UncertainRotation: return "uncertain rotation";
     case LoopRejection::DriftGate: return "drift gate";
+    case LoopRejection::InnovationGate: return "innovation gate";
+    case LoopRejection::Ambiguous: return "ambiguous";
+    case LoopRejection::Inconsistent: return "pairwise inconsistent";
+    case LoopRejection::OptimisationFailed: return "optimisation failed";
+    case LoopRejection::OptimisationDiverged: return "optimisation diverged";
   }
   return "unknown";
 }

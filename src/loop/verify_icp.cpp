@@ -2,7 +2,49 @@
 // link without the registration stage).
 #include "hazmap/loop/verification.hpp"
 
+#include <cmath>
+#include <string>
+
+#include "hazmap/core/se3.hpp"
+#include "hazmap/registration/registration_target.hpp"
+
 namespace hazmap {
+
+namespace {
+
+// The basin probes (VerificationConfig::probe_distance): ICP from the result shifted along ±x, ±y
+// of the match frame; the sample covariance of where they land joins the loop covariance.
+void widenByBasinProbes(VerificationResult& v, const LabeledCloud& query_cloud, const RegistrationTarget& target,
+                        const ClassTable& classes, const VerificationConfig& c) {
+  const Eigen::Isometry3d& result = v.closure.T_from_to;
+  Matrix6d spread = Matrix6d::Zero();
+  int runs = 0;
+  for (int axis = 0; axis < 2; ++axis)
+    for (double sign : {-1.0, 1.0}) {
+      Eigen::Isometry3d guess = result;
+      guess.translation()[axis] += sign * c.probe_distance;
+      const RegistrationResult r = registerClouds(query_cloud, target, guess, classes, c.registration);
+      ++runs;
+      // A probe that fails or stops far away is a basin of its own: count the shift it kept.
+      const Vector6d d = r.converged || r.termination == Termination::MaxIterations
+                             ? se3Log(r.transform * result.inverse())
+                             : se3Log(guess * result.inverse());
+      spread += d * d.transpose();
+    }
+  spread /= runs;
+  const double rms = std::sqrt(spread.topLeftCorner<3, 3>().trace());
+  if (c.max_probe_spread > 0.0 && rms > c.max_probe_spread) {
+    v.accepted = false;
+    v.rejection = LoopRejection::Ambiguous;
+    v.reason = "basin probes landed " + std::to_string(rms) + " m (RMS) from the result";
+    return;
+  }
+  v.closure.covariance += spread;
+  const Matrix6d info = v.closure.covariance.llt().solve(Matrix6d::Identity());
+  v.closure.information = 0.5 * (info + info.transpose());
+}
+
+}  // namespace
 
 VerificationResult verifyCandidate(const LoopCandidate& cand, const LabeledCloud& query_cloud,
                                    const LabeledCloud& match_cloud, const ClassTable& classes,
@@ -16,9 +58,11 @@ VerificationResult verifyCandidate(const LoopCandidate& cand, const LabeledCloud
     out.closure.to = cand.query;
     return out;
   }
-  const RegistrationResult reg =
-      registerClouds(query_cloud, match_cloud, cand.initial_guess, classes, c.registration);
-  return evaluateRegistration(cand, reg, c);
+  const RegistrationTarget target(match_cloud, classes, c.registration);
+  const RegistrationResult reg = registerClouds(query_cloud, target, cand.initial_guess, classes, c.registration);
+  VerificationResult v = evaluateRegistration(cand, reg, c);
+  if (v.accepted && c.probe_distance > 0.0) widenByBasinProbes(v, query_cloud, target, classes, c);
+  return v;
 }
 
 }  // namespace hazmap

@@ -47,19 +47,31 @@ nlohmann::json runJson(const SlamResult& r, const SlamConfig& config, const RunS
   for (const auto& l : r.loops)
     loops.push_back({{"from", l.from_frame}, {"to", l.to_frame}, {"source", l.source},
                      {"fitness", l.fitness}, {"rmse", l.rmse}});
+  nlohmann::json rejected = nlohmann::json::array();
+  for (const auto& l : r.rejected_loops)
+    rejected.push_back({{"from", l.from_frame}, {"to", l.to_frame}, {"reason", toString(l.reason)}, {"detail", l.detail}});
   j["loop_closure"] = {{"enabled", usesPoseGraph(r.method)},
                        {"candidate_method", toString(config.loop_closure.method)},
                        {"keyframes", r.keyframes},
                        {"candidates", r.loop_candidates},
                        {"verified", r.loops_verified},
                        {"accepted", r.loops.size()},
-                       {"loops", loops}};
+                       {"loops", loops},
+                       {"rejected", rejected}};
   nlohmann::json opt = nlohmann::json::array();
-  for (const auto& o : r.optimisations)
-    opt.push_back({{"initial_geodesic", o.initial_geodesic}, {"final_geodesic", o.final_geodesic},
-                   {"iterations", o.iterations}, {"seconds", o.total_seconds}});
+  for (std::size_t k = 0; k < r.optimisations.size(); ++k) {
+    const auto& o = r.optimisations[k];
+    nlohmann::json entry = {{"initial_geodesic", o.initial_geodesic}, {"final_geodesic", o.final_geodesic},
+                            {"iterations", o.iterations}, {"seconds", o.total_seconds}};
+    if (k < r.optimisation_outcomes.size()) {
+      entry["applied"] = r.optimisation_outcomes[k].applied;
+      if (!r.optimisation_outcomes[k].note.empty()) entry["note"] = r.optimisation_outcomes[k].note;
+    }
+    opt.push_back(entry);
+  }
   j["pose_graph"] = {{"nodes", r.graph.numNodes()}, {"edges", r.graph.numEdges()},
-                     {"loop_edges", r.graph.numLoopEdges()}, {"optimisations", opt}};
+                     {"loop_edges", r.graph.numLoopEdges()}, {"map_anchor_edges", r.anchors},
+                     {"optimisations", opt}};
   // Every setting of the run, nested as in the YAML (`hazmap run --config` reads it back).
   j["parameters"] = configToJson(config);
   j["map"] = {{"cells", summary.map_cells}, {"memory_bytes", summary.map_memory_bytes},
@@ -70,6 +82,7 @@ nlohmann::json runJson(const SlamResult& r, const SlamConfig& config, const RunS
                       {"c2c_reverse", statsJson(m.c2c_reverse)}};
   }
   if (summary.trajectory) j["trajectory_eval"] = nlohmann::json::parse(toJson(*summary.trajectory));
+  if (summary.edge_nees) j["edge_nees"] = nlohmann::json::parse(toJson(*summary.edge_nees));
   return j;
 }
 
@@ -161,6 +174,9 @@ RunSummary writeRunOutputs(ScanSource& scans, const SlamResult& result, const Sl
       unaligned.ape_alignment = Alignment::None;
       summary.trajectory = evaluateTrajectory(*truth, result.estimate, unaligned);
     }
+    // How honest the edges' information is (NEES against the true relative poses).
+    if (result.graph.numNodes() == static_cast<int>(n))
+      summary.edge_nees = computeEdgeNees(result.graph, truth_poses.poses, out_dir.string());
   }
 
   writeKittiTrajectory(out_dir / "trajectory.kitti", result.estimate);

@@ -10,6 +10,8 @@
 
 #include "hazmap/core/error.hpp"
 #include "hazmap/core/se3.hpp"
+#include "hazmap/graph/chain_covariance.hpp"
+#include "hazmap/graph/costs.hpp"
 #include "hazmap/io/atomic_file.hpp"
 #include "pipeline/keyframe_spill.hpp"
 
@@ -21,13 +23,19 @@ using Clock = std::chrono::steady_clock;
 double secondsSince(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
 // A floor on the standard deviations before inverting a covariance: an over-confident ICP
-// covariance (few, noise-free points) must not make an edge rigid.
-Matrix6d flooredInformation(const Matrix6d& covariance, double min_translation_sigma,
-                            double min_rotation_sigma) {
+// covariance (few, noise-free points) must not make an edge rigid. Returned with its eigenvalues
+// bounded below, so that it inverts.
+Matrix6d flooredCovariance(const Matrix6d& covariance, double min_translation_sigma, double min_rotation_sigma) {
   Matrix6d c = 0.5 * (covariance + covariance.transpose());
   for (int i = 0; i < 3; ++i) c(i, i) = std::max(c(i, i), min_translation_sigma * min_translation_sigma);
   for (int i = 3; i < 6; ++i) c(i, i) = std::max(c(i, i), min_rotation_sigma * min_rotation_sigma);
   Eigen::SelfAdjointEigenSolver<Matrix6d> eig(c);
+  Eigen::Matrix<double, 6, 1> values = eig.eigenvalues().cwiseMax(1e-12);
+  return eig.eigenvectors() * values.asDiagonal() * eig.eigenvectors().transpose();
+}
+
+Matrix6d inverseOf(const Matrix6d& covariance) {
+  Eigen::SelfAdjointEigenSolver<Matrix6d> eig(0.5 * (covariance + covariance.transpose()));
   Eigen::Matrix<double, 6, 1> values = eig.eigenvalues().cwiseMax(1e-12);
   return eig.eigenvectors() * values.cwiseInverse().asDiagonal() * eig.eigenvectors().transpose();
 }
@@ -87,12 +95,17 @@ class SlamRun {
     result_.tracked = trajectoryOf(tracked_);
     if (pgo_) {
       result_.keyframes = keyframe_frames_.size();
+      optimiseWithLoops();
       const auto consistent = loops_->consistentLoops(keyframeEstimate());
       setLoopEdges(consistent);
-      for (const auto& l : consistent)
-        result_.loops.push_back({keyframe_frames_[l.from], keyframe_frames_[l.to], toString(l.source),
-                                 l.fitness, l.rmse});
-      if (!consistent.empty()) optimise();
+      for (const auto& l : loops_->acceptedLoops()) {
+        const bool kept = std::any_of(consistent.begin(), consistent.end(),
+                                      [&](const LoopClosure& c) { return c.from == l.from && c.to == l.to; });
+        if (kept)
+          result_.loops.push_back({keyframe_frames_[l.from], keyframe_frames_[l.to], toString(l.source), l.fitness, l.rmse});
+        else
+          reject(l, LoopRejection::Inconsistent, "not in the largest pairwise-consistent set");
+      }
       result_.estimate = trajectoryOf(result_.graph.poses);
     } else if (config_.method == SlamMethod::Odometry) {
       result_.estimate = result_.odometry_only;
@@ -120,6 +133,10 @@ class SlamRun {
     pgo_ = usesPoseGraph(config_.method);
     if (!pgo_) return;
     loops_ = std::make_unique<LoopDetector>(classes_, config_.loop_closure);
+    if (config_.innovation_gate)
+      loops_->setRelativeCovariance([this](std::size_t from, std::size_t to) {
+        return chainCovariance(result_.graph.poses, step_covariance_, keyframe_frames_.at(from), keyframe_frames_.at(to));
+      });
     // Old keyframes are re-read when a loop needs them (bounded memory): from the recording when
     // it allows that, else from the copies a stream's keyframes leave on disk.
     if (source_.canReread()) {
@@ -184,15 +201,30 @@ class SlamRun {
     return tracked_.back();
   }
 
-  /// Odometry edge, information = inverse ICP covariance (eq. 3), or the wheel noise when the
-  /// tracker fell back to the encoders.
+  /// Odometry edge, information = inverse of the calibrated ICP covariance (eq. 3), or the wheel
+  /// noise when the tracker fell back to the encoders. The covariance is kept for the gate.
   void addOdometryEdge(const FrameRecord& rec) {
-    if (rec.index == 0) return;
-    const Matrix6d info = rec.icp_used ? flooredInformation(rec.covariance, config_.min_translation_sigma,
-                                                            config_.min_rotation_sigma)
-                                       : config_.wheel_noise.information();
+    if (rec.index == 0) {
+      step_covariance_.push_back(Matrix6d::Zero());
+      return;
+    }
+    const Matrix6d cov = rec.icp_used ? odometryEdgeCovariance(rec) : inverseOf(config_.wheel_noise.information());
+    step_covariance_.push_back(cov);
     result_.graph.addEdge(static_cast<int>(rec.index - 1), static_cast<int>(rec.index), rec.T_prev_curr,
-                          info, EdgeKind::Odometry);
+                          rec.icp_used ? inverseOf(cov) : config_.wheel_noise.information(), EdgeKind::Odometry);
+  }
+
+  /// scale · floored Σ_ICP + (weight · departure from constant velocity)² (SlamConfig).
+  Matrix6d odometryEdgeCovariance(const FrameRecord& rec) const {
+    Matrix6d cov = config_.odometry_covariance_scale *
+                   flooredCovariance(rec.covariance, config_.min_translation_sigma, config_.min_rotation_sigma);
+    if (config_.motion_disagreement_weight > 0.0 && rec.index >= 2) {
+      const Vector6d d = se3Log(result_.frames[rec.index - 1].T_prev_curr.inverse() * rec.T_prev_curr);
+      const double w = config_.motion_disagreement_weight;
+      const double t2 = w * w * d.head<3>().squaredNorm(), r2 = w * w * d.tail<3>().squaredNorm();
+      cov.diagonal() += (Vector6d() << t2, t2, t2, r2, r2, r2).finished();
+    }
+    return cov;
   }
 
   bool isKeyframe(const Eigen::Isometry3d& pose) const {
@@ -210,14 +242,84 @@ class SlamRun {
     keyframe_frames_.push_back(frames() - 1);
     if (spill_) spill_->store(keyframe_frames_.back(), cloud);
     const std::size_t k = loops_->addKeyframe(std::move(cloud));
+    addAnchorEdge();
     const LoopDetection detection = loops_->detect(k, keyframeEstimate());
     result_.loop_candidates += detection.candidates.size();
-    for (const auto& v : detection.verifications) result_.loops_verified += v.accepted ? 1 : 0;
-    result_.timings.loop_s += secondsSince(t_loop);
-    if (!detection.accepted.empty() && config_.optimise_online) {
-      setLoopEdges(loops_->consistentLoops(keyframeEstimate()));
-      optimise();
+    for (const auto& v : detection.verifications) {
+      result_.loops_verified += v.accepted ? 1 : 0;
+      if (!v.accepted) reject(v.closure, v.rejection, v.reason);
     }
+    result_.timings.loop_s += secondsSince(t_loop);
+    if (!detection.accepted.empty() && config_.optimise_online) optimiseWithLoops();
+  }
+
+  /// The map-anchor edge of the newest keyframe (SlamConfig::anchor_radius).
+  void addAnchorEdge() {
+    if (config_.odometry.mode != OdometryMode::FrameToMap || config_.anchor_radius <= 0.0) return;
+    const std::size_t n = keyframe_frames_.size(), gap = config_.loop_closure.candidates.min_index_gap;
+    const std::size_t j = keyframe_frames_.back();
+    std::optional<std::size_t> best;
+    double best_d = config_.anchor_radius;
+    for (std::size_t k = 0; k + gap < n; ++k) {
+      const double d = (tracked_[keyframe_frames_[k]].translation() - tracked_[j].translation()).norm();
+      if (d <= best_d) best_d = d, best = keyframe_frames_[k];
+    }
+    if (!best) return;
+    Matrix6d cov = odometryEdgeCovariance(result_.frames[j]);
+    const double t2 = config_.anchor_sigma_translation * config_.anchor_sigma_translation;
+    const double r2 = config_.anchor_sigma_rotation * config_.anchor_sigma_rotation;
+    cov.diagonal() += (Vector6d() << t2, t2, t2, r2, r2, r2).finished();
+    result_.graph.addEdge(static_cast<int>(*best), static_cast<int>(j), normalized(tracked_[*best].inverse() * tracked_[j]),
+                          inverseOf(cov), EdgeKind::MapAnchor);
+    result_.anchors.push_back({*best, j});
+  }
+
+  void reject(const LoopClosure& l, LoopRejection why, std::string detail) {
+    result_.rejected_loops.push_back({keyframe_frames_.at(l.from), keyframe_frames_.at(l.to), why, std::move(detail)});
+  }
+
+  /// The pairwise-consistent loops into the graph and one optimisation; a loop the solution
+  /// cannot agree with (its whitened residual beyond the gate's χ² quantile) or a failed solve
+  /// is dropped, recorded, and the previous estimate kept (then re-solved without the loop).
+  void optimiseWithLoops() {
+    for (int attempt = 0; attempt < 3; ++attempt) {
+      const std::vector<LoopClosure> consistent = loops_->consistentLoops(keyframeEstimate());
+      if (consistent.empty()) return;
+      setLoopEdges(consistent);
+      const std::vector<Eigen::Isometry3d> before = result_.graph.poses;
+      const std::string failure = optimise();
+      if (failure.empty()) {
+        const std::vector<LoopClosure> misfits = loopsTheSolutionRejects(consistent);
+        if (misfits.empty()) return;
+        result_.optimisation_outcomes.back() = {false, "dropped " + std::to_string(misfits.size()) +
+                                                          " loop(s) the solution could not agree with"};
+        for (const auto& l : misfits) dropLoop(l, LoopRejection::OptimisationDiverged, "residual beyond the χ² gate after optimisation");
+      } else {
+        for (const auto& l : consistent)
+          if (l.to == consistent.back().to) dropLoop(l, LoopRejection::OptimisationFailed, failure);
+      }
+      result_.graph.poses = before;
+    }
+  }
+
+  void dropLoop(const LoopClosure& l, LoopRejection why, const std::string& detail) {
+    loops_->dropLoop(l.from, l.to);
+    reject(l, why, detail);
+  }
+
+  std::vector<LoopClosure> loopsTheSolutionRejects(const std::vector<LoopClosure>& loops) const {
+    const double threshold = chiSquare6Quantile(config_.loop_closure.consistency.gate_probability);
+    std::vector<LoopClosure> out;
+    for (const auto& l : loops) {
+      PoseGraphEdge e;
+      e.from = static_cast<int>(keyframe_frames_[l.from]);
+      e.to = static_cast<int>(keyframe_frames_[l.to]);
+      e.T_from_to = l.T_from_to;
+      e.information = l.information;
+      e.kind = EdgeKind::Loop;
+      if (!(geodesicEdgeCost(result_.graph, e) <= threshold)) out.push_back(l);
+    }
+    return out;
   }
 
   /// Replaces the graph's loop edges by the pairwise-consistent set.
@@ -235,10 +337,28 @@ class SlamRun {
     return poses;
   }
 
-  void optimise() {
+  /// One optimisation; on failure (Ceres cannot solve it, non-finite or higher cost) the poses
+  /// are restored and the reason returned.
+  std::string optimise() {
     const auto t = Clock::now();
-    result_.optimisations.push_back(optimizePoseGraph(result_.graph, config_.graph));
+    const std::vector<Eigen::Isometry3d> before = result_.graph.poses;
+    std::string failure;
+    PoseGraphReport report;
+    try {
+      report = optimizePoseGraph(result_.graph, config_.graph);
+      bool finite = std::isfinite(report.final_geodesic);
+      for (const auto& p : result_.graph.poses) finite = finite && isFinite(p);
+      if (!finite) failure = "non-finite solution";
+      else if (report.final_geodesic > report.initial_geodesic * (1.0 + 1e-9) + 1e-12) failure = "cost increased";
+      if (!failure.empty()) failure += " (" + report.message + ")";
+    } catch (const Error& e) {
+      failure = e.what();
+    }
+    if (!failure.empty()) result_.graph.poses = before;
+    result_.optimisations.push_back(report);
+    result_.optimisation_outcomes.push_back({failure.empty(), failure.empty() ? "" : "not solved, previous estimate kept: " + failure});
     result_.timings.graph_s += secondsSince(t);
+    return failure;
   }
 
   Trajectory trajectoryOf(const std::vector<Eigen::Isometry3d>& poses) const {
@@ -261,6 +381,7 @@ class SlamRun {
   std::unique_ptr<LoopDetector> loops_;
   std::optional<KeyframeSpill> spill_;
   std::vector<std::size_t> keyframe_frames_;  // keyframe index → frame index
+  std::vector<Matrix6d> step_covariance_;      // frame index → its odometry edge's covariance
   Eigen::Isometry3d last_keyframe_pose_ = Eigen::Isometry3d::Identity();
 };
 

@@ -30,7 +30,18 @@ const ConfigFields<SlamConfig>& slamSectionFields() {
           .flag("optimise_online", &C::optimise_online, "Re-optimise the graph whenever a loop is accepted")
           .number("min_translation_sigma", &C::min_translation_sigma, positive(),
                   "m; floor on an ICP increment's standard deviation before inverting it")
-          .number("min_rotation_sigma", &C::min_rotation_sigma, positive(), "rad");
+          .number("min_rotation_sigma", &C::min_rotation_sigma, positive(), "rad")
+          .number("odometry_covariance_scale", &C::odometry_covariance_scale, positive(),
+                  "Calibration: odometry-edge covariance = this × the floored ICP covariance (fitted by NEES)")
+          .number("motion_disagreement_weight", &C::motion_disagreement_weight, nonNegative(),
+                  "Calibration: adds (weight × the increment's departure from constant velocity)² to its variance")
+          .number("anchor_radius", &C::anchor_radius, nonNegative(),
+                  "m; frame-to-map: edge from each keyframe to the nearest older keyframe within this (0 = off)")
+          .number("anchor_sigma_translation", &C::anchor_sigma_translation, positive(),
+                  "m; added to a map-anchor edge's ICP covariance (calibrated by NEES)")
+          .number("anchor_sigma_rotation", &C::anchor_sigma_rotation, positive(), "rad; likewise")
+          .flag("innovation_gate", &C::innovation_gate,
+                "Gate loops by the χ² test against the graph's own relative-pose covariance (else the drift model)");
   return fields;
 }
 

@@ -32,6 +32,9 @@ struct DemoConfig {
   PropertyIcpConfig property_icp;
   /// `section.key=value` run settings applied to every method's SlamConfig (SlamConfig::applySetting).
   std::vector<std::string> settings;
+  /// `section.key=value` simulator settings (e.g. odometry.slip_probability=0.3,
+  /// robot.frame_distance=0.5) over the simulator's defaults; empty = the paper's experiment.
+  std::vector<std::string> simulator_settings;
 };
 
 struct DemoRow {
@@ -43,6 +46,10 @@ struct DemoRow {
   double frames_per_s = 0.0;   ///< SLAM only (no file output)
   std::size_t loops = 0;
   std::size_t fallbacks = 0;   ///< frames where ICP was rejected and odometry used
+  /// Mean NEES of the pose graph's odometry and loop edges against the truth (eval/edge_nees;
+  /// honest edges: 6), and how many edges of each kind.
+  double nees_odometry = 0.0, nees_loop = 0.0;
+  std::size_t odometry_edges = 0, loop_edges = 0;
 };
 
 struct DemoReport {
@@ -71,6 +78,9 @@ DemoReport runDemo(const DemoConfig& config, std::ostream& out);
 /// on it into <out_dir>/camera-labels/<method>/. Fills report.camera_rows and the precision.
 void runCameraLabelRows(const DemoConfig& config, const std::filesystem::path& sequence_dir,
                         DemoReport& report, std::ostream& out);
+
+/// The single-seed table2.json object (what runDemo writes), as JSON text.
+std::string table2Json(const DemoReport& report);
 
 /// The table as text (paper's numbers beside ours).
 std::string formatTable2(const DemoReport& report);

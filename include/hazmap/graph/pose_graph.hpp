@@ -22,7 +22,10 @@ namespace hazmap {
 
 /// Odometry edges join consecutive poses; loop edges come from place recognition and may be wrong,
 /// so the optimiser can put a robust loss on them.
-enum class EdgeKind { Odometry, Loop };
+/// Odometry: consecutive increments. Loop: verified loop closures (robust loss). MapAnchor: the
+/// relative pose frame-to-map tracking measured between a keyframe and an earlier one whose
+/// points were in the map it registered to (no robust loss; g2o files do not distinguish it).
+enum class EdgeKind { Odometry, Loop, MapAnchor };
 
 struct PoseGraphEdge {
   int from = 0;  ///< node index (not id)

@@ -54,6 +54,13 @@ double chiSquare6Quantile(double p);
 GateResult driftGate(const LoopClosure& loop, const PoseList& poses, const ConsistencyConfig& config = {});
 
 /// Squared Mahalanobis distance of the cycle formed by two loops and the estimate.
+/// The calibrated innovation gate (issue 14): the loop against the estimate's relative pose of
+/// its keyframes, d² = eᵀ (Σ_loop + Σ_rel)⁻¹ e ≤ χ²₆(probability), where Σ_rel is the covariance
+/// the pose graph itself gives that relative pose (its odometry edges' calibrated covariances
+/// composed along the path, `relative_covariance`, left perturbation in the `from` frame). A loop
+/// that disagrees with the tracking by more than both their honest uncertainties is wrong.
+GateResult innovationGate(const LoopClosure& loop, const PoseList& poses, const Matrix6d& relative_covariance,
+                          double probability);
 double pairwiseDistance2(const LoopClosure& a, const LoopClosure& b, const PoseList& poses,
                          const ConsistencyConfig& config = {});
 

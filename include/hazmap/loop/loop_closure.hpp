@@ -3,6 +3,7 @@
 //   keyframe → landmarks → candidates (constellation and/or distance) → property-ICP
 //   verification → drift gate → pairwise-consistent set → loop edges for the pose graph.
 // See docs/loop_closure.md.
+#include <deque>
 #include <filesystem>
 #include <string>
 #include <functional>
@@ -34,6 +35,7 @@ const char* toString(CandidateMethod method);
 ///     resident_keyframes: 64
 ///     landmark_window: 5
 ///     landmark_merge_distance: 1.0
+///     submap_keyframes: 3
 ///     landmarks:    {cluster_tolerance: 0.7, min_points: 8, max_range: 15, min_purity: 0.2}
 ///     candidates:   {min_index_gap: 15, search_radius: 3, max_candidates: 3,
 ///                    constellation: {model: planar, distance_tolerance: 0.8, inlier_distance: 1,
@@ -73,6 +75,11 @@ struct LoopClosureConfig {
   /// constellation; a short window of locally accurate odometry gathers them.
   std::size_t landmark_window = 5;
   double landmark_merge_distance = 1.0;  ///< m
+  /// Verification target: the matched keyframe's scan together with this many keyframes on each
+  /// side of it, placed with the current estimate in its frame and downsampled to keyframe_voxel
+  /// (a dense *submap*, as dense as the map the tracker registers to). 0 = the matched scan alone.
+  /// Only keyframes at least candidates.min_index_gap older than the query join.
+  std::size_t submap_keyframes = 3;
   LandmarkConfig landmarks;
   CandidateSearchConfig candidates;
   VerificationConfig verification;
@@ -126,6 +133,10 @@ class LoopDetector {
   /// The constellation keyframe k is matched with: its landmarks merged over landmark_window.
   std::vector<PropertyLandmark> placeLandmarks(std::size_t k, const PoseList& estimate) const;
   const LoopClosureConfig& config() const { return config_; }
+  /// The verification target of keyframe k for a loop with `query`: keyframe k's cloud and its
+  /// submap_keyframes neighbours on each side (at most query − min_index_gap), placed in k's frame
+  /// with `estimate` (world ← keyframe) and downsampled to keyframe_voxel.
+  LabeledCloud submap(std::size_t k, std::size_t query, const PoseList& estimate) const;
 
   /// Candidates for `query` by the configured method. `estimate` (world ← keyframe, at least
   /// query + 1 poses) is used by the distance search and, with landmark_window > 1, to merge
@@ -139,14 +150,25 @@ class LoopDetector {
   /// Every loop accepted so far that belongs to the largest pairwise-consistent set under
   /// `estimate` (all of them when use_pairwise is off).
   std::vector<LoopClosure> consistentLoops(const PoseList& estimate) const;
+  /// With this set, detect() gates verified loops by the calibrated innovation test
+  /// (innovationGate) with the covariance the caller's pose graph gives the relative pose of two
+  /// keyframes, instead of the drift model's gate.
+  using RelativeCovariance = std::function<Matrix6d(std::size_t from, std::size_t to)>;
+  void setRelativeCovariance(RelativeCovariance f) { relative_covariance_ = std::move(f); }
+  /// Forgets an accepted loop (the back end dropped it, e.g. its optimisation failed).
+  void dropLoop(std::size_t from, std::size_t to);
   const std::vector<LoopClosure>& acceptedLoops() const { return loops_; }
 
  private:
   ClassTable classes_;
   LoopClosureConfig config_;
   LabeledCloud prepare(LabeledCloud cloud) const;  ///< keyframe_voxel downsampling
+  bool candidatePlausible(const LoopCandidate& cand, const PoseList& estimate, LoopDetection& det) const;
   std::vector<std::shared_ptr<const LabeledCloud>> clouds_;  ///< null = evicted
   CloudLoader loader_;
+  static constexpr std::size_t kReloadCache = 24;
+  mutable std::deque<std::pair<std::size_t, std::shared_ptr<const LabeledCloud>>> reloaded_;
+  RelativeCovariance relative_covariance_;
   std::vector<std::vector<PropertyLandmark>> landmarks_;
   std::vector<LoopClosure> loops_;
 };

@@ -55,6 +55,19 @@ struct VerificationConfig {
   /// covariance (identical points, noise-free data) must not make a loop edge rigid.
   double min_translation_sigma = 0.01;
   double min_rotation_sigma = 0.001;
+  /// Calibration of the loop covariance against the simulator's truth (issue 14, NEES):
+  /// Σ_loop = covariance_scale · Σ_ICP + diag(floor²). docs/pose_graph.md has the fit.
+  double covariance_scale = 1.0;
+  /// Basin probes: an accepted loop is registered again from its result shifted by ±probe_distance
+  /// along the match frame's x and y; the spread of where those runs land (their sample covariance
+  /// around the result) is added to the loop covariance. A repetitive corridor or a row of tanks
+  /// lets ICP settle in a neighbouring basin with a sharp Hessian covariance; the probes expose
+  /// that ambiguity, which the Hessian cannot. 0 = off.
+  double probe_distance = 0.2;
+  /// A loop whose probes land farther than this from its result (RMS translation, m) is
+  /// ambiguous — ICP has several basins there — and rejected. 0 = keep it (the spread only widens
+  /// the covariance).
+  double max_probe_spread = 0.05;
 };
 
 /// An accepted loop: an edge from the past keyframe `from` to the current keyframe `to`.
@@ -83,6 +96,11 @@ enum class LoopRejection {
   UncertainTranslation,   ///< translation sigma above max_translation_sigma
   UncertainRotation,      ///< rotation sigma above max_rotation_sigma
   DriftGate,              ///< verified, then rejected by the drift gate (LoopDetector)
+  InnovationGate,         ///< verified, then rejected by the calibrated χ² innovation gate
+  Ambiguous,              ///< basin probes landed elsewhere (VerificationConfig::max_probe_spread)
+  Inconsistent,           ///< not in the largest pairwise-consistent set
+  OptimisationFailed,     ///< the graph with this loop could not be solved (previous estimate kept)
+  OptimisationDiverged,   ///< the solution with this loop moved poses beyond belief (dropped)
 };
 const char* toString(LoopRejection rejection);
 

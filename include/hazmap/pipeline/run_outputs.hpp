@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "hazmap/eval/edge_nees.hpp"
 #include "hazmap/eval/map_error.hpp"
 #include "hazmap/eval/trajectory_metrics.hpp"
 #include "hazmap/map/global_map.hpp"
@@ -38,6 +39,7 @@ struct RunSummary {
   std::size_t hazards = 0;
   std::optional<MapErrorResult> map_error;          ///< when poses.txt exists
   std::optional<TrajectoryEvaluation> trajectory;   ///< when poses.txt exists
+  std::optional<EdgeNeesReport> edge_nees;          ///< the graph's edges against the truth
   double output_seconds = 0.0;
 };
 

@@ -43,6 +43,26 @@ struct SlamConfig {
   /// odometry-edge information (m, rad): an over-confident covariance must not make edges rigid.
   double min_translation_sigma = 0.005;
   double min_rotation_sigma = 0.0005;
+  /// Calibration of the odometry edges against the simulator's truth (issue 14, NEES fitted on
+  /// some seeds, checked on others; docs/pose_graph.md): Σ_edge = scale · floored Σ_ICP, plus
+  /// (motion_disagreement_weight · d)² per axis, d = how far the increment is from the previous one
+  /// (constant velocity), translation and rotation parts: a registration that stalled in a
+  /// wrong basin after a wheel slip is a jump the motion model does not believe.
+  double odometry_covariance_scale = 1.0;
+  double motion_disagreement_weight = 0.0;
+  /// Gate verified loops by the calibrated χ² innovation test against the covariance the graph
+  /// itself gives the keyframes' relative pose (loop/consistency.hpp); false = the drift model.
+  bool innovation_gate = true;
+  /// Map-anchor edges (frame-to-map tracking only): at each keyframe, an edge to the nearest
+  /// keyframe within anchor_radius (m, in the tracked poses) that is at least
+  /// loop_closure.candidates.min_index_gap keyframes older. Frame-to-map tracking registered the
+  /// keyframe against a map holding that keyframe's points, so their tracked relative pose is a
+  /// measurement as good as one registration — not the random walk the chain of increments
+  /// implies. Covariance = the keyframe's calibrated ICP covariance + diag(anchor_sigma²).
+  /// 0 = off.
+  double anchor_radius = 8.0;
+  double anchor_sigma_translation = 0.02;  ///< m
+  double anchor_sigma_rotation = 0.002;    ///< rad
   /// α and the class search radii (paper eq. 2), applied to the sequence's class table that
   /// tracking and loop verification share.
   PropertyIcpConfig property_icp;
@@ -99,6 +119,19 @@ struct LoopRecord {
   double fitness = 0.0, rmse = 0.0;
 };
 
+/// A loop that was verified or proposed but not applied, and why (run.json).
+struct LoopRejectionRecord {
+  std::size_t from_frame = 0, to_frame = 0;
+  LoopRejection reason = LoopRejection::None;
+  std::string detail;
+};
+
+/// What became of one optimisation: applied, or the previous estimate kept and why.
+struct OptimisationOutcome {
+  bool applied = true;
+  std::string note;  ///< empty when applied cleanly
+};
+
 struct SlamTimings {
   double tracking_s = 0.0, loop_s = 0.0, graph_s = 0.0, total_s = 0.0;
 };
@@ -114,6 +147,9 @@ struct SlamResult {
   std::vector<LoopRecord> loops;
   std::size_t keyframes = 0, loop_candidates = 0, loops_verified = 0;
   std::vector<PoseGraphReport> optimisations;
+  std::vector<OptimisationOutcome> optimisation_outcomes;  ///< one per optimisation
+  std::vector<LoopRejectionRecord> rejected_loops;
+  std::vector<std::pair<std::size_t, std::size_t>> anchors;  ///< map-anchor edges (from, to frame)
   SlamTimings timings;
   double framesPerSecond() const;
 };

@@ -1,0 +1,21 @@
+#pragma once
+// The covariance a pose graph's odometry chain gives the relative pose of two of its nodes:
+// the increments' covariances composed along the path (first order, independent increments).
+// Used to gate loops honestly (loop/consistency.hpp, innovationGate): the test is as strict as
+// the calibrated edges say the estimate is, not as a hand-set drift rate.
+#include <Eigen/Geometry>
+#include <vector>
+
+#include "hazmap/core/se3.hpp"
+
+namespace hazmap {
+
+/// `poses` = T_world_node for every node; `step_covariance[k]` = covariance of the increment
+/// k−1 → k (left perturbation, translation first, in frame k−1; entry 0 unused). Returns the
+/// covariance of T_from_to in frame `from` (left perturbation): Σ = Σ_k Ad(T_from_k) Σ_k+1 Ad(T_from_k)ᵀ.
+/// from > to gives the covariance of T_to_from's inverse expressed in `from`. Throws on indices out
+/// of range.
+Matrix6d chainCovariance(const std::vector<Eigen::Isometry3d>& poses, const std::vector<Matrix6d>& step_covariance,
+                         std::size_t from, std::size_t to);
+
+}  // namespace hazmap
