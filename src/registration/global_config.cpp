@@ -1,0 +1,106 @@
+// GlobalRegistrationConfig: its field table (core/config_fields.hpp) and YAML entry points.
+#include "hazmap/core/config_fields.hpp"
+#include "hazmap/io/atomic_file.hpp"
+#include "hazmap/registration/global_registration.hpp"
+
+namespace hazmap {
+
+const char* toString(GlobalStatus s) {
+  switch (s) {
+    case GlobalStatus::Success: return "success";
+    case GlobalStatus::TooFewPoints: return "too few points";
+    case GlobalStatus::TooFewFeatures: return "too few features";
+    case GlobalStatus::TooFewCorrespondences: return "too few correspondences";
+    case GlobalStatus::NoConsensus: return "no consensus";
+    case GlobalStatus::PoorOverlap: return "poor overlap";
+    case GlobalStatus::Ambiguous: return "ambiguous";
+  }
+  return "unknown";
+}
+
+RegistrationConfig GlobalRegistrationConfig::defaultRefinement() {
+  RegistrationConfig c;
+  c.max_iterations = 30;
+  c.coarse_source_points = 0;  // the downsampled scan is small already
+  return c;
+}
+
+namespace {
+
+using C = GlobalRegistrationConfig;
+
+void addFeatureFields(ConfigFields<C>& f) {
+  f.number("voxel_size", &C::voxel_size, positive(), "m; both clouds are downsampled to this first")
+      .number("normal_radius", &C::normal_radius, positive(), "m; neighbourhood of the normals")
+      .integer("normal_neighbors", &C::normal_neighbors, atLeast(3), "k nearest points per normal")
+      .number("feature_radius", &C::feature_radius, positive(), "m; FPFH neighbourhood (≈ 5 voxels)")
+      .integer("max_feature_neighbors", &C::max_feature_neighbors, atLeast(5),
+               "Neighbours per FPFH histogram, nearest first")
+      .number("max_range", &C::max_range, nonNegative(), "m from the cloud's origin; farther points ignored (0 = all)")
+      .flag("mutual_filter", &C::mutual_filter,
+            "Keep only mutual nearest neighbours in descriptor space (when at least min_correspondences)")
+      .integer("min_correspondences", &C::min_correspondences, atLeast(3),
+               "Mutual matches needed before the filter is trusted");
+}
+
+void addEstimatorFields(ConfigFields<C>& f) {
+  f.integer("ransac_iterations", &C::ransac_iterations, atLeast(1), "Triples drawn (fixed count: deterministic)")
+      .number("edge_length_similarity", &C::edge_length_similarity, closedOpen(0, 1),
+              "Pre-check: every edge-length ratio of a triple must be >= this")
+      .number("inlier_distance", &C::inlier_distance, positive(), "m; a match or point agrees within this")
+      .integer("seed", &C::seed, nonNegative(), "RANSAC seed (the result does not depend on threads)")
+      .flag("use_classes", &C::use_classes,
+            "Property-aware: labelled points match their own class, landmark constellations add "
+            "hypotheses, labelled points on their class score more (also sets refinement.use_classes)")
+      .number("class_score_weight", &C::class_score_weight, nonNegative(),
+              "A labelled source point landing on its own class scores 1 + this")
+      .number("landmark_cluster_distance", &C::landmark_cluster_distance, positive(),
+              "m; same-class points closer than this form one landmark")
+      .integer("landmark_min_points", &C::landmark_min_points, atLeast(1), "Downsampled points per landmark");
+}
+
+void addVerificationFields(ConfigFields<C>& f) {
+  f.integer("min_points", &C::min_points, atLeast(3), "Downsampled source/target points needed")
+      .integer("min_features", &C::min_features, atLeast(3), "Points with a descriptor needed")
+      .number("min_overlap", &C::min_overlap, closed(0, 1),
+              "Refined share of source points with a target point within inlier_distance")
+      .number("ambiguity_ratio", &C::ambiguity_ratio, openClosed(0, 1),
+              "A distinct second hypothesis scoring >= ratio × best makes the result ambiguous")
+      .number("distinct_translation", &C::distinct_translation, positive(),
+              "m; hypotheses farther apart are distinct")
+      .number("distinct_rotation_deg", &C::distinct_rotation_deg, positive(), "degrees; … or rotated more")
+      .integer("candidates_refined", &C::candidates_refined, atLeast(1), "Distinct hypotheses refined by ICP")
+      .integer("threads", &C::threads, nonNegative(), "0 = TBB's default")
+      .section("refinement", &C::refinement, "Property ICP that refines and verifies the candidates");
+}
+
+ConfigFields<C> makeFields() {
+  ConfigFields<C> f("Global registration without an initial guess: FPFH features, RANSAC and property-landmark "
+                    "constellations, verified by property ICP (docs/registration.md).");
+  addFeatureFields(f);
+  addEstimatorFields(f);
+  addVerificationFields(f);
+  f.rule("feature_radius", [](const C& c) { return c.feature_radius > c.voxel_size; },
+         "must be larger than voxel_size");
+  return f;
+}
+
+}  // namespace
+
+const ConfigFields<GlobalRegistrationConfig>& configFields(ConfigTag<GlobalRegistrationConfig>) {
+  static const ConfigFields<GlobalRegistrationConfig> fields = makeFields();
+  return fields;
+}
+
+void GlobalRegistrationConfig::validate() const { validateConfig(*this, "global_registration"); }
+
+GlobalRegistrationConfig globalRegistrationConfigFromYaml(const std::string& yaml, const std::string& where,
+                                                          const GlobalRegistrationConfig& base) {
+  return configFromYaml(yaml, where, "global_registration", base);
+}
+
+GlobalRegistrationConfig loadGlobalRegistrationConfig(const std::string& path, const GlobalRegistrationConfig& base) {
+  return globalRegistrationConfigFromYaml(readTextFile(path), path, base);
+}
+
+}  // namespace hazmap

@@ -1,0 +1,191 @@
+// Hypothesis generation for global registration: RANSAC over descriptor matches with the
+// edge-length pre-check (a rigid motion keeps distances, so a triple whose source and target
+// edges disagree cannot be all inliers and costs no model fit), and the property-landmark
+// constellations (triples of same-class clusters whose pairwise distances agree).
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <numeric>
+#include <random>
+
+#include "global_internal.hpp"
+
+namespace hazmap::global {
+namespace {
+
+bool edgesAgree(float a, float b, float similarity) {
+  return std::min(a, b) >= similarity * std::max(a, b);
+}
+
+std::size_t countAgreeing(const Eigen::Isometry3d& T, const std::vector<Eigen::Vector3f>& src,
+                          const std::vector<Eigen::Vector3f>& dst, const std::vector<Match>& m, float d2,
+                          std::vector<std::size_t>* which = nullptr) {
+  const Eigen::Matrix3f R = T.linear().cast<float>();
+  const Eigen::Vector3f t = T.translation().cast<float>();
+  std::size_t n = 0;
+  for (std::size_t k = 0; k < m.size(); ++k) {
+    if ((R * src[m[k].source] + t - dst[m[k].target]).squaredNorm() < d2) {
+      ++n;
+      if (which) which->push_back(k);
+    }
+  }
+  return n;
+}
+
+// Sorted by votes (descending; ties by insertion order) and thinned to pairwise distinct poses.
+std::vector<Hypothesis> bestDistinct(std::vector<Hypothesis> all, const GlobalRegistrationConfig& config,
+                                     std::size_t keep) {
+  std::stable_sort(all.begin(), all.end(), [](const Hypothesis& a, const Hypothesis& b) { return a.votes > b.votes; });
+  std::vector<Hypothesis> out;
+  for (const auto& h : all) {
+    if (out.size() >= keep) break;
+    bool fresh = true;
+    for (const auto& o : out) fresh = fresh && distinct(h.transform, o.transform, config);
+    if (fresh) out.push_back(h);
+  }
+  return out;
+}
+
+// One block of RANSAC draws with its own generator: the result is the same for any number of
+// threads. Keeps the block's best few hypotheses.
+std::vector<Hypothesis> ransacBlock(std::uint64_t seed, int draws, const std::vector<Eigen::Vector3f>& src,
+                                    const std::vector<Eigen::Vector3f>& dst, const std::vector<Match>& m,
+                                    const GlobalRegistrationConfig& config, std::size_t keep) {
+  std::mt19937_64 rng(seed);
+  std::uniform_int_distribution<std::size_t> pick(0, m.size() - 1);
+  const float sim = static_cast<float>(config.edge_length_similarity);
+  const float d2 = static_cast<float>(config.inlier_distance * config.inlier_distance);
+  const float min_edge = static_cast<float>(config.inlier_distance);
+  std::vector<Hypothesis> best;
+  std::vector<Eigen::Vector3f> a(3), b(3);
+  for (int it = 0; it < draws; ++it) {
+    const std::size_t i = pick(rng), j = pick(rng), k = pick(rng);
+    if (i == j || j == k || i == k) continue;
+    const std::size_t idx[3] = {i, j, k};
+    bool ok = true;
+    for (int e = 0; e < 3 && ok; ++e) {
+      const Match& p = m[idx[e]];
+      const Match& q = m[idx[(e + 1) % 3]];
+      const float ls = (src[p.source] - src[q.source]).norm();
+      const float lt = (dst[p.target] - dst[q.target]).norm();
+      ok = ls >= min_edge && edgesAgree(ls, lt, sim);
+    }
+    if (!ok) continue;
+    for (int e = 0; e < 3; ++e) {
+      a[e] = src[m[idx[e]].source];
+      b[e] = dst[m[idx[e]].target];
+    }
+    Hypothesis h;
+    h.transform = fitRigid(a, b);
+    h.votes = static_cast<double>(countAgreeing(h.transform, src, dst, m, d2));
+    if (h.votes < 3) continue;
+    best.push_back(h);
+    if (best.size() > 4 * keep) best = bestDistinct(std::move(best), config, keep);
+  }
+  return bestDistinct(std::move(best), config, keep);
+}
+
+}  // namespace
+
+Eigen::Isometry3d fitRigid(const std::vector<Eigen::Vector3f>& src, const std::vector<Eigen::Vector3f>& dst) {
+  Eigen::Vector3d cs = Eigen::Vector3d::Zero(), cd = Eigen::Vector3d::Zero();
+  for (std::size_t i = 0; i < src.size(); ++i) {
+    cs += src[i].cast<double>();
+    cd += dst[i].cast<double>();
+  }
+  cs /= static_cast<double>(src.size());
+  cd /= static_cast<double>(src.size());
+  Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
+  for (std::size_t i = 0; i < src.size(); ++i)
+    H += (src[i].cast<double>() - cs) * (dst[i].cast<double>() - cd).transpose();
+  Eigen::JacobiSVD<Eigen::Matrix3d> svd(H, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
+  if ((svd.matrixV() * svd.matrixU().transpose()).determinant() < 0) D(2, 2) = -1.0;
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = svd.matrixV() * D * svd.matrixU().transpose();
+  T.translation() = cd - T.linear() * cs;
+  return T;
+}
+
+bool distinct(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b, const GlobalRegistrationConfig& config) {
+  const Eigen::Isometry3d d = a.inverse() * b;
+  const double angle = Eigen::AngleAxisd(d.linear()).angle() * 180.0 / std::numbers::pi;
+  return d.translation().norm() > config.distinct_translation || angle > config.distinct_rotation_deg;
+}
+
+std::vector<Hypothesis> ransacHypotheses(const std::vector<Eigen::Vector3f>& src,
+                                         const std::vector<Eigen::Vector3f>& dst, const std::vector<Match>& m,
+                                         const GlobalRegistrationConfig& config, std::size_t keep) {
+  if (m.size() < 3) return {};
+  constexpr int kBlock = 1000;
+  const int blocks = (config.ransac_iterations + kBlock - 1) / kBlock;
+  std::vector<std::vector<Hypothesis>> per_block(blocks);
+  tbb::parallel_for(0, blocks, [&](int b) {
+    const int draws = std::min(kBlock, config.ransac_iterations - b * kBlock);
+    per_block[b] = ransacBlock(config.seed * 0x9E3779B97F4A7C15ULL + static_cast<std::uint64_t>(b), draws, src,
+                               dst, m, config, keep);
+  });
+  std::vector<Hypothesis> all;
+  for (auto& v : per_block) all.insert(all.end(), v.begin(), v.end());
+  all = bestDistinct(std::move(all), config, keep);
+  // Re-fit each on the matches that agree with it (the triple alone is noisy).
+  const float d2 = static_cast<float>(config.inlier_distance * config.inlier_distance);
+  for (auto& h : all) {
+    std::vector<std::size_t> agree;
+    countAgreeing(h.transform, src, dst, m, d2, &agree);
+    if (agree.size() < 3) continue;
+    std::vector<Eigen::Vector3f> a, b;
+    for (std::size_t k : agree) {
+      a.push_back(src[m[k].source]);
+      b.push_back(dst[m[k].target]);
+    }
+    const Eigen::Isometry3d refit = fitRigid(a, b);
+    const double votes = static_cast<double>(countAgreeing(refit, src, dst, m, d2));
+    if (votes >= h.votes) h = {refit, votes, false};
+  }
+  return bestDistinct(std::move(all), config, keep);
+}
+
+// ---------------------------------------------------------------------------------------------
+std::vector<Hypothesis> constellationHypotheses(const std::vector<Landmark>& s, const std::vector<Landmark>& t,
+                                                const GlobalRegistrationConfig& config, std::size_t keep) {
+  // Landmark pairs that may correspond: same class.
+  std::vector<Match> pairs;
+  for (std::uint32_t i = 0; i < s.size(); ++i)
+    for (std::uint32_t j = 0; j < t.size(); ++j)
+      if (s[i].cls == t[j].cls) pairs.push_back({i, j});
+  constexpr std::size_t kMaxPairs = 400;  // 400³/6 ≈ 10⁷ triples at most, most cut by the first edge
+  if (pairs.size() < 3 || pairs.size() > kMaxPairs) return {};
+  // A centroid moves with the view (which part of a source the scan saw): a looser tolerance.
+  const float tol = static_cast<float>(2.0 * config.inlier_distance);
+  auto agree = [&](const Match& p, const Match& q) {
+    if (p.source == q.source || p.target == q.target) return false;
+    const float ls = (s[p.source].centroid - s[q.source].centroid).norm();
+    const float lt = (t[p.target].centroid - t[q.target].centroid).norm();
+    return ls >= tol && std::abs(ls - lt) <= tol;
+  };
+  std::vector<Hypothesis> all;
+  std::vector<Eigen::Vector3f> src_c, dst_c;
+  for (const auto& l : s) src_c.push_back(l.centroid);
+  for (const auto& l : t) dst_c.push_back(l.centroid);
+  const float d2 = tol * tol;
+  constexpr std::size_t kMaxHypotheses = 20000;
+  for (std::size_t a = 0; a < pairs.size() && all.size() < kMaxHypotheses; ++a)
+    for (std::size_t b = a + 1; b < pairs.size(); ++b) {
+      if (!agree(pairs[a], pairs[b])) continue;
+      for (std::size_t c = b + 1; c < pairs.size(); ++c) {
+        if (!agree(pairs[a], pairs[c]) || !agree(pairs[b], pairs[c])) continue;
+        Hypothesis h;
+        h.transform = fitRigid({src_c[pairs[a].source], src_c[pairs[b].source], src_c[pairs[c].source]},
+                               {dst_c[pairs[a].target], dst_c[pairs[b].target], dst_c[pairs[c].target]});
+        h.votes = static_cast<double>(countAgreeing(h.transform, src_c, dst_c, pairs, d2));
+        h.constellation = true;
+        all.push_back(h);
+      }
+    }
+  return bestDistinct(std::move(all), config, keep);
+}
+
+}  // namespace hazmap::global

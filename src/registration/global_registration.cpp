@@ -1,0 +1,286 @@
+// Global registration: target preparation, descriptor matching, hypothesis scoring, ICP
+// refinement and the ambiguity test (see include/hazmap/registration/global_registration.hpp).
+#include "hazmap/registration/global_registration.hpp"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+
+#include "global_internal.hpp"
+#include "hazmap/core/error.hpp"
+#include "thread_arena.hpp"
+
+namespace hazmap {
+
+GlobalRegistrationTarget::GlobalRegistrationTarget() : impl_(std::make_unique<Impl>()) {}
+GlobalRegistrationTarget::~GlobalRegistrationTarget() = default;
+GlobalRegistrationTarget::GlobalRegistrationTarget(GlobalRegistrationTarget&&) noexcept = default;
+GlobalRegistrationTarget& GlobalRegistrationTarget::operator=(GlobalRegistrationTarget&&) noexcept = default;
+std::size_t GlobalRegistrationTarget::size() const { return impl_->features.cloud.size(); }
+std::size_t GlobalRegistrationTarget::features() const { return impl_->features.feature_point.size(); }
+std::size_t GlobalRegistrationTarget::landmarks() const { return impl_->landmarks.size(); }
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double msSince(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
+
+RegistrationConfig refinementOf(const GlobalRegistrationConfig& config) {
+  RegistrationConfig r = config.refinement;
+  r.use_classes = config.use_classes;
+  r.threads = 0;  // runs inside the caller's arena
+  return r;
+}
+
+bool sameFeatures(const GlobalRegistrationConfig& a, const GlobalRegistrationConfig& b) {
+  return a.voxel_size == b.voxel_size && a.normal_radius == b.normal_radius &&
+         a.normal_neighbors == b.normal_neighbors && a.feature_radius == b.feature_radius &&
+         a.max_feature_neighbors == b.max_feature_neighbors && a.max_range == b.max_range &&
+         a.use_classes == b.use_classes && a.landmark_cluster_distance == b.landmark_cluster_distance &&
+         a.landmark_min_points == b.landmark_min_points;
+}
+
+// Source descriptor → nearest target descriptor (own class for labelled points, property-aware);
+// with the mutual filter, kept only when that target descriptor's nearest source is the same.
+std::vector<global::Match> matchDescriptors(const global::FeatureCloud& src, const GlobalRegistrationTarget::Impl& tgt,
+                                            const ClassTable& classes, const GlobalRegistrationConfig& config) {
+  const auto& tf = tgt.features;
+  const std::size_t n = src.descriptors.size();
+  std::vector<std::int64_t> forward(n, -1);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 64), [&](const auto& r) {
+    for (std::size_t f = r.begin(); f != r.end(); ++f)
+      forward[f] = global::nearestFor(src.descriptors[f], src.cloud.classes[src.feature_point[f]], tgt.descriptors,
+                                      classes, config.use_classes);
+  });
+  std::vector<global::Match> all, mutual;
+  for (std::size_t f = 0; f < n; ++f)
+    if (forward[f] >= 0) all.push_back({src.feature_point[f], tf.feature_point[forward[f]]});
+  if (!config.mutual_filter) return all;
+  const global::DescriptorIndexes source_idx = global::indexDescriptors(src, classes, config.use_classes);
+  std::vector<char> keep(n, 0);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 64), [&](const auto& r) {
+    for (std::size_t f = r.begin(); f != r.end(); ++f) {
+      if (forward[f] < 0) continue;
+      const auto t = static_cast<std::size_t>(forward[f]);
+      keep[f] = global::nearestFor(tf.descriptors[t], tf.cloud.classes[tf.feature_point[t]], source_idx, classes,
+                                   config.use_classes) == static_cast<std::int64_t>(f);
+    }
+  });
+  for (std::size_t f = 0; f < n; ++f)
+    if (keep[f]) mutual.push_back({src.feature_point[f], tf.feature_point[forward[f]]});
+  // Too few mutual matches to trust: the one-way matches carry more inliers in absolute terms.
+  return mutual.size() >= config.min_correspondences ? mutual : all;
+}
+
+struct Score {
+  double weighted = 0.0;  ///< share of the achievable weight (labelled points on class count 1 + w)
+  double overlap = 0.0;   ///< share of source points with a target point within inlier_distance
+};
+
+Score scoreOf(const Eigen::Isometry3d& T, const global::FeatureCloud& src, const GlobalRegistrationTarget::Impl& tgt,
+              const ClassTable& classes, const GlobalRegistrationConfig& config) {
+  const Eigen::Matrix3f R = T.linear().cast<float>();
+  const Eigen::Vector3f t = T.translation().cast<float>();
+  const float d2 = static_cast<float>(config.inlier_distance * config.inlier_distance);
+  const double w = config.class_score_weight;
+  double got = 0.0, possible = 0.0;
+  std::size_t hits = 0;
+  for (std::size_t i = 0; i < src.cloud.size(); ++i) {
+    const Eigen::Vector3f q = R * src.cloud.points[i] + t;
+    float dist2 = 0.0f;
+    const bool hit = tgt.features.index->nearest(q, d2, dist2) >= 0;
+    hits += hit;
+    got += hit;
+    possible += 1.0;
+    const ClassId c = src.cloud.classes[i];
+    if (!config.use_classes || !classes.isProperty(c)) continue;
+    possible += w;
+    const auto it = tgt.class_points.find(c);
+    if (it != tgt.class_points.end() && it->second->nearest(q, d2, dist2) >= 0) got += w;
+  }
+  const double n = static_cast<double>(std::max<std::size_t>(src.cloud.size(), 1));
+  return {possible > 0.0 ? got / possible : 0.0, static_cast<double>(hits) / n};
+}
+
+std::size_t agreeingMatches(const Eigen::Isometry3d& T, const global::FeatureCloud& src,
+                            const global::FeatureCloud& tgt, const std::vector<global::Match>& matches,
+                            double distance) {
+  std::size_t n = 0;
+  for (const auto& m : matches)
+    n += (T.cast<float>() * src.cloud.points[m.source] - tgt.cloud.points[m.target]).norm() < distance;
+  return n;
+}
+
+}  // namespace
+
+GlobalRegistrationTarget prepareGlobalTarget(const LabeledCloud& target, const ClassTable& classes,
+                                             const GlobalRegistrationConfig& config, const Eigen::Vector3f& viewpoint) {
+  config.validate();
+  target.checkConsistent("global registration target");
+  if (config.use_classes) classes.checkCloud(target, "global registration target");
+  GlobalRegistrationTarget out;
+  auto& impl = *out.impl_;
+  impl.config = config;
+  detail::runWithThreads(config.threads, [&] {
+    impl.features = global::computeFeatures(target, classes, config, viewpoint);
+    impl.descriptors = global::indexDescriptors(impl.features, classes, config.use_classes);
+    if (config.use_classes) {
+      std::map<ClassId, std::vector<std::uint32_t>> per_class;
+      for (std::uint32_t i = 0; i < impl.features.cloud.size(); ++i)
+        if (classes.isProperty(impl.features.cloud.classes[i])) per_class[impl.features.cloud.classes[i]].push_back(i);
+      const float r = static_cast<float>(config.inlier_distance);
+      for (auto& [c, ids] : per_class)
+        impl.class_points.emplace(c, std::make_unique<VoxelHashIndex>(impl.features.cloud.points, ids, r, r));
+      impl.landmarks = global::clusterLandmarks(impl.features.cloud, classes, config);
+    }
+    impl.icp.emplace(impl.features.cloud, classes, refinementOf(config));
+  });
+  return out;
+}
+
+namespace {
+
+struct Candidate {
+  global::Hypothesis hypothesis;
+  Score score;
+  RegistrationResult icp;
+};
+
+// Scores every hypothesis, refines the best few distinct ones by property ICP and rescores them.
+// Two candidates that ICP brings to the same pose are one.
+std::vector<Candidate> refineCandidates(const std::vector<global::Hypothesis>& hypotheses,
+                                        const global::FeatureCloud& src, const GlobalRegistrationTarget::Impl& tgt,
+                                        const ClassTable& classes, const GlobalRegistrationConfig& config) {
+  std::vector<Candidate> scored(hypotheses.size());
+  tbb::parallel_for(std::size_t{0}, hypotheses.size(), [&](std::size_t k) {
+    scored[k] = {hypotheses[k], scoreOf(hypotheses[k].transform, src, tgt, classes, config), {}};
+  });
+  std::stable_sort(scored.begin(), scored.end(),
+                   [](const Candidate& a, const Candidate& b) { return a.score.weighted > b.score.weighted; });
+  if (scored.size() > static_cast<std::size_t>(config.candidates_refined)) scored.resize(config.candidates_refined);
+  const RegistrationConfig icp = refinementOf(config);
+  tbb::parallel_for(std::size_t{0}, scored.size(), [&](std::size_t k) {
+    Candidate& c = scored[k];
+    c.icp = registerClouds(src.cloud, *tgt.icp, c.hypothesis.transform, classes, icp);
+    if (isFinite(c.icp.transform)) {
+      const Score s = scoreOf(c.icp.transform, src, tgt, classes, config);
+      if (s.weighted >= c.score.weighted) {
+        c.hypothesis.transform = c.icp.transform;
+        c.score = s;
+      }
+    }
+  });
+  std::stable_sort(scored.begin(), scored.end(),
+                   [](const Candidate& a, const Candidate& b) { return a.score.weighted > b.score.weighted; });
+  std::vector<Candidate> out;
+  for (auto& c : scored) {
+    bool fresh = true;
+    for (const auto& o : out) fresh = fresh && global::distinct(c.hypothesis.transform, o.hypothesis.transform, config);
+    if (fresh) out.push_back(std::move(c));
+  }
+  return out;
+}
+
+GlobalRegistrationResult failWith(GlobalRegistrationResult r, GlobalStatus status, std::string reason) {
+  r.success = false;
+  r.status = status;
+  r.reason = std::move(reason);
+  return r;
+}
+
+std::string describeCounts(const char* what, std::size_t have, std::size_t need) {
+  return std::string(what) + ": " + std::to_string(have) + " < " + std::to_string(need);
+}
+
+// The decision on the refined candidates: the best must overlap enough and stand out.
+GlobalRegistrationResult decide(GlobalRegistrationResult r, const std::vector<Candidate>& c,
+                                const GlobalRegistrationConfig& config) {
+  if (c.empty()) return failWith(std::move(r), GlobalStatus::NoConsensus, "no hypothesis passed the checks");
+  r.transform = c[0].hypothesis.transform;
+  r.score = c[0].score.weighted;
+  r.overlap = c[0].score.overlap;
+  r.refinement = c[0].icp;
+  r.from_constellation = c[0].hypothesis.constellation;
+  r.second_best_score = c.size() > 1 ? c[1].score.weighted : 0.0;
+  char text[160];
+  if (r.overlap < config.min_overlap) {
+    std::snprintf(text, sizeof text, "best hypothesis overlaps %.0f %% of the scan (< %.0f %%)", 100 * r.overlap,
+                  100 * config.min_overlap);
+    return failWith(std::move(r), GlobalStatus::PoorOverlap, text);
+  }
+  if (r.second_best_score >= config.ambiguity_ratio * r.score) {
+    r.ambiguous = true;
+    std::snprintf(text, sizeof text, "two distinct hypotheses score %.3f and %.3f (ratio >= %.2f)", r.score,
+                  r.second_best_score, config.ambiguity_ratio);
+    return failWith(std::move(r), GlobalStatus::Ambiguous, text);
+  }
+  r.success = true;
+  r.status = GlobalStatus::Success;
+  return r;
+}
+
+GlobalRegistrationResult registerPrepared(const LabeledCloud& source, const GlobalRegistrationTarget::Impl& tgt,
+                                          const ClassTable& classes, const GlobalRegistrationConfig& config) {
+  GlobalRegistrationResult r;
+  auto t0 = Clock::now();
+  const auto start = t0;
+  const global::FeatureCloud src = global::computeFeatures(source, classes, config, Eigen::Vector3f::Zero());
+  r.source_points = src.cloud.size();
+  r.source_features = src.feature_point.size();
+  r.timings.prepare_ms = msSince(t0);
+  if (src.cloud.size() < config.min_points)
+    return failWith(std::move(r), GlobalStatus::TooFewPoints, describeCounts("too few source points", src.cloud.size(), config.min_points));
+  if (tgt.features.cloud.size() < config.min_points)
+    return failWith(std::move(r), GlobalStatus::TooFewPoints, describeCounts("too few target points", tgt.features.cloud.size(), config.min_points));
+  if (r.source_features < config.min_features || tgt.features.feature_point.size() < config.min_features)
+    return failWith(std::move(r), GlobalStatus::TooFewFeatures,
+                    describeCounts("too few features", std::min(r.source_features, tgt.features.feature_point.size()),
+                                   config.min_features));
+  t0 = Clock::now();
+  const std::vector<global::Match> matches = matchDescriptors(src, tgt, classes, config);
+  r.correspondences = matches.size();
+  r.timings.match_ms = msSince(t0);
+  t0 = Clock::now();
+  constexpr std::size_t kKeep = 8;
+  std::vector<global::Hypothesis> hypotheses =
+      global::ransacHypotheses(src.cloud.points, tgt.features.cloud.points, matches, config, kKeep);
+  if (config.use_classes) {
+    const auto constellations = global::constellationHypotheses(
+        global::clusterLandmarks(src.cloud, classes, config), tgt.landmarks, config, kKeep);
+    r.constellation_hypotheses = constellations.size();
+    hypotheses.insert(hypotheses.end(), constellations.begin(), constellations.end());
+  }
+  if (matches.size() < 3 && hypotheses.empty())
+    return failWith(std::move(r), GlobalStatus::TooFewCorrespondences, describeCounts("too few correspondences", matches.size(), 3));
+  r.timings.hypotheses_ms = msSince(t0);
+  t0 = Clock::now();
+  const std::vector<Candidate> candidates = refineCandidates(hypotheses, src, tgt, classes, config);
+  r.timings.refine_ms = msSince(t0);
+  r = decide(std::move(r), candidates, config);
+  r.inliers = agreeingMatches(r.transform, src, tgt.features, matches, config.inlier_distance);
+  r.timings.total_ms = msSince(start);
+  return r;
+}
+
+}  // namespace
+
+GlobalRegistrationResult registerGlobally(const LabeledCloud& source, const GlobalRegistrationTarget& target,
+                                          const ClassTable& classes, const GlobalRegistrationConfig& config) {
+  config.validate();
+  if (!sameFeatures(config, target.impl().config))
+    fail("global registration", "the target was prepared with other feature settings than the config given");
+  source.checkConsistent("global registration source");
+  if (config.use_classes) classes.checkCloud(source, "global registration source");
+  GlobalRegistrationResult r;
+  detail::runWithThreads(config.threads, [&] { r = registerPrepared(source, target.impl(), classes, config); });
+  return r;
+}
+
+GlobalRegistrationResult registerGlobally(const LabeledCloud& source, const LabeledCloud& target,
+                                          const ClassTable& classes, const GlobalRegistrationConfig& config) {
+  return registerGlobally(source, prepareGlobalTarget(target, classes, config), classes, config);
+}
+
+}  // namespace hazmap
