@@ -164,7 +164,7 @@ class SlamRun {
     deskewer_.tracked(f.increment);
     rec.T_prev_curr = f.increment;
     rec.covariance = f.covariance;
-    rec.icp_used = f.status == FrameStatus::Registered || f.status == FrameStatus::Degenerate ||
+    rec.icp_used = f.status == FrameStatus::Tracked || f.status == FrameStatus::Degenerate ||
                    f.status == FrameStatus::First;
     rec.fallback_reason = f.reason;
     rec.fitness = f.registration.fitness;
