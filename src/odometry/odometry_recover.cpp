@@ -83,6 +83,9 @@ std::optional<Odometry::Recovery> Odometry::recover(OdometryFrame& f, const Labe
   std::vector<Start> starts;
   if (auto g = globalStart(f, source, target, W)) starts.push_back({*g, "global registration"});
   starts.push_back({prev, "no motion"});
+  for (const double deg : {-30.0, 30.0})
+    starts.push_back({prev * f.guess * Eigen::AngleAxisd(deg * M_PI / 180.0, Eigen::Vector3d::UnitZ()),
+                      "guess turned " + std::to_string(int(deg)) + " deg"});
   if (f.wheel_guess && frames_.size() >= 2) starts.push_back({prev * frames_.back().increment, "constant velocity"});
 
   std::vector<Verified> verified;
