@@ -50,6 +50,9 @@ const ConfigFields<OdometryConfig>& configFields(ConfigTag<OdometryConfig>) {
           .flag("relocalise", &C::relocalise,
                 "Try a guess-free global registration when ICP from the guess fails or is suspect "
                 "(status relocalised when verified)")
+          .flag("relocalise_suspect", &C::relocalise_suspect,
+                "Also when ICP from the guess passed but is suspect (poor fit, far from the guess): slower, "
+                "catches wrong-but-passing frames (a crawler's worst day)")
           .number("suspect_fitness", &C::suspect_fitness, closed(0, 1),
                   "ICP from the guess passed but fits worse than this: try global registration too")
           .number("suspect_correction_translation", &C::suspect_correction_translation, positive(),

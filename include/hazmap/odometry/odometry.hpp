@@ -51,7 +51,12 @@ struct OdometryConfig {
   double fallback_sigma_rotation = 0.02;    ///< rad
   // --- global registration when tracking fails (issue 19) ---
   bool relocalise = true;  ///< try a guess-free global registration when a trigger below fires
-  /// Triggers besides a failed check: ICP from the guess passed but fits worse than this…
+  /// Also try it when ICP from the guess passed its checks but is suspect (below). Off by
+  /// default: a frame that passes is then never re-examined, so a run where nothing fails costs
+  /// and gives exactly what it did before; on for a crawler's worst day (docs/registration.md).
+  bool relocalise_suspect = false;
+  /// Suspect: ICP from the guess fits worse than this (fitness), or its inlier RMSE is above
+  /// relocalise_max_rmse_ratio × that of tracked frames…
   double suspect_fitness = 0.5;
   /// …or corrected the guess by more than this (m / rad), or there was no motion prior.
   double suspect_correction_translation = 0.5;
