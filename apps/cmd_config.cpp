@@ -7,6 +7,7 @@
 #include "command.hpp"
 #include "hazmap/core/config_fields.hpp"
 #include "hazmap/pipeline/slam.hpp"
+#include "hazmap/registration/global_registration.hpp"
 #include "hazmap/sim/simulator.hpp"
 
 namespace hazmap::cli {
@@ -77,6 +78,9 @@ std::string markdown() {
          "\n## Run (`hazmap run`, `hazmap demo`)\n";
   const SlamConfig run = SlamConfig::forMethod(SlamMethod::PropertyIcpPgo);
   for (const auto& f : describeConfig(run)) markdownSection(out, f.name, f.doc, f.children);
+  out << "\n## Global registration (`hazmap register --global --config`)\n";
+  markdownSection(out, "global_registration", fieldsOf<GlobalRegistrationConfig>().doc(),
+                  describeConfig<GlobalRegistrationConfig>());
   out << "\n## Simulator (`hazmap simulate --config`)\n";
   markdownSection(out, "simulate", fieldsOf<sim::SimulatorConfig>().doc(), describeConfig<sim::SimulatorConfig>());
   return out.str();

@@ -13,6 +13,7 @@
 #include "hazmap/io/atomic_file.hpp"
 #include "hazmap/io/cloud_file.hpp"
 #include "hazmap/preprocess/voxel_downsample.hpp"
+#include "hazmap/registration/global_registration.hpp"
 #include "hazmap/registration/registration.hpp"
 
 namespace hazmap::cli {
@@ -26,6 +27,7 @@ struct RegisterOptions {
   int max_iterations = 0;
   int threads = 0;
   bool json = false;
+  bool global = false;
 };
 
 /// Reads a 4×4 row-major matrix (16 numbers; a 3×4 [R|t] with 12 numbers is accepted too).
@@ -60,7 +62,71 @@ Eigen::Isometry3d readTransform(const std::string& path) {
   return T;
 }
 
+void printMatrix(const Eigen::Matrix4d& M) {
+  for (int i = 0; i < 4; ++i) {
+    char line[160];
+    std::snprintf(line, sizeof line, "%.9g %.9g %.9g %.9g", M(i, 0), M(i, 1), M(i, 2), M(i, 3));
+    std::cout << line << "\n";
+  }
+}
+
+// --global: no initial guess; features, RANSAC and constellations, verified by property ICP.
+void runGlobal(const RegisterOptions& o, const ParameterOptions& params) {
+  if (!o.init.empty()) fail("--init", "a global registration takes no initial guess (drop --init or --global)");
+  if (o.metric != "plane" || o.max_distance != 0.0 || o.max_iterations != 0)
+    fail("--global", "--metric/--max-distance/--max-iterations set the local ICP; with --global use --set refinement.KEY=VALUE");
+  GlobalRegistrationConfig cfg;
+  if (!o.config.empty()) cfg = loadGlobalRegistrationConfig(o.config);
+  if (o.method == "icp") cfg.use_classes = false;
+  else if (o.method == "property-icp") cfg.use_classes = true;
+  else fail("--method", "expected icp or property-icp, got '" + o.method + "'");
+  if (o.voxel < 0.0 || !std::isfinite(o.voxel)) fail("--voxel", "must be >= 0 (0 = the config's voxel_size)");
+  if (o.voxel > 0.0) cfg.voxel_size = o.voxel;
+  if (o.threads != 0) cfg.threads = o.threads;
+  params.applySettings(cfg);
+  cfg.validate();
+  const ClassTable table = params.propertyIcp().applyTo(ClassTable::load(o.classes));
+  const LabeledCloud source = readCloud(o.source, table);
+  const LabeledCloud target = readCloud(o.target, table);
+  if (cfg.use_classes) {
+    table.checkCloud(source, o.source);
+    table.checkCloud(target, o.target);
+  }
+  const GlobalRegistrationResult r = registerGlobally(source, target, table, cfg);
+  if (o.json) {
+    nlohmann::json j;
+    std::vector<double> t;
+    for (int i = 0; i < 4; ++i)
+      for (int k = 0; k < 4; ++k) t.push_back(r.transform.matrix()(i, k));
+    j["transform"] = t;
+    j["success"] = r.success;
+    j["status"] = toString(r.status);
+    if (!r.success) j["reason"] = r.reason;
+    j["score"] = r.score;
+    j["second_best_score"] = r.second_best_score;
+    j["ambiguous"] = r.ambiguous;
+    j["overlap"] = r.overlap;
+    j["inliers"] = r.inliers;
+    j["correspondences"] = r.correspondences;
+    j["source_points"] = r.source_points;
+    j["source_features"] = r.source_features;
+    j["from_constellation"] = r.from_constellation;
+    j["method"] = o.method;
+    j["timings_ms"] = {{"features", r.timings.prepare_ms}, {"match", r.timings.match_ms},
+                       {"hypotheses", r.timings.hypotheses_ms}, {"refine", r.timings.refine_ms},
+                       {"total", r.timings.total_ms}};
+    std::cout << j.dump(2) << "\n";
+  } else {
+    printMatrix(r.transform.matrix());
+    std::fprintf(stderr, "%s%s%s: score %.3f (second %.3f), overlap %.2f, %zu/%zu matches agree, %.1f ms\n",
+                 r.success ? "accepted" : "NOT accepted", r.success ? "" : " — ", r.reason.c_str(), r.score,
+                 r.second_best_score, r.overlap, r.inliers, r.correspondences, r.timings.total_ms);
+  }
+  if (!r.success) exitCode() = 2;
+}
+
 void run(const RegisterOptions& o, const ParameterOptions& params) {
+  if (o.global) return runGlobal(o, params);
   RegistrationConfig cfg;
   if (!o.config.empty()) cfg = loadRegistrationConfig(o.config);
   if (o.method == "icp") cfg.use_classes = false;
@@ -132,8 +198,8 @@ void run(const RegisterOptions& o, const ParameterOptions& params) {
 
 const RegisterCommand kRegister{{
     "register",
-    "Align SOURCE to TARGET with property-aware ICP; prints the 4x4 row-major target <- source "
-    "transform (exit 2 if it did not converge)",
+    "Align SOURCE to TARGET with property-aware ICP (or --global, without an initial guess); prints "
+    "the 4x4 row-major target <- source transform (exit 2 if it did not converge / was not accepted)",
     [](CLI::App& app) {
       auto o = std::make_shared<RegisterOptions>();
       app.add_option("source", o->source, "Source cloud (.pcd, .ply, .bin [+ .label])")->required();
@@ -148,6 +214,10 @@ const RegisterCommand kRegister{{
       app.add_option("--max-iterations", o->max_iterations, "Iteration limit (0 = config)");
       app.add_option("--threads", o->threads, "Worker threads (0 = all)");
       app.add_flag("--json", o->json, "Print JSON: transform, covariance, fitness, rmse, iterations, converged");
+      app.add_flag("--global", o->global,
+                   "Global registration, no initial guess: FPFH + RANSAC + property-landmark constellations, "
+                   "verified by property ICP (--config/--set then address the global_registration section; "
+                   "exit 2 if not accepted, e.g. ambiguous)");
       auto params = addParameterOptions(app, "keys of the registration section, e.g. max_iterations=30");
       app.callback([o, params] { run(*o, *params); });
     }}};

@@ -14,6 +14,7 @@ const char* toString(GlobalStatus s) {
     case GlobalStatus::NoConsensus: return "no consensus";
     case GlobalStatus::PoorOverlap: return "poor overlap";
     case GlobalStatus::Ambiguous: return "ambiguous";
+    case GlobalStatus::Degenerate: return "degenerate";
   }
   return "unknown";
 }
@@ -22,6 +23,7 @@ RegistrationConfig GlobalRegistrationConfig::defaultRefinement() {
   RegistrationConfig c;
   c.max_iterations = 30;
   c.coarse_source_points = 0;  // the downsampled scan is small already
+  c.max_source_points = 1500;  // plenty to tell a right hypothesis from a wrong one, and to refine it
   return c;
 }
 
@@ -37,6 +39,8 @@ void addFeatureFields(ConfigFields<C>& f) {
       .integer("max_feature_neighbors", &C::max_feature_neighbors, atLeast(5),
                "Neighbours per FPFH histogram, nearest first")
       .number("max_range", &C::max_range, nonNegative(), "m from the cloud's origin; farther points ignored (0 = all)")
+      .integer("max_source_features", &C::max_source_features, nonNegative(),
+               "Match at most this many source descriptors (even stride, labelled points always; 0 = all)")
       .flag("mutual_filter", &C::mutual_filter,
             "Keep only mutual nearest neighbours in descriptor space (when at least min_correspondences)")
       .integer("min_correspondences", &C::min_correspondences, atLeast(3),
@@ -52,8 +56,10 @@ void addEstimatorFields(ConfigFields<C>& f) {
       .flag("use_classes", &C::use_classes,
             "Property-aware: labelled points match their own class, landmark constellations add "
             "hypotheses, labelled points on their class score more (also sets refinement.use_classes)")
-      .number("class_score_weight", &C::class_score_weight, nonNegative(),
-              "A labelled source point landing on its own class scores 1 + this")
+      .number("label_score_share", &C::label_score_share, closed(0, 1),
+              "Score = (1 − share)·overlap + share·(labelled points on their own class / labelled points)")
+      .integer("min_labelled_points", &C::min_labelled_points, atLeast(1),
+               "Labelled (downsampled) source points needed for the label term of the score")
       .number("landmark_cluster_distance", &C::landmark_cluster_distance, positive(),
               "m; same-class points closer than this form one landmark")
       .integer("landmark_min_points", &C::landmark_min_points, atLeast(1), "Downsampled points per landmark");
@@ -69,7 +75,11 @@ void addVerificationFields(ConfigFields<C>& f) {
       .number("distinct_translation", &C::distinct_translation, positive(),
               "m; hypotheses farther apart are distinct")
       .number("distinct_rotation_deg", &C::distinct_rotation_deg, positive(), "degrees; … or rotated more")
+      .flag("reject_degenerate", &C::reject_degenerate,
+            "Refuse a winner whose refinement ICP reports unconstrained directions (a plane, a bare corridor)")
       .integer("candidates_refined", &C::candidates_refined, atLeast(1), "Distinct hypotheses refined by ICP")
+      .number("final_voxel_size", &C::final_voxel_size, nonNegative(),
+              "m; the winner is polished by the refinement ICP on clouds downsampled to this (0 = off)")
       .integer("threads", &C::threads, nonNegative(), "0 = TBB's default")
       .section("refinement", &C::refinement, "Property ICP that refines and verifies the candidates");
 }

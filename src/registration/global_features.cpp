@@ -58,28 +58,46 @@ void normalizeBlocks(Descriptor& h) {
 }
 
 struct Neighborhoods {
-  std::vector<std::vector<Neighbor>> of;  ///< per point, itself excluded
+  std::vector<std::vector<Neighbor>> of;  ///< per point, nearest first, itself excluded
 };
 
-Neighborhoods findNeighbors(const FeatureCloud& fc, const GlobalRegistrationConfig& config) {
+// One k-NN search per point serves both the normal (its nearest normal_neighbors within
+// normal_radius) and the histogram (all within feature_radius).
+Neighborhoods findNeighbors(FeatureCloud& fc, const GlobalRegistrationConfig& config, const NormalConfig& nc) {
   Neighborhoods nb;
-  nb.of.resize(fc.cloud.size());
-  const float r2 = static_cast<float>(config.feature_radius * config.feature_radius);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, fc.cloud.size(), 256), [&](const auto& range) {
+  const std::size_t n = fc.cloud.size();
+  nb.of.resize(n);
+  fc.normals.assign(n, Eigen::Vector3f::Zero());
+  const int k = std::max(config.max_feature_neighbors, config.normal_neighbors) + 1;
+  const float r2 = static_cast<float>(std::max(config.feature_radius * config.feature_radius,
+                                               config.normal_radius * config.normal_radius));
+  const float feature_r2 = static_cast<float>(config.feature_radius * config.feature_radius);
+  const float normal_r2 = static_cast<float>(config.normal_radius * config.normal_radius);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 128), [&](const auto& range) {
     std::vector<Neighbor> found;
+    std::vector<Eigen::Vector3f> local;
     for (std::size_t i = range.begin(); i != range.end(); ++i) {
-      if (fc.normals[i].isZero()) continue;
-      fc.index->kNearest(fc.cloud.points[i], config.max_feature_neighbors + 1, r2, found);
+      fc.index->kNearest(fc.cloud.points[i], k, r2, found);
+      local.clear();
+      for (const auto& q : found)
+        if (q.distance2 < normal_r2 && static_cast<int>(local.size()) < config.normal_neighbors)
+          local.push_back(fc.cloud.points[q.index]);
+      fc.normals[i] = planeNormal(fc.cloud.points[i], local, nc);
       auto& mine = nb.of[i];
-      for (const auto& n : found)
-        if (n.index != i && !fc.normals[n.index].isZero()) mine.push_back(n);
+      for (const auto& q : found)
+        if (q.index != i && q.distance2 < feature_r2 && static_cast<int>(mine.size()) < config.max_feature_neighbors)
+          mine.push_back(q);
     }
   });
   return nb;
 }
 
-void computeDescriptors(FeatureCloud& fc, const GlobalRegistrationConfig& config) {
-  const Neighborhoods nb = findNeighbors(fc, config);
+void computeDescriptors(FeatureCloud& fc, const GlobalRegistrationConfig& config, const NormalConfig& nc) {
+  Neighborhoods nb = findNeighbors(fc, config, nc);
+  // Points without a normal take no part in any histogram.
+  for (auto& v : nb.of) std::erase_if(v, [&](const Neighbor& q) { return fc.normals[q.index].isZero(); });
+  for (std::size_t i = 0; i < nb.of.size(); ++i)
+    if (fc.normals[i].isZero()) nb.of[i].clear();
   const std::size_t n = fc.cloud.size();
   std::vector<Descriptor> spfh(n);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 256), [&](const auto& range) {
@@ -127,20 +145,26 @@ FeatureCloud computeFeatures(const LabeledCloud& raw, const ClassTable& classes,
   } else {
     fc.cloud = voxelDownsample(raw, vd, classes);
   }
-  const float radius = static_cast<float>(std::max(config.feature_radius, config.normal_radius));
-  fc.index = std::make_unique<VoxelHashIndex>(fc.cloud.points, std::span<const std::uint32_t>{},
-                                              radius * 0.5f, radius);
+  fc.index = std::make_unique<KdTreeIndex>(fc.cloud.points, std::span<const std::uint32_t>{});
   NormalConfig nc;
   nc.neighbors = config.normal_neighbors;
   nc.radius = config.normal_radius;
   nc.viewpoint = viewpoint;
-  nc.min_planarity = 0.0;  // edges and poles get a normal too: FPFH needs every point it can get
-  fc.normals = estimateNormals(fc.cloud, *fc.index, nc);
-  computeDescriptors(fc, config);
+  // Lower than the ICP's: edges and corners get a normal too (FPFH needs every point it can get);
+  // only a true line (a pole, a lone scan ring) has none.
+  nc.min_planarity = 0.01;
+  computeDescriptors(fc, config, nc);
+  for (std::uint32_t i = 0; i < fc.cloud.size(); ++i)
+    if (classes.isProperty(fc.cloud.classes[i])) fc.labelled.push_back(i);
   return fc;
 }
 
 // ---------------------------------------------------------------------------------------------
+// Approximate descriptor search: the match returned is within (1 + eps) of the nearest. In 33
+// dimensions an exact k-d tree search visits most leaves; an approximate one a few, and RANSAC
+// does not need the exact nearest (measured on KITTI and naraha: docs/registration.md).
+constexpr float kDescriptorSearchEps = 1.0f;
+
 struct DescriptorIndex::Impl {
   struct Adaptor {
     const std::vector<Descriptor>* rows;
@@ -176,7 +200,7 @@ std::int64_t DescriptorIndex::nearest(const Descriptor& query) const {
   float d2 = 0.0f;
   nanoflann::KNNResultSet<float, std::uint32_t> rs(1);
   rs.init(&idx, &d2);
-  impl_->tree->findNeighbors(rs, query.data(), nanoflann::SearchParams());
+  impl_->tree->findNeighbors(rs, query.data(), nanoflann::SearchParams(32, kDescriptorSearchEps));
   return rs.size() ? static_cast<std::int64_t>(ids_[idx]) : -1;
 }
 

@@ -9,18 +9,41 @@
 #include <numbers>
 #include <numeric>
 #include <random>
+#include <span>
 
 #include "global_internal.hpp"
 
 namespace hazmap::global {
 namespace {
 
+// The rigid motion that maps triangle a onto triangle b, from the orthonormal frames the two
+// triangles span (first edge, normal, their cross product) — exact for a consistent pair, an
+// order of magnitude cheaper than an SVD; each hypothesis is re-fitted on its inliers later.
+Eigen::Isometry3d fitTriad(const std::vector<Eigen::Vector3f>& a, const std::vector<Eigen::Vector3f>& b) {
+  auto frame = [](const std::vector<Eigen::Vector3f>& p) {
+    Eigen::Matrix3d F;
+    const Eigen::Vector3d x = (p[1] - p[0]).cast<double>().normalized();
+    const Eigen::Vector3d z = x.cross((p[2] - p[0]).cast<double>()).normalized();
+    F << x, z.cross(x), z;
+    return F;
+  };
+  const Eigen::Matrix3d R = frame(b) * frame(a).transpose();
+  const Eigen::Vector3d ca = ((a[0] + a[1] + a[2]) / 3.0f).cast<double>();
+  const Eigen::Vector3d cb = ((b[0] + b[1] + b[2]) / 3.0f).cast<double>();
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = R;
+  T.translation() = cb - R * ca;
+  return T;
+}
+
 bool edgesAgree(float a, float b, float similarity) {
   return std::min(a, b) >= similarity * std::max(a, b);
 }
 
+constexpr std::size_t kPretest = 64;
+
 std::size_t countAgreeing(const Eigen::Isometry3d& T, const std::vector<Eigen::Vector3f>& src,
-                          const std::vector<Eigen::Vector3f>& dst, const std::vector<Match>& m, float d2,
+                          const std::vector<Eigen::Vector3f>& dst, std::span<const Match> m, float d2,
                           std::vector<std::size_t>* which = nullptr) {
   const Eigen::Matrix3f R = T.linear().cast<float>();
   const Eigen::Vector3f t = T.translation().cast<float>();
@@ -58,7 +81,11 @@ std::vector<Hypothesis> ransacBlock(std::uint64_t seed, int draws, const std::ve
   const float sim = static_cast<float>(config.edge_length_similarity);
   const float d2 = static_cast<float>(config.inlier_distance * config.inlier_distance);
   const float min_edge = static_cast<float>(config.inlier_distance);
+  // Many more than `keep`: near-duplicates of the best crowd the top, and thinning keeps one each.
+  const std::size_t kPool = 16 * keep;
+  auto fewerVotes = [](const Hypothesis& x, const Hypothesis& y) { return x.votes > y.votes; };
   std::vector<Hypothesis> best;
+  double best_votes = 0.0;
   std::vector<Eigen::Vector3f> a(3), b(3);
   for (int it = 0; it < draws; ++it) {
     const std::size_t i = pick(rng), j = pick(rng), k = pick(rng);
@@ -77,12 +104,32 @@ std::vector<Hypothesis> ransacBlock(std::uint64_t seed, int draws, const std::ve
       a[e] = src[m[idx[e]].source];
       b[e] = dst[m[idx[e]].target];
     }
+    // A near-collinear triple leaves the rotation about its line undetermined.
+    if ((a[1] - a[0]).cross(a[2] - a[0]).norm() < 0.5f * min_edge * min_edge) continue;
     Hypothesis h;
-    h.transform = fitRigid(a, b);
+    h.transform = fitTriad(a, b);
+    // The triple itself must fit (Open3D's distance checker): cheaper than counting.
+    bool fits = true;
+    for (int e = 0; e < 3 && fits; ++e) fits = (h.transform.cast<float>() * a[e] - b[e]).squaredNorm() < d2;
+    if (!fits) continue;
+    // Pre-test on the first matches (shuffled, so a random sample): a hypothesis far below the
+    // best so far is not counted in full.
+    const std::size_t pre = std::min<std::size_t>(m.size(), kPretest);
+    const std::size_t pre_votes = countAgreeing(h.transform, src, dst, std::span(m).first(pre), d2);
+    if (static_cast<double>(pre_votes) * static_cast<double>(m.size()) / static_cast<double>(pre) < 0.5 * best_votes)
+      continue;
     h.votes = static_cast<double>(countAgreeing(h.transform, src, dst, m, d2));
-    if (h.votes < 3) continue;
-    best.push_back(h);
-    if (best.size() > 4 * keep) best = bestDistinct(std::move(best), config, keep);
+    if (h.votes <= 3) continue;  // the triple alone: no support
+    best_votes = std::max(best_votes, h.votes);
+    // A bounded min-heap of the block's best by votes; distinctness is sorted out at the end.
+    if (best.size() < kPool) {
+      best.push_back(h);
+      std::push_heap(best.begin(), best.end(), fewerVotes);
+    } else if (h.votes > best.front().votes) {
+      std::pop_heap(best.begin(), best.end(), fewerVotes);
+      best.back() = h;
+      std::push_heap(best.begin(), best.end(), fewerVotes);
+    }
   }
   return bestDistinct(std::move(best), config, keep);
 }
@@ -116,9 +163,12 @@ bool distinct(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b, const Glob
 }
 
 std::vector<Hypothesis> ransacHypotheses(const std::vector<Eigen::Vector3f>& src,
-                                         const std::vector<Eigen::Vector3f>& dst, const std::vector<Match>& m,
+                                         const std::vector<Eigen::Vector3f>& dst, const std::vector<Match>& matches,
                                          const GlobalRegistrationConfig& config, std::size_t keep) {
-  if (m.size() < 3) return {};
+  if (matches.size() < 3) return {};
+  // Shuffled once (deterministically), so any prefix is a random sample for the pre-test.
+  std::vector<Match> m = matches;
+  std::shuffle(m.begin(), m.end(), std::mt19937_64(config.seed));
   constexpr int kBlock = 1000;
   const int blocks = (config.ransac_iterations + kBlock - 1) / kBlock;
   std::vector<std::vector<Hypothesis>> per_block(blocks);

@@ -25,6 +25,7 @@ struct FeatureCloud {
   std::vector<Eigen::Vector3f> normals;
   std::vector<Descriptor> descriptors;   ///< one per entry of feature_point
   std::vector<std::uint32_t> feature_point;  ///< cloud index of each descriptor
+  std::vector<std::uint32_t> labelled;       ///< cloud indices of property-class points
   std::unique_ptr<NeighborIndex> index;  ///< all points of `cloud`
 };
 
@@ -103,9 +104,11 @@ namespace hazmap {
 struct GlobalRegistrationTarget::Impl {
   global::FeatureCloud features;
   global::DescriptorIndexes descriptors;
+  std::unique_ptr<NeighborIndex> overlap_points;  ///< all points, cells of inlier_distance (scoring)
   std::map<ClassId, std::unique_ptr<NeighborIndex>> class_points;  ///< property classes
   std::vector<global::Landmark> landmarks;
   std::optional<RegistrationTarget> icp;
+  std::optional<RegistrationTarget> final_icp;  ///< at final_voxel_size (when > 0)
   GlobalRegistrationConfig config;  ///< what it was prepared with
 };
 

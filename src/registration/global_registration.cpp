@@ -10,6 +10,7 @@
 
 #include "global_internal.hpp"
 #include "hazmap/core/error.hpp"
+#include "hazmap/preprocess/voxel_downsample.hpp"
 #include "thread_arena.hpp"
 
 namespace hazmap {
@@ -34,12 +35,32 @@ RegistrationConfig refinementOf(const GlobalRegistrationConfig& config) {
   return r;
 }
 
+VoxelDownsampleConfig polishDownsampling(const GlobalRegistrationConfig& config) {
+  VoxelDownsampleConfig vd;
+  vd.voxel_size = config.final_voxel_size;
+  vd.vote = ClassVote::PreferProperty;
+  return vd;
+}
+
+// The winner's last step: the refinement ICP on finer clouds. Kept only if it converged and
+// moved little (a polish, not a new answer).
+void polish(GlobalRegistrationResult& r, const LabeledCloud& source, const GlobalRegistrationTarget::Impl& tgt,
+            const ClassTable& classes, const GlobalRegistrationConfig& config) {
+  if (!tgt.final_icp || !r.success) return;
+  const LabeledCloud fine = voxelDownsample(source, polishDownsampling(config), classes);
+  const RegistrationResult p = registerClouds(fine, *tgt.final_icp, r.transform, classes, refinementOf(config));
+  const bool usable = p.termination == Termination::Converged || p.termination == Termination::MaxIterations;
+  if (!usable || !isFinite(p.transform) || global::distinct(p.transform, r.transform, config)) return;
+  r.transform = p.transform;
+  r.refinement = p;
+}
+
 bool sameFeatures(const GlobalRegistrationConfig& a, const GlobalRegistrationConfig& b) {
   return a.voxel_size == b.voxel_size && a.normal_radius == b.normal_radius &&
          a.normal_neighbors == b.normal_neighbors && a.feature_radius == b.feature_radius &&
          a.max_feature_neighbors == b.max_feature_neighbors && a.max_range == b.max_range &&
-         a.use_classes == b.use_classes && a.landmark_cluster_distance == b.landmark_cluster_distance &&
-         a.landmark_min_points == b.landmark_min_points;
+         a.use_classes == b.use_classes && a.final_voxel_size == b.final_voxel_size &&
+         a.landmark_cluster_distance == b.landmark_cluster_distance && a.landmark_min_points == b.landmark_min_points;
 }
 
 // Source descriptor → nearest target descriptor (own class for labelled points, property-aware);
@@ -74,34 +95,57 @@ std::vector<global::Match> matchDescriptors(const global::FeatureCloud& src, con
   return mutual.size() >= config.min_correspondences ? mutual : all;
 }
 
+// Keeps at most max_source_features descriptors: every labelled one (property-aware) and an even
+// stride over the rest.
+void thinSourceFeatures(global::FeatureCloud& src, const ClassTable& classes, const GlobalRegistrationConfig& config) {
+  const std::size_t n = src.descriptors.size();
+  if (config.max_source_features == 0 || n <= config.max_source_features) return;
+  const double step = static_cast<double>(n) / static_cast<double>(config.max_source_features);
+  double next = 0.0;
+  std::size_t kept = 0;
+  for (std::size_t f = 0; f < n; ++f) {
+    const bool labelled = config.use_classes && classes.isProperty(src.cloud.classes[src.feature_point[f]]);
+    const bool on_stride = static_cast<double>(f) >= next;
+    if (on_stride) next += step;
+    if (!labelled && !on_stride) continue;
+    src.descriptors[kept] = src.descriptors[f];
+    src.feature_point[kept] = src.feature_point[f];
+    ++kept;
+  }
+  src.descriptors.resize(kept);
+  src.feature_point.resize(kept);
+}
+
 struct Score {
-  double weighted = 0.0;  ///< share of the achievable weight (labelled points on class count 1 + w)
+  double weighted = 0.0;  ///< what hypotheses are ranked by (see label_score_share)
   double overlap = 0.0;   ///< share of source points with a target point within inlier_distance
+  double labels = 0.0;    ///< share of labelled source points with a same-class target point there
 };
 
+// `max_points` > 0: an even stride over the source of about that many points (ranking many
+// hypotheses needs no more); 0 = every point. Labelled points are always all counted.
 Score scoreOf(const Eigen::Isometry3d& T, const global::FeatureCloud& src, const GlobalRegistrationTarget::Impl& tgt,
-              const ClassTable& classes, const GlobalRegistrationConfig& config) {
+              const GlobalRegistrationConfig& config, std::size_t max_points = 0) {
   const Eigen::Matrix3f R = T.linear().cast<float>();
   const Eigen::Vector3f t = T.translation().cast<float>();
   const float d2 = static_cast<float>(config.inlier_distance * config.inlier_distance);
-  const double w = config.class_score_weight;
-  double got = 0.0, possible = 0.0;
-  std::size_t hits = 0;
-  for (std::size_t i = 0; i < src.cloud.size(); ++i) {
-    const Eigen::Vector3f q = R * src.cloud.points[i] + t;
-    float dist2 = 0.0f;
-    const bool hit = tgt.features.index->nearest(q, d2, dist2) >= 0;
-    hits += hit;
-    got += hit;
-    possible += 1.0;
-    const ClassId c = src.cloud.classes[i];
-    if (!config.use_classes || !classes.isProperty(c)) continue;
-    possible += w;
-    const auto it = tgt.class_points.find(c);
-    if (it != tgt.class_points.end() && it->second->nearest(q, d2, dist2) >= 0) got += w;
+  float dist2 = 0.0f;
+  std::size_t hits = 0, used = 0;
+  const std::size_t stride = max_points == 0 ? 1 : std::max<std::size_t>(1, src.cloud.size() / max_points);
+  for (std::size_t i = 0; i < src.cloud.size(); i += stride, ++used)
+    hits += tgt.overlap_points->nearest(R * src.cloud.points[i] + t, d2, dist2) >= 0;
+  Score s;
+  s.overlap = static_cast<double>(hits) / static_cast<double>(std::max<std::size_t>(used, 1));
+  s.weighted = s.overlap;
+  if (!config.use_classes || src.labelled.size() < config.min_labelled_points) return s;
+  std::size_t on_class = 0;
+  for (std::uint32_t i : src.labelled) {
+    const auto it = tgt.class_points.find(src.cloud.classes[i]);
+    on_class += it != tgt.class_points.end() && it->second->nearest(R * src.cloud.points[i] + t, d2, dist2) >= 0;
   }
-  const double n = static_cast<double>(std::max<std::size_t>(src.cloud.size(), 1));
-  return {possible > 0.0 ? got / possible : 0.0, static_cast<double>(hits) / n};
+  s.labels = static_cast<double>(on_class) / static_cast<double>(src.labelled.size());
+  s.weighted = (1.0 - config.label_score_share) * s.overlap + config.label_score_share * s.labels;
+  return s;
 }
 
 std::size_t agreeingMatches(const Eigen::Isometry3d& T, const global::FeatureCloud& src,
@@ -126,16 +170,19 @@ GlobalRegistrationTarget prepareGlobalTarget(const LabeledCloud& target, const C
   detail::runWithThreads(config.threads, [&] {
     impl.features = global::computeFeatures(target, classes, config, viewpoint);
     impl.descriptors = global::indexDescriptors(impl.features, classes, config.use_classes);
+    const float r = static_cast<float>(config.inlier_distance);
+    impl.overlap_points = std::make_unique<VoxelHashIndex>(impl.features.cloud.points, std::span<const std::uint32_t>{}, r, r);
     if (config.use_classes) {
       std::map<ClassId, std::vector<std::uint32_t>> per_class;
       for (std::uint32_t i = 0; i < impl.features.cloud.size(); ++i)
         if (classes.isProperty(impl.features.cloud.classes[i])) per_class[impl.features.cloud.classes[i]].push_back(i);
-      const float r = static_cast<float>(config.inlier_distance);
       for (auto& [c, ids] : per_class)
         impl.class_points.emplace(c, std::make_unique<VoxelHashIndex>(impl.features.cloud.points, ids, r, r));
       impl.landmarks = global::clusterLandmarks(impl.features.cloud, classes, config);
     }
     impl.icp.emplace(impl.features.cloud, classes, refinementOf(config));
+    if (config.final_voxel_size > 0.0)
+      impl.final_icp.emplace(voxelDownsample(target, polishDownsampling(config), classes), classes, refinementOf(config));
   });
   return out;
 }
@@ -148,39 +195,49 @@ struct Candidate {
   RegistrationResult icp;
 };
 
-// Scores every hypothesis, refines the best few distinct ones by property ICP and rescores them.
-// Two candidates that ICP brings to the same pose are one.
+// Scores every hypothesis, refines the best few distinct ones by property ICP and rescores them
+// on every point; candidates that ICP brings to the same pose are one. Returns distinct
+// candidates, best first (the unrefined ones keep their ranking score: the rivals' scores).
 std::vector<Candidate> refineCandidates(const std::vector<global::Hypothesis>& hypotheses,
                                         const global::FeatureCloud& src, const GlobalRegistrationTarget::Impl& tgt,
                                         const ClassTable& classes, const GlobalRegistrationConfig& config) {
   std::vector<Candidate> scored(hypotheses.size());
   tbb::parallel_for(std::size_t{0}, hypotheses.size(), [&](std::size_t k) {
-    scored[k] = {hypotheses[k], scoreOf(hypotheses[k].transform, src, tgt, classes, config), {}};
+    constexpr std::size_t kRankingPoints = 800;
+    scored[k] = {hypotheses[k], scoreOf(hypotheses[k].transform, src, tgt, config, kRankingPoints), {}};
   });
-  std::stable_sort(scored.begin(), scored.end(),
-                   [](const Candidate& a, const Candidate& b) { return a.score.weighted > b.score.weighted; });
-  if (scored.size() > static_cast<std::size_t>(config.candidates_refined)) scored.resize(config.candidates_refined);
+  auto by_score = [](const Candidate& a, const Candidate& b) { return a.score.weighted > b.score.weighted; };
+  std::stable_sort(scored.begin(), scored.end(), by_score);
+  auto thin = [&](std::vector<Candidate>& v) {
+    std::vector<Candidate> out;
+    for (auto& c : v) {
+      bool fresh = true;
+      for (const auto& o : out) fresh = fresh && global::distinct(c.hypothesis.transform, o.hypothesis.transform, config);
+      if (fresh) out.push_back(std::move(c));
+    }
+    v = std::move(out);
+  };
+  thin(scored);
+  // Refine the best few; none that scores below half the best (ICP would not lift it to a rival).
+  std::size_t refine = std::min<std::size_t>(scored.size(), config.candidates_refined);
+  while (refine > 1 && scored[refine - 1].score.weighted < 0.5 * scored[0].score.weighted) --refine;
   const RegistrationConfig icp = refinementOf(config);
-  tbb::parallel_for(std::size_t{0}, scored.size(), [&](std::size_t k) {
+  tbb::parallel_for(std::size_t{0}, refine, [&](std::size_t k) {
     Candidate& c = scored[k];
     c.icp = registerClouds(src.cloud, *tgt.icp, c.hypothesis.transform, classes, icp);
-    if (isFinite(c.icp.transform)) {
-      const Score s = scoreOf(c.icp.transform, src, tgt, classes, config);
-      if (s.weighted >= c.score.weighted) {
-        c.hypothesis.transform = c.icp.transform;
-        c.score = s;
-      }
-    }
+    // ICP's answer replaces the hypothesis whenever it ran to a usable pose (the overlap count is
+    // too coarse to judge centimetres); a failed ICP leaves the hypothesis.
+    const bool usable = c.icp.termination == Termination::Converged || c.icp.termination == Termination::MaxIterations;
+    if (usable && isFinite(c.icp.transform)) c.hypothesis.transform = c.icp.transform;
+    c.score = scoreOf(c.hypothesis.transform, src, tgt, config);  // every point: the final word
   });
-  std::stable_sort(scored.begin(), scored.end(),
-                   [](const Candidate& a, const Candidate& b) { return a.score.weighted > b.score.weighted; });
-  std::vector<Candidate> out;
-  for (auto& c : scored) {
-    bool fresh = true;
-    for (const auto& o : out) fresh = fresh && global::distinct(c.hypothesis.transform, o.hypothesis.transform, config);
-    if (fresh) out.push_back(std::move(c));
-  }
-  return out;
+  // Refined first (the winner must be a refined one), each group by score.
+  std::stable_sort(scored.begin(), scored.end(), [&](const Candidate& a, const Candidate& b) {
+    const bool ra = a.icp.termination != Termination::NotRun, rb = b.icp.termination != Termination::NotRun;
+    return ra != rb ? ra : by_score(a, b);
+  });
+  thin(scored);
+  return scored;
 }
 
 GlobalRegistrationResult failWith(GlobalRegistrationResult r, GlobalStatus status, std::string reason) {
@@ -201,6 +258,7 @@ GlobalRegistrationResult decide(GlobalRegistrationResult r, const std::vector<Ca
   r.transform = c[0].hypothesis.transform;
   r.score = c[0].score.weighted;
   r.overlap = c[0].score.overlap;
+  r.label_agreement = c[0].score.labels;
   r.refinement = c[0].icp;
   r.from_constellation = c[0].hypothesis.constellation;
   r.second_best_score = c.size() > 1 ? c[1].score.weighted : 0.0;
@@ -216,6 +274,11 @@ GlobalRegistrationResult decide(GlobalRegistrationResult r, const std::vector<Ca
                   r.second_best_score, config.ambiguity_ratio);
     return failWith(std::move(r), GlobalStatus::Ambiguous, text);
   }
+  if (config.reject_degenerate && !r.refinement.degenerate_directions.empty()) {
+    std::snprintf(text, sizeof text, "the geometry leaves %zu direction(s) of the pose unconstrained",
+                  r.refinement.degenerate_directions.size());
+    return failWith(std::move(r), GlobalStatus::Degenerate, text);
+  }
   r.success = true;
   r.status = GlobalStatus::Success;
   return r;
@@ -226,7 +289,7 @@ GlobalRegistrationResult registerPrepared(const LabeledCloud& source, const Glob
   GlobalRegistrationResult r;
   auto t0 = Clock::now();
   const auto start = t0;
-  const global::FeatureCloud src = global::computeFeatures(source, classes, config, Eigen::Vector3f::Zero());
+  global::FeatureCloud src = global::computeFeatures(source, classes, config, Eigen::Vector3f::Zero());
   r.source_points = src.cloud.size();
   r.source_features = src.feature_point.size();
   r.timings.prepare_ms = msSince(t0);
@@ -239,11 +302,12 @@ GlobalRegistrationResult registerPrepared(const LabeledCloud& source, const Glob
                     describeCounts("too few features", std::min(r.source_features, tgt.features.feature_point.size()),
                                    config.min_features));
   t0 = Clock::now();
+  thinSourceFeatures(src, classes, config);
   const std::vector<global::Match> matches = matchDescriptors(src, tgt, classes, config);
   r.correspondences = matches.size();
   r.timings.match_ms = msSince(t0);
   t0 = Clock::now();
-  constexpr std::size_t kKeep = 8;
+  constexpr std::size_t kKeep = 32;
   std::vector<global::Hypothesis> hypotheses =
       global::ransacHypotheses(src.cloud.points, tgt.features.cloud.points, matches, config, kKeep);
   if (config.use_classes) {
@@ -259,6 +323,7 @@ GlobalRegistrationResult registerPrepared(const LabeledCloud& source, const Glob
   const std::vector<Candidate> candidates = refineCandidates(hypotheses, src, tgt, classes, config);
   r.timings.refine_ms = msSince(t0);
   r = decide(std::move(r), candidates, config);
+  polish(r, source, tgt, classes, config);
   r.inliers = agreeingMatches(r.transform, src, tgt.features, matches, config.inlier_distance);
   r.timings.total_ms = msSince(start);
   return r;

@@ -33,9 +33,12 @@ struct GlobalRegistrationConfig {
   double normal_radius = 1.0;     ///< m, neighbourhood of the normals
   int normal_neighbors = 20;      ///< k of the normals (>= 3)
   double feature_radius = 2.5;    ///< m, FPFH neighbourhood (≈ 5 voxels)
-  int max_feature_neighbors = 64; ///< neighbours per FPFH histogram (nearest first)
+  int max_feature_neighbors = 40; ///< neighbours per FPFH histogram (nearest first)
   double max_range = 0.0;         ///< m from the cloud's origin; farther points ignored (0 = all)
   // --- correspondences ---
+  /// Match at most this many source descriptors (an even stride; labelled points always): a
+  /// dense scan has far more than RANSAC needs. 0 = all.
+  std::size_t max_source_features = 3000;
   bool mutual_filter = true;  ///< keep only mutual nearest neighbours (if at least min_correspondences)
   std::size_t min_correspondences = 10;
   // --- estimator ---
@@ -45,7 +48,12 @@ struct GlobalRegistrationConfig {
   std::uint64_t seed = 1;             ///< RANSAC seed (the result does not depend on threads)
   // --- property-aware variant ---
   bool use_classes = true;          ///< labelled points match their own class; constellations
-  double class_score_weight = 2.0;  ///< a labelled source point on its own class scores 1 + this
+  /// Score = (1 − share)·overlap + share·(labelled source points landing on their own class /
+  /// labelled source points), when the source has >= min_labelled_points labelled points. The
+  /// labels weigh as a whole, not per point: a few property points must be able to break a
+  /// symmetry that thousands of geometric points cannot (a corridor, a rectangular room).
+  double label_score_share = 0.3;
+  std::size_t min_labelled_points = 3;
   double landmark_cluster_distance = 1.0;  ///< m, same-class points closer are one landmark
   std::size_t landmark_min_points = 3;     ///< (downsampled) points for a landmark
   // --- verification ---
@@ -55,8 +63,14 @@ struct GlobalRegistrationConfig {
   double ambiguity_ratio = 0.9;    ///< second distinct hypothesis >= this × best → ambiguous
   double distinct_translation = 1.0;  ///< m, hypotheses farther apart are distinct …
   double distinct_rotation_deg = 10.0;  ///< … or rotated more than this (degrees)
-  int candidates_refined = 3;      ///< distinct hypotheses refined by ICP (>= 1)
+  /// Refuse a winner whose refinement ICP finds directions the geometry does not constrain
+  /// (RegistrationResult::degenerate_directions: a bare plane, a featureless corridor).
+  bool reject_degenerate = true;
+  int candidates_refined = 2;      ///< distinct hypotheses refined by ICP (>= 1; 2 = best + its rival)
   RegistrationConfig refinement = defaultRefinement();  ///< property ICP of the candidates
+  /// The winner is polished by the same ICP on clouds downsampled to this (m; finer than
+  /// voxel_size: at 0.5 m a sparse scan has shallow local minima a few degrees wide). 0 = off.
+  double final_voxel_size = 0.25;
   int threads = 0;  ///< 0 = TBB's default (or the surrounding tbb::global_control)
 
   static RegistrationConfig defaultRefinement();
@@ -81,6 +95,7 @@ enum class GlobalStatus {
   NoConsensus,            ///< no hypothesis passed the checks
   PoorOverlap,            ///< the best refined hypothesis overlaps less than min_overlap
   Ambiguous,              ///< two distinct hypotheses of similar score
+  Degenerate,             ///< the refinement leaves directions unconstrained (reject_degenerate)
 };
 const char* toString(GlobalStatus status);
 
@@ -97,7 +112,7 @@ struct GlobalRegistrationResult {
   GlobalStatus status = GlobalStatus::NoConsensus;
   std::string reason;  ///< for people; empty on success
   Eigen::Isometry3d transform = Eigen::Isometry3d::Identity();  ///< target ← source (best, refined)
-  double score = 0.0;              ///< best hypothesis: weighted overlap share (labelled on class count more)
+  double score = 0.0;              ///< best hypothesis (see label_score_share; = overlap when plain)
   double second_best_score = 0.0;  ///< best distinct competitor (0 = none)
   bool ambiguous = false;
   double overlap = 0.0;            ///< share of source points with a target point within inlier_distance
@@ -105,6 +120,7 @@ struct GlobalRegistrationResult {
   std::size_t correspondences = 0;
   std::size_t source_points = 0;   ///< after downsampling
   std::size_t source_features = 0;
+  double label_agreement = 0.0;    ///< share of labelled source points on their class (property-aware)
   std::size_t constellation_hypotheses = 0;  ///< hypotheses from landmark constellations
   bool from_constellation = false;  ///< the winning hypothesis came from landmarks, not FPFH
   RegistrationResult refinement;    ///< the property ICP that refined the winner
