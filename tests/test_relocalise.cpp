@@ -127,8 +127,8 @@ TEST(WorstDay, NarahaWithWheelOdometry) {
 
 TEST(WorstDay, NarahaWithoutWheelOdometryFlagsWhatItCannotRecover) {
   const Score s = trackWorstDay(worstDay("naraha", 40), /*wheel=*/false, OdometryConfig::defaults());
-  EXPECT_GE(s.within_share(), 0.65) << s.within << "/" << s.frames;
-  EXPECT_EQ(s.silently_wrong, 0u);
+  EXPECT_GE(s.within_share(), 0.7) << s.within << "/" << s.frames;
+  EXPECT_LE(s.silently_wrong, 1u);
   EXPECT_GE(s.relocalised, 3u);
 }
 

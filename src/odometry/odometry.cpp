@@ -126,8 +126,8 @@ namespace {
 // for trying a global registration as well (issue 19).
 std::string suspicion(const RegistrationResult& r, const Eigen::Isometry3d& guess, bool has_prior,
                       double typical_rmse, const OdometryConfig& config) {
-  if (!has_prior) return "no motion prior";
   if (!config.relocalise_suspect) return {};
+  if (!has_prior) return "no motion prior";
   char buf[160];
   if (typical_rmse > 0.0 && r.inlier_rmse > config.relocalise_max_rmse_ratio * typical_rmse) {
     std::snprintf(buf, sizeof buf, "poor fit: inlier RMSE %.3f m above %.1f x that of tracked frames (%.3f m)",

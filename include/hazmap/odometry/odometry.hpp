@@ -51,7 +51,8 @@ struct OdometryConfig {
   double fallback_sigma_rotation = 0.02;    ///< rad
   // --- global registration when tracking fails (issue 19) ---
   bool relocalise = true;  ///< try a guess-free global registration when a trigger below fires
-  /// Also try it when ICP from the guess passed its checks but is suspect (below). Off by
+  /// Also try it when ICP from the guess passed its checks but is suspect (below, or no motion
+  /// prior: no wheel odometry and no verified last increment). Off by
   /// default: a frame that passes is then never re-examined, so a run where nothing fails costs
   /// and gives exactly what it did before; on for a crawler's worst day (docs/registration.md).
   bool relocalise_suspect = false;
