@@ -267,7 +267,7 @@ void Odometry::track(OdometryFrame& f, const LabeledCloud& source, std::optional
   const std::string trigger = !failure.empty() ? "ICP from the guess failed: " + failure
                                                : suspicion(r, reg_guess, has_prior, impl_->typical_rmse, config_);
   bool relocalised = false;
-  if (config_.relocalise && !trigger.empty() && target) {
+  if (config_.relocalise && !trigger.empty() && target && !source.empty()) {
     f.global.trigger = trigger;
     std::optional<Recovery> recovered = recover(f, source, *target, W, r, failure.empty());
     if (!recovered && failure.empty()) failure = f.global.outcome;  // ambiguous: flagged
