@@ -39,11 +39,13 @@ void appendFrameRows(std::size_t i, const OdometryFrame& f, std::ostringstream& 
   std::string reason = f.reason;
   for (char& c : reason)
     if (c == ',' || c == '\n') c = ';';
-  char line[512];
-  std::snprintf(line, sizeof line, "%zu,%.6f,%s,%d,%.4f,%.4f,%zu,%zu,%zu,%.3f,%.3f,%.3f,%d,%.3f,%d,%s\n", i, f.stamp,
-                toString(f.status), f.registration.iterations, f.registration.fitness, f.registration.inlier_rmse,
-                f.scan_points, f.source_points, f.map_points, f.preprocess_ms, f.registration_ms, f.total_ms,
-                int(f.wheel_guess), f.registration.label_agreement, int(f.registration.labels_used), reason.c_str());
+  char line[768];
+  std::snprintf(line, sizeof line, "%zu,%.6f,%s,%d,%.4f,%.4f,%zu,%zu,%zu,%.3f,%.3f,%.3f,%d,%.3f,%d,%d,%s,%.3f,%.3f,%.3f,%s\n",
+                i, f.stamp, toString(f.status), f.registration.iterations, f.registration.fitness,
+                f.registration.inlier_rmse, f.scan_points, f.source_points, f.map_points, f.preprocess_ms,
+                f.registration_ms, f.total_ms, int(f.wheel_guess), f.registration.label_agreement,
+                int(f.registration.labels_used), int(f.global.tried), f.global.tried ? toString(f.global.status) : "",
+                f.global.score, f.global.second_best_score, f.global.milliseconds, reason.c_str());
   csv << line;
   cov << i;
   for (int r = 0; r < 6; ++r)
@@ -83,10 +85,11 @@ void run(const OdometryOptions& o, const ParameterOptions& params) {
   Odometry odo(params.propertyIcp().applyTo(scans->classTable()), cfg);
   std::ostringstream csv, cov;
   csv << "frame,stamp,status,iterations,fitness,rmse,scan_points,source_points,map_points,"
-         "preprocess_ms,registration_ms,total_ms,wheel_guess,label_agreement,labels_used,reason\n";
+         "preprocess_ms,registration_ms,total_ms,wheel_guess,label_agreement,labels_used,global_tried,global_status,"
+         "global_score,global_second_best,global_ms,reason\n";
   cov << "# frame, then the 36 entries (row-major) of the increment covariance (previous <- current),"
          " translation first [x y z rx ry rz]\n";
-  std::size_t fallbacks = 0, degenerate = 0;
+  std::size_t fallbacks = 0, degenerate = 0, relocalised = 0, global_tried = 0;
   double total_ms = 0.0;
   std::size_t n = 0;
   bool use_wheel = false;
@@ -104,11 +107,15 @@ void run(const OdometryOptions& o, const ParameterOptions& params) {
     deskewer.tracked(f.increment);
     fallbacks += f.status == FrameStatus::Fallback;
     degenerate += f.status == FrameStatus::Degenerate;
+    relocalised += f.status == FrameStatus::Relocalised;
+    global_tried += f.global.tried;
     total_ms += f.total_ms;
     appendFrameRows(i, f, csv, cov);
     if (!o.quiet && f.status == FrameStatus::Fallback)
-      std::fprintf(stderr, "frame %zu: fell back to the %s guess: %s\n", i,
+      std::fprintf(stderr, "frame %zu: fell back to the %s guess (flagged): %s\n", i,
                    f.wheel_guess ? "wheel-odometry" : "constant-velocity", f.reason.c_str());
+    if (!o.quiet && f.status == FrameStatus::Relocalised)
+      std::fprintf(stderr, "frame %zu: relocalised by global registration (%s)\n", i, f.reason.c_str());
   }
   if (n == 0) fail(o.sequence, "has no scans");
   const Trajectory traj = odo.trajectory();
@@ -125,10 +132,15 @@ void run(const OdometryOptions& o, const ParameterOptions& params) {
   s["wheel_odometry"] = use_wheel;
   s["fallbacks"] = fallbacks;
   s["degenerate_frames"] = degenerate;
+  s["relocalised_frames"] = relocalised;
+  s["tracked_frames"] = n - fallbacks - relocalised;
+  s["global_registrations_tried"] = global_tried;
   s["mean_ms_per_frame"] = n ? total_ms / n : 0.0;
   writeTextAtomically(out / "summary.json", s.dump(2) + "\n");
   if (!o.quiet)
-    std::printf("%zu frames, %zu fallbacks, %zu degenerate, %.2f ms/frame -> %s\n", n, fallbacks, degenerate,
+    std::printf("%zu frames: %zu tracked (%zu degenerate), %zu relocalised, %zu fallback (flagged); %zu global "
+                "registrations tried; %.2f ms/frame -> %s\n",
+                n, n - fallbacks - relocalised, degenerate, relocalised, fallbacks, global_tried,
                 n ? total_ms / n : 0.0, o.out.c_str());
 }
 

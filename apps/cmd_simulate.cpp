@@ -27,6 +27,7 @@ namespace {
 /// left out so the corridor's ceiling does not hide its floor.
 void renderPngs(const std::filesystem::path& dir, double voxel, double clip) {
   const Sequence seq = Sequence::open(dir);
+  if (!seq.odometry()) fail(dir.string(), "--png needs the sequence's odometry.txt (not written with wheel_odometry: false)");
   const ClassTable& table = seq.classTable();
   const LabeledCloud reference = readPly(dir / "reference_map.ply", table);
   LabeledCloud odometry_points;
@@ -72,6 +73,8 @@ struct SimulateOptions {
   double time_offset = 0.0;
   bool camera_blur = false;
   std::string camera_size;
+  bool worst_day = false;
+  bool no_odometry = false;
 };
 
 /// --format mcap: the sequence is simulated into a temporary folder next to the bag, then written
@@ -199,9 +202,15 @@ void setupSimulate(CLI::App& app) {
   app.add_option("--time-offset", opt->time_offset, "Error (s) of the time_offset written to camera.yaml");
   app.add_flag("--camera-blur", opt->camera_blur, "Blur camera images by about one pixel");
   app.add_option("--camera-size", opt->camera_size, "Camera resolution WIDTHxHEIGHT (default 640x512, 50 deg HFOV)");
+  app.add_flag("--worst-day", opt->worst_day,
+               "The crawler's worst day (preset worst-day): track slips up to 2 m, yaw kicks up to 45 deg, "
+               "lost scans; --config keys override it");
+  app.add_flag("--no-odometry", opt->no_odometry, "Write no odometry.txt (a run without wheel odometry)");
   app.callback([opt, scenario, seed, frames, scene, regions, temperature]() {
     sim::SimulatorConfig config;
-    if (!opt->config.empty()) config = sim::SimulatorConfig::fromYamlFile(opt->config);
+    if (opt->worst_day) config = sim::SimulatorConfig::withPreset("worst-day", config, "--worst-day");
+    if (!opt->config.empty()) config = sim::SimulatorConfig::fromYamlFile(opt->config, config);
+    if (opt->no_odometry) config.wheel_odometry = false;
     if (scenario->count() || opt->config.empty()) config.scenario = opt->scenario;
     if (seed->count()) config.seed = opt->seed;
     if (frames->count()) config.max_frames = opt->frames;

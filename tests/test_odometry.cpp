@@ -181,7 +181,7 @@ TEST(Odometry, FailuresFallBackWithAReason) {
     again.addFrame(run.scans[0]);
     again.addFrame(LabeledCloud{}, inc);
     const auto& f = again.addFrame(run.scans[2], run.wheel[1].inverse() * run.wheel[2]);
-    EXPECT_EQ(f.status, FrameStatus::Registered) << f.reason;
+    EXPECT_EQ(f.status, FrameStatus::Tracked) << f.reason;
     EXPECT_LT(transErr(f.pose, run.truth[2]), 0.03);
   }
   // a scan of a completely different place: low fitness or divergence
@@ -237,7 +237,7 @@ TEST(Odometry, DenseLidarPresetOnTheKittiSample) {
     const OdometryFrame& f = fast.addFrame(scan);
     const OdometryFrame& r = reference.addFrame(scan);
     if (i > 0) {
-      EXPECT_EQ(f.status, FrameStatus::Registered) << "frame " << i << ": " << f.reason;
+      EXPECT_EQ(f.status, FrameStatus::Tracked) << "frame " << i << ": " << f.reason;
       EXPECT_LT(f.source_points, r.source_points / 2) << "frame " << i;
     }
     EXPECT_LT(transErr(f.pose, r.pose), 0.03) << "frame " << i;

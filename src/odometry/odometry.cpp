@@ -13,6 +13,7 @@
 #include "hazmap/preprocess/crop.hpp"
 #include "hazmap/preprocess/voxel_downsample.hpp"
 #include "hazmap/registration/registration_target.hpp"
+#include "odometry/odometry_checks.hpp"
 
 namespace hazmap {
 
@@ -21,19 +22,25 @@ const char* toString(OdometryMode mode) { return mode == OdometryMode::FrameToFr
 const char* toString(FrameStatus status) {
   switch (status) {
     case FrameStatus::First: return "first";
-    case FrameStatus::Registered: return "registered";
+    case FrameStatus::Tracked: return "tracked";
     case FrameStatus::Degenerate: return "degenerate";
+    case FrameStatus::Relocalised: return "relocalised";
     case FrameStatus::Fallback: return "fallback";
   }
   return "unknown";
 }
 
-struct Odometry::Impl {
-  std::unique_ptr<RegistrationTarget> previous;  ///< FrameToFrame: the last non-empty scan
-  Eigen::Isometry3d previous_pose = Eigen::Isometry3d::Identity();  ///< its pose (world ← scan)
-  Eigen::Isometry3d velocity = Eigen::Isometry3d::Identity();  ///< last increment
-  bool has_velocity = false;
-};
+const char* describe(FrameStatus status) {
+  switch (status) {
+    case FrameStatus::First: return "first: the initial pose";
+    case FrameStatus::Tracked: return "tracked: ICP from the guess";
+    case FrameStatus::Degenerate: return "tracked: ICP from the guess, the guess kept along degenerate directions";
+    case FrameStatus::Relocalised: return "relocalised: global registration (no guess) verified by ICP";
+    case FrameStatus::Fallback: return "fallback: nothing verified, the guessed increment used (flagged)";
+  }
+  return "unknown";
+}
+
 
 Odometry::Odometry(const ClassTable& classes, const OdometryConfig& config,
                    const Eigen::Isometry3d& initial_pose)
@@ -51,6 +58,8 @@ using Clock = std::chrono::steady_clock;
 double msSince(Clock::time_point t) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t).count();
 }
+
+
 
 Matrix6d fallbackCovariance(const OdometryConfig& c) {
   Vector6d d;
@@ -90,8 +99,10 @@ PreparedScan prepareScan(const LabeledCloud& scan, const OdometryConfig& config,
   return out;
 }
 
-// Failure detection: why ICP's answer cannot be used (empty when it can). Stopping at the
-// iteration limit is not a failure: the pose is usually close, and the other checks still apply.
+}  // namespace
+
+// Stopping at the iteration limit is not a failure: the pose is usually close, and the other
+// checks still apply.
 std::string registrationFailure(const RegistrationResult& r, const Eigen::Isometry3d& guess,
                                 const OdometryConfig& config) {
   const bool hit_limit = !r.converged && r.termination == Termination::MaxIterations;
@@ -106,6 +117,32 @@ std::string registrationFailure(const RegistrationResult& r, const Eigen::Isomet
   if (!(dt > config.max_correction_translation || dr > config.max_correction_rotation)) return {};
   std::snprintf(buf, sizeof buf, "diverged: %.3f m / %.2f deg from the guess (limits %.3f m / %.2f deg)", dt,
                 dr * 180.0 / M_PI, config.max_correction_translation, config.max_correction_rotation * 180.0 / M_PI);
+  return buf;
+}
+
+namespace {
+
+// Why a registration that passed its checks is still suspect (empty when it is not): the triggers
+// for trying a global registration as well (issue 19).
+std::string suspicion(const RegistrationResult& r, const Eigen::Isometry3d& guess, bool has_prior,
+                      double typical_rmse, const OdometryConfig& config) {
+  if (!config.relocalise_suspect) return {};
+  if (!has_prior) return "no motion prior";
+  char buf[160];
+  if (typical_rmse > 0.0 && r.inlier_rmse > config.relocalise_max_rmse_ratio * typical_rmse) {
+    std::snprintf(buf, sizeof buf, "poor fit: inlier RMSE %.3f m above %.1f x that of tracked frames (%.3f m)",
+                  r.inlier_rmse, config.relocalise_max_rmse_ratio, typical_rmse);
+    return buf;
+  }
+  if (r.fitness < config.suspect_fitness) {
+    std::snprintf(buf, sizeof buf, "poor fit: fitness %.3f below suspect_fitness %.3f", r.fitness,
+                  config.suspect_fitness);
+    return buf;
+  }
+  const Vector6d correction = se3Log(r.transform * guess.inverse());
+  const double dt = correction.head<3>().norm(), dr = correction.tail<3>().norm();
+  if (!(dt > config.suspect_correction_translation || dr > config.suspect_correction_rotation)) return {};
+  std::snprintf(buf, sizeof buf, "far from the guess: %.3f m / %.2f deg", dt, dr * 180.0 / M_PI);
   return buf;
 }
 
@@ -192,6 +229,7 @@ const OdometryFrame& Odometry::addFrame(const LabeledCloud& scan,
   if (frames_.empty()) {
     f.pose = initial_pose_;
     f.status = FrameStatus::First;
+    impl_->velocity_verified = false;
   } else {
     track(f, prepared.source(), map_target, wheel_increment);
   }
@@ -214,31 +252,48 @@ void Odometry::track(OdometryFrame& f, const LabeledCloud& source, std::optional
   const bool to_map = config_.mode == OdometryMode::FrameToMap;
   const Eigen::Isometry3d W = to_map ? Eigen::Isometry3d::Identity() : impl_->previous_pose;
   const Eigen::Isometry3d reg_guess = W.inverse() * prev_pose * f.guess;
+  const RegistrationTarget* target = to_map ? &*map_target : impl_->previous.get();
   RegistrationResult r;
-  if (to_map) {
-    f.map_points = map_target->size();
-    r = registerClouds(source, *map_target, reg_guess, classes_, config_.registration);
-    map_target.reset();  // its lazy normals read the map, which changes below
-  } else if (impl_->previous) {
-    f.map_points = impl_->previous->size();
-    r = registerClouds(source, *impl_->previous, reg_guess, classes_, config_.registration);
+  if (target) {
+    f.map_points = target->size();
+    r = registerClouds(source, *target, reg_guess, classes_, config_.registration);
   } else {
     r.reason = "no previous scan to register against";
   }
 
+  // A guess-free global registration when ICP from the guess failed or is suspect (issue 19).
+  std::string failure = registrationFailure(r, reg_guess, config_);
+  const bool has_prior = wheel_increment.has_value() || impl_->velocity_verified;
+  const std::string trigger = !failure.empty() ? "ICP from the guess failed: " + failure
+                                               : suspicion(r, reg_guess, has_prior, impl_->typical_rmse, config_);
+  bool relocalised = false;
+  if (config_.relocalise && !trigger.empty() && target && !source.empty()) {
+    f.global.trigger = trigger;
+    std::optional<Recovery> recovered = recover(f, source, *target, W, r, failure.empty());
+    if (!recovered && failure.empty()) failure = f.global.outcome;  // ambiguous: flagged
+    if (recovered && !recovered->from_guess) {
+      r = std::move(recovered->registration);
+      failure.clear();
+      relocalised = true;
+    }
+  }
+  if (to_map) map_target.reset();  // its lazy normals read the map, which changes below
+
   Estimate estimate{r.transform, r.covariance};
-  const std::string failure = registrationFailure(r, reg_guess, config_);
   if (!failure.empty()) {
     f.status = FrameStatus::Fallback;
-    f.reason = failure;
+    f.reason = f.global.trigger.empty() || failure == f.global.outcome ? failure : failure + "; " + f.global.outcome;
     estimate.pose = reg_guess;
+  } else if (relocalised) {
+    f.status = FrameStatus::Relocalised;
+    f.reason = f.global.trigger + "; " + f.global.outcome;
   } else if (!r.degenerate_directions.empty() && config_.keep_guess_along_degenerate) {
     const std::vector<Vector6d> basis = orthonormalBasis(r.degenerate_directions);
     estimate = keepGuessAlong(basis, r, reg_guess, config_);
     f.status = FrameStatus::Degenerate;
     f.reason = describeDegenerate(basis);
   } else {
-    f.status = FrameStatus::Registered;
+    f.status = FrameStatus::Tracked;
   }
   f.increment = normalized(prev_pose.inverse() * W * estimate.pose);
   // W-frame perturbation → previous-frame perturbation of the increment
@@ -249,6 +304,10 @@ void Odometry::track(OdometryFrame& f, const LabeledCloud& source, std::optional
   f.registration = std::move(r);
   impl_->velocity = f.increment;
   impl_->has_velocity = true;
+  impl_->velocity_verified = f.status != FrameStatus::Fallback;
+  if (f.status == FrameStatus::Tracked || f.status == FrameStatus::Degenerate)
+    impl_->typical_rmse = impl_->typical_rmse > 0.0 ? 0.9 * impl_->typical_rmse + 0.1 * f.registration.inlier_rmse
+                                                    : f.registration.inlier_rmse;
 }
 
 void Odometry::remember(OdometryFrame& f, const LabeledCloud& frame) {

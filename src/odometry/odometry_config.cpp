@@ -47,6 +47,36 @@ const ConfigFields<OdometryConfig>& configFields(ConfigTag<OdometryConfig>) {
           .number("fallback_sigma_translation", &C::fallback_sigma_translation, positive(),
                   "m; covariance of a fallback increment (and along degenerate directions)")
           .number("fallback_sigma_rotation", &C::fallback_sigma_rotation, positive(), "rad")
+          .flag("relocalise", &C::relocalise,
+                "Try a guess-free global registration when ICP from the guess fails or is suspect "
+                "(status relocalised when verified)")
+          .flag("relocalise_suspect", &C::relocalise_suspect,
+                "Also when ICP from the guess passed but is suspect (poor fit, far from the guess): slower, "
+                "catches wrong-but-passing frames (a crawler's worst day)")
+          .number("suspect_fitness", &C::suspect_fitness, closed(0, 1),
+                  "ICP from the guess passed but fits worse than this: try global registration too")
+          .number("suspect_correction_translation", &C::suspect_correction_translation, positive(),
+                  "m; ICP corrected the guess by more: try global registration too")
+          .number("suspect_correction_rotation", &C::suspect_correction_rotation, positive(), "rad")
+          .number("relocalise_min_gain", &C::relocalise_min_gain, closed(0, 1),
+                  "A passing but suspect ICP is replaced by the verified global answer only when that fits "
+                  "better by this much (fitness)")
+          .number("relocalise_max_translation", &C::relocalise_max_translation, positive(),
+                  "m; a recovered increment moving farther is implausible (rejected)")
+          .number("relocalise_max_rotation", &C::relocalise_max_rotation, positive(),
+                  "rad; a recovered increment turning more is implausible (rejected)")
+          .number("relocalise_distinct_translation", &C::relocalise_distinct_translation, positive(),
+                  "m; verified answers farther apart are distinct…")
+          .number("relocalise_distinct_rotation", &C::relocalise_distinct_rotation, positive(),
+                  "rad; …or turned more than this")
+          .number("relocalise_ambiguity", &C::relocalise_ambiguity, closed(0, 1),
+                  "A distinct verified answer within this fitness of the best: ambiguous, the frame is flagged")
+          .number("relocalise_max_rmse_ratio", &C::relocalise_max_rmse_ratio, atLeast(1),
+                  "A recovered answer fitting with an inlier RMSE above this × that of tracked frames is rejected")
+          .number("relocalise_map_radius", &C::relocalise_map_radius, positive(),
+                  "m; the global registration's target is the local map within this radius of the previous pose")
+          .section("global_registration", &C::global,
+                   "Used when relocalise triggers; use_classes applies only when registration.use_classes does")
           .rule("max_range", [](const C& c) { return c.max_range > c.min_range; }, "must be > min_range");
   return fields;
 }

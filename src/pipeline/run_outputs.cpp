@@ -33,16 +33,25 @@ nlohmann::json runJson(const SlamResult& r, const SlamConfig& config, const RunS
                     {"outputs", summary.output_seconds}};
   std::size_t fallbacks = 0;
   nlohmann::json fallback_frames = nlohmann::json::array();
+  nlohmann::json relocalised_frames = nlohmann::json::array();
+  nlohmann::json status = nlohmann::json::array();  // per frame: tracked / relocalised / fallback …
   double ms_sum = 0;
   for (const auto& f : r.frames) {
     ms_sum += f.milliseconds;
+    status.push_back(toString(f.status));
+    if (f.status == FrameStatus::Relocalised)
+      relocalised_frames.push_back({{"frame", f.index}, {"reason", f.fallback_reason}});
     if (usesIcp(r.method) && f.index > 0 && !f.icp_used) {
       ++fallbacks;
       fallback_frames.push_back({{"frame", f.index}, {"reason", f.fallback_reason}});
     }
   }
+  const TrackingCounts counts = countTracking(r.frames);
   j["tracking"] = {{"mean_ms_per_frame", r.frames.empty() ? 0.0 : ms_sum / r.frames.size()},
-                   {"odometry_fallbacks", fallbacks}, {"fallback_frames", fallback_frames}};
+                   {"odometry_fallbacks", fallbacks}, {"fallback_frames", fallback_frames},
+                   {"tracked", counts.tracked}, {"relocalised", counts.relocalised},
+                   {"flagged", counts.fallback}, {"relocalised_frames", relocalised_frames},
+                   {"frame_status", status}};
   nlohmann::json loops = nlohmann::json::array();
   for (const auto& l : r.loops)
     loops.push_back({{"from", l.from_frame}, {"to", l.to_frame}, {"source", l.source},
@@ -122,6 +131,11 @@ std::string formatRunSummary(const SlamResult& result, const RunSummary& summary
                               toString(result.method), result.frames.size(), result.framesPerSecond(),
                               result.loops.size(), result.loops.size() == 1 ? "" : "s", summary.hazards,
                               summary.hazards == 1 ? "" : "s", summary.map_cells);
+  if (usesIcp(result.method)) {
+    const TrackingCounts c = countTracking(result.frames);
+    s += fmt::format("Tracking: {} frames tracked, {} relocalised by global registration, {} flagged (fallback to "
+                     "the guess; see run.json).\n", c.tracked, c.relocalised, c.fallback);
+  }
   if (summary.map_error)
     s += fmt::format("Map error against the map from the true poses: mean {:.3f} m, median {:.3f} m, p95 {:.3f} m.\n",
                      summary.map_error->point.mean, summary.map_error->point.median, summary.map_error->point.p95);

@@ -58,6 +58,16 @@ SlamConfig SlamConfig::forMethod(SlamMethod method) {
   return c;
 }
 
+TrackingCounts countTracking(const std::vector<FrameRecord>& frames) {
+  TrackingCounts c;
+  for (const auto& f : frames) {
+    c.relocalised += f.status == FrameStatus::Relocalised;
+    c.fallback += f.status == FrameStatus::Fallback;
+  }
+  c.tracked = frames.size() - c.relocalised - c.fallback;
+  return c;
+}
+
 double SlamResult::framesPerSecond() const {
   return timings.total_s > 0 ? static_cast<double>(frames.size()) / timings.total_s : 0.0;
 }
@@ -181,8 +191,8 @@ class SlamRun {
     deskewer_.tracked(f.increment);
     rec.T_prev_curr = f.increment;
     rec.covariance = f.covariance;
-    rec.icp_used = f.status == FrameStatus::Registered || f.status == FrameStatus::Degenerate ||
-                   f.status == FrameStatus::First;
+    rec.icp_used = f.status != FrameStatus::Fallback;
+    rec.status = f.status;
     rec.fallback_reason = f.reason;
     rec.fitness = f.registration.fitness;
     rec.rmse = f.registration.inlier_rmse;

@@ -121,7 +121,7 @@ LabeledCloud writeScans(const Simulator& sim, SequenceWriter& writer, const fs::
 
 void writeTrajectories(const Simulator& sim, SequenceWriter& writer, const fs::path& dir) {
   writer.writeGroundTruth(toTrajectory(sim.groundTruth(), sim.samples()));
-  writer.writeOdometry(toTrajectory(sim.odometry(), sim.samples()));
+  if (sim.config().wheel_odometry) writer.writeOdometry(toTrajectory(sim.odometry(), sim.samples()));
   std::ostringstream times;
   times.precision(9);
   for (std::size_t i = 0; i < sim.frames(); ++i) times << sim.samples()[i].time << "\n";

@@ -18,7 +18,11 @@ Simulator::Simulator(const SimulatorConfig& config, Scene scene, ClassTable tabl
 
 void Simulator::init() {
   samples_ = sampleRoute(scene_.route, config_.robot);
+  const CrawlerUpsetConfig& u = config_.upsets;
+  if (u.drop_probability > 0.0 || u.yaw_kick_probability > 0.0)
+    kicks_ = applyCrawlerUpsets(samples_, u, config_.seed);
   if (config_.max_frames > 0 && samples_.size() > config_.max_frames) samples_.resize(config_.max_frames);
+  if (!kicks_.empty()) kicks_.resize(samples_.size());
   world_.clear();
   truth_.clear();
   for (const auto& s : samples_)
@@ -26,7 +30,7 @@ void Simulator::init() {
   // KITTI convention: poses relative to the first scan (what an odometry / SLAM run produces).
   const Eigen::Isometry3d first_inv = world_.front().inverse();
   for (const auto& T : world_) truth_.push_back(normalized(first_inv * T));
-  odometry_ = accumulateOdometry(truth_, config_.odometry, config_.seed, &slips_);
+  odometry_ = accumulateOdometry(truth_, config_.odometry, config_.seed, &slips_, kicks_.empty() ? nullptr : &kicks_);
 
   caster_ = std::make_unique<RayCaster>(scene_.mesh);
   directions_ = config_.sensor.rayDirections();

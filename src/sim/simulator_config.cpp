@@ -151,11 +151,42 @@ const ConfigFields<CameraSimConfig>& configFields(ConfigTag<CameraSimConfig>) {
           .number("time_offset", &C::time_offset, anyNumber(), "s, error of the written time_offset");
   return fields;
 }
+const ConfigFields<CrawlerUpsetConfig>& configFields(ConfigTag<CrawlerUpsetConfig>) {
+  using C = CrawlerUpsetConfig;
+  static const ConfigFields<C> fields =
+      ConfigFields<C>("The crawler's bad days: true motion the route did not plan and the encoders did not see "
+                      "(off by default; preset worst-day).")
+          .number("yaw_kick_probability", &C::yaw_kick_probability, closed(0, 1),
+                  "Per frame: the crawler spins on debris, unseen by the encoders")
+          .number("yaw_kick_min_deg", &C::yaw_kick_min_deg, closed(0, 180), "°, smallest kick (either way)")
+          .number("yaw_kick_max_deg", &C::yaw_kick_max_deg, closed(0, 180), "°, largest kick")
+          .number("drop_probability", &C::drop_probability, closedOpen(0, 1),
+                  "Per frame: the scan is lost (never two in a row), so the next increment spans two triggers")
+          .rule("yaw_kick_min_deg", [](const C& c) { return c.yaw_kick_min_deg <= c.yaw_kick_max_deg; },
+                "must be <= upsets.yaw_kick_max_deg");
+  return fields;
+}
+
+namespace {
+// The crawler's worst day (issue 19): the paper's slips made large, spins on debris, lost scans.
+void applyWorstDay(SimulatorConfig& c) {
+  c.odometry.slip_probability = 0.1;
+  c.odometry.slip_min = 0.5;
+  c.odometry.slip_max = 2.0;
+  c.upsets.yaw_kick_probability = 0.1;
+  c.upsets.yaw_kick_min_deg = 10.0;
+  c.upsets.yaw_kick_max_deg = 45.0;
+  c.upsets.drop_probability = 0.1;
+}
+}  // namespace
 
 const ConfigFields<SimulatorConfig>& configFields(ConfigTag<SimulatorConfig>) {
   using C = SimulatorConfig;
   static const ConfigFields<C> fields =
       ConfigFields<C>("hazmap simulate: the paper's experiment (scene, sensor, robot, noise).")
+          .preset("preset", &C::preset, {{"none", nullptr}, {"worst-day", applyWorstDay}},
+                  "Applied first, other keys override it. worst-day: track slips of 0.5–2 m and yaw kicks of "
+                  "10–45° on 10 % of frames each, 10 % of scans lost")
           .text("scenario", &C::scenario, "Built-in scene: naraha, corridor or tanks (unless scene is set)")
           .writeIf([](const C& c) { return c.scene_file.empty(); })
           .text("scene", &C::scene_file, "User scene mesh (.ply); needs regions")
@@ -173,10 +204,19 @@ const ConfigFields<SimulatorConfig>& configFields(ConfigTag<SimulatorConfig>) {
           .section("odometry", &C::odometry, "")
           .section("cameras", &C::cameras, "")
           .writeIf([](const C& c) { return !c.cameras.empty(); })  // simulation.yaml as before without cameras
+          .section("upsets", &C::upsets, "")
+          .flag("wheel_odometry", &C::wheel_odometry, "Write odometry.txt (false: a run without wheel odometry)")
           // Written by `hazmap simulate` into simulation.yaml for information; not settings.
           .ignore("stats")
           .ignore("world_from_first_frame");
   return fields;
+}
+
+SimulatorConfig SimulatorConfig::withPreset(const std::string& name, SimulatorConfig base, const std::string& where) {
+  YAML::Node node(YAML::NodeType::Map);
+  node["preset"] = name;
+  fieldsOf<SimulatorConfig>().read(base, node, ConfigPlace{where, ""});
+  return base;
 }
 
 SimulatorConfig SimulatorConfig::fromYamlFile(const std::filesystem::path& path,

@@ -97,6 +97,7 @@ class ConfigFields {
     std::function<void(const S&, const ConfigPlace&)> check;
     std::function<std::vector<FieldInfo>(const S&)> children;  ///< sections only
     std::function<bool(const S&)> written;                     ///< null = always written
+    bool read_first = false;  ///< presets: read before the mapping's other keys
   };
   struct Rule {
     std::string key;
@@ -172,6 +173,28 @@ class ConfigFields {
                },
                nullptr);
   }
+  /// A named preset stored in `member`: reading it applies the preset's function to the whole
+  /// struct before the mapping's other keys are read (whatever their order), so keys given next
+  /// to it override it.
+  ConfigFields& preset(const char* name, std::string S::*member,
+                       std::vector<std::pair<std::string, std::function<void(S&)>>> presets, const char* doc) {
+    std::string allowed;
+    for (const auto& p : presets) allowed += (allowed.empty() ? "" : " | ") + p.first;
+    add({name, "choice", doc, allowed, {}, {}},
+        [=](S& s, const YAML::Node& n, const ConfigPlace& p) {
+          const std::string t = config_detail::readString(n, p);
+          for (const auto& [k, apply] : presets)
+            if (k == t) {
+              if (apply) apply(s);
+              s.*member = k;
+              return;
+            }
+          p.fail("must be one of " + allowed + ", got '" + t + "'");
+        },
+        [=](const S& s) { return nlohmann::json(s.*member); }, nullptr);
+    fields_.back().read_first = true;
+    return *this;
+  }
   /// A mapping of names to numbers (e.g. class name → search radius).
   ConfigFields& numberMap(const char* name, std::map<std::string, double> S::*member, Range range,
                           const char* doc) {
@@ -244,13 +267,14 @@ class ConfigFields {
   void read(S& s, const YAML::Node& node, const ConfigPlace& place) const {
     if (!node || node.IsNull()) return;
     config_detail::requireMapping(node, place);
-    for (const auto& kv : node) {
-      const std::string key = config_detail::readString(kv.first, place);
-      if (std::find(ignored_.begin(), ignored_.end(), key) != ignored_.end()) continue;
-      const Field* f = find(key);
-      if (!f) config_detail::unknownKey(key, names(), place);
-      f->read(s, kv.second, place.child(key));
-    }
+    for (const bool first_pass : {true, false})
+      for (const auto& kv : node) {
+        const std::string key = config_detail::readString(kv.first, place);
+        if (std::find(ignored_.begin(), ignored_.end(), key) != ignored_.end()) continue;
+        const Field* f = find(key);
+        if (!f) config_detail::unknownKey(key, names(), place);
+        if (f->read_first == first_pass) f->read(s, kv.second, place.child(key));
+      }
   }
   /// Throws hazmap::Error naming the first field out of its range.
   void check(const S& s, const ConfigPlace& place) const {

@@ -3,10 +3,14 @@
 //  - FrameToFrame: the paper's set-up — each scan is registered to the previous one, the initial
 //    guess being the wheel-odometry increment.
 //  - FrameToMap: each scan is registered to a bounded local voxel map that keeps classes.
-// Without wheel odometry the guess is the last estimated increment (constant velocity). A frame
-// whose registration fails (too few correspondences, low fitness, a correction far from the
-// guess) falls back to the guessed increment, recording why; along degenerate directions the
-// guess is kept while the constrained directions come from ICP.
+// Without wheel odometry the guess is the last estimated increment (constant velocity). When ICP
+// from the guess fails its checks (too few correspondences, low fitness, a correction far from
+// the guess), fits poorly, lands suspiciously far from the guess, or there is no motion prior,
+// a guess-free global registration against the same target is tried (issue 19); its answer is
+// verified by the same ICP and checks and used only when it passes and is not ambiguous
+// (status `relocalised`). A frame with no verified answer falls back to the guessed increment
+// (status `fallback`, flagged), recording why; along degenerate directions the guess is kept
+// while the constrained directions come from ICP.
 #include <Eigen/Geometry>
 #include <memory>
 #include <optional>
@@ -18,6 +22,7 @@
 #include "hazmap/core/se3.hpp"
 #include "hazmap/io/trajectory.hpp"
 #include "hazmap/odometry/local_map.hpp"
+#include "hazmap/registration/global_registration.hpp"
 #include "hazmap/registration/registration.hpp"
 
 namespace hazmap {
@@ -44,6 +49,38 @@ struct OdometryConfig {
   /// Covariance given to a fallback increment (and along degenerate directions).
   double fallback_sigma_translation = 0.1;  ///< m
   double fallback_sigma_rotation = 0.02;    ///< rad
+  // --- global registration when tracking fails (issue 19) ---
+  bool relocalise = true;  ///< try a guess-free global registration when a trigger below fires
+  /// Also try it when ICP from the guess passed its checks but is suspect (below, or no motion
+  /// prior: no wheel odometry and no verified last increment). Off by
+  /// default: a frame that passes is then never re-examined, so a run where nothing fails costs
+  /// and gives exactly what it did before; on for a crawler's worst day (docs/registration.md).
+  bool relocalise_suspect = false;
+  /// Suspect: ICP from the guess fits worse than this (fitness), or its inlier RMSE is above
+  /// relocalise_max_rmse_ratio × that of tracked frames…
+  double suspect_fitness = 0.5;
+  /// …or corrected the guess by more than this (m / rad), or there was no motion prior.
+  double suspect_correction_translation = 0.5;
+  double suspect_correction_rotation = 0.1;
+  /// A passing but suspect ICP is replaced by the verified global answer only when that fits
+  /// better by at least this much (fitness).
+  double relocalise_min_gain = 0.05;
+  /// A recovered increment must be plausible for the platform: at most this far (m) and this
+  /// much turned (rad) since the previous frame (a crawler's 2 m slip plus its frame; a car at
+  /// 10 Hz with frames dropped).
+  double relocalise_max_translation = 4.0;
+  double relocalise_max_rotation = 1.6;
+  /// Two verified answers this far apart (m / rad) whose fitness differs by less than
+  /// relocalise_ambiguity make the frame ambiguous: flagged, not relocalised.
+  double relocalise_distinct_translation = 0.3;
+  double relocalise_distinct_rotation = 0.05;
+  double relocalise_ambiguity = 0.03;
+  /// A recovered answer whose inlier RMSE exceeds this × the running RMSE of tracked frames is
+  /// rejected (a wrong pose still finds partners in a dense map; it fits them worse).
+  double relocalise_max_rmse_ratio = 1.5;
+  /// The global registration's target: the local map within this radius (m) of the previous pose.
+  double relocalise_map_radius = 40.0;
+  GlobalRegistrationConfig global;  ///< the global registration (its use_classes follows registration's)
 
   /// The defaults above (max correspondence 1 m, scan voxel 0.5 m, map voxel 1 m), set for the
   /// simulated 10 Hz VLP-16 of the paper's experiment.
@@ -63,12 +100,28 @@ OdometryConfig loadOdometryConfig(const std::string& path,
                                   const OdometryConfig& base = OdometryConfig::defaults());
 
 enum class FrameStatus {
-  First,       ///< the first frame (pose = initial pose)
-  Registered,  ///< ICP result used
-  Degenerate,  ///< ICP used except along degenerate directions (guess kept there)
-  Fallback,    ///< ICP failed; the guessed increment was used
+  First,        ///< the first frame (pose = initial pose)
+  Tracked,      ///< ICP from the guess used
+  Degenerate,   ///< tracked, but the guess kept along ICP's degenerate directions
+  Relocalised,  ///< global registration (no guess), verified by ICP, used
+  Fallback,     ///< nothing verified: the guessed increment was used; the frame is flagged
 };
+/// "first", "tracked", "degenerate", "relocalised", "fallback".
 const char* toString(FrameStatus status);
+/// One line for people, e.g. "relocalised: global registration verified by ICP".
+const char* describe(FrameStatus status);
+/// A frame whose pose no registration vouches for (fallback).
+inline bool isFlagged(FrameStatus status) { return status == FrameStatus::Fallback; }
+
+/// The global registration tried on a frame (issue 19).
+struct GlobalAttempt {
+  bool tried = false;
+  std::string trigger;   ///< why it was tried
+  GlobalStatus status = GlobalStatus::NoConsensus;
+  std::string outcome;   ///< "used", or why not (the global reason or the failed verification)
+  double score = 0.0, second_best_score = 0.0;
+  double milliseconds = 0.0;  ///< target preparation + global registration + verification
+};
 
 struct OdometryFrame {
   std::size_t index = 0;
@@ -81,7 +134,8 @@ struct OdometryFrame {
   FrameStatus status = FrameStatus::First;
   std::string reason;  ///< why the frame fell back / was degenerate
   bool wheel_guess = false;  ///< the guess came from wheel odometry (else constant velocity)
-  RegistrationResult registration;
+  RegistrationResult registration;  ///< the ICP whose answer was used (or the failed one)
+  GlobalAttempt global;
   std::size_t scan_points = 0, source_points = 0, map_points = 0;
   /// Wall times: preprocess = the scan's crop and downsampling (frame to map it runs beside the
   /// local map's target build); registration = the rest of the frame (target, ICP, checks, map
@@ -111,6 +165,21 @@ class Odometry {
   /// Steps 2–4 of a frame after the first: the guess, registration, failure detection, the pose.
   void track(OdometryFrame& f, const LabeledCloud& source, std::optional<RegistrationTarget>& map_target,
              const std::optional<Eigen::Isometry3d>& wheel_increment);
+  /// Recovery of a triggered frame (odometry_recover.cpp): ICP from a global registration's
+  /// answer and from a few other starts around the motion prior, each verified by the tracking
+  /// checks and the plausibility bounds. Returns the best verified answer; `from_guess` (ICP
+  /// from the guess) competes when `guess_passed`. Nothing when no answer is verified or two
+  /// distinct ones fit alike (ambiguous); f.global.outcome says which.
+  struct Recovery {
+    RegistrationResult registration;
+    bool from_guess = false;  ///< ICP from the guess won
+  };
+  std::optional<Recovery> recover(OdometryFrame& f, const LabeledCloud& source,
+                                            const RegistrationTarget& target, const Eigen::Isometry3d& W,
+                                            const RegistrationResult& from_guess, bool guess_passed);
+  /// The global registration's answer (W space), if it has one that is not ambiguous.
+  std::optional<Eigen::Isometry3d> globalStart(OdometryFrame& f, const LabeledCloud& source,
+                                               const RegistrationTarget& target, const Eigen::Isometry3d& W);
   /// Step 5: the scan (`frame`, preprocessed) enters the local map or becomes the next target.
   void remember(OdometryFrame& f, const LabeledCloud& frame);
 

@@ -103,7 +103,10 @@ struct FrameRecord {
   Eigen::Isometry3d T_prev_curr = Eigen::Isometry3d::Identity();  ///< tracked increment
   Matrix6d covariance = Matrix6d::Identity();                     ///< of the increment
   bool icp_used = false;   ///< false: the wheel-odometry increment was used
-  std::string fallback_reason;
+  /// Which path produced the increment (tracked, degenerate, relocalised, fallback); `first` for
+  /// frame 0 and for methods without ICP.
+  FrameStatus status = FrameStatus::First;
+  std::string fallback_reason;  ///< why the frame fell back, was relocalised or degenerate
   double fitness = 0.0, rmse = 0.0;
   int iterations = 0;
   double milliseconds = 0.0;  ///< preprocessing + registration of this frame
@@ -131,6 +134,11 @@ struct OptimisationOutcome {
   bool applied = true;
   std::string note;  ///< empty when applied cleanly
 };
+/// Frames per tracking status (ICP methods; frame 0 counts as tracked).
+struct TrackingCounts {
+  std::size_t tracked = 0, relocalised = 0, fallback = 0;
+};
+TrackingCounts countTracking(const std::vector<FrameRecord>& frames);
 
 struct SlamTimings {
   double tracking_s = 0.0, loop_s = 0.0, graph_s = 0.0, total_s = 0.0;

@@ -25,6 +25,9 @@ namespace hazmap::sim {
 using PoseList = std::vector<Eigen::Isometry3d, Eigen::aligned_allocator<Eigen::Isometry3d>>;
 
 struct SimulatorConfig {
+  /// A named set-up applied before the other keys: "none" or "worst-day" (the crawler's worst
+  /// day: track slips up to 2 m, yaw kicks up to 45°, lost scans; see worstDay()).
+  std::string preset = "none";
   /// Built-in scene name (naraha, corridor, tanks); ignored when scene_file is set.
   std::string scenario = "naraha";
   std::string scene_file;    ///< user scene mesh (.ply); needs regions_file
@@ -37,10 +40,15 @@ struct SimulatorConfig {
   TemperatureConfig temperature;
   RobotConfig robot;
   OdometryNoiseConfig odometry;
+  CrawlerUpsetConfig upsets;  ///< true motion the encoders miss (off by default)
+  bool wheel_odometry = true;  ///< false: the sequence has no odometry.txt
   double reference_voxel = 0.1;  ///< m, voxel size of reference_map.ply
   /// Property cameras (none by default; `hazmap simulate --cameras thermal,nir,gamma`).
   CameraSimConfig cameras;
 
+  /// The presets `preset:` names: "worst-day" sets odometry slips (10 % of frames, 0.5–2 m),
+  /// yaw kicks (10 %, 10–45°) and lost scans (10 %) on top of `base`.
+  static SimulatorConfig withPreset(const std::string& name, SimulatorConfig base, const std::string& where);
   /// Reads a YAML file; unknown keys are errors (typos must not silently use defaults).
   /// Keys missing from the file keep the values already in `base`.
   static SimulatorConfig fromYamlFile(const std::filesystem::path& path,
@@ -62,6 +70,7 @@ const ConfigFields<LabelNoiseConfig>& configFields(ConfigTag<LabelNoiseConfig>);
 const ConfigFields<TemperatureConfig>& configFields(ConfigTag<TemperatureConfig>);
 const ConfigFields<RobotConfig>& configFields(ConfigTag<RobotConfig>);
 const ConfigFields<OdometryNoiseConfig>& configFields(ConfigTag<OdometryNoiseConfig>);
+const ConfigFields<CrawlerUpsetConfig>& configFields(ConfigTag<CrawlerUpsetConfig>);
 const ConfigFields<SimulatorConfig>& configFields(ConfigTag<SimulatorConfig>);
 
 /// The scene a config asks for (built-in or loaded), validated against `table`.
@@ -89,6 +98,8 @@ class Simulator {
   const Eigen::Isometry3d& worldFromFirst() const { return world_.front(); }
   /// Whether a track slip happened between frame i-1 and i.
   const std::vector<bool>& slips() const { return slips_; }
+  /// The yaw kick (rad, unseen by the encoders) between frame i-1 and i; empty without upsets.
+  const std::vector<double>& yawKicks() const { return kicks_; }
   const std::vector<RouteSample>& samples() const { return samples_; }
   const Scene& scene() const { return scene_; }
   const ClassTable& classTable() const { return table_; }
@@ -109,6 +120,7 @@ class Simulator {
   std::vector<RouteSample> samples_;
   PoseList world_, truth_, odometry_;
   std::vector<bool> slips_;
+  std::vector<double> kicks_;
   ScanInputs inputs_;
 };
 

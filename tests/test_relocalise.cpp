@@ -1,0 +1,204 @@
+// Tracking that survives large, unpredicted motion (issue 19): the simulated crawler's worst day
+// (preset, kicks unseen by the encoders, lost scans, no odometry.txt), the odometry's frame
+// status and recovery (relocalised / fallback with reasons), and real data with large motion.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <nlohmann/json.hpp>
+
+#include "hazmap/core/error.hpp"
+#include "hazmap/core/se3.hpp"
+#include "hazmap/io/atomic_file.hpp"
+#include "hazmap/io/kitti.hpp"
+#include "hazmap/odometry/odometry.hpp"
+#include "hazmap/sim/simulator.hpp"
+#include "test_helpers.hpp"
+
+namespace hazmap {
+namespace {
+
+constexpr double kDeg = M_PI / 180.0;
+
+TEST(WorstDay, PresetIsReadBeforeTheOtherKeysAndTheDefaultsStayOff) {
+  const sim::SimulatorConfig defaults;
+  EXPECT_EQ(defaults.preset, "none");
+  EXPECT_EQ(defaults.upsets.yaw_kick_probability, 0.0);
+  EXPECT_EQ(defaults.upsets.drop_probability, 0.0);
+  EXPECT_EQ(defaults.odometry.slip_max, 0.5);
+  EXPECT_TRUE(defaults.wheel_odometry);
+  // The preset comes last in the file, yet the explicit key next to it wins.
+  const auto c = sim::SimulatorConfig::fromYamlString("odometry: {slip_max: 1.5}\npreset: worst-day\n", "t.yaml");
+  EXPECT_EQ(c.preset, "worst-day");
+  EXPECT_EQ(c.odometry.slip_max, 1.5);
+  EXPECT_EQ(c.odometry.slip_probability, 0.1);
+  EXPECT_EQ(c.upsets.yaw_kick_max_deg, 45.0);
+  EXPECT_GT(c.upsets.yaw_kick_probability, 0.0);
+  // The written config reads back to the same values.
+  const auto again = sim::SimulatorConfig::fromYamlString(c.toYamlString(), "again.yaml");
+  EXPECT_EQ(again.toYamlString(), c.toYamlString());
+  EXPECT_THROW(sim::SimulatorConfig::fromYamlString("preset: bad-day\n", "t.yaml"), Error);
+  EXPECT_THROW(sim::SimulatorConfig::fromYamlString("upsets: {yaw_kick_min_deg: 50}\n", "t.yaml").validate(), Error);
+}
+
+TEST(WorstDay, KicksAreTrueMotionTheEncodersMissAndScansAreLost) {
+  sim::SimulatorConfig plain;
+  plain.max_frames = 80;
+  const sim::Simulator calm(plain);
+  EXPECT_TRUE(calm.yawKicks().empty());
+  const sim::Simulator bad(sim::SimulatorConfig::withPreset("worst-day", plain, "test"));
+  ASSERT_EQ(bad.frames(), 80u);
+  ASSERT_EQ(bad.yawKicks().size(), 80u);
+  // Lost scans: the worst day covers more of the route in as many frames.
+  EXPECT_GT(bad.routeLength(), calm.routeLength() + 3.0);
+  std::size_t kicks = 0;
+  double biggest_step = 0.0;
+  for (std::size_t i = 1; i < bad.frames(); ++i) {
+    const Eigen::Isometry3d truth = bad.groundTruth()[i - 1].inverse() * bad.groundTruth()[i];
+    const Eigen::Isometry3d odo = bad.odometry()[i - 1].inverse() * bad.odometry()[i];
+    biggest_step = std::max(biggest_step, translationNorm(truth));
+    const double kick = bad.yawKicks()[i];
+    if (kick == 0.0) continue;
+    ++kicks;
+    EXPECT_GE(std::abs(kick), 10 * kDeg - 1e-9);
+    EXPECT_LE(std::abs(kick), 45 * kDeg + 1e-9);
+    // The encoders miss the kick: their yaw differs from the true one by about the kick.
+    EXPECT_NEAR(yawOf(truth.inverse() * odo), -kick, 3 * kDeg) << "frame " << i;
+  }
+  EXPECT_GE(kicks, 3u);
+  EXPECT_GT(biggest_step, 1.5);  // a lost scan doubles an increment
+}
+
+TEST(WorstDay, NoOdometryFileWithoutWheelOdometry) {
+  const auto dir = test::scratchDir() / "seq";
+  const auto r = test::runCli("simulate --scenario corridor --worst-day --no-odometry --frames 4 --out " + dir.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_TRUE(std::filesystem::exists(dir / "poses.txt"));
+  EXPECT_FALSE(std::filesystem::exists(dir / "odometry.txt"));
+  EXPECT_NE(readTextFile(dir / "simulation.yaml").find("preset: worst-day"), std::string::npos);
+}
+
+/// Per-frame increment errors of an odometry run against the truth.
+struct Score {
+  std::size_t frames = 0, within = 0, silently_wrong = 0, relocalised = 0, flagged = 0;
+  double within_share() const { return frames ? double(within) / double(frames) : 0.0; }
+};
+
+Score trackWorstDay(const sim::Simulator& sim, bool wheel, OdometryConfig config) {
+  config.relocalise_suspect = true;
+  Odometry odo(sim.classTable(), config);
+  Score s;
+  for (std::size_t i = 0; i < sim.frames(); ++i) {
+    std::optional<Eigen::Isometry3d> inc;
+    if (wheel && i > 0) inc = sim.odometry()[i - 1].inverse() * sim.odometry()[i];
+    const OdometryFrame& f = odo.addFrame(sim.scan(i), inc);
+    if (i == 0) continue;
+    const Eigen::Isometry3d truth = sim.groundTruth()[i - 1].inverse() * sim.groundTruth()[i];
+    const Eigen::Isometry3d error = truth.inverse() * f.increment;
+    const double t = translationNorm(error), r = rotationAngle(error);
+    ++s.frames;
+    s.within += t <= 0.05 && r <= 0.5 * kDeg;
+    s.relocalised += f.status == FrameStatus::Relocalised;
+    s.flagged += isFlagged(f.status);
+    if ((t > 0.2 || r > 2 * kDeg) && !isFlagged(f.status)) ++s.silently_wrong;
+  }
+  std::printf("worst day, %s wheel odometry: %zu/%zu frames within 5 cm / 0.5 deg, %zu relocalised, %zu flagged, "
+              "%zu silently wrong\n", wheel ? "with" : "without", s.within, s.frames, s.relocalised, s.flagged,
+              s.silently_wrong);
+  return s;
+}
+
+sim::Simulator worstDay(const std::string& scenario, std::size_t frames) {
+  sim::SimulatorConfig c;
+  c.scenario = scenario;
+  c.max_frames = frames;
+  return sim::Simulator(sim::SimulatorConfig::withPreset("worst-day", c, "test"));
+}
+
+// The issue's targets are ≥ 98 % of frames within 5 cm / 0.5° and no frame silently wrong (off
+// by > 20 cm / 2° yet not flagged). Today's tracking reaches them only in part (docs/
+// registration.md, "Tracking when the robot slips"): these tests hold what it reaches, so a drop
+// is a regression; DISABLED_MeetsTheIssueTargets states the targets themselves.
+TEST(WorstDay, NarahaWithWheelOdometry) {
+  const Score s = trackWorstDay(worstDay("naraha", 40), /*wheel=*/true, OdometryConfig::defaults());
+  EXPECT_GE(s.within_share(), 0.9) << s.within << "/" << s.frames;
+  EXPECT_LE(s.silently_wrong, 1u);
+  EXPECT_GE(s.relocalised, 3u);  // the jumps were recovered, not just flagged
+}
+
+TEST(WorstDay, NarahaWithoutWheelOdometryFlagsWhatItCannotRecover) {
+  const Score s = trackWorstDay(worstDay("naraha", 40), /*wheel=*/false, OdometryConfig::defaults());
+  EXPECT_GE(s.within_share(), 0.7) << s.within << "/" << s.frames;
+  EXPECT_LE(s.silently_wrong, 1u);
+  EXPECT_GE(s.relocalised, 3u);
+}
+
+TEST(WorstDay, DISABLED_MeetsTheIssueTargets) {
+  for (const char* scenario : {"naraha", "corridor"})
+    for (const bool wheel : {true, false}) {
+      const Score s = trackWorstDay(worstDay(scenario, 60), wheel, OdometryConfig::defaults());
+      EXPECT_GE(s.within_share(), 0.98) << scenario << (wheel ? " with" : " without") << " wheel odometry";
+      EXPECT_EQ(s.silently_wrong, 0u) << scenario << (wheel ? " with" : " without") << " wheel odometry";
+    }
+}
+
+TEST(Relocalise, AScanWithTooFewPointsSaysSoInItsReason) {
+  const ClassTable table = ClassTable::semanticKitti();
+  Odometry odo(table, OdometryConfig::defaults());
+  odo.addFrame(test::kittiScan(0, table));
+  LabeledCloud few = test::kittiScan(1, table).slice(0, 30);
+  const OdometryFrame& f = odo.addFrame(few);
+  EXPECT_EQ(f.status, FrameStatus::Fallback);
+  EXPECT_TRUE(f.global.tried);
+  EXPECT_EQ(f.global.status, GlobalStatus::TooFewPoints) << f.reason;
+  EXPECT_NE(f.reason.find("too few"), std::string::npos) << f.reason;
+}
+
+TEST(Relocalise, OffLeavesAFailedFrameAFallback) {
+  const ClassTable table = ClassTable::semanticKitti();
+  OdometryConfig c = OdometryConfig::defaults();
+  c.relocalise = false;
+  Odometry odo(table, c);
+  odo.addFrame(test::kittiScan(0, table));
+  const OdometryFrame& f = odo.addFrame(test::kittiScan(2, table));  // 1.4 m from the identity guess
+  EXPECT_EQ(f.status, FrameStatus::Fallback) << f.reason;
+  EXPECT_FALSE(f.global.tried);
+}
+
+// The real KITTI sample with every second frame dropped and no odometry: frame 1 is 1.4 m from
+// its identity guess (ICP diverges); recovery must find it, in agreement with the full-rate run.
+TEST(Relocalise, KittiWithEveryOtherFrameDroppedIsTracked) {
+  const ClassTable table = ClassTable::defaults();
+  const auto scan = [&](int i) {
+    char name[32];
+    std::snprintf(name, sizeof name, "%06d.bin", i);
+    return readKittiScan(test::sharedData("kitti-semantic-sample/velodyne") / name, std::nullopt, table);
+  };
+  Odometry full(table), dropped(table);
+  for (int i = 0; i < 6; ++i) full.addFrame(scan(i));
+  for (int i = 0; i < 6; i += 2) {
+    const OdometryFrame& f = dropped.addFrame(scan(i));
+    EXPECT_NE(f.status, FrameStatus::Fallback) << "frame " << i << ": " << f.reason;
+  }
+  EXPECT_EQ(dropped.frames()[1].status, FrameStatus::Relocalised) << dropped.frames()[1].reason;
+  for (std::size_t k = 1; k < 3; ++k) {
+    const Eigen::Isometry3d want = full.frames()[2 * k - 2].pose.inverse() * full.frames()[2 * k].pose;
+    const Eigen::Isometry3d got = dropped.frames()[k - 1].pose.inverse() * dropped.frames()[k].pose;
+    EXPECT_GT(translationNorm(want), 1.0);
+    EXPECT_LT(translationNorm(want.inverse() * got), 0.05) << k;
+    EXPECT_LT(rotationAngle(want.inverse() * got), 0.5 * kDeg) << k;
+  }
+}
+
+TEST(Relocalise, OusterOs1128CaptureIsTrackedFrameByFrame) {
+  const auto out = test::scratchDir();
+  const auto r = test::runCli("odometry " + test::sharedData("sensors/ouster-os1-128/OS-1-128_v2.3.0_1024x10_lb_n3.pcap").string() +
+                              " --quiet --out " + out.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const auto s = nlohmann::json::parse(readTextFile(out / "summary.json"));
+  EXPECT_EQ(s["frames"].get<int>(), 3);
+  EXPECT_EQ(s["fallbacks"].get<int>(), 0) << s.dump();
+  EXPECT_EQ(s["tracked_frames"].get<int>() + s["relocalised_frames"].get<int>(), 3);
+}
+
+}  // namespace
+}  // namespace hazmap
