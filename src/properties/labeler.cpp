@@ -6,7 +6,6 @@
 #include <memory>
 
 #include "hazmap/core/error.hpp"
-#include "hazmap/preprocess/spatial_index.hpp"
 
 namespace hazmap {
 
