@@ -132,7 +132,10 @@ class SlamRun {
     tracker_.emplace(classes_, config_.odometry, start_);
     pgo_ = usesPoseGraph(config_.method);
     if (!pgo_) return;
-    loops_ = std::make_unique<LoopDetector>(classes_, config_.loop_closure);
+    LoopClosureConfig loop_config = config_.loop_closure;
+    if (config_.submaps_only_frame_to_map && config_.odometry.mode != OdometryMode::FrameToMap)
+      loop_config.submap_keyframes = 0;
+    loops_ = std::make_unique<LoopDetector>(classes_, loop_config);
     if (config_.innovation_gate)
       loops_->setRelativeCovariance([this](std::size_t from, std::size_t to) { return relativeCovariance(from, to); });
     // Old keyframes are re-read when a loop needs them (bounded memory): from the recording when
