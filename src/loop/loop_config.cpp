@@ -99,6 +99,12 @@ const ConfigFields<VerificationConfig>& configFields(ConfigTag<VerificationConfi
                   "m; basin probes: ICP again from ±this along x and y, their spread joins the covariance (0 = off)")
           .number("max_probe_spread", &C::max_probe_spread, nonNegative(),
                   "m; probes landing farther (RMS) from the result make the loop ambiguous: rejected (0 = keep)")
+          .integer("coarse_source_points", &C::coarse_source_points, atLeast(0),
+                   "Coarse check first with this many source points; rejects candidates far below min_fitness cheaply (0 = off)")
+          .number("coarse_fitness_margin", &C::coarse_fitness_margin, nonNegative(),
+                  "The coarse check rejects below min_fitness − this")
+          .integer("probe_source_points", &C::probe_source_points, atLeast(0),
+                   "Basin probes register at most this many source points (0 = as the verification)")
           .section("registration", &C::registration, "The verification ICP (α and class radii: property_icp)");
   return fields;
 }

@@ -1,7 +1,10 @@
 #include "hazmap/core/error.hpp"
 #include "hazmap/core/se3.hpp"
 #include "hazmap/loop/loop_closure.hpp"
+#include "hazmap/registration/registration_target.hpp"
 #include "hazmap/preprocess/voxel_downsample.hpp"
+
+#include <algorithm>
 
 namespace hazmap {
 
@@ -58,6 +61,33 @@ LabeledCloud LoopDetector::submap(std::size_t k, std::size_t query, const PoseLi
   return prepare(std::move(merged));
 }
 
+std::shared_ptr<const RegistrationTarget> LoopDetector::submapTarget(std::size_t k, std::size_t query,
+                                                                     const PoseList& estimate) const {
+  if (k >= size()) fail("loop closure", "keyframe " + std::to_string(k) + " does not exist");
+  const std::size_t w = config_.submap_keyframes, gap = config_.candidates.min_index_gap;
+  CachedSubmap key;
+  key.k = k;
+  key.first = w > 0 && k >= w ? k - w : k;
+  key.last = w > 0 ? std::min(k + w, query >= gap ? query - gap : k) : k;
+  if (w > 0) {
+    if (estimate.size() < size()) fail("loop closure", "a submap needs a pose estimate for every keyframe");
+    for (std::size_t j = key.first; j <= key.last; ++j) key.placement.push_back(estimate[k].inverse() * estimate[j]);
+  }
+  // The same keyframes placed identically give the same target, bit for bit.
+  for (const auto& c : submaps_)
+    if (c.k == key.k && c.first == key.first && c.last == key.last &&
+        std::equal(c.placement.begin(), c.placement.end(), key.placement.begin(), key.placement.end(),
+                   [](const auto& a, const auto& b) { return a.matrix() == b.matrix(); }))
+      return c.target;
+  key.target = std::make_shared<const RegistrationTarget>(submap(k, query, estimate), classes_,
+                                                          config_.verification.registration);
+  ++submap_targets_built_;
+  std::erase_if(submaps_, [&](const CachedSubmap& c) { return c.k == k; });
+  submaps_.push_back(std::move(key));
+  if (submaps_.size() > kSubmapCache) submaps_.pop_front();
+  return submaps_.back().target;
+}
+
 std::size_t LoopDetector::residentClouds() const {
   std::size_t n = 0;
   for (const auto& c : clouds_) n += c != nullptr;
@@ -111,8 +141,8 @@ LoopDetection LoopDetector::detect(std::size_t query, const PoseList& estimate) 
   for (const auto& cand : det.candidates) {
     if (det.accepted.size() >= config_.max_loops_per_keyframe) break;
     if (relative_covariance_ && gate && !candidatePlausible(cand, estimate, det)) continue;
-    const LabeledCloud target = submap(cand.match, query, estimate);
-    VerificationResult v = verifyCandidate(cand, *cloud(cand.query), target, classes_, config_.verification);
+    const auto target = submapTarget(cand.match, query, estimate);
+    VerificationResult v = verifyCandidate(cand, *cloud(cand.query), *target, classes_, config_.verification);
     det.verifications.push_back(v);
     if (!v.accepted) continue;
     if (gate) {

@@ -17,13 +17,17 @@ namespace {
 void widenByBasinProbes(VerificationResult& v, const LabeledCloud& query_cloud, const RegistrationTarget& target,
                         const ClassTable& classes, const VerificationConfig& c) {
   const Eigen::Isometry3d& result = v.closure.T_from_to;
+  RegistrationConfig probe = c.registration;
+  if (c.probe_source_points > 0)
+    probe.max_source_points = probe.max_source_points > 0 ? std::min(probe.max_source_points, c.probe_source_points)
+                                                          : c.probe_source_points;
   Matrix6d spread = Matrix6d::Zero();
   int runs = 0;
   for (int axis = 0; axis < 2; ++axis)
     for (double sign : {-1.0, 1.0}) {
       Eigen::Isometry3d guess = result;
       guess.translation()[axis] += sign * c.probe_distance;
-      const RegistrationResult r = registerClouds(query_cloud, target, guess, classes, c.registration);
+      const RegistrationResult r = registerClouds(query_cloud, target, guess, classes, probe);
       ++runs;
       // A probe that fails or stops far away is a basin of its own: count the shift it kept.
       const Vector6d d = r.converged || r.termination == Termination::MaxIterations
@@ -44,6 +48,28 @@ void widenByBasinProbes(VerificationResult& v, const LabeledCloud& query_cloud, 
   v.closure.information = 0.5 * (info + info.transpose());
 }
 
+// The coarse check: the verification ICP on a strided subset; only its fitness is judged
+// (rejection = LowFitness when it stays below min_fitness − coarse_fitness_margin).
+VerificationResult coarseCheck(const LoopCandidate& cand, const LabeledCloud& query_cloud, const RegistrationTarget& target,
+                               const ClassTable& classes, const VerificationConfig& c) {
+  RegistrationConfig coarse = c.registration;
+  coarse.max_source_points = c.coarse_source_points;
+  const RegistrationResult reg = registerClouds(query_cloud, target, cand.initial_guess, classes, coarse);
+  VerificationResult v;
+  v.closure.from = cand.match;
+  v.closure.to = cand.query;
+  v.closure.T_from_to = reg.transform;
+  v.closure.source = cand.source;
+  v.closure.fitness = reg.fitness;
+  const double floor = c.min_fitness - c.coarse_fitness_margin;
+  if (reg.fitness < floor) {
+    v.rejection = LoopRejection::LowFitness;
+    v.reason = "coarse check (" + std::to_string(c.coarse_source_points) + " points): fitness " +
+               std::to_string(reg.fitness) + " < " + std::to_string(floor);
+  }
+  return v;
+}
+
 }  // namespace
 
 VerificationResult verifyCandidate(const LoopCandidate& cand, const LabeledCloud& query_cloud,
@@ -59,6 +85,24 @@ VerificationResult verifyCandidate(const LoopCandidate& cand, const LabeledCloud
     return out;
   }
   const RegistrationTarget target(match_cloud, classes, c.registration);
+  return verifyCandidate(cand, query_cloud, target, classes, c);
+}
+
+VerificationResult verifyCandidate(const LoopCandidate& cand, const LabeledCloud& query_cloud,
+                                   const RegistrationTarget& target, const ClassTable& classes,
+                                   const VerificationConfig& c) {
+  if (query_cloud.empty()) {
+    VerificationResult out;
+    out.rejection = LoopRejection::EmptyCloud;
+    out.reason = "empty keyframe cloud";
+    out.closure.from = cand.match;
+    out.closure.to = cand.query;
+    return out;
+  }
+  if (c.coarse_source_points > 0 && query_cloud.size() > c.coarse_source_points) {
+    VerificationResult coarse = coarseCheck(cand, query_cloud, target, classes, c);
+    if (coarse.rejection == LoopRejection::LowFitness) return coarse;
+  }
   const RegistrationResult reg = registerClouds(query_cloud, target, cand.initial_guess, classes, c.registration);
   VerificationResult v = evaluateRegistration(cand, reg, c);
   if (v.accepted && c.probe_distance > 0.0) widenByBasinProbes(v, query_cloud, target, classes, c);

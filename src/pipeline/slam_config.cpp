@@ -41,7 +41,9 @@ const ConfigFields<SlamConfig>& slamSectionFields() {
                   "m; added to a map-anchor edge's ICP covariance (calibrated by NEES)")
           .number("anchor_sigma_rotation", &C::anchor_sigma_rotation, positive(), "rad; likewise")
           .flag("innovation_gate", &C::innovation_gate,
-                "Gate loops by the χ² test against the graph's own relative-pose covariance (else the drift model)");
+                "Gate loops by the χ² test against the graph's own relative-pose covariance (else the drift model)")
+          .flag("submaps_only_frame_to_map", &C::submaps_only_frame_to_map,
+                "Verify loops against submaps only when tracking is frame-to-map (frame-to-frame: scan to scan)");
   return fields;
 }
 

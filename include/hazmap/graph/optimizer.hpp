@@ -12,6 +12,7 @@
 //   PoseGraphReport r = optimizePoseGraph(g);  // g.poses now hold the optimised poses
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include "hazmap/core/config_fwd.hpp"
 #include "hazmap/graph/costs.hpp"
@@ -81,5 +82,14 @@ struct PoseGraphReport {
 /// Optimises `graph.poses` in place. Throws hazmap::Error when the graph is not optimisable
 /// (see checkOptimisable) or the configuration is invalid.
 PoseGraphReport optimizePoseGraph(PoseGraph& graph, const PoseGraphConfig& config = {});
+
+/// The back end's guarded optimisation: as optimizePoseGraph, but a graph that cannot be solved
+/// (not optimisable, Ceres failure, a non-finite solution or a higher cost) leaves `graph.poses`
+/// as they were and returns why in `failure` (empty on success).
+PoseGraphReport optimizePoseGraphOrKeep(PoseGraph& graph, const PoseGraphConfig& config, std::string& failure);
+
+/// Indices of the edges of `kind` whose whitened squared residual (geodesic, no robust loss)
+/// exceeds `threshold` in the current poses: loops the solution could not agree with.
+std::vector<std::size_t> edgesBeyond(const PoseGraph& graph, EdgeKind kind, double threshold);
 
 }  // namespace hazmap

@@ -137,6 +137,12 @@ class LoopDetector {
   /// submap_keyframes neighbours on each side (at most query − min_index_gap), placed in k's frame
   /// with `estimate` (world ← keyframe) and downsampled to keyframe_voxel.
   LabeledCloud submap(std::size_t k, std::size_t query, const PoseList& estimate) const;
+  /// The registration target built from submap(k, query, estimate), cached: rebuilt only when
+  /// the submap's keyframes or their placement in k's frame changed (an optimisation moved them),
+  /// so consecutive queries along an old path reuse the same target.
+  std::shared_ptr<const RegistrationTarget> submapTarget(std::size_t k, std::size_t query,
+                                                         const PoseList& estimate) const;
+  std::size_t submapTargetsBuilt() const { return submap_targets_built_; }
 
   /// Candidates for `query` by the configured method. `estimate` (world ← keyframe, at least
   /// query + 1 poses) is used by the distance search and, with landmark_window > 1, to merge
@@ -169,6 +175,14 @@ class LoopDetector {
   static constexpr std::size_t kReloadCache = 24;
   mutable std::deque<std::pair<std::size_t, std::shared_ptr<const LabeledCloud>>> reloaded_;
   RelativeCovariance relative_covariance_;
+  struct CachedSubmap {
+    std::size_t k = 0, first = 0, last = 0;
+    std::vector<Eigen::Isometry3d> placement;  ///< k ← j for j in [first, last]
+    std::shared_ptr<const RegistrationTarget> target;
+  };
+  static constexpr std::size_t kSubmapCache = 16;
+  mutable std::deque<CachedSubmap> submaps_;
+  mutable std::size_t submap_targets_built_ = 0;
   std::vector<std::vector<PropertyLandmark>> landmarks_;
   std::vector<LoopClosure> loops_;
 };

@@ -53,6 +53,11 @@ struct SlamConfig {
   /// Gate verified loops by the calibrated χ² innovation test against the covariance the graph
   /// itself gives the keyframes' relative pose (loop/consistency.hpp); false = the drift model.
   bool innovation_gate = true;
+  /// Loop submaps (loop_closure.submap_keyframes) only when tracking is frame-to-map: a submap
+  /// placed with frame-to-frame increments is blurred by their local drift, and verifying against
+  /// it was measured worse than against the matched scan alone (naraha seed 1, paper's set-up:
+  /// icp+pgo 0.142 → 0.161 m; docs/pose_graph.md). true = frame-to-frame verifies scan to scan.
+  bool submaps_only_frame_to_map = true;
   /// Map-anchor edges (frame-to-map tracking only): at each keyframe, an edge to the nearest
   /// keyframe within anchor_radius (m, in the tracked poses) that is at least
   /// loop_closure.candidates.min_index_gap keyframes older. Frame-to-map tracking registered the

@@ -1,0 +1,218 @@
+// Issue 14's back end: the calibrated χ² gate, submap construction, the graph's chain
+// covariance, the failure paths (a loop the solution rejects, a graph Ceres cannot solve), the
+// records in run.json, and the rule that loops and PGO never make the map worse.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <random>
+
+#include "hazmap/core/error.hpp"
+#include "hazmap/core/se3.hpp"
+#include "hazmap/graph/chain_covariance.hpp"
+#include "hazmap/io/sequence.hpp"
+#include "hazmap/loop/consistency.hpp"
+#include "hazmap/loop/loop_closure.hpp"
+#include "hazmap/pipeline/run_outputs.hpp"
+#include "hazmap/pipeline/slam.hpp"
+#include "test_helpers.hpp"
+
+using namespace hazmap;
+
+namespace {
+
+Eigen::Isometry3d pose(double x, double y, double yaw) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  T.translation() = Eigen::Vector3d(x, y, 0);
+  return T;
+}
+
+Matrix6d isotropic(double st, double sr) {
+  return (Vector6d() << st * st, st * st, st * st, sr * sr, sr * sr, sr * sr).finished().asDiagonal();
+}
+
+}  // namespace
+
+TEST(ChainCovariance, StraightChainAddsUpAndRotatesIntoTheStartFrame) {
+  std::vector<Eigen::Isometry3d> poses;
+  std::vector<Matrix6d> steps;
+  for (int k = 0; k < 5; ++k) {
+    poses.push_back(pose(k, 0, 0));
+    steps.push_back(k == 0 ? Matrix6d::Zero() : isotropic(0.01, 0.001));
+  }
+  // Pure translation noise adds up; rotation noise at node k moves node 4 by (4 − k) m sideways.
+  const Matrix6d s = chainCovariance(poses, steps, 0, 4);
+  EXPECT_NEAR(s(0, 0), 4 * 1e-4, 1e-12);
+  EXPECT_NEAR(s(1, 1), 4 * 1e-4 + 1e-6 * (0 + 1 + 4 + 9), 1e-12);  // levers 0, 1, 2, 3 m
+  EXPECT_NEAR(s(5, 5), 4 * 1e-6, 1e-15);
+  // Reversed: the same uncertainty moved to the other end (T_40 = T_04⁻¹, Ad(T_40) Σ Ad(T_40)ᵀ).
+  const Matrix6d r = chainCovariance(poses, steps, 4, 0);
+  const Matrix6d Ad = adjoint(poses[4].inverse() * poses[0]);
+  EXPECT_TRUE(r.isApprox(Ad * s * Ad.transpose(), 1e-12));
+  EXPECT_NEAR(r(5, 5), s(5, 5), 1e-15);
+  EXPECT_THROW(chainCovariance(poses, steps, 0, 5), Error);
+}
+
+TEST(ChainCovariance, MatchesMonteCarlo) {
+  std::mt19937 rng(3);
+  std::normal_distribution<double> n(0.0, 1.0);
+  std::vector<Eigen::Isometry3d> poses{pose(0, 0, 0)};
+  std::vector<Matrix6d> steps{Matrix6d::Zero()};
+  for (int k = 1; k < 8; ++k) {
+    poses.push_back(poses.back() * pose(1.0, 0.2, 0.3));
+    steps.push_back(isotropic(0.02, 0.01));
+  }
+  const Matrix6d predicted = chainCovariance(poses, steps, 0, 7);
+  Matrix6d sample = Matrix6d::Zero();
+  const int N = 20000;
+  const Eigen::Isometry3d truth = poses[0].inverse() * poses[7];
+  for (int s = 0; s < N; ++s) {
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    for (int k = 1; k < 8; ++k) {
+      Vector6d xi;
+      for (int i = 0; i < 6; ++i) xi(i) = n(rng) * std::sqrt(steps[k](i, i));
+      T = T * (se3Exp(xi) * (poses[k - 1].inverse() * poses[k]));
+    }
+    const Vector6d e = se3Log(T * truth.inverse());
+    sample += e * e.transpose() / N;
+  }
+  for (int i = 0; i < 6; ++i) EXPECT_NEAR(sample(i, i), predicted(i, i), 0.08 * predicted(i, i)) << i;
+}
+
+TEST(InnovationGate, AcceptsWithinTheCombinedUncertaintyAndRejectsBeyond) {
+  const PoseList est{pose(0, 0, 0), pose(10, 0, 0)};
+  LoopClosure loop;
+  loop.from = 0;
+  loop.to = 1;
+  loop.covariance = isotropic(0.02, 0.002);
+  const Matrix6d rel = isotropic(0.03, 0.003);
+  // 5 cm off along x: d² = 0.05² / (0.02² + 0.03²) = 1.92 < χ²₆(0.999) = 22.46.
+  loop.T_from_to = pose(10.05, 0, 0);
+  GateResult g = innovationGate(loop, est, rel, 0.999);
+  EXPECT_TRUE(g.accepted);
+  EXPECT_NEAR(g.mahalanobis2, 0.0025 / 0.0013, 1e-6);
+  EXPECT_NEAR(g.threshold, 22.458, 1e-3);
+  // 25 cm off: d² = 48 > 22.46.
+  loop.T_from_to = pose(10.25, 0, 0);
+  g = innovationGate(loop, est, rel, 0.999);
+  EXPECT_FALSE(g.accepted);
+  // The same error passes when the graph says the relative pose is that uncertain.
+  EXPECT_TRUE(innovationGate(loop, est, isotropic(0.2, 0.02), 0.999).accepted);
+  // Out-of-range keyframes and a non-finite covariance are errors.
+  loop.to = 2;
+  EXPECT_THROW(innovationGate(loop, est, rel, 0.999), Error);
+  loop.to = 1;
+  Matrix6d bad = rel;
+  bad(0, 0) = std::nan("");
+  EXPECT_THROW(innovationGate(loop, est, bad, 0.999), Error);
+}
+
+TEST(LoopSubmap, PlacesNeighbourKeyframesWithTheEstimateInTheMatchFrame) {
+  ClassTable classes = ClassTable::defaults();
+  LoopClosureConfig c;
+  c.keyframe_voxel = 0.0;  // keep every point, so the test sees the placement exactly
+  c.submap_keyframes = 1;
+  c.candidates.min_index_gap = 2;
+  LoopDetector det(classes, c);
+  PoseList est;
+  for (int k = 0; k < 6; ++k) {
+    LabeledCloud cloud;
+    cloud.push_back(Eigen::Vector3f(1.0f, static_cast<float>(k), 0.0f), 0);
+    det.addKeyframe(cloud);
+    est.push_back(pose(2.0 * k, 0, 0));
+  }
+  // Keyframe 2 with neighbours 1 and 3 (a query at 5 allows up to 5 − 2 = 3).
+  LabeledCloud s = det.submap(2, 5, est);
+  ASSERT_EQ(s.size(), 3u);
+  std::vector<Eigen::Vector3f> expected{{1, 2, 0}, {-1, 1, 0}, {3, 3, 0}};  // own, k=1 at −2 m, k=3 at +2 m
+  for (const auto& e : expected) {
+    bool found = false;
+    for (const auto& p : s.points) found = found || (p - e).norm() < 1e-5f;
+    EXPECT_TRUE(found) << e.transpose();
+  }
+  // A query too close in index keeps the newer neighbour out.
+  EXPECT_EQ(det.submap(2, 4, est).size(), 2u);
+  // Off: the keyframe's own cloud.
+  c.submap_keyframes = 0;
+  LoopDetector single(classes, c);
+  for (int k = 0; k < 3; ++k) single.addKeyframe(det.cloud(k)->slice(0, 1));
+  EXPECT_EQ(single.submap(1, 2, est).size(), 1u);
+  EXPECT_THROW(det.submap(9, 5, est), Error);
+  EXPECT_THROW(det.submap(2, 5, PoseList(est.begin(), est.begin() + 3)), Error);
+}
+
+TEST(GuardedOptimisation, AGraphThatCannotBeSolvedKeepsThePreviousEstimate) {
+  PoseGraph g;
+  g.addNode(pose(0, 0, 0));
+  g.addNode(pose(1, 0, 0));
+  g.addNode(pose(5, 0, 0));  // not connected to the fixed node
+  g.addEdge(0, 1, pose(1.1, 0, 0), Matrix6d::Identity());
+  const auto before = g.poses;
+  std::string failure;
+  optimizePoseGraphOrKeep(g, PoseGraphConfig{}, failure);
+  EXPECT_NE(failure.find("not connected"), std::string::npos) << failure;
+  for (std::size_t i = 0; i < g.poses.size(); ++i) EXPECT_TRUE(g.poses[i].isApprox(before[i]));
+  // Connected, it solves and moves node 1 onto its edge.
+  g.addEdge(1, 2, pose(4, 0, 0), Matrix6d::Identity());
+  optimizePoseGraphOrKeep(g, PoseGraphConfig{}, failure);
+  EXPECT_TRUE(failure.empty()) << failure;
+  EXPECT_NEAR(g.poses[1].translation().x(), 1.1, 1e-6);
+}
+
+TEST(GuardedOptimisation, AWrongLoopAgainstStiffOdometryStaysBeyondTheGate) {
+  PoseGraph g;
+  for (int k = 0; k < 6; ++k) g.addNode(pose(k, 0, 0));
+  const Matrix6d stiff = isotropic(0.005, 0.0005).inverse();
+  for (int k = 0; k < 5; ++k) g.addEdge(k, k + 1, pose(1, 0, 0), stiff);
+  g.addEdge(0, 5, pose(5.05, 0, 0), isotropic(0.02, 0.002).inverse(), EdgeKind::Loop);  // agrees
+  std::string failure;
+  optimizePoseGraphOrKeep(g, PoseGraphConfig{}, failure);
+  const double gate = chiSquare6Quantile(0.999);
+  EXPECT_TRUE(edgesBeyond(g, EdgeKind::Loop, gate).empty());
+  g.addEdge(0, 5, pose(6.0, 0.0, 0), isotropic(0.02, 0.002).inverse(), EdgeKind::Loop);  // 1 m off
+  optimizePoseGraphOrKeep(g, PoseGraphConfig{}, failure);
+  const auto beyond = edgesBeyond(g, EdgeKind::Loop, gate);
+  ASSERT_EQ(beyond.size(), 1u);
+  EXPECT_EQ(beyond[0], g.edges.size() - 1);
+}
+
+// The never-worse rule on whole simulated routes (frame-to-map, the default): with loops and
+// PGO the map error is at most 2 mm above tracking alone, and run.json says why each rejected
+// loop was dropped and whether each optimisation was applied.
+class NeverWorse : public ::testing::TestWithParam<std::pair<const char*, int>> {};
+
+TEST_P(NeverWorse, PgoMapErrorIsAtMostTrackingPlusTwoMillimetres) {
+  const auto [scenario, seed] = GetParam();
+  const auto dir = hazmap::test::writeSimulatedSequence(std::string("backend-") + scenario, scenario, seed, 0);
+  const Sequence seq = Sequence::open(dir);
+  OutputConfig out;
+  out.write_pngs = false;
+  out.write_viewer = false;
+  double error[2] = {0, 0};
+  for (int m = 0; m < 2; ++m) {
+    const SlamMethod method = m ? SlamMethod::PropertyIcpPgo : SlamMethod::PropertyIcp;
+    const SlamConfig config = SlamConfig::forMethod(method);
+    const SlamResult r = runSlam(seq, config);
+    const auto folder = dir / (std::string("out-") + toString(method));
+    const RunSummary s = writeRunOutputs(seq, r, config, out, folder);
+    ASSERT_TRUE(s.map_error);
+    error[m] = s.map_error->point.mean;
+    if (!m) continue;
+    std::ifstream in(folder / "run.json");
+    const nlohmann::json j = nlohmann::json::parse(in);
+    for (const auto& rej : j["loop_closure"]["rejected"]) {
+      EXPECT_NE(rej["reason"].get<std::string>(), "none");
+      EXPECT_FALSE(rej["detail"].get<std::string>().empty());
+    }
+    for (const auto& o : j["pose_graph"]["optimisations"]) EXPECT_TRUE(o.contains("applied"));
+  }
+  EXPECT_LE(error[1], error[0] + 0.002) << scenario << " seed " << seed << ": tracking " << error[0]
+                                        << " m, with PGO " << error[1] << " m";
+  std::filesystem::remove_all(dir);
+}
+
+INSTANTIATE_TEST_SUITE_P(Scenes, NeverWorse,
+                         ::testing::Values(std::make_pair("naraha", 1), std::make_pair("tanks", 2)),
+                         [](const auto& info) { return std::string(info.param.first) + std::to_string(info.param.second); });
