@@ -36,6 +36,8 @@ void runCameraLabelRows(const DemoConfig& config, const std::filesystem::path& s
   const Sequence sequence = Sequence::open(dir / "sequence");
   for (SlamMethod method : {SlamMethod::PropertyIcp, SlamMethod::PropertyIcpPgo}) {
     SlamConfig slam = SlamConfig::forMethod(method);
+    slam.property_icp = config.property_icp;  // --mismatch-penalty, --class-radius, --set reach these rows too
+    for (const auto& setting : config.settings) slam.applySetting(setting);
     slam.odometry.mode = OdometryMode::FrameToFrame;
     slam.threads = config.threads;
     const SlamResult result = runSlam(sequence, slam);
