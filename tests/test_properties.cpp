@@ -483,26 +483,6 @@ TEST(Labeler, NearestImageInTimeAndMotionCompensation) {
   EXPECT_LT(l.channels[0][0], 90.0f);  // 0.125 px off: interpolated with the cold neighbour
 }
 
-TEST(Labeler, PointsNoCameraSawAreUnobservedNotNone) {
-  CameraCalibration cam = smallCamera(41, 41);
-  cam.T_camera_lidar.linear() << 0, -1, 0, 0, 0, -1, 1, 0, 0;
-  auto images = std::make_shared<MemoryImages>();
-  PropertyImage img;
-  img.width = img.height = 41;
-  img.values.assign(41 * 41, 20.0f);
-  images->add(img);
-  LabeledCloud scan;
-  scan.push_back({4.0f, 0.0f, 0.0f});   // in view, cold: none
-  scan.push_back({-4.0f, 0.0f, 0.0f});  // behind the camera: never observed
-  ClassTable table = ClassTable::defaults();
-  const auto rules = PropertyRules::defaults({"temperature"}, table);
-  EXPECT_EQ(PropertyLabeler({{cam, images}}, rules).label(scan, 0.0).classes, (std::vector<ClassId>{0, 0}));
-  LabelerConfig config;
-  config.unobserved_class = table.addUnobserved();
-  EXPECT_EQ(PropertyLabeler({{cam, images}}, rules, config).label(scan, 0.0).classes,
-            (std::vector<ClassId>{0, *config.unobserved_class}));
-}
-
 TEST(Labeler, EdgeGuardRefusesClassesACalibrationErrorCouldFlip) {
   CameraCalibration cam = smallCamera(41, 41);
   cam.T_camera_lidar.linear() << 0, -1, 0, 0, 0, -1, 1, 0, 0;

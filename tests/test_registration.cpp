@@ -173,47 +173,6 @@ TEST(PropertyCorrespondence, FollowsEquationTwo) {
   }
 }
 
-// Camera labels: a point no camera saw is "unobserved", not "none". Pairing it (either side) with
-// an observed point of any class costs no penalty, it gets no wider same-class search, while a
-// mismatch between two observed classes is still penalised.
-TEST(PropertyCorrespondence, UnobservedPairsWithoutPenalty) {
-  ClassTable table = ClassTable::defaults();
-  table.mismatch_penalty = 1.0;
-  const ClassId unobserved = table.addUnobserved();
-  EXPECT_EQ(table.unobservedClass(), unobserved);
-  EXPECT_FALSE(table.isProperty(unobserved));
-  EXPECT_FALSE(ClassTable::defaults().unobservedClass().has_value());
-  RegistrationConfig cfg;
-  cfg.metric = IcpMetric::PointToPoint;
-  LabeledCloud target;
-  target.push_back({0.2f, 0, 0}, unobserved);  // 0: unobserved, near
-  target.push_back({0, 0.5f, 0}, 0);           // 1: none
-  target.push_back({0, 0, 2.0f}, unobserved);  // 2: unobserved beyond the default radius
-  const RegistrationTarget t(target, table, cfg);
-  // a heat source point: the unobserved target point at d² = 0.04, no α
-  auto m = t.match({0, 0, 0}, 1, NAN);
-  EXPECT_EQ(m.index, 0);
-  EXPECT_FALSE(m.cross_class);
-  EXPECT_NEAR(m.cost, 0.04, 1e-6);
-  // an unobserved source point pairs with the nearest of any class, no α, default radius only
-  m = t.match({0, 0.45f, 0}, unobserved, NAN);
-  EXPECT_EQ(m.index, 1);
-  EXPECT_NEAR(m.cost, 0.0025, 1e-6);
-  EXPECT_FALSE(m.cross_class);
-  EXPECT_EQ(t.match({0, 0, 3.5f}, unobserved, NAN).index, -1);  // 1.5 m: no wider search
-  // the previous partner's bound carries no α for an unobserved pair
-  EXPECT_NEAR(t.costBound({0, 0, 0}, 1, 0, true), 0.04f, 1e-5);
-  // two observed classes still pay α: without the unobserved points, heat pairs with none + 1
-  LabeledCloud observed;
-  observed.push_back({0, 0.5f, 0}, 0);
-  const RegistrationTarget o(observed, table, cfg);
-  m = o.match({0, 0, 0}, 1, NAN);
-  EXPECT_EQ(m.index, 0);
-  EXPECT_TRUE(m.cross_class);
-  EXPECT_NEAR(m.cost, 0.25 + 1.0, 1e-5);
-  EXPECT_NEAR(o.costBound({0, 0, 0}, 1, 0, true), 1.25f, 1e-4);
-}
-
 // ICP bounds each search by the cost of the previous iteration's partner (costBound): the answer
 // must be exactly the unbounded one, for labelled and plain matching, whatever the previous
 // partner was (near, far, another class, outside its gate).
