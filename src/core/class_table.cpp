@@ -210,19 +210,6 @@ ClassId ClassTable::mapRaw(std::uint32_t raw) const {
 
 void ClassTable::mapRawLabel(std::uint32_t raw, ClassId id) { raw_to_class_[raw] = id; }
 
-std::optional<ClassId> ClassTable::unobservedClass() const {
-  for (const auto& [id, info] : classes_)
-    if (info.name == kUnobservedName) return id;
-  return std::nullopt;
-}
-
-ClassId ClassTable::addUnobserved() {
-  if (const auto id = unobservedClass()) return *id;
-  const ClassId id = classes_.empty() ? 0 : static_cast<ClassId>(classes_.rbegin()->first + 1);
-  add({id, kUnobservedName, PropertyKind::None, {90, 90, 90}, 0.0, 1.0});
-  return id;
-}
-
 void ClassTable::checkCloud(const LabeledCloud& cloud, const std::string& where) const {
   // A flat look-up instead of a map search per point: this runs on every raw scan.
   std::vector<char> known(classes_.empty() ? 0 : std::size_t(classes_.rbegin()->first) + 1, 0);

@@ -230,9 +230,6 @@ LabelReport labelSequence(const fs::path& sequence_dir, const fs::path& out_arg,
   const std::vector<double> times = readScanTimes(seq);
   LabelerConfig labeler_config = options.labeler;
   labeler_config.footprints = options.fuse_views;
-  // Points no camera saw are "unobserved", not "none": property ICP pairs them without penalty.
-  ClassTable table = seq.classTable();
-  labeler_config.unobserved_class = table.addUnobserved();
   const PropertyLabeler labeler =
       makeLabeler(options.cameras, options.rules, seq.classTable(), labeler_config, options.image_bag);
   if (out_arg.empty()) fail("label", "no output folder given (--out)");
@@ -254,7 +251,7 @@ LabelReport labelSequence(const fs::path& sequence_dir, const fs::path& out_arg,
   report.truth_source = truthSource(sequence_dir);
   TemporaryFolder tmp{temporarySibling(out)};
   fs::create_directories(tmp.path);
-  SequenceWriter writer(tmp.path, table, seq.sensorYaml());
+  SequenceWriter writer(tmp.path, seq.classTable(), seq.sensorYaml());
   writer.setPropertyChannel(labeler.channels().front());
   const FrameSink sink{seq, labeler, tmp.path, writer, report};
   report.fused = options.fuse_views && poses.size() == seq.size();

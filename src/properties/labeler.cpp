@@ -150,14 +150,6 @@ ScanLabels PropertyLabeler::observe(const LabeledCloud& scan, double time, const
   return out;
 }
 
-namespace {
-
-bool unobservedPoint(const std::vector<std::vector<float>>& channels, std::size_t i) {
-  return std::all_of(channels.begin(), channels.end(), [i](const std::vector<float>& ch) { return std::isnan(ch[i]); });
-}
-
-}  // namespace
-
 void PropertyLabeler::classify(const LabeledCloud& scan, const std::optional<Eigen::Isometry3d>& T_world_scan,
                                ScanLabels& out) const {
   const std::size_t n = scan.size();
@@ -194,7 +186,6 @@ void PropertyLabeler::classify(const LabeledCloud& scan, const std::optional<Eig
       for (std::size_t v = 0; v < vars.size(); ++v) values[v] = at(highs[v], v);
       if (rules_.classify(values.data()) != c) c = 0;
     }
-    if (config_.unobserved_class && unobservedPoint(out.channels, i)) c = *config_.unobserved_class;
     out.classes[i] = c;
   }
 }

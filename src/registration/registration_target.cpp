@@ -137,7 +137,6 @@ void RegistrationTarget::build(const ClassTable& classes, const RegistrationConf
   label_mode_ = config.label_mode;
   confidence_ = static_cast<float>(config.label_confidence);
   if (use_classes_ && label_mode_ == LabelMode::Soft) alpha_ *= confidence_ * confidence_;
-  if (const auto u = classes.unobservedClass(); u && use_classes_) unobserved_ = *u;
 
   // The continuous-property term needs the channel; without it the term is off.
   property_weight_ = cloud_.hasProperty() ? static_cast<float>(config.property_weight) : 0.0f;
@@ -169,10 +168,6 @@ void RegistrationTarget::build(const ClassTable& classes, const RegistrationConf
     slot_of_class_.assign(std::size_t(max_id) + 1, -1);
     for (std::size_t c = 0; c < members.size(); ++c) {
       if (members[c].empty()) continue;
-      if (unobserved(static_cast<ClassId>(c))) {
-        unobserved_index_ = makeIndex(index_kind_, cloud_.points, members[c], cell_, radius_);
-        continue;
-      }
       const float r_same = class_radius_[c];
       const float r_max = std::max(r_same, radius_);
       ClassSlot slot;
@@ -219,8 +214,6 @@ bool RegistrationTarget::compatibleWith(const RegistrationConfig& config, const 
     if (config.label_mode == LabelMode::Soft)
       a *= static_cast<float>(config.label_confidence * config.label_confidence);
     if (a != alpha_ || config.label_mode != label_mode_) return false;
-    const auto u = classes.unobservedClass();
-    if ((u ? static_cast<int>(*u) : -1) != unobserved_) return false;
     for (ClassId id : classes.ids()) {
       const double r = classes.at(id).search_radius;
       const float expect = r > 0.0 ? static_cast<float>(r) : radius_;
@@ -245,7 +238,7 @@ float RegistrationTarget::costBound(const Eigen::Vector3f& p, ClassId cls, std::
     const bool same = cloud_.classes[previous] == cls;
     const float gate = same ? sameClassRadius(cls) : radius_;
     if (!(d2 < gate * gate)) return kNone;
-    if (!same && !unobserved(cls) && !unobserved(cloud_.classes[previous])) cost += alpha_;
+    if (!same) cost += alpha_;
   } else if (!(d2 < radius_ * radius_)) {  // plain ICP ranks by distance alone
     return kNone;
   }
@@ -271,7 +264,6 @@ TargetMatch RegistrationTarget::match(const Eigen::Vector3f& p, ClassId cls, flo
     if (property_weight_ > 0.0f) m.cost += propertyCost(j);
     return m;
   }
-  if (unobserved(cls)) return matchUnobservedSource(p, value, cost_bound);
   // Same class first, within the class's (possibly wider) radius.
   const std::int16_t own = cls < slot_of_class_.size() ? slot_of_class_[cls] : std::int16_t(-1);
   float best = std::numeric_limits<float>::infinity();
@@ -282,18 +274,6 @@ TargetMatch RegistrationTarget::match(const Eigen::Vector3f& p, ClassId cls, flo
       m = {j, d2, d2, false};
       best = d2 + (property_weight_ > 0.0f ? propertyCost(j) : 0.0f);
       m.cost = best;
-    }
-  }
-  // An unobserved target point pairs without the penalty, within the default radius.
-  if (unobserved_index_) {
-    float d2;
-    const std::int64_t j = unobserved_index_->nearest(p, std::min(r2, std::min(best, cost_bound)), d2);
-    if (j >= 0) {
-      const float cost = d2 + (property_weight_ > 0.0f ? propertyCost(j) : 0.0f);
-      if (cost < best) {
-        best = cost;
-        m = {j, d2, cost, false};
-      }
     }
   }
   // Another class can only win if d² + α < best, i.e. within sqrt(best − α) (and the gate).
@@ -315,30 +295,6 @@ TargetMatch RegistrationTarget::match(const Eigen::Vector3f& p, ClassId cls, flo
   return m;
 }
 
-// An unobserved source point: the nearest target point of any class within the default radius,
-// no penalty (with the property term: the cheapest of each class's nearest).
-TargetMatch RegistrationTarget::matchUnobservedSource(const Eigen::Vector3f& p, float value, float cost_bound) const {
-  TargetMatch m;
-  float best = std::numeric_limits<float>::infinity();
-  const auto consider = [&](const NeighborIndex& index) {
-    float d2;
-    const std::int64_t j = index.nearest(p, std::min(radius_ * radius_, std::min(best, cost_bound)), d2);
-    if (j < 0) return;
-    float cost = d2;
-    if (property_weight_ > 0.0f) {
-      const float dv = value - cloud_.property[j];
-      if (!std::isnan(dv)) cost += property_weight_ * dv * dv;
-    }
-    if (cost < best) {
-      best = cost;
-      m = {j, d2, cost, false};
-    }
-  };
-  if (unobserved_index_) consider(*unobserved_index_);
-  for (const ClassSlot& slot : slots_) consider(*slot.index);
-  return m;
-}
-
 TargetMatch RegistrationTarget::nearestAnyClass(const Eigen::Vector3f& p, ClassId cls,
                                                 float distance2_bound) const {
   TargetMatch m;
@@ -351,12 +307,9 @@ TargetMatch RegistrationTarget::nearestAnyClass(const Eigen::Vector3f& p, ClassI
       m = {j, d2, d2, cloud_.classes[j] != cls};
     }
   };
-  if (all_) {
-    consider(*all_);
-  } else {
+  if (all_) consider(*all_);
+  else
     for (const ClassSlot& slot : slots_) consider(*slot.index);
-    if (unobserved_index_) consider(*unobserved_index_);
-  }
   return m;
 }
 

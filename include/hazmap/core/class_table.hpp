@@ -70,14 +70,6 @@ class ClassTable {
   const std::map<std::uint32_t, ClassId>& rawMapping() const { return raw_to_class_; }
   ClassId unmapped_class = 0;
 
-  /// The "unobserved" state (a class named kUnobservedName, kind none): points no camera saw.
-  /// Property ICP pairs it with any class without the mismatch penalty. Label files and ground
-  /// truth never carry it; camera labelling adds it (addUnobserved) to the table it writes.
-  static constexpr const char* kUnobservedName = "unobserved";
-  std::optional<ClassId> unobservedClass() const;
-  /// Adds the unobserved class (next free id) if absent; returns its id.
-  ClassId addUnobserved();
-
   /// Throws hazmap::Error naming `where` if any point's class is not in the table.
   void checkCloud(const LabeledCloud& cloud, const std::string& where) const;
 

@@ -69,9 +69,6 @@ struct LabelerConfig {
   /// Also compute each observed point's calibration footprint (ScanLabels::footprint), which
   /// view fusion (view_fusion.hpp) needs to pick the best view of a surface.
   bool footprints = false;
-  /// Class for points no camera observed (every channel NaN), e.g. ClassTable::addUnobserved();
-  /// unset = they get `none` (0), as before.
-  std::optional<ClassId> unobserved_class;
   void validate(const std::string& where) const;
 };
 

@@ -119,12 +119,6 @@ class RegistrationTarget {
   mutable std::vector<Eigen::Vector3f> normals_;
   std::unique_ptr<NeighborIndex> all_;  ///< every point (plain ICP, normals)
   std::vector<ClassSlot> slots_;        ///< one per class present in the target (use_classes)
-  /// The table's unobserved class (-1 = none) and its points' index: they pair with any class
-  /// without the penalty and are not in slots_ (no wider same-class search).
-  int unobserved_ = -1;
-  std::unique_ptr<NeighborIndex> unobserved_index_;
-  bool unobserved(ClassId c) const { return static_cast<int>(c) == unobserved_; }
-  TargetMatch matchUnobservedSource(const Eigen::Vector3f& p, float value, float cost_bound) const;
   std::vector<std::int16_t> slot_of_class_;  ///< class id → slot, -1 = absent
   std::vector<float> class_radius_;     ///< class id → same-class radius (m)
   std::vector<std::size_t> class_count_;  ///< class id → points of that class
