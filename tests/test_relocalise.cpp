@@ -84,6 +84,7 @@ struct Score {
 };
 
 Score trackWorstDay(const sim::Simulator& sim, bool wheel, OdometryConfig config) {
+  config.relocalise = true;
   config.relocalise_suspect = true;
   Odometry odo(sim.classTable(), config);
   Score s;
@@ -143,7 +144,9 @@ TEST(WorstDay, DISABLED_MeetsTheIssueTargets) {
 
 TEST(Relocalise, AScanWithTooFewPointsSaysSoInItsReason) {
   const ClassTable table = ClassTable::semanticKitti();
-  Odometry odo(table, OdometryConfig::defaults());
+  OdometryConfig c = OdometryConfig::defaults();
+  c.relocalise = true;
+  Odometry odo(table, c);
   odo.addFrame(test::kittiScan(0, table));
   LabeledCloud few = test::kittiScan(1, table).slice(0, 30);
   const OdometryFrame& f = odo.addFrame(few);
@@ -173,7 +176,9 @@ TEST(Relocalise, KittiWithEveryOtherFrameDroppedIsTracked) {
     std::snprintf(name, sizeof name, "%06d.bin", i);
     return readKittiScan(test::sharedData("kitti-semantic-sample/velodyne") / name, std::nullopt, table);
   };
-  Odometry full(table), dropped(table);
+  OdometryConfig relocalising = OdometryConfig::defaults();
+  relocalising.relocalise = true;
+  Odometry full(table), dropped(table, relocalising);
   for (int i = 0; i < 6; ++i) full.addFrame(scan(i));
   for (int i = 0; i < 6; i += 2) {
     const OdometryFrame& f = dropped.addFrame(scan(i));
