@@ -132,7 +132,9 @@ std::unique_ptr<MessageReader> openRosbag2(const fs::path& path) {
   if (meta.files.empty()) fail(yaml_path.string(), "relative_file_paths lists no storage files");
   std::vector<std::unique_ptr<MessageReader>> readers;
   for (const auto& f : meta.files) {
-    if (!fs::exists(f)) fail(yaml_path.string(), "lists " + f.filename().string() + ", which is missing");
+    std::error_code ec;  // a listed name can be unusable (too long, bad bytes): say so, never throw
+    if (!fs::exists(f, ec))
+      fail(yaml_path.string(), "lists " + f.filename().string() + (ec ? ", which cannot be opened: " + ec.message() : ", which is missing"));
     readers.push_back(openStorageFile(f, meta.storage));
   }
   auto reader = readers.size() == 1 ? std::move(readers.front()) : mergeReaders(std::move(readers));
