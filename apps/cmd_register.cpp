@@ -4,14 +4,13 @@
 #include <fstream>
 #include <iostream>
 #include <nlohmann/json.hpp>
-#include <sstream>
 #include <string>
 
 #include "command.hpp"
 #include "config_options.hpp"
 #include "hazmap/core/error.hpp"
-#include "hazmap/io/atomic_file.hpp"
 #include "hazmap/io/cloud_file.hpp"
+#include "hazmap/io/transform_file.hpp"
 #include "hazmap/preprocess/voxel_downsample.hpp"
 #include "hazmap/registration/global_registration.hpp"
 #include "hazmap/registration/registration.hpp"
@@ -29,38 +28,6 @@ struct RegisterOptions {
   bool json = false;
   bool global = false;
 };
-
-/// Reads a 4×4 row-major matrix (16 numbers; a 3×4 [R|t] with 12 numbers is accepted too).
-Eigen::Isometry3d readTransform(const std::string& path) {
-  const std::string text = readTextFile(path);
-  std::istringstream in(text);
-  std::vector<double> v;
-  std::string token;
-  while (in >> token) {
-    try {
-      std::size_t used = 0;
-      v.push_back(std::stod(token, &used));
-      if (used != token.size()) throw std::invalid_argument(token);
-    } catch (const std::exception&) {
-      fail(path, "not a number: '" + token + "' (expected a 4x4 row-major matrix)");
-    }
-  }
-  if (v.size() != 16 && v.size() != 12)
-    fail(path, "expected 16 numbers (4x4 row-major) or 12 (3x4), found " + std::to_string(v.size()));
-  Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
-  for (std::size_t k = 0; k < v.size(); ++k) m(k / 4, k % 4) = v[k];
-  for (double x : v)
-    if (!std::isfinite(x)) fail(path, "the transform has a non-finite entry");
-  if (v.size() == 16 && (m.row(3) - Eigen::RowVector4d(0, 0, 0, 1)).norm() > 1e-6)
-    fail(path, "the last row must be 0 0 0 1");
-  const Eigen::Matrix3d R = m.topLeftCorner<3, 3>();
-  if ((R.transpose() * R - Eigen::Matrix3d::Identity()).norm() > 1e-3 || R.determinant() < 0)
-    fail(path, "the rotation part is not a rotation matrix");
-  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  T.linear() = projectToSO3(R);
-  T.translation() = m.topRightCorner<3, 1>();
-  return T;
-}
 
 void printMatrix(const Eigen::Matrix4d& M) {
   for (int i = 0; i < 4; ++i) {
@@ -149,7 +116,7 @@ void run(const RegisterOptions& o, const ParameterOptions& params) {
     table.checkCloud(source, o.source);
     table.checkCloud(target, o.target);
   }
-  const Eigen::Isometry3d init = o.init.empty() ? Eigen::Isometry3d::Identity() : readTransform(o.init);
+  const Eigen::Isometry3d init = o.init.empty() ? Eigen::Isometry3d::Identity() : readTransformFile(o.init);
   VoxelDownsampleConfig vd;
   vd.voxel_size = o.voxel;
   vd.vote = ClassVote::PreferProperty;

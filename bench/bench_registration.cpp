@@ -15,11 +15,11 @@
 
 #include <chrono>
 #include <cmath>
-#include <fstream>
 #include <optional>
 
 #include "hazmap/io/kitti.hpp"
 #include "hazmap/io/pcd.hpp"
+#include "hazmap/io/transform_file.hpp"
 #include "hazmap/odometry/odometry.hpp"
 #include "hazmap/preprocess/voxel_downsample.hpp"
 #include "hazmap/registration/registration.hpp"
@@ -52,22 +52,12 @@ struct PairData {
   double voxel = 0.25;
 };
 
-Eigen::Isometry3d readMatrix4(const std::filesystem::path& p) {
-  std::ifstream in(p);
-  Eigen::Matrix4d m;
-  for (int r = 0; r < 4; ++r)
-    for (int c = 0; c < 4; ++c) in >> m(r, c);
-  Eigen::Isometry3d T;
-  T.matrix() = m;
-  return T;
-}
-
 const PairData& scanPair() {
   static const PairData d = [] {
     PairData p;
     p.target = readPcd(kData / "scan-pair/251370668.pcd");
     p.source = readPcd(kData / "scan-pair/251371071.pcd");
-    p.reference = readMatrix4(kData / "scan-pair/relative.txt");
+    p.reference = readTransformFile(kData / "scan-pair/relative.txt");
     p.voxel = 0.25;
     return p;
   }();

@@ -14,28 +14,17 @@
 #include "hazmap/io/pcd.hpp"
 #include "hazmap/registration/global_registration.hpp"
 #include "hazmap/sources/scan_source.hpp"
+#include "hazmap/io/transform_file.hpp"
 #include "test_helpers.hpp"
 #include "test_registration_scenes.hpp"
 
 using namespace hazmap;
+using hazmap::test::rotErrDeg;
+using hazmap::test::transErr;
 
 namespace {
 
 constexpr double kDeg = std::numbers::pi / 180.0;
-
-Eigen::Isometry3d readMatrix4(const std::filesystem::path& path) {
-  std::ifstream in(path);
-  Eigen::Matrix4d m;
-  for (int r = 0; r < 4; ++r)
-    for (int c = 0; c < 4; ++c) in >> m(r, c);
-  EXPECT_TRUE(in) << path;
-  Eigen::Isometry3d T;
-  T.matrix() = m;
-  return T;
-}
-
-double transErr(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) { return (a.inverse() * b).translation().norm(); }
-double rotErrDeg(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) { return rotationAngle(a.inverse() * b) / kDeg; }
 
 /// A jump a slipping, spinning crawler could make: yaw uniform in ±max_yaw, a horizontal
 /// translation of up to max_translation, a little roll/pitch and height.
@@ -108,7 +97,7 @@ TEST(GlobalRegistration, ScanPairFindsTheReferenceWithoutAGuess) {
   const ClassTable table = ClassTable::defaults();
   const LabeledCloud target = readPcd(dir / "251370668.pcd", table);
   const LabeledCloud source = readPcd(dir / "251371071.pcd", table);
-  const Eigen::Isometry3d reference = readMatrix4(dir / "relative.txt");
+  const Eigen::Isometry3d reference = readTransformFile(dir / "relative.txt");
   const auto r = registerGlobally(source, target, table);
   std::printf("scan pair: %s, %.3f m / %.3f° from the reference, score %.3f (second %.3f), %.1f ms\n",
               r.success ? "accepted" : r.reason.c_str(), transErr(r.transform, reference),

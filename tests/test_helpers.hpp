@@ -10,6 +10,7 @@
 #include <unistd.h>
 
 #include "hazmap/core/class_table.hpp"
+#include "hazmap/core/se3.hpp"
 #include "hazmap/io/kitti.hpp"
 #include "hazmap/sim/simulator.hpp"
 
@@ -27,6 +28,14 @@ inline LabeledCloud kittiScan(int i, const ClassTable& table) {
   const auto dir = sharedData("kitti-semantic-sample");
   return readKittiScan(dir / "velodyne" / (std::string(name) + ".bin"),
                        dir / "labels" / (std::string(name) + ".label"), table);
+}
+
+/// How far pose `b` is from pose `a`: the translation (m) and rotation angle (degrees) of a⁻¹·b.
+inline double transErr(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
+  return (a.inverse() * b).translation().norm();
+}
+inline double rotErrDeg(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
+  return rotationAngle(a.inverse() * b) * 180.0 / M_PI;
 }
 
 inline std::filesystem::path sourceDir(const std::string& rel = "") {

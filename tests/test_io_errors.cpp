@@ -16,6 +16,7 @@
 #include "hazmap/io/ply.hpp"
 #include "hazmap/io/sequence.hpp"
 #include "hazmap/io/trajectory.hpp"
+#include "hazmap/io/transform_file.hpp"
 #include "test_helpers.hpp"
 
 using namespace hazmap;
@@ -400,4 +401,33 @@ TEST(IoErrors, ClassTableWithRawLabelsNeedsAnExistingUnmappedClass) {
   const auto ok = ClassTable::fromYamlString(yaml + "unmapped_class: 5\n", "t.yaml");
   EXPECT_EQ(ok.mapRaw(12), 5);
   EXPECT_EQ(ClassTable::fromYamlString(ok.toYamlString(), "again").mapRaw(12), 5);
+}
+
+// The scan pair's reference transform and hazmap register's printed result: 4×4 or 3×4, anything
+// else a one-line error naming the file.
+TEST(IoErrors, TransformFiles) {
+  const fs::path dir = test::scratchDir();
+  const fs::path four = dir / "four.txt", three = dir / "three.txt";
+  writeTextAtomically(four, "0 -1 0 1.5\n1 0 0 -2\n0 0 1 0.25\n0 0 0 1\n");
+  writeTextAtomically(three, "0 -1 0 1.5 1 0 0 -2 0 0 1 0.25");
+  for (const fs::path& f : {four, three}) {
+    const Eigen::Isometry3d T = readTransformFile(f);
+    EXPECT_NEAR((T.translation() - Eigen::Vector3d(1.5, -2, 0.25)).norm(), 0.0, 1e-12) << f;
+    EXPECT_NEAR(T.linear()(1, 0), 1.0, 1e-12) << f;
+  }
+  const Eigen::Isometry3d reference = readTransformFile(test::sharedData("scan-pair/relative.txt"));
+  EXPECT_GT(reference.translation().norm(), 0.1);  // the pair's two scans are not at one place
+  const auto rejects = [&](const std::string& text, const std::string& phrase) {
+    const fs::path f = dir / "bad.txt";
+    writeTextAtomically(f, text);
+    expectFileError([&] { (void)readTransformFile(f); }, f, phrase);
+  };
+  rejects("1 0 0 0 0 1 0 0 0 0 1 0 0 0 0", "found 15");
+  rejects("1 0 0 0 0 1 0 0 0 0 1 x", "not a number: 'x'");
+  rejects("1 0 0 0 0 1 0 0 0 0 1 2e", "not a number");
+  rejects("1 0 0 0 0 1 0 0 0 0 1 nan", "non-finite");
+  rejects("1 0 0 0 0 1 0 0 0 0 1 0 0 0 1 1", "last row");
+  rejects("2 0 0 0 0 1 0 0 0 0 1 0", "not a rotation");
+  rejects("-1 0 0 0 0 1 0 0 0 0 1 0", "not a rotation");  // a reflection
+  expectFileError([&] { (void)readTransformFile(dir / "missing.txt"); }, dir / "missing.txt", "");
 }

@@ -21,17 +21,8 @@
 #include "test_registration_scenes.hpp"
 
 using namespace hazmap;
-
-namespace {
-
-double transErr(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
-  return (a.inverse() * b).translation().norm();
-}
-double rotErrDeg(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
-  return rotationAngle(a.inverse() * b) * 180.0 / M_PI;
-}
-
-}  // namespace
+using hazmap::test::rotErrDeg;
+using hazmap::test::transErr;
 
 // Property-ICP and plain ICP agree within a few cm on frames 0→1→2, and the labels visibly change
 // which points are paired.

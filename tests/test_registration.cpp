@@ -10,21 +10,17 @@
 #include "hazmap/preprocess/top_k.hpp"
 #include "hazmap/registration/registration.hpp"
 #include "hazmap/registration/registration_target.hpp"
+#include "test_helpers.hpp"
 #include "test_registration_scenes.hpp"
 
 using namespace hazmap;
+using hazmap::test::rotErrDeg;
+using hazmap::test::transErr;
 using hazmap::test::corridorScene;
 using hazmap::test::roomScene;
 using hazmap::test::samplePatches;
 
 namespace {
-
-double transErr(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
-  return (a.inverse() * b).translation().norm();
-}
-double rotErrDeg(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
-  return rotationAngle(a.inverse() * b) * 180.0 / M_PI;
-}
 
 std::string fmtVec(const Vector6d& v) {
   char buf[160];

@@ -2,38 +2,18 @@
 #include <gtest/gtest.h>
 
 #include <cstdio>
-#include <fstream>
 
 #include "hazmap/io/kitti.hpp"
 #include "hazmap/io/pcd.hpp"
 #include "hazmap/preprocess/crop.hpp"
 #include "hazmap/preprocess/voxel_downsample.hpp"
 #include "hazmap/registration/registration.hpp"
+#include "hazmap/io/transform_file.hpp"
 #include "test_helpers.hpp"
 
 using namespace hazmap;
-
-namespace {
-
-Eigen::Isometry3d readMatrix4(const std::filesystem::path& path) {
-  std::ifstream in(path);
-  Eigen::Matrix4d m;
-  for (int r = 0; r < 4; ++r)
-    for (int c = 0; c < 4; ++c) in >> m(r, c);
-  EXPECT_TRUE(in) << path;
-  Eigen::Isometry3d T;
-  T.matrix() = m;
-  return T;
-}
-
-double transErr(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
-  return (a.inverse() * b).translation().norm();
-}
-double rotErrDeg(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
-  return rotationAngle(a.inverse() * b) * 180.0 / M_PI;
-}
-
-}  // namespace
+using hazmap::test::rotErrDeg;
+using hazmap::test::transErr;
 
 class ScanPair : public ::testing::TestWithParam<std::tuple<bool, IcpMetric>> {};
 
@@ -43,8 +23,8 @@ TEST_P(ScanPair, LandsOnTheReference) {
   const ClassTable table = ClassTable::defaults();
   const LabeledCloud target_raw = readPcd(dir / "251370668.pcd", table);
   const LabeledCloud source_raw = readPcd(dir / "251371071.pcd", table);
-  const Eigen::Isometry3d reference = readMatrix4(dir / "relative.txt");
-  const Eigen::Isometry3d small_gicp = readMatrix4(dir / "small_gicp_T_target_source.txt");
+  const Eigen::Isometry3d reference = readTransformFile(dir / "relative.txt");
+  const Eigen::Isometry3d small_gicp = readTransformFile(dir / "small_gicp_T_target_source.txt");
   VoxelDownsampleConfig vd;
   vd.voxel_size = 0.25;
   const LabeledCloud target = voxelDownsample(target_raw, vd, table);

@@ -93,39 +93,35 @@ void expectNebulaCloud(const std::string& name, const std::string& pcd,
 
 }  // namespace
 
-// Settings of nebula's decoder tests (tier4/nebula, src/nebula_velodyne/nebula_velodyne/tests/):
-// VLP-16 dual, 0.3–300 m, scan phase 0, cloud angles 0–359.
-TEST(VelodyneNebula, Vlp16DualReturn) {
+// Settings of nebula's decoder tests (tier4/nebula, src/nebula_velodyne/nebula_velodyne/tests/).
+struct NebulaCase {
+  const char* name;  ///< the folder sensors/velodyne-<name>
+  const char* pcd;   ///< nebula's decoded cloud, named by its stamp
+  double min_range, max_range, cut_angle, fov_min, fov_max;
+};
+
+void PrintTo(const NebulaCase& c, std::ostream* os) { *os << c.name; }
+
+class NebulaRecording : public ::testing::TestWithParam<NebulaCase> {};
+
+TEST_P(NebulaRecording, SameCloudAsTheDriver) {
+  const NebulaCase& c = GetParam();
   VelodyneOptions o;
-  o.min_range = 0.3;
-  o.max_range = 300;
-  o.cut_angle = 0;
-  o.fov_min = 0;
-  o.fov_max = 359;
-  expectNebulaCloud("vlp16", "1673400472138016708.pcd", o);
+  o.min_range = c.min_range;
+  o.max_range = c.max_range;
+  o.cut_angle = c.cut_angle;
+  o.fov_min = c.fov_min;
+  o.fov_max = c.fov_max;
+  expectNebulaCloud(c.name, c.pcd, o);
 }
 
-// VLP-32C single strongest, 0.4–50 m, scan phase 180, cloud angles 270–90.
-TEST(VelodyneNebula, Vlp32cStrongest) {
-  VelodyneOptions o;
-  o.min_range = 0.4;
-  o.max_range = 50;
-  o.cut_angle = 180;
-  o.fov_min = 270;
-  o.fov_max = 90;
-  expectNebulaCloud("vlp32", "1713492677464078412.pcd", o);
-}
-
-// VLS-128 (the packets say single strongest), 0.3–300 m, scan phase 0, cloud angles 0–359.
-TEST(VelodyneNebula, Vls128) {
-  VelodyneOptions o;
-  o.min_range = 0.3;
-  o.max_range = 300;
-  o.cut_angle = 0;
-  o.fov_min = 0;
-  o.fov_max = 359;
-  expectNebulaCloud("vls128", "1585897255376374245.pcd", o);
-}
+// VLP-16 dual, 0.3–300 m, scan phase 0, cloud angles 0–359; VLP-32C single strongest, 0.4–50 m,
+// scan phase 180, cloud angles 270–90; VLS-128 (the packets say single strongest) as the VLP-16.
+INSTANTIATE_TEST_SUITE_P(VelodyneNebula, NebulaRecording,
+                         ::testing::Values(NebulaCase{"vlp16", "1673400472138016708.pcd", 0.3, 300, 0, 0, 359},
+                                           NebulaCase{"vlp32", "1713492677464078412.pcd", 0.4, 50, 180, 270, 90},
+                                           NebulaCase{"vls128", "1585897255376374245.pcd", 0.3, 300, 0, 0, 359}),
+                         [](const auto& info) { return std::string(info.param.name); });
 
 namespace {
 

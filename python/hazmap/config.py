@@ -28,7 +28,25 @@ def validate(kind, config, method="property-icp+pgo"):
     return _hazmap._config_info(kind, config, method)[2]
 
 
-class Config(dict):
+class _Section(dict):
+    """A dict whose existing keys read and write as attributes; a new key is a typo, refused."""
+
+    def __getattr__(self, name):
+        try:
+            return self[name]
+        except KeyError:
+            raise AttributeError(name) from None
+
+    def __setattr__(self, name, value):
+        if name not in self:
+            raise AttributeError(f"{self._owner()}no field '{name}'")
+        self[name] = value
+
+    def _owner(self):
+        return ""
+
+
+class Config(_Section):
     """A dict of one kind's complete config with attribute access; sections are Configs too.
 
     Built from the defaults, then `overrides` (a dict, possibly nested) and keyword arguments;
@@ -41,32 +59,11 @@ class Config(dict):
         super().__init__(_wrap(validate(kind, merged, method)))
         object.__setattr__(self, "kind", kind)
 
-    def __getattr__(self, name):
-        try:
-            return self[name]
-        except KeyError:
-            raise AttributeError(name) from None
-
-    def __setattr__(self, name, value):
-        if name not in self:
-            raise AttributeError(f"{self.kind} config has no field '{name}'")
-        self[name] = value
+    def _owner(self):
+        return f"{self.kind} config has "
 
     def to_dict(self):
         return _unwrap(self)
-
-
-class _Section(dict):
-    def __getattr__(self, name):
-        try:
-            return self[name]
-        except KeyError:
-            raise AttributeError(name) from None
-
-    def __setattr__(self, name, value):
-        if name not in self:
-            raise AttributeError(f"no field '{name}'")
-        self[name] = value
 
 
 def _wrap(value):
