@@ -1,9 +1,11 @@
-// libFuzzer target: KITTI and TUM trajectory readers (and the format guess).
+// libFuzzer target: KITTI and TUM trajectory readers (and the format guess), and the single
+// transform file (`hazmap register --init`).
 #include <cmath>
 
 #include "fuzz_input.hpp"
 #include "hazmap/core/error.hpp"
 #include "hazmap/io/trajectory.hpp"
+#include "hazmap/io/transform_file.hpp"
 
 namespace {
 void check(const hazmap::Trajectory& t) {
@@ -23,6 +25,11 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     check(t);
     for (const auto& T : t.poses)  // TUM quaternions are normalised on read
       if (std::abs(T.linear().determinant() - 1.0) > 1e-6) std::abort();
+  } catch (const hazmap::Error&) {
+  }
+  try {
+    const Eigen::Isometry3d T = hazmap::readTransformFile(path);
+    if (!T.matrix().allFinite() || std::abs(T.linear().determinant() - 1.0) > 1e-6) std::abort();
   } catch (const hazmap::Error&) {
   }
   return 0;

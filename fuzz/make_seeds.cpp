@@ -118,6 +118,8 @@ int main(int argc, char** argv) {
       for (int k = 0; k < 5; ++k) at = real.find('\n', at) + 1;
       writeTextAtomically(out / "trajectory/real.txt", real.substr(0, at));
     }
+    fs::copy_file(data / "scan-pair/relative.txt", out / "trajectory/relative.txt",
+                  fs::copy_options::overwrite_existing);  // a transform file
 
     velodyneSeeds(data / "sensors/velodyne-vlp16-pcap/velodyne_vlp16.pcap", out / "velodyne");
 
