@@ -267,6 +267,7 @@ LabelReport labelSequence(const fs::path& sequence_dir, const fs::path& out_arg,
   fs::create_directories(tmp.path);
   SequenceWriter writer(tmp.path, cameraClassTable(seq.classTable()), seq.sensorYaml());
   writer.setPropertyChannel(labeler.channels().front());
+  writer.setChannels(labeler.channels());
   const FrameSink sink{seq, labeler, tmp.path, writer, report};
   report.fused = options.fuse_views && poses.size() == seq.size();
   if (report.fused)
