@@ -101,21 +101,40 @@ TEST(PropertiesSim, BadInputIsOneLineAndWritesNothing) {
 
 TEST(PropertiesSim, RunWithCameraReportsPeakTemperaturePerHazard) {
   const fs::path dir = test::scratchDir();
-  ASSERT_EQ(test::runCli("simulate --frames 40 --cameras thermal --out " + (dir / "seq").string()).exit_code, 0);
+  ASSERT_EQ(test::runCli("simulate --frames 40 --cameras thermal,nir --out " + (dir / "seq").string()).exit_code, 0);
   const auto r = test::runCli("run " + (dir / "seq").string() + " --method property-icp --quiet --camera " +
-                              (dir / "seq/cameras/thermal/camera.yaml").string() + " --out " + (dir / "run").string());
+                              (dir / "seq/cameras/thermal/camera.yaml").string() + " --camera " +
+                              (dir / "seq/cameras/nir/camera.yaml").string() + " --out " + (dir / "run").string());
   ASSERT_EQ(r.exit_code, 0) << r.output;
   ASSERT_TRUE(fs::exists(dir / "run/labelled_sequence/temperature/000000.bin"));
+  // Camera labels cover what the cameras saw of a region, not its whole extent.
+  const Sequence labelled = Sequence::open(dir / "run/labelled_sequence");
+  EXPECT_FALSE(labelled.classTable().at(1).whole_extent);
+  EXPECT_EQ(labelled.channels(), (std::vector<std::string>{"temperature", "nir_reflectance"}));
   const auto hazards = nlohmann::json::parse(readTextFile(dir / "run/hazards.json"));
-  bool hot = false;
-  for (const auto& h : hazards["hazards"])
+  bool hot = false, wet = false;
+  for (const auto& h : hazards["hazards"]) {
+    const auto& channels = h["channels"];
     if (h["class"] == "heat") {
       ASSERT_TRUE(h["max_property"].is_number()) << h.dump();
       EXPECT_GE(h["max_property"].get<double>(), h["mean_property"].get<double>());
       EXPECT_NEAR(h["max_property"].get<double>(), 80.0, 2.0);  // the simulated heat sources' 80 °C
+      EXPECT_EQ(channels["temperature"]["max"], h["max_property"]);  // the first channel, by name
       hot = true;
     }
+    if (h["class"] == "water" && channels["nir_reflectance"]["samples"].get<int>() > 0) {
+      // A puddle: dark in the NIR camera (0.05 against 0.6), at the ambient 20 °C.
+      EXPECT_LT(channels["nir_reflectance"]["mean"].get<double>(), 0.2) << h.dump();
+      if (channels["temperature"]["samples"].get<int>() > 0)
+        EXPECT_NEAR(channels["temperature"]["max"].get<double>(), 20.0, 2.0) << h.dump();
+      wet = true;
+    }
+  }
   EXPECT_TRUE(hot) << hazards.dump();
+  EXPECT_TRUE(wet) << hazards.dump();
+  const std::string csv = readTextFile(dir / "run/hazards.csv");
+  EXPECT_NE(csv.substr(0, csv.find('\n')).find("max_property,temperature_mean,temperature_max,nir_reflectance_mean,nir_reflectance_max"),
+            std::string::npos);
 }
 
 TEST(PropertiesSim, BagImagesLabelLikeTheFolderAndMissingImagesAreCountedInRunJson) {

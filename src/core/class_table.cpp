@@ -116,6 +116,7 @@ ClassTable ClassTable::fromYamlString(const std::string& yaml, const std::string
     }
     if (c["search_radius"]) info.search_radius = scalarAs<double>(c["search_radius"], where, "search_radius");
     if (c["weight"]) info.weight = scalarAs<double>(c["weight"], where, "weight");
+    if (c["whole_extent"]) info.whole_extent = scalarAs<bool>(c["whole_extent"], where, "whole_extent");
     if (t.contains(info.id)) fail(where, "class id " + std::to_string(info.id) + " defined twice");
     try {
       t.add(info);
@@ -159,7 +160,9 @@ std::string ClassTable::toYamlString() const {
     out << YAML::Key << "color" << YAML::Value << YAML::Flow << YAML::BeginSeq
         << int(c.color[0]) << int(c.color[1]) << int(c.color[2]) << YAML::EndSeq;
     out << YAML::Key << "search_radius" << YAML::Value << c.search_radius;
-    out << YAML::Key << "weight" << YAML::Value << c.weight << YAML::EndMap;
+    out << YAML::Key << "weight" << YAML::Value << c.weight;
+    if (!c.whole_extent) out << YAML::Key << "whole_extent" << YAML::Value << false;  // older tables stay as they were
+    out << YAML::EndMap;
   }
   out << YAML::EndSeq;
   if (!raw_to_class_.empty()) {

@@ -49,6 +49,33 @@ std::string frameName(std::size_t i) {
   return buf;
 }
 
+// NAME/NNNNNN.bin: one float32 per point of the scan.
+std::vector<float> readChannelFile(const fs::path& path, std::size_t points) {
+  const std::string bytes = readTextFile(path);
+  if (bytes.size() != points * sizeof(float))
+    fail(path.string(), "has " + std::to_string(bytes.size()) + " bytes; the scan's " + std::to_string(points) +
+                            " points need " + std::to_string(points * sizeof(float)));
+  std::vector<float> values(points);
+  if (points) std::memcpy(values.data(), bytes.data(), bytes.size());
+  return values;
+}
+
+// hazmap.yaml's `channels:` list: folder names, each present, none twice.
+std::vector<std::string> readChannelNames(const YAML::Node& node, const fs::path& dir, const std::string& where) {
+  if (!node.IsSequence()) fail(where, "'channels' must be a list of channel (folder) names");
+  std::vector<std::string> names;
+  std::error_code ec;
+  for (const auto& n : node) {
+    const std::string name = n.IsScalar() ? n.as<std::string>() : std::string();
+    if (name.empty() || name.find('/') != std::string::npos || name == "." || name == "..")
+      fail(where, "'channels' must be a list of channel (folder) names");
+    if (std::find(names.begin(), names.end(), name) != names.end()) fail(where, "channel '" + name + "' listed twice");
+    if (!fs::is_directory(dir / name, ec)) fail(where, "channel '" + name + "' has no folder " + (dir / name).string());
+    names.push_back(name);
+  }
+  return names;
+}
+
 }  // namespace
 
 Sequence Sequence::open(const fs::path& dir, const std::optional<ClassTable>& table_override) {
@@ -106,13 +133,28 @@ Sequence Sequence::open(const fs::path& dir, const std::optional<ClassTable>& ta
         if (!fs::is_directory(dir / seq.property_channel_, ec))
           fail(where, "property_channel '" + seq.property_channel_ + "' has no folder " +
                           (dir / seq.property_channel_).string());
+        seq.channels_ = {seq.property_channel_};
       }
+      if (const YAML::Node c = root["channels"]; c) seq.channels_ = readChannelNames(c, dir, where);
     }
   }
   if (table_override) seq.table_ = *table_override;
   seq.ground_truth_ = readOptionalTrajectory(dir / "poses.txt", seq.scans_.size());
   seq.odometry_ = readOptionalTrajectory(dir / "odometry.txt", seq.scans_.size());
   return seq;
+}
+
+std::vector<PointChannel> Sequence::frameChannels(std::size_t i, std::size_t points) const {
+  if (i >= scans_.size())
+    fail(dir_.string(), "frame " + std::to_string(i) + " out of range (" + std::to_string(scans_.size()) +
+                            " frames)");
+  std::vector<PointChannel> out;
+  for (const std::string& name : channels_) {
+    fs::path path = dir_ / name / scans_[i].filename();
+    path.replace_extension(".bin");
+    out.push_back({name, readChannelFile(path, points)});
+  }
+  return out;
 }
 
 LabeledCloud Sequence::frame(std::size_t i, ReadStats* stats) const {
@@ -128,12 +170,9 @@ LabeledCloud Sequence::frame(std::size_t i, ReadStats* stats) const {
 void Sequence::readPropertyChannel(std::size_t i, LabeledCloud& scan) const {
   fs::path path = dir_ / property_channel_ / scans_[i].filename();
   path.replace_extension(".bin");
-  const std::string bytes = readTextFile(path);
-  if (bytes.size() != scan.size() * sizeof(float))
-    fail(path.string(), "has " + std::to_string(bytes.size()) + " bytes; the scan's " + std::to_string(scan.size()) +
-                            " points need " + std::to_string(scan.size() * sizeof(float)));
+  std::vector<float> values = readChannelFile(path, scan.size());
   scan.enableProperty();
-  std::memcpy(scan.property.data(), bytes.data(), bytes.size());
+  scan.property = std::move(values);
 }
 
 SequenceWriter::SequenceWriter(fs::path dir, ClassTable table, std::string sensor_yaml)
@@ -187,6 +226,7 @@ void SequenceWriter::finish() {
   out << YAML::Key << "class_table" << YAML::Value << YAML::Load(withoutRawMapping(table_).toYamlString());
   if (!sensor_yaml_.empty()) out << YAML::Key << "sensor" << YAML::Value << YAML::Load(sensor_yaml_);
   if (!property_channel_.empty()) out << YAML::Key << "property_channel" << YAML::Value << property_channel_;
+  if (!channels_.empty()) out << YAML::Key << "channels" << YAML::Value << YAML::Flow << channels_;
   out << YAML::EndMap;
   writeTextAtomically(dir_ / "hazmap.yaml", std::string(out.c_str()) + "\n");
 }

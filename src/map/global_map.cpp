@@ -153,6 +153,31 @@ struct FrameRecord {
   }
 };
 
+// Per channel, over a cell's property-class points: only cells that received property points
+// with named channels hold one (as frame records), so plain cells pay nothing.
+struct ChannelAccumulator {
+  double sum = 0;
+  std::uint32_t count = 0;
+  float max = -std::numeric_limits<float>::infinity();
+  void add(float v) {
+    sum += v;
+    ++count;
+    max = std::max(max, v);
+  }
+  void merge(const ChannelAccumulator& o) {
+    sum += o.sum;
+    count += o.count;
+    max = std::max(max, o.max);
+  }
+};
+struct ChannelRecord {
+  std::vector<ChannelAccumulator> channels;  // GlobalMap::channelNames() order
+  void merge(const ChannelRecord& o) {
+    if (channels.size() < o.channels.size()) channels.resize(o.channels.size());
+    for (std::size_t k = 0; k < o.channels.size(); ++k) channels[k].merge(o.channels[k]);
+  }
+};
+
 }  // namespace
 
 // ---- config ------------------------------------------------------------------------------------
@@ -169,6 +194,30 @@ struct GlobalMap::Impl {
   bool any_property_channel = false;
   detail::VoxelHashMap<Cell> cells;
   detail::VoxelHashMap<FrameRecord> frame_records;  // only cells that received property points
+  std::vector<std::string> channel_names;
+  detail::VoxelHashMap<ChannelRecord> channel_records;  // property cells of scans with named channels
+
+  // Slot of each of the scan's channels in channel_names (new names are appended).
+  std::vector<std::size_t> channelSlots(std::span<const PointChannel> channels, std::size_t points,
+                                        const std::string& where) {
+    std::vector<std::size_t> slots;
+    for (const PointChannel& c : channels) {
+      if (c.values.size() != points)
+        fail(where, "channel '" + c.name + "' has " + std::to_string(c.values.size()) + " values for " +
+                        std::to_string(points) + " points");
+      const auto it = std::find(channel_names.begin(), channel_names.end(), c.name);
+      slots.push_back(std::size_t(it - channel_names.begin()));
+      if (it == channel_names.end()) channel_names.push_back(c.name);
+    }
+    return slots;
+  }
+  void addChannels(std::uint64_t key, std::span<const PointChannel> channels, const std::vector<std::size_t>& slots,
+                   std::size_t i) {
+    ChannelRecord& rec = channel_records[key];
+    if (rec.channels.size() < channel_names.size()) rec.channels.resize(channel_names.size());
+    for (std::size_t k = 0; k < channels.size(); ++k)
+      if (const float v = channels[k].values[i]; std::isfinite(v)) rec.channels[slots[k]].add(v);
+  }
 
   static std::uint64_t parentKey(std::uint64_t key) {
     const Eigen::Vector3i idx = unpackKey(key);
@@ -204,8 +253,15 @@ struct GlobalMap::Impl {
       else
         dst.merge(rec, config.max_frame_ranges);
     }
+    detail::VoxelHashMap<ChannelRecord> channel_merged;
+    channel_records.dropIndex();
+    while (!channel_records.empty()) {
+      auto [key, rec] = channel_records.popBackUnindexed();
+      channel_merged[parentKey(key)].merge(rec);
+    }
     cells.swap(merged);
     frame_records.swap(records);
+    channel_records.swap(channel_merged);
     voxel *= 2.0;
     ++coarsenings;
   }
@@ -223,7 +279,8 @@ GlobalMap::~GlobalMap() = default;
 GlobalMap::GlobalMap(GlobalMap&&) noexcept = default;
 GlobalMap& GlobalMap::operator=(GlobalMap&&) noexcept = default;
 
-void GlobalMap::insert(std::size_t frame, const LabeledCloud& scan, const Eigen::Isometry3d& T) {
+void GlobalMap::insert(std::size_t frame, const LabeledCloud& scan, const Eigen::Isometry3d& T,
+                       std::span<const PointChannel> channels) {
   Impl& m = *impl_;
   const std::string where = "global map: frame " + std::to_string(frame);
   if (!isFinite(T)) fail(where, "pose is not finite");
@@ -232,6 +289,7 @@ void GlobalMap::insert(std::size_t frame, const LabeledCloud& scan, const Eigen:
                                                           " points but " + std::to_string(scan.classes.size()) +
                                                           " classes");
   const bool has_property = !scan.property.empty() && scan.property.size() == scan.size();
+  const std::vector<std::size_t> slots = m.channelSlots(channels, scan.size(), where);
   for (ClassId c : scan.classes)
     if (m.class_kind[c] < 0) fail(where, "class " + std::to_string(c) + " is not in the class table");
   const double min_r2 = m.config.min_range * m.config.min_range;
@@ -262,6 +320,7 @@ void GlobalMap::insert(std::size_t frame, const LabeledCloud& scan, const Eigen:
         c.property_max = std::max(c.property_max, scan.property[i]);
       }
       m.frame_records[key].add(std::uint32_t(frame), m.config.max_frame_ranges);
+      if (!channels.empty()) m.addChannels(key, channels, slots, i);
     }
     ++m.points;
   }
@@ -277,12 +336,16 @@ double GlobalMap::voxelSize() const { return impl_->voxel; }
 int GlobalMap::coarsenings() const { return impl_->coarsenings; }
 const GlobalMapConfig& GlobalMap::config() const { return impl_->config; }
 const ClassTable& GlobalMap::classTable() const { return impl_->table; }
+const std::vector<std::string>& GlobalMap::channelNames() const { return impl_->channel_names; }
 
 std::size_t GlobalMap::memoryBytes() const {
   // Node (key + value + next pointer) plus one bucket pointer per element, and frame lists.
   std::size_t bytes = impl_->cells.memoryBytes() + impl_->frame_records.memoryBytes();
   for (std::size_t i = 0; i < impl_->frame_records.size(); ++i)
     bytes += impl_->frame_records.valueAt(i).ranges.capacity() * sizeof(FrameRange);
+  bytes += impl_->channel_records.memoryBytes();
+  for (std::size_t i = 0; i < impl_->channel_records.size(); ++i)
+    bytes += impl_->channel_records.valueAt(i).channels.capacity() * sizeof(ChannelAccumulator);
   return bytes;
 }
 
@@ -309,6 +372,13 @@ std::vector<MapCell> GlobalMap::cells() const {
     if (const FrameRecord* rec = m.frame_records.find(key)) {
       v.frames = rec->ranges;
       v.frame_count = rec->count;
+    }
+    if (!m.channel_names.empty()) {
+      v.channels.resize(m.channel_names.size());
+      if (const ChannelRecord* rec = m.channel_records.find(key))
+        for (std::size_t k = 0; k < rec->channels.size(); ++k)
+          if (const ChannelAccumulator& a = rec->channels[k]; a.count)
+            v.channels[k] = {float(a.sum / double(a.count)), a.max, a.count};
     }
     out.push_back(std::move(v));
   }

@@ -33,6 +33,29 @@ std::string csvField(const std::string& text) {
   return out + "\"";
 }
 
+// Each channel over a region's cells: sample-weighted mean, max.
+std::vector<HazardChannel> channelsOf(const std::vector<MapCell>& all, const std::vector<std::size_t>& members,
+                                      const std::vector<std::string>& names) {
+  std::vector<HazardChannel> out;
+  for (std::size_t k = 0; k < names.size(); ++k) {
+    HazardChannel h{names[k], std::nullopt, std::nullopt, 0};
+    double sum = 0, max = -std::numeric_limits<double>::infinity();
+    for (std::size_t m : members) {
+      if (k >= all[m].channels.size() || all[m].channels[k].samples == 0) continue;
+      const ChannelStats& s = all[m].channels[k];
+      sum += double(s.mean) * s.samples;
+      h.samples += s.samples;
+      max = std::max(max, double(s.max));
+    }
+    if (h.samples) {
+      h.mean = sum / double(h.samples);
+      h.max = max;
+    }
+    out.push_back(std::move(h));
+  }
+  return out;
+}
+
 }  // namespace
 
 std::vector<Hazard> findHazards(const GlobalMap& map, const HazardConfig& config) {
@@ -105,6 +128,7 @@ std::vector<Hazard> findHazards(const GlobalMap& map, const HazardConfig& config
       if (prop_n) h.max_property = prop_max;
       h.frames = unionRanges(std::move(frames));
       h.frame_count = countFrames(h.frames);  // exact unless a cell's list was capped
+      h.channels = channelsOf(all, members, map.channelNames());
       regions.push_back(std::move(h));
     }
     std::stable_sort(regions.begin(), regions.end(),
@@ -121,6 +145,10 @@ std::string hazardsJson(const std::vector<Hazard>& hazards, double voxel_size, i
   for (const auto& h : hazards) {
     nlohmann::json frames = nlohmann::json::array();
     for (const auto& r : h.frames) frames.push_back({r.first, r.last});
+    nlohmann::json channels = nlohmann::json::object();
+    const auto orNull = [](const std::optional<double>& v) { return v ? nlohmann::json(*v) : nlohmann::json(); };
+    for (const auto& c : h.channels)
+      channels[c.name] = {{"mean", orNull(c.mean)}, {"max", orNull(c.max)}, {"samples", c.samples}};
     list.push_back({{"id", h.id},
                     {"class", h.class_name},
                     {"class_id", h.label},
@@ -135,7 +163,8 @@ std::string hazardsJson(const std::vector<Hazard>& hazards, double voxel_size, i
                     {"mean_property", h.mean_property ? nlohmann::json(*h.mean_property) : nlohmann::json()},
                     {"max_property", h.max_property ? nlohmann::json(*h.max_property) : nlohmann::json()},
                     {"frame_count", h.frame_count},
-                    {"frames", frames}});
+                    {"frames", frames},
+                    {"channels", channels}});
   }
   nlohmann::json j{{"voxel_size", voxel_size}, {"count", hazards.size()}, {"hazards", list}};
   return j.dump(indent);
@@ -150,7 +179,12 @@ void writeHazardsCsv(const std::filesystem::path& path, const std::vector<Hazard
   std::ostringstream s;
   s << std::setprecision(10);
   s << "id,class,kind,centroid_x,centroid_y,centroid_z,extent_x,extent_y,extent_z,min_x,min_y,"
-       "min_z,max_x,max_y,max_z,area_m2,cells,points,mean_property,frame_count,frames,max_property\n";
+       "min_z,max_x,max_y,max_z,area_m2,cells,points,mean_property,frame_count,frames,max_property";
+  // Every hazard of one map has the map's channels; the first hazard names them.
+  const std::vector<HazardChannel> none;
+  const std::vector<HazardChannel>& names = hazards.empty() ? none : hazards.front().channels;
+  for (const auto& c : names) s << ',' << csvField(c.name + "_mean") << ',' << csvField(c.name + "_max");
+  s << '\n';
   for (const auto& h : hazards) {
     s << h.id << ',' << csvField(h.class_name) << ',' << toString(h.kind);
     s << ',' << h.centroid.x() << ',' << h.centroid.y() << ',' << h.centroid.z();
@@ -165,6 +199,13 @@ void writeHazardsCsv(const std::filesystem::path& path, const std::vector<Hazard
       s << (i ? ";" : "") << h.frames[i].first << '-' << h.frames[i].last;
     s << ',';
     if (h.max_property) s << *h.max_property;
+    for (std::size_t k = 0; k < names.size(); ++k) {
+      const HazardChannel* c = k < h.channels.size() ? &h.channels[k] : nullptr;
+      s << ',';
+      if (c && c->mean) s << *c->mean;
+      s << ',';
+      if (c && c->max) s << *c->max;
+    }
     s << '\n';
   }
   writeTextAtomically(path, s.str());

@@ -55,6 +55,7 @@ Hazard hazardFromJson(const nlohmann::json& j) {
   h.cells = count(j, "cells", std::numeric_limits<std::uint32_t>::max());
   h.points = count(j, "points", std::numeric_limits<std::uint64_t>::max());
   if (j.contains("mean_property") && j["mean_property"].is_number()) h.mean_property = number(j, "mean_property");
+  if (j.contains("max_property") && j["max_property"].is_number()) h.max_property = number(j, "max_property");
   h.frame_count = count(j, "frame_count", std::numeric_limits<std::uint32_t>::max());
   if (j.contains("frames"))
     for (const auto& r : j.at("frames")) {
@@ -63,6 +64,18 @@ Hazard hazardFromJson(const nlohmann::json& j) {
       const auto max = std::numeric_limits<std::uint32_t>::max();
       h.frames.push_back({std::uint32_t(count(range, "first", max)), std::uint32_t(count(range, "last", max))});
     }
+  if (j.contains("channels")) {
+    const auto& channels = j.at("channels");
+    if (!channels.is_object()) throw std::invalid_argument("channels is not a mapping of channel names");
+    for (const auto& [name, c] : channels.items()) {
+      if (!c.is_object()) throw std::invalid_argument("channel " + name + " is not {mean, max, samples}");
+      HazardChannel hc{name, std::nullopt, std::nullopt, 0};
+      if (c.contains("mean") && c["mean"].is_number()) hc.mean = number(c, "mean");
+      if (c.contains("max") && c["max"].is_number()) hc.max = number(c, "max");
+      hc.samples = count(c, "samples", std::numeric_limits<std::uint64_t>::max());
+      h.channels.push_back(std::move(hc));
+    }
+  }
   return h;
 }
 

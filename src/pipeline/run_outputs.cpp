@@ -108,7 +108,7 @@ Trajectory assembleMap(ScanSource& scans, const SlamResult& result, GlobalMap& m
   for (std::optional<Scan> scan; (scan = scans.next()); ++i) {
     if (i >= n) break;
     redoDeskew(scan->cloud, result.frames.at(i));
-    map.insert(i, scan->cloud, result.estimate.poses[i]);
+    map.insert(i, scan->cloud, result.estimate.poses[i], scan->channels);
     if (i == 0 && scan->ground_truth) error.emplace(error_config);
     if (!scan->ground_truth) error.reset();
     if (!error) continue;

@@ -27,6 +27,20 @@ std::optional<double> ratio(std::size_t num, std::size_t den) {
   return static_cast<double>(num) / static_cast<double>(den);
 }
 
+// The labelled sequence's table: every property class now comes from a camera, which labels
+// only what it saw of a region, so no class marks its whole extent (property ICP then keeps
+// the class but not the labelled patch's outline, ClassInfo::whole_extent).
+ClassTable cameraClassTable(const ClassTable& input) {
+  ClassTable table = input;
+  for (ClassId id : input.ids()) {
+    ClassInfo info = input.at(id);
+    if (!input.isProperty(id)) continue;
+    info.whole_extent = false;
+    table.add(info);
+  }
+  return table;
+}
+
 }  // namespace
 
 std::optional<double> ClassLabelMetrics::precision() const { return ratio(true_positive, true_positive + false_positive); }
@@ -251,8 +265,9 @@ LabelReport labelSequence(const fs::path& sequence_dir, const fs::path& out_arg,
   report.truth_source = truthSource(sequence_dir);
   TemporaryFolder tmp{temporarySibling(out)};
   fs::create_directories(tmp.path);
-  SequenceWriter writer(tmp.path, seq.classTable(), seq.sensorYaml());
+  SequenceWriter writer(tmp.path, cameraClassTable(seq.classTable()), seq.sensorYaml());
   writer.setPropertyChannel(labeler.channels().front());
+  writer.setChannels(labeler.channels());
   const FrameSink sink{seq, labeler, tmp.path, writer, report};
   report.fused = options.fuse_views && poses.size() == seq.size();
   if (report.fused)

@@ -84,6 +84,14 @@ std::vector<char> propertyFlags(const ClassTable& classes) {
   return is_property;
 }
 
+// Per class: does a same-class pair get the 3-D residual? Only property classes whose labels mark
+// their whole extent (ClassInfo::whole_extent), and only with property_point_to_point.
+std::vector<char> pointPairFlags(const ClassTable& classes, bool enabled) {
+  std::vector<char> point = propertyFlags(classes);
+  for (ClassId id : classes.ids()) point[id] = point[id] && enabled && classes.at(id).whole_extent;
+  return point;
+}
+
 // Source selection: finite points, evenly strided down to `max_points` (0 = all).
 std::vector<std::uint32_t> selectSourcePoints(const LabeledCloud& source, std::size_t max_points) {
   std::vector<std::uint32_t> used;
@@ -163,10 +171,11 @@ class IcpSolver {
   // Normals are read raw after the correspondence search, which asked for (and so estimated)
   // every paired point's normal (target.normal: lazy ones are estimated on first use).
   const std::vector<Eigen::Vector3f>& normals_;
-  const bool use_labels_, plane_, use_value_, soft_, property_point_;
+  const bool use_labels_, plane_, use_value_, soft_;
   const float mismatch_weight_;
   const double tangent_scale_;
   const std::vector<char> is_property_;
+  const std::vector<char> point_pair_;  ///< per class id: an own-class pair gets the 3-D residual
   std::vector<float> class_weight_;  ///< per source class id (1 when off or unknown)
   const std::vector<std::uint32_t> used_;
   const std::size_t n_, chunks_;
@@ -190,9 +199,9 @@ IcpSolver::IcpSolver(const LabeledCloud& source, const RegistrationTarget& targe
       plane_(config.metric == IcpMetric::PointToPlane),
       use_value_(target.usesProperty() && source.hasProperty()),
       soft_(config.use_classes && config.label_mode == LabelMode::Soft),
-      property_point_(use_labels && config.property_point_to_point),
       mismatch_weight_(soft_ ? static_cast<float>(1.0 - config.label_confidence * config.label_confidence) : 1.0f),
       tangent_scale_(std::sqrt(config.property_tangent_weight)), is_property_(propertyFlags(classes)),
+      point_pair_(pointPairFlags(classes, use_labels && config.property_point_to_point)),
       used_(std::move(used)), n_(used_.size()), chunks_((n_ + kChunk - 1) / kChunk),
       corr_(n_), partial_(chunks_) {
   if (config.use_classes && config.use_class_weights) {
@@ -284,9 +293,10 @@ void IcpSolver::pair(std::size_t k, const Eigen::Matrix3f& R, const Eigen::Vecto
   cr.target = static_cast<std::int32_t>(m.index);
   if (m.index < 0) return;
   // A same-class property pair constrains where the labelled patch is, which a plane residual
-  // would throw away (a patch lies in its wall): it gets a 3-D residual.
+  // would throw away (a patch lies in its wall): it gets a 3-D residual — when the labels mark
+  // the patch's whole extent; a camera's patch is cut where its view ended (ClassInfo::whole_extent).
   const bool own_property = use_labels_ && !m.cross_class && is_property_[cls];
-  const bool point3 = !plane_ || (property_point_ && own_property);
+  const bool point3 = !plane_ || (own_property && point_pair_[cls]);
   const Eigen::Vector3f& nq = plane_ ? target_.normal(m.index) : p;  // p: unused
   const bool anisotropic = plane_ && point3 && tangent_scale_ < 1.0 && !nq.isZero();
   cr.kind = anisotropic ? FactorKind::PropertyPair : point3 ? FactorKind::Point : FactorKind::Plane;

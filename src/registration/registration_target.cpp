@@ -33,6 +33,12 @@ void checkInputs(const LabeledCloud& cloud, const ClassTable& classes, const Reg
   if (config.use_classes) classes.checkCloud(cloud, "registration target");
 }
 
+// The wider same-class search presumes the point's counterpart in the target carries the label
+// too. Labels that do not mark their class's whole extent (a camera's patch ends where its view
+// ended) break that: the nearest labelled point metres away is another part of the region, so
+// such a class searches the default radius like any point (0 = default).
+double sameClassSearchRadius(const ClassInfo& info) { return info.whole_extent ? info.search_radius : 0.0; }
+
 std::vector<std::size_t> finiteIndices(const LabeledCloud& cloud) {
   std::vector<std::size_t> finite;
   finite.reserve(cloud.size());
@@ -150,7 +156,7 @@ void RegistrationTarget::build(const ClassTable& classes, const RegistrationConf
   for (ClassId id : classes.ids()) max_id = std::max(max_id, id);
   class_radius_.assign(std::size_t(max_id) + 1, radius_);
   for (ClassId id : classes.ids()) {
-    const double r = classes.at(id).search_radius;
+    const double r = sameClassSearchRadius(classes.at(id));
     if (r > 0.0) class_radius_[id] = static_cast<float>(r);
   }
 
@@ -215,7 +221,7 @@ bool RegistrationTarget::compatibleWith(const RegistrationConfig& config, const 
       a *= static_cast<float>(config.label_confidence * config.label_confidence);
     if (a != alpha_ || config.label_mode != label_mode_) return false;
     for (ClassId id : classes.ids()) {
-      const double r = classes.at(id).search_radius;
+      const double r = sameClassSearchRadius(classes.at(id));
       const float expect = r > 0.0 ? static_cast<float>(r) : radius_;
       if (id >= class_radius_.size() || class_radius_[id] != expect) return false;
     }

@@ -38,6 +38,7 @@ class SequenceSource final : public ScanSource {
     scan.index = next_;
     scan.stamp = times_[next_];
     scan.cloud = sequence_.frame(next_);
+    if (!sequence_.channels().empty()) scan.channels = sequence_.frameChannels(next_, scan.cloud.size());
     if (const auto& odometry = sequence_.odometry()) scan.odometry = odometry->poses[next_];
     if (const auto& truth = sequence_.groundTruth()) scan.ground_truth = truth->poses[next_];
     ++next_;

@@ -35,6 +35,12 @@ struct ClassInfo {
   double search_radius = 0.0;
   /// Weight of this class's residuals in the ICP objective (beyond the paper; 1 = paper).
   double weight = 1.0;
+  /// True when the labels mark the class's whole extent in every scan (label files, ground
+  /// truth). False for labels from a camera: it sees part of a region, and the labelled patch
+  /// ends where its view ends, which moves with the robot. Property ICP then trusts the class
+  /// but not the patch's outline: a same-class pair gets the plane residual, not the 3-D one
+  /// that would pull the two scans' differently cut patches onto each other.
+  bool whole_extent = true;
 };
 
 class ClassTable {

@@ -7,6 +7,8 @@
 //   hazmap.yaml                          optional: `class_table:` (a class table), `sensor:` and
 //                                        `property_channel: NAME` (then NAME/NNNNNN.bin holds one
 //                                        float32 per point: LabeledCloud::property, NaN = unobserved)
+//                                        and `channels: [NAME, …]` (every named channel folder,
+//                                        the property channel first: Sequence::frameChannels)
 // Frames are read lazily, one at a time.
 #include <filesystem>
 #include <optional>
@@ -19,6 +21,13 @@
 #include "hazmap/io/trajectory.hpp"
 
 namespace hazmap {
+
+/// One named per-point channel of a scan (temperature, nir_reflectance, dose_rate, …): one value
+/// per point of the scan, in its order; NaN = not observed.
+struct PointChannel {
+  std::string name;
+  std::vector<float> values;
+};
 
 class Sequence {
  public:
@@ -39,6 +48,10 @@ class Sequence {
   const std::string& sensorYaml() const { return sensor_yaml_; }
   /// hazmap.yaml's `property_channel` (empty if none): frames then carry the property channel.
   const std::string& propertyChannel() const { return property_channel_; }
+  /// hazmap.yaml's `channels` (else just the property channel, else none).
+  const std::vector<std::string>& channels() const { return channels_; }
+  /// Frame i's named channels (channels() order), each checked against the scan's `points`.
+  std::vector<PointChannel> frameChannels(std::size_t i, std::size_t points) const;
 
  private:
   void readPropertyChannel(std::size_t i, LabeledCloud& scan) const;
@@ -49,6 +62,7 @@ class Sequence {
   std::optional<Trajectory> ground_truth_, odometry_;
   std::string sensor_yaml_;
   std::string property_channel_;
+  std::vector<std::string> channels_;
 };
 
 /// Writes a sequence directory frame by frame (velodyne/*.bin + labels/*.label), then the
@@ -60,6 +74,9 @@ class SequenceWriter {
   /// From now on addFrame() also writes scan.property to NAME/NNNNNN.bin (scans must carry it)
   /// and finish() records `property_channel: NAME`. Call before the first addFrame().
   void setPropertyChannel(const std::string& name);
+  /// finish() records `channels: [...]`: every channel folder the caller writes (NAME/NNNNNN.bin,
+  /// one float32 per point), the property channel first.
+  void setChannels(std::vector<std::string> names) { channels_ = std::move(names); }
   void writeGroundTruth(const Trajectory& poses);
   void writeOdometry(const Trajectory& odometry);
   /// Writes hazmap.yaml; call last.
@@ -71,6 +88,7 @@ class SequenceWriter {
   ClassTable table_;
   std::string sensor_yaml_;
   std::string property_channel_;
+  std::vector<std::string> channels_;
   std::size_t frames_ = 0;
 };
 

@@ -13,12 +13,14 @@
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
 #include "hazmap/core/config_fwd.hpp"
 #include "hazmap/core/class_table.hpp"
 #include "hazmap/core/labeled_cloud.hpp"
+#include "hazmap/io/sequence.hpp"
 
 namespace hazmap {
 
@@ -52,6 +54,12 @@ std::size_t countFrames(const std::vector<FrameRange>& ranges);
 /// Union of range lists (sorted, merged where they touch or overlap).
 std::vector<FrameRange> unionRanges(std::vector<FrameRange> ranges);
 
+/// One named channel over a cell's property-class points (NaN values ignored).
+struct ChannelStats {
+  float mean = 0, max = 0;        ///< 0 when no value arrived
+  std::uint32_t samples = 0;      ///< how many values entered mean and max
+};
+
 /// Read-only view of one cell.
 struct MapCell {
   Eigen::Vector3i index;               ///< integer voxel coordinates at the current voxel size
@@ -64,6 +72,7 @@ struct MapCell {
   float property_max = 0;              ///< largest of those values (0 when none)
   std::vector<FrameRange> frames;      ///< frames that put property points here (may be empty)
   std::uint32_t frame_count = 0;       ///< exact number of such frames
+  std::vector<ChannelStats> channels;  ///< per GlobalMap::channelNames() entry (empty without named channels)
 };
 
 class GlobalMap {
@@ -76,7 +85,10 @@ class GlobalMap {
   /// Adds a scan (sensor frame) seen at `frame` with pose T_world_sensor. Frames may come in
   /// any order, but inserting the same frame twice counts its points twice. Non-finite points
   /// are skipped; a non-finite pose or a class missing from the table throws hazmap::Error.
-  void insert(std::size_t frame, const LabeledCloud& scan, const Eigen::Isometry3d& T_world_sensor);
+  /// `channels`: the scan's named channels (Scan::channels, one value per scan point); each
+  /// property-class point adds its finite values to its cell's mean and max of that channel.
+  void insert(std::size_t frame, const LabeledCloud& scan, const Eigen::Isometry3d& T_world_sensor,
+              std::span<const PointChannel> channels = {});
 
   std::size_t size() const;          ///< occupied cells
   std::size_t frames() const;        ///< insert() calls
@@ -85,6 +97,8 @@ class GlobalMap {
   int coarsenings() const;           ///< how many times the grid doubled its cell size
   const GlobalMapConfig& config() const;
   const ClassTable& classTable() const;
+  /// Named channels seen so far, in order of first appearance (MapCell::channels' order).
+  const std::vector<std::string>& channelNames() const;
   /// Approximate heap bytes used by the cells (for benchmarks / run.json).
   std::size_t memoryBytes() const;
 

@@ -29,6 +29,13 @@ struct HazardConfig {
 /// The field table (keys, ranges, docs; core/config_fields.hpp, docs/configuration.md).
 const ConfigFields<HazardConfig>& configFields(ConfigTag<HazardConfig>);
 
+/// One named channel over a hazard's cells (property-class points only; NaN values ignored).
+struct HazardChannel {
+  std::string name;
+  std::optional<double> mean, max;  ///< empty when no point of the hazard had a value
+  std::size_t samples = 0;
+};
+
 struct Hazard {
   int id = 0;  ///< 1-based, in output order (class id, then size)
   ClassId label = 0;
@@ -45,6 +52,9 @@ struct Hazard {
   std::optional<double> max_property;   ///< largest property value (peak temperature, dose rate)
   std::vector<FrameRange> frames;       ///< frames that saw it (union over its cells)
   std::size_t frame_count = 0;
+  /// Every named channel of the map (GlobalMap::channelNames()): the max temperature of a heat
+  /// source beside its NIR reflectance, the peak dose rate, …
+  std::vector<HazardChannel> channels;
 };
 
 /// Deterministic: regions are ordered by class id, then by point count (largest first), then
@@ -53,11 +63,11 @@ std::vector<Hazard> findHazards(const GlobalMap& map, const HazardConfig& config
 
 /// hazards.json: {"voxel_size", "count", "hazards": [{id, class, kind, centroid[3], min[3],
 /// max[3], extent[3], area_m2, cells, points, mean_property|null, max_property|null, frame_count,
-/// frames: [[first, last], …]}]}. Atomic.
+/// frames: [[first, last], …], channels: {NAME: {mean|null, max|null, samples}, …}}]}. Atomic.
 void writeHazardsJson(const std::filesystem::path& path, const std::vector<Hazard>& hazards,
                       double voxel_size);
-/// hazards.csv: one row per hazard; frames as "first-last;first-last"; max_property is the last
-/// column. Atomic.
+/// hazards.csv: one row per hazard; frames as "first-last;first-last"; after max_property, two
+/// columns per named channel, NAME_mean and NAME_max (empty when no value). Atomic.
 void writeHazardsCsv(const std::filesystem::path& path, const std::vector<Hazard>& hazards);
 std::string hazardsJson(const std::vector<Hazard>& hazards, double voxel_size, int indent = 2);
 /// Reads hazards.json back (the fields above; frames are kept as ranges). Throws hazmap::Error

@@ -29,6 +29,9 @@ struct Scan {
   std::optional<Eigen::Isometry3d> odometry;
   /// Ground-truth pose (T_world_sensor) when the recording has one.
   std::optional<Eigen::Isometry3d> ground_truth;
+  /// The recording's named per-point channels (a sequence folder's `channels:`: temperature,
+  /// nir_reflectance, …), aligned with cloud's points; the map keeps each one's mean and max.
+  std::vector<PointChannel> channels;
 };
 
 struct ScanSourceOptions {
