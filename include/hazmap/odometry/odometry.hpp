@@ -64,16 +64,20 @@ struct OdometryConfig {
   /// …or corrected the guess by more than this (m / rad), or there was no motion prior.
   double suspect_correction_translation = 0.5;
   double suspect_correction_rotation = 0.1;
-  /// A passing but suspect ICP is replaced by the verified global answer only when that fits
-  /// better by at least this much (fitness).
+  /// A recovered answer replaces ICP from the guess (when that passed) or the guess itself (when
+  /// it failed) only when it fits better by at least this much: share of source points within
+  /// relocalise_inlier_distance of a target surface.
   double relocalise_min_gain = 0.05;
+  /// m; a source point this close to a target surface (along its normal) fits (scores recovery).
+  double relocalise_inlier_distance = 0.1;
   /// A recovered increment must be plausible for the platform: at most this far (m) and this
   /// much turned (rad) since the previous frame (a crawler's 2 m slip plus its frame; a car at
   /// 10 Hz with frames dropped).
   double relocalise_max_translation = 4.0;
   double relocalise_max_rotation = 1.6;
   /// Two verified answers this far apart (m / rad) whose fitness differs by less than
-  /// relocalise_ambiguity make the frame ambiguous: flagged, not relocalised.
+  /// relocalise_ambiguity (surface fit, as relocalise_min_gain) make the frame ambiguous:
+  /// flagged, not relocalised.
   double relocalise_distinct_translation = 0.3;
   double relocalise_distinct_rotation = 0.05;
   double relocalise_ambiguity = 0.03;
