@@ -50,9 +50,10 @@ struct OdometryConfig {
   double fallback_sigma_translation = 0.1;  ///< m
   double fallback_sigma_rotation = 0.02;    ///< rad
   // --- global registration when tracking fails (issue 19) ---
-  /// Off by default until it is never worse: on, it made property ICP worse on tanks seed 3
-  /// (test_label_noise TanksNotWorse: 0.925 -> 2.287 m). `--set odometry.relocalise=true` turns it on.
-  bool relocalise = false;  ///< try a guess-free global registration when a trigger below fires
+  /// On by default: a recovered answer is used only when it fits clearly better than what
+  /// tracking would otherwise use (relocalise_min_gain), so a frame where ICP from the guess
+  /// passes is never touched (relocalise_suspect off) and a failed one changes only for the better.
+  bool relocalise = true;  ///< try a guess-free global registration when a trigger below fires
   /// Also try it when ICP from the guess passed its checks but is suspect (below, or no motion
   /// prior: no wheel odometry and no verified last increment). Off by
   /// default: a frame that passes is then never re-examined, so a run where nothing fails costs
