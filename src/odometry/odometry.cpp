@@ -141,9 +141,15 @@ std::string suspicion(const RegistrationResult& r, const Eigen::Isometry3d& gues
   }
   const Vector6d correction = se3Log(r.transform * guess.inverse());
   const double dt = correction.head<3>().norm(), dr = correction.tail<3>().norm();
-  if (!(dt > config.suspect_correction_translation || dr > config.suspect_correction_rotation)) return {};
-  std::snprintf(buf, sizeof buf, "far from the guess: %.3f m / %.2f deg", dt, dr * 180.0 / M_PI);
-  return buf;
+  if (dt > config.suspect_correction_translation || dr > config.suspect_correction_rotation) {
+    std::snprintf(buf, sizeof buf, "far from the guess: %.3f m / %.2f deg", dt, dr * 180.0 / M_PI);
+    return buf;
+  }
+  if (const auto axis = weakHorizontalAxis(r, config.suspect_weak_axis_ratio)) {
+    std::snprintf(buf, sizeof buf, "weakly constrained along [%.2f %.2f %.2f]", (*axis)(0), (*axis)(1), (*axis)(2));
+    return buf;
+  }
+  return {};
 }
 
 // An orthonormal basis of the registration's degenerate directions.

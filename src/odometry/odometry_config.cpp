@@ -58,6 +58,11 @@ const ConfigFields<OdometryConfig>& configFields(ConfigTag<OdometryConfig>) {
           .number("suspect_correction_translation", &C::suspect_correction_translation, positive(),
                   "m; ICP corrected the guess by more: try global registration too")
           .number("suspect_correction_rotation", &C::suspect_correction_rotation, positive(), "rad")
+          .number("suspect_weak_axis_ratio", &C::suspect_weak_axis_ratio, closed(0, 1),
+                  "ICP's weakest horizontal translation (Hessian eigenvalue, rotation marginalised) below this x the "
+                  "strongest: suspect, and recovery also starts along that axis")
+          .number("relocalise_axis_step", &C::relocalise_axis_step, positive(),
+                  "m; recovery starts at +-1 and +-2 steps along a weak axis")
           .number("relocalise_min_gain", &C::relocalise_min_gain, closed(0, 1),
                   "A recovered answer replaces ICP from the guess (or, when that failed, the guess) only when it "
                   "fits better by this much (share of source points on a target surface)")

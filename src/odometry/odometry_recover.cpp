@@ -3,6 +3,7 @@
 // prior (no motion: the encoders' travel was a slip; the last increment again).
 // Every answer is verified by the tracking ICP and its checks, and must be a plausible motion
 // for the platform; the best one is used unless a distinct one fits as well (ambiguous).
+#include <Eigen/Eigenvalues>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -84,6 +85,23 @@ std::string describeAmbiguity(const Verified& a, const Verified& b) {
 
 }  // namespace
 
+std::optional<Eigen::Vector3d> weakHorizontalAxis(const RegistrationResult& r, double ratio) {
+  if (!(ratio > 0.0) || !r.hessian.allFinite() || r.hessian.isZero()) return std::nullopt;
+  const Matrix6d H = 0.5 * (r.hessian + r.hessian.transpose());
+  const Eigen::LDLT<Eigen::Matrix3d> rot(H.bottomRightCorner<3, 3>());
+  if (rot.info() != Eigen::Success) return std::nullopt;
+  // Translation information with the rotation free (Schur complement).
+  const Eigen::Matrix3d S = H.topLeftCorner<3, 3>() - H.topRightCorner<3, 3>() * rot.solve(H.bottomLeftCorner<3, 3>());
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(0.5 * (S + S.transpose()));
+  const double strongest = es.eigenvalues()(2);
+  if (!(strongest > 0.0)) return std::nullopt;
+  for (int i = 0; i < 2; ++i) {
+    const Eigen::Vector3d v = es.eigenvectors().col(i);
+    if (es.eigenvalues()(i) < ratio * strongest && std::abs(v.z()) < 0.5) return v;
+  }
+  return std::nullopt;
+}
+
 std::optional<Eigen::Isometry3d> Odometry::globalStart(OdometryFrame& f, const LabeledCloud& source,
                                                        const RegistrationTarget& target, const Eigen::Isometry3d& W) {
   GlobalRegistrationConfig gc = config_.global;
@@ -114,6 +132,17 @@ std::optional<Odometry::Recovery> Odometry::recover(OdometryFrame& f, const Labe
     starts.push_back({prev * f.guess * Eigen::AngleAxisd(deg * M_PI / 180.0, Eigen::Vector3d::UnitZ()),
                       "guess turned " + std::to_string(int(deg)) + " deg"});
   if (f.wheel_guess && frames_.size() >= 2) starts.push_back({prev * frames_.back().increment, "constant velocity"});
+  // Along an axis the geometry barely constrains (a corridor), ICP stays near where it starts:
+  // starts a step or two either way show whether another position fits as well.
+  if (const auto axis = config_.relocalise_suspect ? weakHorizontalAxis(from_guess, config_.suspect_weak_axis_ratio)
+                                                   : std::nullopt)
+    for (const double k : {-2.0, -1.0, 1.0, 2.0}) {
+      Eigen::Isometry3d s = prev * f.guess;
+      s.translation() += k * config_.relocalise_axis_step * *axis;
+      char name[64];
+      std::snprintf(name, sizeof name, "guess %+.1f m along the weak axis", k * config_.relocalise_axis_step);
+      starts.push_back({s, name});
+    }
 
   std::vector<Verified> verified;
   std::string rejected;

@@ -62,9 +62,16 @@ struct OdometryConfig {
   /// Suspect: ICP from the guess fits worse than this (fitness), or its inlier RMSE is above
   /// relocalise_max_rmse_ratio × that of tracked frames…
   double suspect_fitness = 0.5;
-  /// …or corrected the guess by more than this (m / rad), or there was no motion prior.
+  /// …or corrected the guess by more than this (m / rad), or there was no motion prior…
   double suspect_correction_translation = 0.5;
   double suspect_correction_rotation = 0.1;
+  /// …or is weakly constrained along a horizontal axis: the smallest eigenvalue of the ICP
+  /// Hessian's translation block (rotation marginalised) below this × the largest (a corridor
+  /// whose walls say nothing along it: "no motion" fits as well as the true step). Recovery then
+  /// also starts ICP at ±relocalise_axis_step and ±2×relocalise_axis_step along that axis; two
+  /// answers that fit alike make the frame ambiguous (flagged) instead of silently wrong.
+  double suspect_weak_axis_ratio = 0.15;
+  double relocalise_axis_step = 1.0;  ///< m
   /// A recovered answer replaces ICP from the guess (when that passed) or the guess itself (when
   /// it failed) only when it fits better by at least this much: share of source points within
   /// relocalise_inlier_distance of a target surface.
@@ -117,8 +124,9 @@ enum class FrameStatus {
 const char* toString(FrameStatus status);
 /// One line for people, e.g. "relocalised: global registration verified by ICP".
 const char* describe(FrameStatus status);
-/// A frame whose pose no registration vouches for (fallback).
-inline bool isFlagged(FrameStatus status) { return status == FrameStatus::Fallback; }
+/// A frame whose pose no registration fully vouches for: fallback (nothing verified), or
+/// degenerate (along some direction the pose is the guess's, not the registration's).
+inline bool isFlagged(FrameStatus status) { return status == FrameStatus::Fallback || status == FrameStatus::Degenerate; }
 
 /// The global registration tried on a frame (issue 19).
 struct GlobalAttempt {
