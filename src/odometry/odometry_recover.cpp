@@ -23,13 +23,17 @@ double msSince(Clock::time_point t) { return std::chrono::duration<double, std::
 struct Start {
   Eigen::Isometry3d pose;  ///< W space
   std::string name;
+  /// Only a probe: its answer can make the frame ambiguous but is never used (along a weak axis
+  /// a better surface fit is no proof: corridor with wheel odometry, 19 frames wrong when used).
+  bool probe = false;
 };
 
 struct Verified {
   RegistrationResult registration;
   std::string name;
   bool from_guess = false;
-  double fit = 0.0;  ///< share of source points on a target surface (surfaceFit)
+  double fit = 0.0;
+  bool probe = false;  ///< share of source points on a target surface (surfaceFit)
 };
 
 // Share of the source points that lie on a target surface at `pose` (W ← source): the nearest
@@ -122,16 +126,19 @@ std::optional<Eigen::Isometry3d> Odometry::globalStart(OdometryFrame& f, const L
 
 std::optional<Odometry::Recovery> Odometry::recover(OdometryFrame& f, const LabeledCloud& source,
                                                     const RegistrationTarget& target, const Eigen::Isometry3d& W,
-                                                    const RegistrationResult& from_guess, bool guess_passed) {
+                                                    const RegistrationResult& from_guess, bool guess_passed,
+                                                    bool probes_only) {
   const auto t = Clock::now();
   const Eigen::Isometry3d prev = W.inverse() * frames_.back().pose;  // previous frame in W space
   std::vector<Start> starts;
-  if (auto g = globalStart(f, source, target, W)) starts.push_back({*g, "global registration"});
-  starts.push_back({prev, "no motion"});
-  for (const double deg : {-30.0, 30.0})
-    starts.push_back({prev * f.guess * Eigen::AngleAxisd(deg * M_PI / 180.0, Eigen::Vector3d::UnitZ()),
-                      "guess turned " + std::to_string(int(deg)) + " deg"});
-  if (f.wheel_guess && frames_.size() >= 2) starts.push_back({prev * frames_.back().increment, "constant velocity"});
+  if (!probes_only) {
+    if (auto g = globalStart(f, source, target, W)) starts.push_back({*g, "global registration"});
+    starts.push_back({prev, "no motion"});
+    for (const double deg : {-30.0, 30.0})
+      starts.push_back({prev * f.guess * Eigen::AngleAxisd(deg * M_PI / 180.0, Eigen::Vector3d::UnitZ()),
+                        "guess turned " + std::to_string(int(deg)) + " deg"});
+    if (f.wheel_guess && frames_.size() >= 2) starts.push_back({prev * frames_.back().increment, "constant velocity"});
+  }
   // Along an axis the geometry barely constrains (a corridor), ICP stays near where it starts:
   // starts a step or two either way show whether another position fits as well.
   if (const auto axis = config_.relocalise_suspect ? weakHorizontalAxis(from_guess, config_.suspect_weak_axis_ratio)
@@ -141,12 +148,13 @@ std::optional<Odometry::Recovery> Odometry::recover(OdometryFrame& f, const Labe
       s.translation() += k * config_.relocalise_axis_step * *axis;
       char name[64];
       std::snprintf(name, sizeof name, "guess %+.1f m along the weak axis", k * config_.relocalise_axis_step);
-      starts.push_back({s, name});
+      starts.push_back({s, name, /*probe=*/true});
     }
 
   std::vector<Verified> verified;
   std::string rejected;
-  const auto check = [&](RegistrationResult r, const Eigen::Isometry3d& start, const std::string& name, bool guess) {
+  const auto check = [&](RegistrationResult r, const Eigen::Isometry3d& start, const std::string& name, bool guess,
+                         bool probe) {
     std::string why = registrationFailure(r, start, config_);
     const Eigen::Isometry3d increment = prev.inverse() * r.transform;
     char buf[96];
@@ -166,14 +174,14 @@ std::optional<Odometry::Recovery> Odometry::recover(OdometryFrame& f, const Labe
     }
     if (why.empty()) {
       const double fit = surfaceFit(source, target, r.transform, config_.relocalise_inlier_distance);
-      verified.push_back({std::move(r), name, guess, fit});
+      verified.push_back({std::move(r), name, guess, fit, probe});
     }
     else rejected += (rejected.empty() ? "" : "; ") + name + ": " + why;
   };
   const Eigen::Isometry3d guess = prev * f.guess;
-  if (guess_passed) check(from_guess, guess, "ICP from the guess", true);
+  if (guess_passed) check(from_guess, guess, "ICP from the guess", true, false);
   for (const Start& s : starts)
-    check(registerClouds(source, target, s.pose, classes_, config_.registration), s.pose, s.name, false);
+    check(registerClouds(source, target, s.pose, classes_, config_.registration), s.pose, s.name, false, s.probe);
   f.global.milliseconds = msSince(t);
   if (verified.empty()) {
     f.global.outcome += (f.global.outcome.empty() ? "" : "; ") + std::string("nothing verified (") + rejected + ")";
@@ -182,9 +190,13 @@ std::optional<Odometry::Recovery> Odometry::recover(OdometryFrame& f, const Labe
   // The best fit wins; ICP from the guess gets relocalise_min_gain ahead (it is what tracking
   // trusts when nothing is wrong). A distinct answer that fits as well makes the frame ambiguous.
   const auto rank = [&](const Verified& v) { return v.fit + (v.from_guess ? config_.relocalise_min_gain : 0.0); };
-  std::size_t best = 0;
-  for (std::size_t i = 1; i < verified.size(); ++i)
-    if (rank(verified[i]) > rank(verified[best])) best = i;
+  std::size_t best = verified.size();
+  for (std::size_t i = 0; i < verified.size(); ++i)
+    if (!verified[i].probe && (best == verified.size() || rank(verified[i]) > rank(verified[best]))) best = i;
+  if (best == verified.size()) {
+    f.global.outcome += (f.global.outcome.empty() ? "" : "; ") + std::string("only probes verified (") + rejected + ")";
+    return std::nullopt;
+  }
   for (std::size_t i = 0; i < verified.size(); ++i)
     if (i != best && distinct(verified[i].registration.transform, verified[best].registration.transform, config_) &&
         verified[i].fit >= verified[best].fit - config_.relocalise_ambiguity) {

@@ -184,14 +184,16 @@ class Odometry {
   /// answer and from a few other starts around the motion prior, each verified by the tracking
   /// checks and the plausibility bounds. Returns the best verified answer; `from_guess` (ICP
   /// from the guess) competes when `guess_passed`. Nothing when no answer is verified or two
-  /// distinct ones fit alike (ambiguous); f.global.outcome says which.
+  /// distinct ones fit alike (ambiguous); f.global.outcome says which. `probes_only` (the only
+  /// trigger was a weak axis): ICP from the guess against probes along that axis, nothing else.
   struct Recovery {
     RegistrationResult registration;
     bool from_guess = false;  ///< ICP from the guess won
   };
   std::optional<Recovery> recover(OdometryFrame& f, const LabeledCloud& source,
                                             const RegistrationTarget& target, const Eigen::Isometry3d& W,
-                                            const RegistrationResult& from_guess, bool guess_passed);
+                                            const RegistrationResult& from_guess, bool guess_passed,
+                                            bool probes_only = false);
   /// The global registration's answer (W space), if it has one that is not ambiguous.
   std::optional<Eigen::Isometry3d> globalStart(OdometryFrame& f, const LabeledCloud& source,
                                                const RegistrationTarget& target, const Eigen::Isometry3d& W);
