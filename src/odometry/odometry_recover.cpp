@@ -87,6 +87,34 @@ std::string describeAmbiguity(const Verified& a, const Verified& b) {
   return buf;
 }
 
+std::string describeNoGain(const Verified& v, double guess_fit) {
+  char buf[160];
+  std::snprintf(buf, sizeof buf, "%s fits no better than the guess (%.3f vs %.3f on a surface)", v.name.c_str(), v.fit,
+                guess_fit);
+  return buf;
+}
+
+}  // namespace
+
+std::optional<Eigen::Vector3d> weakHorizontalAxis(const RegistrationResult& r, double ratio);
+
+namespace {
+
+// Along an axis the geometry barely constrains (a corridor), ICP stays near where it starts:
+// starts a step or two either way of the guess show whether another position fits as well.
+void addWeakAxisProbes(std::vector<Start>& starts, const RegistrationResult& from_guess, const Eigen::Isometry3d& guess,
+                       const OdometryConfig& config) {
+  const auto axis = weakHorizontalAxis(from_guess, config.suspect_weak_axis_ratio);
+  if (!axis) return;
+  for (const double k : {-2.0, -1.0, 1.0, 2.0}) {
+    Eigen::Isometry3d s = guess;
+    s.translation() += k * config.relocalise_axis_step * *axis;
+    char name[64];
+    std::snprintf(name, sizeof name, "guess %+.1f m along the weak axis", k * config.relocalise_axis_step);
+    starts.push_back({s, name, /*probe=*/true});
+  }
+}
+
 }  // namespace
 
 std::optional<Eigen::Vector3d> weakHorizontalAxis(const RegistrationResult& r, double ratio) {
@@ -139,17 +167,7 @@ std::optional<Odometry::Recovery> Odometry::recover(OdometryFrame& f, const Labe
                         "guess turned " + std::to_string(int(deg)) + " deg"});
     if (f.wheel_guess && frames_.size() >= 2) starts.push_back({prev * frames_.back().increment, "constant velocity"});
   }
-  // Along an axis the geometry barely constrains (a corridor), ICP stays near where it starts:
-  // starts a step or two either way show whether another position fits as well.
-  if (const auto axis = config_.relocalise_suspect ? weakHorizontalAxis(from_guess, config_.suspect_weak_axis_ratio)
-                                                   : std::nullopt)
-    for (const double k : {-2.0, -1.0, 1.0, 2.0}) {
-      Eigen::Isometry3d s = prev * f.guess;
-      s.translation() += k * config_.relocalise_axis_step * *axis;
-      char name[64];
-      std::snprintf(name, sizeof name, "guess %+.1f m along the weak axis", k * config_.relocalise_axis_step);
-      starts.push_back({s, name, /*probe=*/true});
-    }
+  if (config_.relocalise_suspect) addWeakAxisProbes(starts, from_guess, prev * f.guess, config_);
 
   std::vector<Verified> verified;
   std::string rejected;
@@ -208,10 +226,7 @@ std::optional<Odometry::Recovery> Odometry::recover(OdometryFrame& f, const Labe
   if (!verified[best].from_guess && !guess_passed) {
     const double guess_fit = surfaceFit(source, target, guess, config_.relocalise_inlier_distance);
     if (verified[best].fit < guess_fit + config_.relocalise_min_gain) {
-      char buf[160];
-      std::snprintf(buf, sizeof buf, "%s fits no better than the guess (%.3f vs %.3f on a surface)",
-                    verified[best].name.c_str(), verified[best].fit, guess_fit);
-      f.global.outcome = buf;
+      f.global.outcome = describeNoGain(verified[best], guess_fit);
       return std::nullopt;
     }
   }
