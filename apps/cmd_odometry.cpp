@@ -39,14 +39,14 @@ void appendFrameRows(std::size_t i, const OdometryFrame& f, std::ostringstream& 
   std::string reason = f.reason;
   for (char& c : reason)
     if (c == ',' || c == '\n') c = ';';
-  char line[768];
-  std::snprintf(line, sizeof line, "%zu,%.6f,%s,%d,%.4f,%.4f,%zu,%zu,%zu,%.3f,%.3f,%.3f,%d,%.3f,%d,%d,%s,%.3f,%.3f,%.3f,%s\n",
+  char line[512];  // the numbers; the reason (any length: a recovery lists every start) follows
+  std::snprintf(line, sizeof line, "%zu,%.6f,%s,%d,%.4f,%.4f,%zu,%zu,%zu,%.3f,%.3f,%.3f,%d,%.3f,%d,%d,%s,%.3f,%.3f,%.3f,",
                 i, f.stamp, toString(f.status), f.registration.iterations, f.registration.fitness,
                 f.registration.inlier_rmse, f.scan_points, f.source_points, f.map_points, f.preprocess_ms,
                 f.registration_ms, f.total_ms, int(f.wheel_guess), f.registration.label_agreement,
                 int(f.registration.labels_used), int(f.global.tried), f.global.tried ? toString(f.global.status) : "",
-                f.global.score, f.global.second_best_score, f.global.milliseconds, reason.c_str());
-  csv << line;
+                f.global.score, f.global.second_best_score, f.global.milliseconds);
+  csv << line << reason << '\n';
   cov << i;
   for (int r = 0; r < 6; ++r)
     for (int c = 0; c < 6; ++c) {

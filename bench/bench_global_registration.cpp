@@ -21,6 +21,7 @@
 
 #include "bench_main.hpp"
 #include "hazmap/io/kitti.hpp"
+#include "hazmap/odometry/odometry.hpp"
 #include "hazmap/preprocess/voxel_downsample.hpp"
 #include "hazmap/registration/global_registration.hpp"
 #include "hazmap/sim/simulator.hpp"
@@ -372,6 +373,44 @@ void BM_SuccessRate_Naraha(benchmark::State& s) { successRate(s, narahaPairs(), 
 void BM_SuccessRate_Kitti(benchmark::State& s) { successRate(s, kittiPairs(), 4); }
 BENCHMARK(BM_SuccessRate_Naraha)->DenseRange(1, 4)->Iterations(1)->Unit(benchmark::kSecond);
 BENCHMARK(BM_SuccessRate_Kitti)->DenseRange(1, 4)->Iterations(1)->Unit(benchmark::kSecond);
+
+// The normal tracking path when nothing fails (issue 19: "the normal path unchanged"): frame-to-map
+// property ICP on the simulated naraha route (60 frames, today's noise, wheel-odometry guess),
+// with odometry.relocalise off (0) and on (1, the default), 2 threads. No frame triggers a
+// recovery (counter `recoveries`), so the two rows should time alike; --benchmark_filter=NormalPath
+// --benchmark_repetitions=5 --benchmark_enable_random_interleaving=true compares them fairly.
+void BM_NormalPath_Naraha(benchmark::State& state) {
+  tbb::global_control threads(tbb::global_control::max_allowed_parallelism, 2);
+  static const auto frames = [] {
+    sim::SimulatorConfig sc;
+    sc.scenario = "naraha";
+    sc.max_frames = 60;
+    const sim::Simulator simulator(sc);
+    std::vector<std::pair<LabeledCloud, Eigen::Isometry3d>> out;
+    for (std::size_t i = 0; i < simulator.frames(); ++i)
+      out.emplace_back(simulator.scan(i), i == 0 ? Eigen::Isometry3d::Identity()
+                                                 : Eigen::Isometry3d(simulator.odometry()[i - 1].inverse() *
+                                                                     simulator.odometry()[i]));
+    return std::make_pair(simulator.classTable(), out);
+  }();
+  OdometryConfig cfg = OdometryConfig::defaults();
+  cfg.relocalise = state.range(0) != 0;
+  std::size_t n = 0, recoveries = 0;
+  double wall_ms = 0.0;
+  for (auto _ : state) {
+    const auto t0 = std::chrono::steady_clock::now();
+    Odometry odo(frames.first, cfg);
+    for (std::size_t i = 0; i < frames.second.size(); ++i)
+      odo.addFrame(frames.second[i].first, i == 0 ? std::nullopt : std::optional(frames.second[i].second));
+    wall_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    n += frames.second.size();
+    for (const auto& f : odo.frames()) recoveries += f.global.tried;
+    benchmark::DoNotOptimize(odo.frames().back().pose);
+  }
+  state.counters["frames/s"] = wall_ms > 0.0 ? 1e3 * static_cast<double>(n) / wall_ms : 0.0;
+  state.counters["recoveries"] = static_cast<double>(recoveries);
+}
+BENCHMARK(BM_NormalPath_Naraha)->Arg(0)->Arg(1)->Iterations(2)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 

@@ -24,6 +24,7 @@ TEST(WorstDay, PresetIsReadBeforeTheOtherKeysAndTheDefaultsStayOff) {
   EXPECT_EQ(defaults.preset, "none");
   EXPECT_EQ(defaults.upsets.yaw_kick_probability, 0.0);
   EXPECT_EQ(defaults.upsets.drop_probability, 0.0);
+  EXPECT_TRUE(OdometryConfig::defaults().relocalise);  // on: recovery is never worse than the guess
   EXPECT_EQ(defaults.odometry.slip_max, 0.5);
   EXPECT_TRUE(defaults.wheel_odometry);
   // The preset comes last in the file, yet the explicit key next to it wins.
@@ -121,16 +122,48 @@ sim::Simulator worstDay(const std::string& scenario, std::size_t frames) {
 // is a regression; DISABLED_MeetsTheIssueTargets states the targets themselves.
 TEST(WorstDay, NarahaWithWheelOdometry) {
   const Score s = trackWorstDay(worstDay("naraha", 40), /*wheel=*/true, OdometryConfig::defaults());
-  EXPECT_GE(s.within_share(), 0.9) << s.within << "/" << s.frames;
-  EXPECT_LE(s.silently_wrong, 1u);
+  EXPECT_GE(s.within_share(), 0.95) << s.within << "/" << s.frames;  // 38/39 (was 37/39)
+  EXPECT_EQ(s.silently_wrong, 0u);                                    // (was 1)
   EXPECT_GE(s.relocalised, 3u);  // the jumps were recovered, not just flagged
 }
 
 TEST(WorstDay, NarahaWithoutWheelOdometryFlagsWhatItCannotRecover) {
   const Score s = trackWorstDay(worstDay("naraha", 40), /*wheel=*/false, OdometryConfig::defaults());
-  EXPECT_GE(s.within_share(), 0.7) << s.within << "/" << s.frames;
-  EXPECT_LE(s.silently_wrong, 1u);
+  EXPECT_GE(s.within_share(), 0.95) << s.within << "/" << s.frames;  // 39/39 (was 28/39)
+  EXPECT_EQ(s.silently_wrong, 0u);
   EXPECT_GE(s.relocalised, 3u);
+}
+
+// Recovery must never make tracking worse than keeping the guess (it is on by default). Tanks,
+// seed 3 (twelve identical tanks: ICP slides along degenerate directions and fails its checks):
+// answers from other starts fitted no better than the wheel-odometry guess yet replaced it, and
+// property ICP's mean error went 0.925 -> 2.287 m. Now every such answer must beat the guess's
+// own surface fit, and a degenerate one is not accepted.
+TEST(Relocalise, NeverWorseThanTheGuessOnTanks) {
+  sim::SimulatorConfig sc;
+  sc.scenario = "tanks";
+  sc.seed = 3;
+  const sim::Simulator sim(sc);
+  const auto run = [&](bool relocalise, std::size_t* tried) {
+    OdometryConfig c = OdometryConfig::defaults();
+    c.relocalise = relocalise;
+    Odometry odo(sim.classTable(), c);
+    double error = 0.0;
+    for (std::size_t i = 0; i < sim.frames(); ++i) {
+      std::optional<Eigen::Isometry3d> inc;
+      if (i > 0) inc = sim.odometry()[i - 1].inverse() * sim.odometry()[i];
+      const OdometryFrame& f = odo.addFrame(sim.scan(i), inc);
+      error += (f.pose.translation() - sim.groundTruth()[i].translation()).norm();
+      if (tried) *tried += f.global.tried;
+    }
+    return error / double(sim.frames());
+  };
+  std::size_t tried = 0;
+  const double off = run(false, nullptr), on = run(true, &tried);
+  std::printf("tanks seed 3, property ICP: relocalise off %.3f m, on %.3f m (%zu frames tried recovery)\n", off, on,
+              tried);
+  EXPECT_GE(tried, 5u);  // recovery did run
+  EXPECT_LE(on, off + 1e-3);
 }
 
 TEST(WorstDay, DISABLED_MeetsTheIssueTargets) {

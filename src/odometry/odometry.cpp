@@ -125,7 +125,8 @@ namespace {
 // Why a registration that passed its checks is still suspect (empty when it is not): the triggers
 // for trying a global registration as well (issue 19).
 std::string suspicion(const RegistrationResult& r, const Eigen::Isometry3d& guess, bool has_prior,
-                      double typical_rmse, const OdometryConfig& config) {
+                      double typical_rmse, const OdometryConfig& config, bool& only_weak_axis) {
+  only_weak_axis = false;
   if (!config.relocalise_suspect) return {};
   if (!has_prior) return "no motion prior";
   char buf[160];
@@ -141,9 +142,16 @@ std::string suspicion(const RegistrationResult& r, const Eigen::Isometry3d& gues
   }
   const Vector6d correction = se3Log(r.transform * guess.inverse());
   const double dt = correction.head<3>().norm(), dr = correction.tail<3>().norm();
-  if (!(dt > config.suspect_correction_translation || dr > config.suspect_correction_rotation)) return {};
-  std::snprintf(buf, sizeof buf, "far from the guess: %.3f m / %.2f deg", dt, dr * 180.0 / M_PI);
-  return buf;
+  if (dt > config.suspect_correction_translation || dr > config.suspect_correction_rotation) {
+    std::snprintf(buf, sizeof buf, "far from the guess: %.3f m / %.2f deg", dt, dr * 180.0 / M_PI);
+    return buf;
+  }
+  if (const auto axis = weakHorizontalAxis(r, config.suspect_weak_axis_ratio)) {
+    std::snprintf(buf, sizeof buf, "weakly constrained along [%.2f %.2f %.2f]", (*axis)(0), (*axis)(1), (*axis)(2));
+    only_weak_axis = true;
+    return buf;
+  }
+  return {};
 }
 
 // An orthonormal basis of the registration's degenerate directions.
@@ -264,12 +272,14 @@ void Odometry::track(OdometryFrame& f, const LabeledCloud& source, std::optional
   // A guess-free global registration when ICP from the guess failed or is suspect (issue 19).
   std::string failure = registrationFailure(r, reg_guess, config_);
   const bool has_prior = wheel_increment.has_value() || impl_->velocity_verified;
+  bool only_weak_axis = false;
   const std::string trigger = !failure.empty() ? "ICP from the guess failed: " + failure
-                                               : suspicion(r, reg_guess, has_prior, impl_->typical_rmse, config_);
+                                               : suspicion(r, reg_guess, has_prior, impl_->typical_rmse, config_,
+                                                           only_weak_axis);
   bool relocalised = false;
   if (config_.relocalise && !trigger.empty() && target && !source.empty()) {
     f.global.trigger = trigger;
-    std::optional<Recovery> recovered = recover(f, source, *target, W, r, failure.empty());
+    std::optional<Recovery> recovered = recover(f, source, *target, W, r, failure.empty(), only_weak_axis);
     if (!recovered && failure.empty()) failure = f.global.outcome;  // ambiguous: flagged
     if (recovered && !recovered->from_guess) {
       r = std::move(recovered->registration);

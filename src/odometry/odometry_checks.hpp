@@ -3,6 +3,7 @@
 // frames where tracking failed (odometry_recover.cpp).
 #include <Eigen/Geometry>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "hazmap/registration/registration_target.hpp"
@@ -26,5 +27,9 @@ struct Odometry::Impl {
 /// larger than max_correction_*.
 std::string registrationFailure(const RegistrationResult& r, const Eigen::Isometry3d& start,
                                 const OdometryConfig& config);
+
+/// The registration's weakest horizontal translation axis (unit, registration space) when its
+/// Hessian eigenvalue, rotation marginalised, is below `ratio` × the strongest; else nothing.
+std::optional<Eigen::Vector3d> weakHorizontalAxis(const RegistrationResult& r, double ratio);
 
 }  // namespace hazmap

@@ -58,9 +58,16 @@ const ConfigFields<OdometryConfig>& configFields(ConfigTag<OdometryConfig>) {
           .number("suspect_correction_translation", &C::suspect_correction_translation, positive(),
                   "m; ICP corrected the guess by more: try global registration too")
           .number("suspect_correction_rotation", &C::suspect_correction_rotation, positive(), "rad")
+          .number("suspect_weak_axis_ratio", &C::suspect_weak_axis_ratio, closed(0, 1),
+                  "ICP's weakest horizontal translation (Hessian eigenvalue, rotation marginalised) below this x the "
+                  "strongest: suspect, and recovery also starts along that axis")
+          .number("relocalise_axis_step", &C::relocalise_axis_step, positive(),
+                  "m; recovery starts at +-1 and +-2 steps along a weak axis")
           .number("relocalise_min_gain", &C::relocalise_min_gain, closed(0, 1),
-                  "A passing but suspect ICP is replaced by the verified global answer only when that fits "
-                  "better by this much (fitness)")
+                  "A recovered answer replaces ICP from the guess (or, when that failed, the guess) only when it "
+                  "fits better by this much (share of source points on a target surface)")
+          .number("relocalise_inlier_distance", &C::relocalise_inlier_distance, positive(),
+                  "m; a source point this close to a target surface (along its normal) fits, when recovery scores answers")
           .number("relocalise_max_translation", &C::relocalise_max_translation, positive(),
                   "m; a recovered increment moving farther is implausible (rejected)")
           .number("relocalise_max_rotation", &C::relocalise_max_rotation, positive(),
@@ -70,7 +77,7 @@ const ConfigFields<OdometryConfig>& configFields(ConfigTag<OdometryConfig>) {
           .number("relocalise_distinct_rotation", &C::relocalise_distinct_rotation, positive(),
                   "rad; …or turned more than this")
           .number("relocalise_ambiguity", &C::relocalise_ambiguity, closed(0, 1),
-                  "A distinct verified answer within this fitness of the best: ambiguous, the frame is flagged")
+                  "A distinct verified answer within this surface fit of the best: ambiguous, the frame is flagged")
           .number("relocalise_max_rmse_ratio", &C::relocalise_max_rmse_ratio, atLeast(1),
                   "A recovered answer fitting with an inlier RMSE above this × that of tracked frames is rejected")
           .number("relocalise_map_radius", &C::relocalise_map_radius, positive(),

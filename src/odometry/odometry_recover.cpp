@@ -3,6 +3,7 @@
 // prior (no motion: the encoders' travel was a slip; the last increment again).
 // Every answer is verified by the tracking ICP and its checks, and must be a plausible motion
 // for the platform; the best one is used unless a distinct one fits as well (ambiguous).
+#include <Eigen/Eigenvalues>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -22,13 +23,44 @@ double msSince(Clock::time_point t) { return std::chrono::duration<double, std::
 struct Start {
   Eigen::Isometry3d pose;  ///< W space
   std::string name;
+  /// Only a probe: its answer can make the frame ambiguous but is never used (along a weak axis
+  /// a better surface fit is no proof: corridor with wheel odometry, 19 frames wrong when used).
+  bool probe = false;
 };
 
 struct Verified {
   RegistrationResult registration;
   std::string name;
   bool from_guess = false;
+  double fit = 0.0;
+  bool probe = false;  ///< share of source points on a target surface (surfaceFit)
 };
+
+// Share of the source points that lie on a target surface at `pose` (W ← source): the nearest
+// target point within the correspondence gate and the distance along its normal (or to it,
+// without normals) at most `inlier_distance`. ICP's fitness counts partners within 1 m, which a
+// wrong pose in a dense map still finds; a surface within a few centimetres it does not. The
+// same measure scores the guess itself, which a recovery must beat (tanks seed 3: an answer
+// from another start that fitted no better than the guess replaced it and was 5 cm worse).
+double surfaceFit(const LabeledCloud& source, const RegistrationTarget& target, const Eigen::Isometry3d& pose,
+                  double inlier_distance) {
+  if (source.empty()) return 0.0;
+  const Eigen::Isometry3f T = pose.cast<float>();
+  const float tau = static_cast<float>(inlier_distance);
+  std::size_t on_surface = 0;
+  for (std::size_t i = 0; i < source.size(); ++i) {
+    const Eigen::Vector3f p = T * source.points[i];
+    if (!p.allFinite()) continue;
+    const TargetMatch m = target.nearestAnyClass(p, source.classes[i]);
+    if (m.index < 0) continue;
+    const auto j = static_cast<std::size_t>(m.index);
+    const Eigen::Vector3f d = p - target.cloud().points[j];
+    const float off = target.hasNormals() && target.normal(j).squaredNorm() > 0.5f ? std::abs(target.normal(j).dot(d))
+                                                                                  : d.norm();
+    on_surface += off <= tau;
+  }
+  return static_cast<double>(on_surface) / static_cast<double>(source.size());
+}
 
 // The local map (or previous scan) near the sensor: the global registration's target.
 LabeledCloud nearbyTarget(const LabeledCloud& cloud, const Eigen::Vector3d& centre, double radius) {
@@ -49,13 +81,58 @@ bool distinct(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b, const Odom
 std::string describeAmbiguity(const Verified& a, const Verified& b) {
   const Eigen::Isometry3d d = a.registration.transform.inverse() * b.registration.transform;
   char buf[256];
-  std::snprintf(buf, sizeof buf, "ambiguous: %s (fitness %.3f) and %s (fitness %.3f) are %.2f m / %.1f deg apart",
-                a.name.c_str(), a.registration.fitness, b.name.c_str(), b.registration.fitness, translationNorm(d),
+  std::snprintf(buf, sizeof buf, "ambiguous: %s (fit %.3f) and %s (fit %.3f) are %.2f m / %.1f deg apart",
+                a.name.c_str(), a.fit, b.name.c_str(), b.fit, translationNorm(d),
                 rotationAngle(d) * 180.0 / M_PI);
   return buf;
 }
 
+std::string describeNoGain(const Verified& v, double guess_fit) {
+  char buf[160];
+  std::snprintf(buf, sizeof buf, "%s fits no better than the guess (%.3f vs %.3f on a surface)", v.name.c_str(), v.fit,
+                guess_fit);
+  return buf;
+}
+
 }  // namespace
+
+std::optional<Eigen::Vector3d> weakHorizontalAxis(const RegistrationResult& r, double ratio);
+
+namespace {
+
+// Along an axis the geometry barely constrains (a corridor), ICP stays near where it starts:
+// starts a step or two either way of the guess show whether another position fits as well.
+void addWeakAxisProbes(std::vector<Start>& starts, const RegistrationResult& from_guess, const Eigen::Isometry3d& guess,
+                       const OdometryConfig& config) {
+  const auto axis = weakHorizontalAxis(from_guess, config.suspect_weak_axis_ratio);
+  if (!axis) return;
+  for (const double k : {-2.0, -1.0, 1.0, 2.0}) {
+    Eigen::Isometry3d s = guess;
+    s.translation() += k * config.relocalise_axis_step * *axis;
+    char name[64];
+    std::snprintf(name, sizeof name, "guess %+.1f m along the weak axis", k * config.relocalise_axis_step);
+    starts.push_back({s, name, /*probe=*/true});
+  }
+}
+
+}  // namespace
+
+std::optional<Eigen::Vector3d> weakHorizontalAxis(const RegistrationResult& r, double ratio) {
+  if (!(ratio > 0.0) || !r.hessian.allFinite() || r.hessian.isZero()) return std::nullopt;
+  const Matrix6d H = 0.5 * (r.hessian + r.hessian.transpose());
+  const Eigen::LDLT<Eigen::Matrix3d> rot(H.bottomRightCorner<3, 3>());
+  if (rot.info() != Eigen::Success) return std::nullopt;
+  // Translation information with the rotation free (Schur complement).
+  const Eigen::Matrix3d S = H.topLeftCorner<3, 3>() - H.topRightCorner<3, 3>() * rot.solve(H.bottomLeftCorner<3, 3>());
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(0.5 * (S + S.transpose()));
+  const double strongest = es.eigenvalues()(2);
+  if (!(strongest > 0.0)) return std::nullopt;
+  for (int i = 0; i < 2; ++i) {
+    const Eigen::Vector3d v = es.eigenvectors().col(i);
+    if (es.eigenvalues()(i) < ratio * strongest && std::abs(v.z()) < 0.5) return v;
+  }
+  return std::nullopt;
+}
 
 std::optional<Eigen::Isometry3d> Odometry::globalStart(OdometryFrame& f, const LabeledCloud& source,
                                                        const RegistrationTarget& target, const Eigen::Isometry3d& W) {
@@ -77,24 +154,34 @@ std::optional<Eigen::Isometry3d> Odometry::globalStart(OdometryFrame& f, const L
 
 std::optional<Odometry::Recovery> Odometry::recover(OdometryFrame& f, const LabeledCloud& source,
                                                     const RegistrationTarget& target, const Eigen::Isometry3d& W,
-                                                    const RegistrationResult& from_guess, bool guess_passed) {
+                                                    const RegistrationResult& from_guess, bool guess_passed,
+                                                    bool probes_only) {
   const auto t = Clock::now();
   const Eigen::Isometry3d prev = W.inverse() * frames_.back().pose;  // previous frame in W space
   std::vector<Start> starts;
-  if (auto g = globalStart(f, source, target, W)) starts.push_back({*g, "global registration"});
-  starts.push_back({prev, "no motion"});
-  for (const double deg : {-30.0, 30.0})
-    starts.push_back({prev * f.guess * Eigen::AngleAxisd(deg * M_PI / 180.0, Eigen::Vector3d::UnitZ()),
-                      "guess turned " + std::to_string(int(deg)) + " deg"});
-  if (f.wheel_guess && frames_.size() >= 2) starts.push_back({prev * frames_.back().increment, "constant velocity"});
+  if (!probes_only) {
+    if (auto g = globalStart(f, source, target, W)) starts.push_back({*g, "global registration"});
+    starts.push_back({prev, "no motion"});
+    for (const double deg : {-30.0, 30.0})
+      starts.push_back({prev * f.guess * Eigen::AngleAxisd(deg * M_PI / 180.0, Eigen::Vector3d::UnitZ()),
+                        "guess turned " + std::to_string(int(deg)) + " deg"});
+    if (f.wheel_guess && frames_.size() >= 2) starts.push_back({prev * frames_.back().increment, "constant velocity"});
+  }
+  if (config_.relocalise_suspect) addWeakAxisProbes(starts, from_guess, prev * f.guess, config_);
 
   std::vector<Verified> verified;
   std::string rejected;
-  const auto check = [&](RegistrationResult r, const Eigen::Isometry3d& start, const std::string& name, bool guess) {
+  const auto check = [&](RegistrationResult r, const Eigen::Isometry3d& start, const std::string& name, bool guess,
+                         bool probe) {
     std::string why = registrationFailure(r, start, config_);
     const Eigen::Isometry3d increment = prev.inverse() * r.transform;
     char buf[96];
-    if (why.empty() && impl_->typical_rmse > 0.0 && r.inlier_rmse > config_.relocalise_max_rmse_ratio * impl_->typical_rmse) {
+    if (why.empty() && !guess && !r.degenerate_directions.empty()) {
+      // Along an unconstrained direction ICP stays where it started: the answer says nothing
+      // there, and tracking keeps the guess along it (tanks seed 3: "no motion" won this way).
+      std::snprintf(buf, sizeof buf, "degenerate (%zu unconstrained direction(s))", r.degenerate_directions.size());
+      why = buf;
+    } else if (why.empty() && impl_->typical_rmse > 0.0 && r.inlier_rmse > config_.relocalise_max_rmse_ratio * impl_->typical_rmse) {
       std::snprintf(buf, sizeof buf, "inlier RMSE %.3f m", r.inlier_rmse);
       why = buf;
     } else if (why.empty() && (translationNorm(increment) > config_.relocalise_max_translation ||
@@ -103,12 +190,16 @@ std::optional<Odometry::Recovery> Odometry::recover(OdometryFrame& f, const Labe
                     rotationAngle(increment) * 180.0 / M_PI);
       why = buf;
     }
-    if (why.empty()) verified.push_back({std::move(r), name, guess});
+    if (why.empty()) {
+      const double fit = surfaceFit(source, target, r.transform, config_.relocalise_inlier_distance);
+      verified.push_back({std::move(r), name, guess, fit, probe});
+    }
     else rejected += (rejected.empty() ? "" : "; ") + name + ": " + why;
   };
-  if (guess_passed) check(from_guess, W.inverse() * frames_.back().pose * f.guess, "ICP from the guess", true);
+  const Eigen::Isometry3d guess = prev * f.guess;
+  if (guess_passed) check(from_guess, guess, "ICP from the guess", true, false);
   for (const Start& s : starts)
-    check(registerClouds(source, target, s.pose, classes_, config_.registration), s.pose, s.name, false);
+    check(registerClouds(source, target, s.pose, classes_, config_.registration), s.pose, s.name, false, s.probe);
   f.global.milliseconds = msSince(t);
   if (verified.empty()) {
     f.global.outcome += (f.global.outcome.empty() ? "" : "; ") + std::string("nothing verified (") + rejected + ")";
@@ -116,16 +207,29 @@ std::optional<Odometry::Recovery> Odometry::recover(OdometryFrame& f, const Labe
   }
   // The best fit wins; ICP from the guess gets relocalise_min_gain ahead (it is what tracking
   // trusts when nothing is wrong). A distinct answer that fits as well makes the frame ambiguous.
-  const auto rank = [&](const Verified& v) { return v.registration.fitness + (v.from_guess ? config_.relocalise_min_gain : 0.0); };
-  std::size_t best = 0;
-  for (std::size_t i = 1; i < verified.size(); ++i)
-    if (rank(verified[i]) > rank(verified[best])) best = i;
+  const auto rank = [&](const Verified& v) { return v.fit + (v.from_guess ? config_.relocalise_min_gain : 0.0); };
+  std::size_t best = verified.size();
+  for (std::size_t i = 0; i < verified.size(); ++i)
+    if (!verified[i].probe && (best == verified.size() || rank(verified[i]) > rank(verified[best]))) best = i;
+  if (best == verified.size()) {
+    f.global.outcome += (f.global.outcome.empty() ? "" : "; ") + std::string("only probes verified (") + rejected + ")";
+    return std::nullopt;
+  }
   for (std::size_t i = 0; i < verified.size(); ++i)
     if (i != best && distinct(verified[i].registration.transform, verified[best].registration.transform, config_) &&
-        verified[i].registration.fitness >= verified[best].registration.fitness - config_.relocalise_ambiguity) {
+        verified[i].fit >= verified[best].fit - config_.relocalise_ambiguity) {
       f.global.outcome = describeAmbiguity(verified[best], verified[i]);
       return std::nullopt;
     }
+  // When ICP from the guess failed, the frame falls back to the guess itself: an answer must fit
+  // clearly better than that pose does, or tracking keeps the guess (and flags the frame).
+  if (!verified[best].from_guess && !guess_passed) {
+    const double guess_fit = surfaceFit(source, target, guess, config_.relocalise_inlier_distance);
+    if (verified[best].fit < guess_fit + config_.relocalise_min_gain) {
+      f.global.outcome = describeNoGain(verified[best], guess_fit);
+      return std::nullopt;
+    }
+  }
   f.global.outcome = "used " + verified[best].name;
   return Recovery{std::move(verified[best].registration), verified[best].from_guess};
 }

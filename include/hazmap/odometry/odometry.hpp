@@ -50,9 +50,10 @@ struct OdometryConfig {
   double fallback_sigma_translation = 0.1;  ///< m
   double fallback_sigma_rotation = 0.02;    ///< rad
   // --- global registration when tracking fails (issue 19) ---
-  /// Off by default until it is never worse: on, it made property ICP worse on tanks seed 3
-  /// (test_label_noise TanksNotWorse: 0.925 -> 2.287 m). `--set odometry.relocalise=true` turns it on.
-  bool relocalise = false;  ///< try a guess-free global registration when a trigger below fires
+  /// On by default: a recovered answer is used only when it fits clearly better than what
+  /// tracking would otherwise use (relocalise_min_gain), so a frame where ICP from the guess
+  /// passes is never touched (relocalise_suspect off) and a failed one changes only for the better.
+  bool relocalise = true;  ///< try a guess-free global registration when a trigger below fires
   /// Also try it when ICP from the guess passed its checks but is suspect (below, or no motion
   /// prior: no wheel odometry and no verified last increment). Off by
   /// default: a frame that passes is then never re-examined, so a run where nothing fails costs
@@ -61,19 +62,30 @@ struct OdometryConfig {
   /// Suspect: ICP from the guess fits worse than this (fitness), or its inlier RMSE is above
   /// relocalise_max_rmse_ratio × that of tracked frames…
   double suspect_fitness = 0.5;
-  /// …or corrected the guess by more than this (m / rad), or there was no motion prior.
+  /// …or corrected the guess by more than this (m / rad), or there was no motion prior…
   double suspect_correction_translation = 0.5;
   double suspect_correction_rotation = 0.1;
-  /// A passing but suspect ICP is replaced by the verified global answer only when that fits
-  /// better by at least this much (fitness).
+  /// …or is weakly constrained along a horizontal axis: the smallest eigenvalue of the ICP
+  /// Hessian's translation block (rotation marginalised) below this × the largest (a corridor
+  /// whose walls say nothing along it: "no motion" fits as well as the true step). Recovery then
+  /// also starts ICP at ±relocalise_axis_step and ±2×relocalise_axis_step along that axis; two
+  /// answers that fit alike make the frame ambiguous (flagged) instead of silently wrong.
+  double suspect_weak_axis_ratio = 0.15;
+  double relocalise_axis_step = 1.0;  ///< m
+  /// A recovered answer replaces ICP from the guess (when that passed) or the guess itself (when
+  /// it failed) only when it fits better by at least this much: share of source points within
+  /// relocalise_inlier_distance of a target surface.
   double relocalise_min_gain = 0.05;
+  /// m; a source point this close to a target surface (along its normal) fits (scores recovery).
+  double relocalise_inlier_distance = 0.1;
   /// A recovered increment must be plausible for the platform: at most this far (m) and this
   /// much turned (rad) since the previous frame (a crawler's 2 m slip plus its frame; a car at
   /// 10 Hz with frames dropped).
   double relocalise_max_translation = 4.0;
   double relocalise_max_rotation = 1.6;
   /// Two verified answers this far apart (m / rad) whose fitness differs by less than
-  /// relocalise_ambiguity make the frame ambiguous: flagged, not relocalised.
+  /// relocalise_ambiguity (surface fit, as relocalise_min_gain) make the frame ambiguous:
+  /// flagged, not relocalised.
   double relocalise_distinct_translation = 0.3;
   double relocalise_distinct_rotation = 0.05;
   double relocalise_ambiguity = 0.03;
@@ -112,8 +124,9 @@ enum class FrameStatus {
 const char* toString(FrameStatus status);
 /// One line for people, e.g. "relocalised: global registration verified by ICP".
 const char* describe(FrameStatus status);
-/// A frame whose pose no registration vouches for (fallback).
-inline bool isFlagged(FrameStatus status) { return status == FrameStatus::Fallback; }
+/// A frame whose pose no registration fully vouches for: fallback (nothing verified), or
+/// degenerate (along some direction the pose is the guess's, not the registration's).
+inline bool isFlagged(FrameStatus status) { return status == FrameStatus::Fallback || status == FrameStatus::Degenerate; }
 
 /// The global registration tried on a frame (issue 19).
 struct GlobalAttempt {
@@ -171,14 +184,16 @@ class Odometry {
   /// answer and from a few other starts around the motion prior, each verified by the tracking
   /// checks and the plausibility bounds. Returns the best verified answer; `from_guess` (ICP
   /// from the guess) competes when `guess_passed`. Nothing when no answer is verified or two
-  /// distinct ones fit alike (ambiguous); f.global.outcome says which.
+  /// distinct ones fit alike (ambiguous); f.global.outcome says which. `probes_only` (the only
+  /// trigger was a weak axis): ICP from the guess against probes along that axis, nothing else.
   struct Recovery {
     RegistrationResult registration;
     bool from_guess = false;  ///< ICP from the guess won
   };
   std::optional<Recovery> recover(OdometryFrame& f, const LabeledCloud& source,
                                             const RegistrationTarget& target, const Eigen::Isometry3d& W,
-                                            const RegistrationResult& from_guess, bool guess_passed);
+                                            const RegistrationResult& from_guess, bool guess_passed,
+                                            bool probes_only = false);
   /// The global registration's answer (W space), if it has one that is not ambiguous.
   std::optional<Eigen::Isometry3d> globalStart(OdometryFrame& f, const LabeledCloud& source,
                                                const RegistrationTarget& target, const Eigen::Isometry3d& W);
