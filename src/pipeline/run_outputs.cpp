@@ -79,7 +79,7 @@ nlohmann::json runJson(const SlamResult& r, const SlamConfig& config, const RunS
     opt.push_back(entry);
   }
   j["pose_graph"] = {{"nodes", r.graph.numNodes()}, {"edges", r.graph.numEdges()},
-                     {"loop_edges", r.graph.numLoopEdges()}, {"map_anchor_edges", r.anchors},
+                     {"loop_edges", r.graph.numLoopEdges()}, {"map_anchor_edges", r.anchors}, {"reanchors", r.reanchors},
                      {"optimisations", opt}};
   // Every setting of the run, nested as in the YAML (`hazmap run --config` reads it back).
   j["parameters"] = configToJson(config);

@@ -40,6 +40,10 @@ const ConfigFields<SlamConfig>& slamSectionFields() {
           .number("anchor_sigma_translation", &C::anchor_sigma_translation, positive(),
                   "m; added to a map-anchor edge's ICP covariance (calibrated by NEES)")
           .number("anchor_sigma_rotation", &C::anchor_sigma_rotation, positive(), "rad; likewise")
+          .flag("reanchor_map", &C::reanchor_map,
+                "Frame-to-map: after each applied optimisation the tracker's local map follows the optimised poses")
+          .number("reanchor_min_shift", &C::reanchor_min_shift, nonNegative(),
+                  "m; re-anchor only when the optimisation moved some frame by more than this")
           .flag("innovation_gate", &C::innovation_gate,
                 "Gate loops by the χ² test against the graph's own relative-pose covariance (else the drift model)")
           .flag("submaps_only_frame_to_map", &C::submaps_only_frame_to_map,

@@ -161,6 +161,12 @@ class Odometry {
   const std::vector<OdometryFrame>& frames() const { return frames_; }
   Trajectory trajectory() const;
   const LocalMap& localMap() const { return map_; }
+  /// Frame to map: tracking continues on a corrected trajectory (issue 14: the map follows the
+  /// pose graph). `poses[i]` = the new world ← sensor pose of frame i, one per frame so far; every
+  /// local-map point moves with its frame's correction and the frames take the new poses, so the
+  /// next frame's guess starts from the corrected pose (odometry_reanchor.cpp). Frame to frame it
+  /// changes nothing (registration is relative to the previous scan).
+  void reanchor(const std::vector<Eigen::Isometry3d>& poses);
   const OdometryConfig& config() const { return config_; }
 
  private:

@@ -68,6 +68,12 @@ struct SlamConfig {
   double anchor_radius = 8.0;
   double anchor_sigma_translation = 0.02;  ///< m
   double anchor_sigma_rotation = 0.002;    ///< rad
+  /// The map follows the graph (frame-to-map, PGO methods): after every applied optimisation that
+  /// moved a frame by more than reanchor_min_shift (m), the tracker's local map points move with
+  /// their frames' corrections and tracking continues from the optimised pose
+  /// (Odometry::reanchor; measured in docs/pose_graph.md).
+  bool reanchor_map = false;
+  double reanchor_min_shift = 0.005;
   /// α and the class search radii (paper eq. 2), applied to the sequence's class table that
   /// tracking and loop verification share.
   PropertyIcpConfig property_icp;
@@ -163,6 +169,7 @@ struct SlamResult {
   std::vector<OptimisationOutcome> optimisation_outcomes;  ///< one per optimisation
   std::vector<LoopRejectionRecord> rejected_loops;
   std::vector<std::pair<std::size_t, std::size_t>> anchors;  ///< map-anchor edges (from, to frame)
+  std::size_t reanchors = 0;  ///< times the tracker's local map followed an optimisation (reanchor_map)
   SlamTimings timings;
   double framesPerSecond() const;
 };
