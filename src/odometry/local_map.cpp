@@ -26,64 +26,76 @@ auto findVoxel(Index& index, std::int64_t x, std::int64_t y, std::int64_t z) {
 
 }  // namespace
 
-LocalMap::LocalMap(const LocalMapConfig& config) : config_(config) { config_.validate(); }
+LocalMap::LocalMap(const LocalMapConfig& config) : config_(config) {
+  config_.validate();
+  inverse_voxel_ = 1.0 / config_.voxel_size;
+  min_point_distance2_ = static_cast<float>(config_.min_point_distance * config_.min_point_distance);
+}
 
 void LocalMap::clear() {
   voxels_.clear();
+  integrations_ = 0;
   normal_neighbors_ = -1;
   index_.clear();
   points_ = 0;
 }
 
-void LocalMap::integrate(const LabeledCloud& scan, const Eigen::Vector3d& origin, const ClassTable& table) {
-  const double inv = 1.0 / config_.voxel_size;
-  const float min_d2 = static_cast<float>(config_.min_point_distance * config_.min_point_distance);
-  if (points_ == 0) has_values_ = scan.hasProperty();
-  const bool values = has_values_ && scan.hasProperty();
-  for (std::size_t i = 0; i < scan.size(); ++i) {
-    const Eigen::Vector3f& p = scan.points[i];
-    if (!p.allFinite()) continue;
-    std::array<std::int64_t, 3> c;
-    std::uint64_t key = 0;
-    if (!voxelOfPoint(p.x() * inv, p.y() * inv, p.z() * inv, c, key)) continue;  // beyond ±2^20 voxels
-    const auto [slot, inserted] = index_.tryEmplace(key, static_cast<std::uint32_t>(voxels_.size()));
-    if (inserted) voxels_.push_back(Voxel{c[0], c[1], c[2], {}, {}, {}, 0, {}, {}, {}, {}, true, false, true});
-    Voxel& v = voxels_[*slot];
-    const ClassId cls = scan.classes[i];
-    const bool prop = table.isProperty(cls);
-    if (min_d2 > 0.0f) {
-      bool close = false;
-      for (std::size_t k = 0; k < v.points.size() && !close; ++k)
-        close = (v.points[k] - p).squaredNorm() < min_d2 && (!prop || v.classes[k] == cls);
-      if (close) continue;
-    }
-    const float value = values ? scan.property[i] : 0.0f;
-    if (static_cast<int>(v.points.size()) < config_.max_points_per_voxel) {
-      v.points.push_back(p);
-      v.classes.push_back(cls);
-      v.values.push_back(value);
-      v.property_points += prop;
+// One point into its voxel: appended while the voxel has room, else a property point replaces the
+// oldest unlabelled one (while property points hold at most half of it). `origin` = the
+// integrate() call that brought it (reanchor() moves it with that call's correction).
+void LocalMap::addPoint(const Eigen::Vector3f& p, ClassId cls, float value, std::uint32_t origin,
+                        const ClassTable& table) {
+  const double inv = inverse_voxel_;
+  const float min_d2 = min_point_distance2_;
+  if (!p.allFinite()) return;
+  std::array<std::int64_t, 3> c;
+  std::uint64_t key = 0;
+  if (!voxelOfPoint(p.x() * inv, p.y() * inv, p.z() * inv, c, key)) return;  // beyond ±2^20 voxels
+  const auto [slot, inserted] = index_.tryEmplace(key, static_cast<std::uint32_t>(voxels_.size()));
+  if (inserted) voxels_.push_back(Voxel{c[0], c[1], c[2], {}, {}, {}, 0, {}, {}, {}, {}, true, false, true, {}});
+  Voxel& v = voxels_[*slot];
+  const bool prop = table.isProperty(cls);
+  if (min_d2 > 0.0f) {
+    bool close = false;
+    for (std::size_t k = 0; k < v.points.size() && !close; ++k)
+      close = (v.points[k] - p).squaredNorm() < min_d2 && (!prop || v.classes[k] == cls);
+    if (close) return;
+  }
+  if (static_cast<int>(v.points.size()) < config_.max_points_per_voxel) {
+    v.points.push_back(p);
+    v.classes.push_back(cls);
+    v.values.push_back(value);
+    v.origins.push_back(origin);
+    v.property_points += prop;
+    v.delta.push_back(p);
+    v.changed = true;
+    ++points_;
+  } else if (prop && 2 * v.property_points < config_.max_points_per_voxel) {
+    // Replace the oldest unlabelled point.
+    for (std::size_t k = 0; k < v.points.size(); ++k) {
+      if (table.isProperty(v.classes[k])) continue;
+      v.delta.push_back(v.points[k]);
       v.delta.push_back(p);
+      v.points[k] = p;
+      v.classes[k] = cls;
+      v.values[k] = value;
+      v.origins[k] = origin;
+      if (k < v.normals.size()) v.normals[k].setZero();  // estimated anew
+      if (k < v.updates.size()) v.updates[k] = 0;
+      if (k < v.reach2.size()) v.reach2[k] = -1.0f;
+      ++v.property_points;
       v.changed = true;
-      ++points_;
-    } else if (prop && 2 * v.property_points < config_.max_points_per_voxel) {
-      // Replace the oldest unlabelled point.
-      for (std::size_t k = 0; k < v.points.size(); ++k) {
-        if (table.isProperty(v.classes[k])) continue;
-        v.delta.push_back(v.points[k]);
-        v.delta.push_back(p);
-        v.points[k] = p;
-        v.classes[k] = cls;
-        v.values[k] = value;
-        if (k < v.normals.size()) v.normals[k].setZero();  // estimated anew
-        if (k < v.updates.size()) v.updates[k] = 0;
-        if (k < v.reach2.size()) v.reach2[k] = -1.0f;
-        ++v.property_points;
-        v.changed = true;
-        break;
-      }
+      break;
     }
   }
+}
+
+void LocalMap::integrate(const LabeledCloud& scan, const Eigen::Vector3d& origin, const ClassTable& table) {
+  if (points_ == 0) has_values_ = scan.hasProperty();
+  const bool values = has_values_ && scan.hasProperty();
+  for (std::size_t i = 0; i < scan.size(); ++i)
+    addPoint(scan.points[i], scan.classes[i], values ? scan.property[i] : 0.0f, integrations_, table);
+  ++integrations_;
   // Bound the map: drop voxels far from the robot.
   const std::vector<std::array<std::int64_t, 3>> dropped = dropFarVoxels(origin);
   // Cached normals: a change anywhere within the normal radius makes a voxel's normals stale.
@@ -93,6 +105,30 @@ void LocalMap::integrate(const LabeledCloud& scan, const Eigen::Vector3d& origin
     invalidateAround(v.x, v.y, v.z, false);
   }
   for (const auto& d : dropped) invalidateAround(d[0], d[1], d[2], true);
+}
+
+// Every point moved by the correction of the integrate() call that brought it, then the voxels
+// rebuilt in the old voxel order (so the result is deterministic) and bounded around `origin`.
+// All normals are estimated anew: every voxel is new.
+void LocalMap::reanchor(const std::vector<Eigen::Isometry3d>& corrections, const Eigen::Vector3d& origin,
+                        const ClassTable& table) {
+  if (corrections.size() < integrations_)
+    fail("local map", "reanchor needs a correction for each of the " + std::to_string(integrations_) +
+                          " integrated scans, got " + std::to_string(corrections.size()));
+  std::vector<Voxel> old = std::move(voxels_);
+  voxels_.clear();
+  index_.clear();
+  points_ = 0;
+  std::vector<Eigen::Matrix4f> moves(corrections.size());
+  for (std::size_t f = 0; f < corrections.size(); ++f) moves[f] = corrections[f].matrix().cast<float>();
+  for (const Voxel& v : old)
+    for (std::size_t i = 0; i < v.points.size(); ++i) {
+      const Eigen::Matrix4f& m = moves[v.origins[i]];
+      const Eigen::Vector3f p = m.topLeftCorner<3, 3>() * v.points[i] + m.topRightCorner<3, 1>();
+      addPoint(p, v.classes[i], v.values[i], v.origins[i], table);
+    }
+  dropFarVoxels(origin);
+  for (Voxel& v : voxels_) v.changed = false;
 }
 
 // Drops the voxels farther than max_distance from `origin` (swap-remove keeps it O(1) and

@@ -322,7 +322,10 @@ void Odometry::track(OdometryFrame& f, const LabeledCloud& source, std::optional
 
 void Odometry::remember(OdometryFrame& f, const LabeledCloud& frame) {
   if (config_.mode == OdometryMode::FrameToMap) {
-    map_.integrate(frame.transformed(f.pose), f.pose.translation(), classes_);
+    // A fallback frame's pose is an unverified guess: its points would place a wrong copy of the
+    // scene in the map that the next frames then track against (issue 14, naraha seed 7).
+    const bool keep_out = config_.map_skips_fallback && f.status == FrameStatus::Fallback;
+    map_.integrate(keep_out ? LabeledCloud() : frame.transformed(f.pose), f.pose.translation(), classes_);
     f.map_points = map_.size();
   } else if (!frame.empty() || !impl_->previous) {
     impl_->previous = std::make_unique<RegistrationTarget>(frame, classes_, config_.registration);

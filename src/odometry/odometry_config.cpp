@@ -42,6 +42,8 @@ const ConfigFields<OdometryConfig>& configFields(ConfigTag<OdometryConfig>) {
           .number("max_correction_translation", &C::max_correction_translation, positive(),
                   "m; ICP farther from the guess = diverged")
           .number("max_correction_rotation", &C::max_correction_rotation, positive(), "rad")
+          .flag("map_skips_fallback", &C::map_skips_fallback,
+                "Frame to map: a fallback frame's points stay out of the local map (its pose is an unverified guess)")
           .flag("keep_guess_along_degenerate", &C::keep_guess_along_degenerate,
                 "Replace ICP's degenerate directions by the guess")
           .number("fallback_sigma_translation", &C::fallback_sigma_translation, positive(),

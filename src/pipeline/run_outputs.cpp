@@ -35,9 +35,11 @@ nlohmann::json runJson(const SlamResult& r, const SlamConfig& config, const RunS
   nlohmann::json fallback_frames = nlohmann::json::array();
   nlohmann::json relocalised_frames = nlohmann::json::array();
   nlohmann::json status = nlohmann::json::array();  // per frame: tracked / relocalised / fallback …
+  nlohmann::json stalled = nlohmann::json::array();  // ICP stopped at its iteration limit (issue 14)
   double ms_sum = 0;
   for (const auto& f : r.frames) {
     ms_sum += f.milliseconds;
+    if (f.stalled) stalled.push_back(f.index);
     status.push_back(toString(f.status));
     if (f.status == FrameStatus::Relocalised)
       relocalised_frames.push_back({{"frame", f.index}, {"reason", f.fallback_reason}});
@@ -51,7 +53,7 @@ nlohmann::json runJson(const SlamResult& r, const SlamConfig& config, const RunS
                    {"odometry_fallbacks", fallbacks}, {"fallback_frames", fallback_frames},
                    {"tracked", counts.tracked}, {"relocalised", counts.relocalised},
                    {"flagged", counts.fallback}, {"relocalised_frames", relocalised_frames},
-                   {"frame_status", status}};
+                   {"frame_status", status}, {"stalled_frames", stalled}};
   nlohmann::json loops = nlohmann::json::array();
   for (const auto& l : r.loops)
     loops.push_back({{"from", l.from_frame}, {"to", l.to_frame}, {"source", l.source},
@@ -79,7 +81,13 @@ nlohmann::json runJson(const SlamResult& r, const SlamConfig& config, const RunS
     opt.push_back(entry);
   }
   j["pose_graph"] = {{"nodes", r.graph.numNodes()}, {"edges", r.graph.numEdges()},
-                     {"loop_edges", r.graph.numLoopEdges()}, {"map_anchor_edges", r.anchors},
+                     {"loop_edges", r.graph.numLoopEdges()}, {"map_anchor_edges", r.anchors}, {"reanchors", r.reanchors},
+                     {"final_accept_test", {{"tested", r.final_accept.tested},
+                                            {"loops_contradict_tracking", r.final_accept.loops_contradict_tracking},
+                                            {"worst_loop_d2", r.final_accept.worst_loop_d2},
+                                            {"optimised_entropy", r.final_accept.optimised_entropy},
+                                            {"tracking_entropy", r.final_accept.tracking_entropy},
+                                            {"kept_optimised", r.final_accept.kept_optimised}}},
                      {"optimisations", opt}};
   // Every setting of the run, nested as in the YAML (`hazmap run --config` reads it back).
   j["parameters"] = configToJson(config);

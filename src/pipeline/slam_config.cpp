@@ -40,6 +40,18 @@ const ConfigFields<SlamConfig>& slamSectionFields() {
           .number("anchor_sigma_translation", &C::anchor_sigma_translation, positive(),
                   "m; added to a map-anchor edge's ICP covariance (calibrated by NEES)")
           .number("anchor_sigma_rotation", &C::anchor_sigma_rotation, positive(), "rad; likewise")
+          .flag("stalled_edges_use_wheel_noise", &C::stalled_edges_use_wheel_noise,
+                "Odometry edge of a frame whose ICP stopped at its iteration limit: wheel-odometry covariance")
+          .flag("anchors_carry_unverified_steps", &C::anchors_carry_unverified_steps,
+                "A map anchor's covariance includes the unverified (fallback, stalled) increments it spans")
+          .flag("final_accept_test", &C::final_accept_test,
+                "Keep the optimised trajectory only when its keyframe map is as crisp (mean map entropy) as tracking's")
+          .number("map_entropy_radius", &C::map_entropy_radius, positive(),
+                  "m; neighbourhood of the final accept test's mean map entropy")
+          .flag("reanchor_map", &C::reanchor_map,
+                "Frame-to-map: after each applied optimisation the tracker's local map follows the optimised poses")
+          .number("reanchor_min_shift", &C::reanchor_min_shift, nonNegative(),
+                  "m; re-anchor only when the optimisation moved some frame by more than this")
           .flag("innovation_gate", &C::innovation_gate,
                 "Gate loops by the χ² test against the graph's own relative-pose covariance (else the drift model)")
           .flag("submaps_only_frame_to_map", &C::submaps_only_frame_to_map,

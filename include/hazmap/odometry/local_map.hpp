@@ -4,6 +4,7 @@
 // rare and carry the paper's signal, so a full voxel still accepts one by replacing an unlabelled
 // point, as long as property points hold at most half of it.
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <array>
 #include <cstdint>
 #include <vector>
@@ -38,6 +39,14 @@ class LocalMap {
   /// Adds `scan_world` (already in the world frame) and drops voxels farther than max_distance
   /// from `origin`. `table` tells which classes are properties. Deterministic.
   void integrate(const LabeledCloud& scan_world, const Eigen::Vector3d& origin, const ClassTable& table);
+  /// The map follows a corrected trajectory (issue 14, after a pose-graph optimisation): every
+  /// point is moved by `corrections[i]` (T_world_new · T_world_old⁻¹ of the scan) of the i-th
+  /// integrate() call that added it, the voxels rebuilt and bounded around `origin`. Throws when
+  /// `corrections` has fewer entries than integrate() calls so far.
+  void reanchor(const std::vector<Eigen::Isometry3d>& corrections, const Eigen::Vector3d& origin,
+                const ClassTable& table);
+  /// Number of integrate() calls so far (the scans whose points the map may hold).
+  std::size_t integrations() const { return integrations_; }
   /// Every point in the map (classes and property values kept), in a deterministic order.
   LabeledCloud cloud() const;
   /// The map as a registration target (the same points as cloud(), classes and values kept),
@@ -73,7 +82,9 @@ class LocalMap {
     bool force = false;  ///< re-estimate every point (a neighbouring voxel was dropped)
     bool normals_valid = false;
     bool changed = false;  ///< modified during the current integrate()
+    std::vector<std::uint32_t> origins;  ///< the integrate() call that added each point
   };
+  void addPoint(const Eigen::Vector3f& p, ClassId cls, float value, std::uint32_t origin, const ClassTable& table);
   Eigen::Vector3f estimateNormal(Voxel& v, std::size_t i, const NormalConfig& nc) const;
   std::vector<std::array<std::int64_t, 3>> dropFarVoxels(const Eigen::Vector3d& origin);
   // The steps of makeTarget().
@@ -89,6 +100,9 @@ class LocalMap {
   std::vector<Voxel> voxels_;
   detail::VoxelKeyIndex index_;  ///< voxel key → position in voxels_
   std::size_t points_ = 0;
+  std::size_t integrations_ = 0;
+  double inverse_voxel_ = 1.0;
+  float min_point_distance2_ = 0.0f;
   bool has_values_ = false;
   // settings the cached normals were estimated with (a change invalidates them all)
   int normal_neighbors_ = -1;

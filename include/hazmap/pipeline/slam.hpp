@@ -34,6 +34,17 @@ struct WheelOdometryNoise {
   Matrix6d information() const;
 };
 
+/// The final accept test's outcome (SlamConfig::final_accept_test).
+struct FinalAcceptTest {
+  bool tested = false;  ///< false: off, or no loop edge (the graph is tracking's chain)
+  /// A verified loop contradicts tracking's trajectory beyond the χ² gate (then tracking is no
+  /// alternative and the entropies are not computed); the largest loop d² against it.
+  bool loops_contradict_tracking = false;
+  double worst_loop_d2 = 0.0;
+  double optimised_entropy = 0.0, tracking_entropy = 0.0;  ///< mean map entropy of the keyframes' map
+  bool kept_optimised = true;
+};
+
 struct SlamConfig {
   SlamMethod method = SlamMethod::PropertyIcpPgo;
   /// Tracking: preprocessing, (property-)ICP, local map, failure detection. The paper registers
@@ -68,6 +79,23 @@ struct SlamConfig {
   double anchor_radius = 8.0;
   double anchor_sigma_translation = 0.02;  ///< m
   double anchor_sigma_rotation = 0.002;    ///< rad
+  /// The map follows the graph (frame-to-map, PGO methods): after every applied optimisation that
+  /// moved a frame by more than reanchor_min_shift (m), the tracker's local map points move with
+  /// their frames' corrections and tracking continues from the optimised pose
+  /// (Odometry::reanchor; measured in docs/pose_graph.md).
+  bool reanchor_map = false;
+  /// The final accept test: at the end of a run the optimised trajectory is kept only when the
+  /// keyframes' map it places is at least as crisp (mean map entropy, map_entropy) as the one
+  /// tracking alone places; otherwise tracking's trajectory is the estimate (run.json says so).
+  bool final_accept_test = false;
+  /// Honest edges: a stalled frame's odometry edge (FrameRecord::stalled) gets the wheel-odometry
+  /// covariance, not ICP's Hessian one (which claims mm on a registration that stopped short).
+  bool stalled_edges_use_wheel_noise = false;
+  /// A map-anchor edge's covariance also carries the chained covariance of the unverified
+  /// increments (fallback, stalled) between its keyframes.
+  bool anchors_carry_unverified_steps = false;
+  double map_entropy_radius = 0.3;  ///< m, the entropy's neighbourhood (MapEntropyConfig::radius)
+  double reanchor_min_shift = 0.005;
   /// α and the class search radii (paper eq. 2), applied to the sequence's class table that
   /// tracking and loop verification share.
   PropertyIcpConfig property_icp;
@@ -114,6 +142,10 @@ struct FrameRecord {
   std::string fallback_reason;  ///< why the frame fell back, was relocalised or degenerate
   double fitness = 0.0, rmse = 0.0;
   int iterations = 0;
+  /// ICP stopped at its iteration limit and its answer was used (tracked or degenerate): it
+  /// stalled short of a minimum, typically after a wheel slip, so only the wheel odometry bounds
+  /// the increment's error (its odometry edge gets wheel_noise when stalled_edges_use_wheel_noise).
+  bool stalled = false;
   double milliseconds = 0.0;  ///< preprocessing + registration of this frame
   std::size_t points = 0;     ///< after preprocessing
   /// Body-frame velocity the scan was deskewed with (so a second pass over the scans can redo
@@ -163,6 +195,8 @@ struct SlamResult {
   std::vector<OptimisationOutcome> optimisation_outcomes;  ///< one per optimisation
   std::vector<LoopRejectionRecord> rejected_loops;
   std::vector<std::pair<std::size_t, std::size_t>> anchors;  ///< map-anchor edges (from, to frame)
+  FinalAcceptTest final_accept;
+  std::size_t reanchors = 0;  ///< times the tracker's local map followed an optimisation (reanchor_map)
   SlamTimings timings;
   double framesPerSecond() const;
 };
