@@ -37,6 +37,38 @@ void printMatrix(const Eigen::Matrix4d& M) {
   }
 }
 
+// --method: plain ICP or property-aware ICP.
+bool usesClasses(const std::string& method) {
+  if (method == "icp") return false;
+  if (method == "property-icp") return true;
+  fail("--method", "expected icp or property-icp, got '" + method + "'");
+}
+
+struct Inputs {
+  ClassTable table;
+  LabeledCloud source, target;
+};
+
+// The class table (with --set's property-ICP overrides) and both clouds, whose labels must be in
+// the table when the registration uses them.
+Inputs readInputs(const RegisterOptions& o, const ParameterOptions& params, bool use_classes) {
+  Inputs in{params.propertyIcp().applyTo(ClassTable::load(o.classes)), {}, {}};
+  in.source = readCloud(o.source, in.table);
+  in.target = readCloud(o.target, in.table);
+  if (use_classes) {
+    in.table.checkCloud(in.source, o.source);
+    in.table.checkCloud(in.target, o.target);
+  }
+  return in;
+}
+
+std::vector<double> rowMajor(const Eigen::Matrix4d& M) {
+  std::vector<double> t;
+  for (int i = 0; i < 4; ++i)
+    for (int k = 0; k < 4; ++k) t.push_back(M(i, k));
+  return t;
+}
+
 // --global: no initial guess; features, RANSAC and constellations, verified by property ICP.
 void runGlobal(const RegisterOptions& o, const ParameterOptions& params) {
   if (!o.init.empty()) fail("--init", "a global registration takes no initial guess (drop --init or --global)");
@@ -44,28 +76,17 @@ void runGlobal(const RegisterOptions& o, const ParameterOptions& params) {
     fail("--global", "--metric/--max-distance/--max-iterations set the local ICP; with --global use --set refinement.KEY=VALUE");
   GlobalRegistrationConfig cfg;
   if (!o.config.empty()) cfg = loadGlobalRegistrationConfig(o.config);
-  if (o.method == "icp") cfg.use_classes = false;
-  else if (o.method == "property-icp") cfg.use_classes = true;
-  else fail("--method", "expected icp or property-icp, got '" + o.method + "'");
+  cfg.use_classes = usesClasses(o.method);
   if (o.voxel < 0.0 || !std::isfinite(o.voxel)) fail("--voxel", "must be >= 0 (0 = the config's voxel_size)");
   if (o.voxel > 0.0) cfg.voxel_size = o.voxel;
   if (o.threads != 0) cfg.threads = o.threads;
   params.applySettings(cfg);
   cfg.validate();
-  const ClassTable table = params.propertyIcp().applyTo(ClassTable::load(o.classes));
-  const LabeledCloud source = readCloud(o.source, table);
-  const LabeledCloud target = readCloud(o.target, table);
-  if (cfg.use_classes) {
-    table.checkCloud(source, o.source);
-    table.checkCloud(target, o.target);
-  }
-  const GlobalRegistrationResult r = registerGlobally(source, target, table, cfg);
+  const Inputs in = readInputs(o, params, cfg.use_classes);
+  const GlobalRegistrationResult r = registerGlobally(in.source, in.target, in.table, cfg);
   if (o.json) {
     nlohmann::json j;
-    std::vector<double> t;
-    for (int i = 0; i < 4; ++i)
-      for (int k = 0; k < 4; ++k) t.push_back(r.transform.matrix()(i, k));
-    j["transform"] = t;
+    j["transform"] = rowMajor(r.transform.matrix());
     j["success"] = r.success;
     j["status"] = toString(r.status);
     if (!r.success) j["reason"] = r.reason;
@@ -96,9 +117,7 @@ void run(const RegisterOptions& o, const ParameterOptions& params) {
   if (o.global) return runGlobal(o, params);
   RegistrationConfig cfg;
   if (!o.config.empty()) cfg = loadRegistrationConfig(o.config);
-  if (o.method == "icp") cfg.use_classes = false;
-  else if (o.method == "property-icp") cfg.use_classes = true;
-  else fail("--method", "expected icp or property-icp, got '" + o.method + "'");
+  cfg.use_classes = usesClasses(o.method);
   if (o.metric == "point") cfg.metric = IcpMetric::PointToPoint;
   else if (o.metric == "plane") cfg.metric = IcpMetric::PointToPlane;
   else fail("--metric", "expected point or plane, got '" + o.metric + "'");
@@ -109,29 +128,20 @@ void run(const RegisterOptions& o, const ParameterOptions& params) {
   cfg.validate();
   if (o.voxel < 0.0 || !std::isfinite(o.voxel)) fail("--voxel", "must be >= 0 (0 = no downsampling)");
 
-  const ClassTable table = params.propertyIcp().applyTo(ClassTable::load(o.classes));
-  const LabeledCloud source = readCloud(o.source, table);
-  const LabeledCloud target = readCloud(o.target, table);
-  if (cfg.use_classes) {
-    table.checkCloud(source, o.source);
-    table.checkCloud(target, o.target);
-  }
+  const Inputs in = readInputs(o, params, cfg.use_classes);
   const Eigen::Isometry3d init = o.init.empty() ? Eigen::Isometry3d::Identity() : readTransformFile(o.init);
   VoxelDownsampleConfig vd;
   vd.voxel_size = o.voxel;
   vd.vote = ClassVote::PreferProperty;
-  const RegistrationResult r = o.voxel > 0.0 ? registerScans(source, target, init, table, vd, cfg)
-                                             : registerClouds(source, target, init, table, cfg);
+  const RegistrationResult r = o.voxel > 0.0 ? registerScans(in.source, in.target, init, in.table, vd, cfg)
+                                             : registerClouds(in.source, in.target, init, in.table, cfg);
 
-  const Eigen::Matrix4d M = r.transform.matrix();
   if (o.json) {
     nlohmann::json j;
-    std::vector<double> t, c;
-    for (int i = 0; i < 4; ++i)
-      for (int k = 0; k < 4; ++k) t.push_back(M(i, k));
+    std::vector<double> c;
     for (int i = 0; i < 6; ++i)
       for (int k = 0; k < 6; ++k) c.push_back(r.covariance(i, k));
-    j["transform"] = t;
+    j["transform"] = rowMajor(r.transform.matrix());
     j["covariance"] = c;
     j["fitness"] = r.fitness;
     j["rmse"] = r.inlier_rmse;
@@ -151,11 +161,7 @@ void run(const RegisterOptions& o, const ParameterOptions& params) {
     j["property_matched_same_class"] = r.stats.property_matched;
     std::cout << j.dump(2) << "\n";
   } else {
-    for (int i = 0; i < 4; ++i) {
-      char line[160];
-      std::snprintf(line, sizeof line, "%.9g %.9g %.9g %.9g", M(i, 0), M(i, 1), M(i, 2), M(i, 3));
-      std::cout << line << "\n";
-    }
+    printMatrix(r.transform.matrix());
     std::fprintf(stderr, "%s, %d iterations, fitness %.3f, rmse %.4f m%s%s\n",
                  r.converged ? "converged" : "NOT converged", r.iterations, r.fitness, r.inlier_rmse,
                  r.converged ? "" : ": ", r.reason.c_str());

@@ -70,20 +70,22 @@ VerificationResult coarseCheck(const LoopCandidate& cand, const LabeledCloud& qu
   return v;
 }
 
+VerificationResult emptyCloudRejection(const LoopCandidate& cand) {
+  VerificationResult out;
+  out.rejection = LoopRejection::EmptyCloud;
+  out.reason = "empty keyframe cloud";
+  out.closure.from = cand.match;
+  out.closure.to = cand.query;
+  return out;
+}
+
 }  // namespace
 
 VerificationResult verifyCandidate(const LoopCandidate& cand, const LabeledCloud& query_cloud,
                                    const LabeledCloud& match_cloud, const ClassTable& classes,
                                    const VerificationConfig& c) {
   validate(c);
-  if (query_cloud.empty() || match_cloud.empty()) {
-    VerificationResult out;
-    out.rejection = LoopRejection::EmptyCloud;
-    out.reason = "empty keyframe cloud";
-    out.closure.from = cand.match;
-    out.closure.to = cand.query;
-    return out;
-  }
+  if (query_cloud.empty() || match_cloud.empty()) return emptyCloudRejection(cand);
   const RegistrationTarget target(match_cloud, classes, c.registration);
   return verifyCandidate(cand, query_cloud, target, classes, c);
 }
@@ -91,14 +93,7 @@ VerificationResult verifyCandidate(const LoopCandidate& cand, const LabeledCloud
 VerificationResult verifyCandidate(const LoopCandidate& cand, const LabeledCloud& query_cloud,
                                    const RegistrationTarget& target, const ClassTable& classes,
                                    const VerificationConfig& c) {
-  if (query_cloud.empty()) {
-    VerificationResult out;
-    out.rejection = LoopRejection::EmptyCloud;
-    out.reason = "empty keyframe cloud";
-    out.closure.from = cand.match;
-    out.closure.to = cand.query;
-    return out;
-  }
+  if (query_cloud.empty()) return emptyCloudRejection(cand);
   if (c.coarse_source_points > 0 && query_cloud.size() > c.coarse_source_points) {
     VerificationResult coarse = coarseCheck(cand, query_cloud, target, classes, c);
     if (coarse.rejection == LoopRejection::LowFitness) return coarse;
