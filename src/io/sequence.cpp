@@ -76,6 +76,18 @@ std::vector<std::string> readChannelNames(const YAML::Node& node, const fs::path
   return names;
 }
 
+// A channel's file for one scan: CHANNEL/<the scan's name>.bin beside velodyne/.
+fs::path channelFile(const fs::path& dir, const std::string& channel, const fs::path& scan) {
+  fs::path path = dir / channel / scan.filename();
+  path.replace_extension(".bin");
+  return path;
+}
+
+void checkFrameIndex(const fs::path& dir, std::size_t i, std::size_t frames) {
+  if (i >= frames)
+    fail(dir.string(), "frame " + std::to_string(i) + " out of range (" + std::to_string(frames) + " frames)");
+}
+
 }  // namespace
 
 Sequence Sequence::open(const fs::path& dir, const std::optional<ClassTable>& table_override) {
@@ -145,22 +157,15 @@ Sequence Sequence::open(const fs::path& dir, const std::optional<ClassTable>& ta
 }
 
 std::vector<PointChannel> Sequence::frameChannels(std::size_t i, std::size_t points) const {
-  if (i >= scans_.size())
-    fail(dir_.string(), "frame " + std::to_string(i) + " out of range (" + std::to_string(scans_.size()) +
-                            " frames)");
+  checkFrameIndex(dir_, i, scans_.size());
   std::vector<PointChannel> out;
-  for (const std::string& name : channels_) {
-    fs::path path = dir_ / name / scans_[i].filename();
-    path.replace_extension(".bin");
-    out.push_back({name, readChannelFile(path, points)});
-  }
+  for (const std::string& name : channels_)
+    out.push_back({name, readChannelFile(channelFile(dir_, name, scans_[i]), points)});
   return out;
 }
 
 LabeledCloud Sequence::frame(std::size_t i, ReadStats* stats) const {
-  if (i >= scans_.size())
-    fail(dir_.string(), "frame " + std::to_string(i) + " out of range (" + std::to_string(scans_.size()) +
-                            " frames)");
+  checkFrameIndex(dir_, i, scans_.size());
   LabeledCloud scan = io_detail::extensionOf(scans_[i]) == ".bin" ? readKittiScan(scans_[i], labels_[i], table_, stats)
                                                                     : readCloud(scans_[i], table_, stats);
   if (!property_channel_.empty()) readPropertyChannel(i, scan);
@@ -168,9 +173,7 @@ LabeledCloud Sequence::frame(std::size_t i, ReadStats* stats) const {
 }
 
 void Sequence::readPropertyChannel(std::size_t i, LabeledCloud& scan) const {
-  fs::path path = dir_ / property_channel_ / scans_[i].filename();
-  path.replace_extension(".bin");
-  std::vector<float> values = readChannelFile(path, scan.size());
+  std::vector<float> values = readChannelFile(channelFile(dir_, property_channel_, scans_[i]), scan.size());
   scan.enableProperty();
   scan.property = std::move(values);
 }
