@@ -142,6 +142,8 @@ const ConfigFields<LoopClosureConfig>& configFields(ConfigTag<LoopClosureConfig>
                    "Constellations merge the landmarks of this many keyframes")
           .number("landmark_merge_distance", &C::landmark_merge_distance, positive(),
                   "m; same-class landmarks closer than this fuse")
+          .integer("partial_landmark_window", &C::partial_landmark_window, atLeast(0),
+                   "Classes labelled only in part (camera labels) take their landmarks from this many keyframes on each side (0 = as the others)")
           .integer("submap_keyframes", &C::submap_keyframes, atLeast(0),
                    "Loops are verified against the matched keyframe and this many neighbours on each side (0 = its scan alone)")
           .section("landmarks", &C::landmarks, "")

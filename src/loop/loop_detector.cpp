@@ -11,6 +11,9 @@ namespace hazmap {
 LoopDetector::LoopDetector(ClassTable classes, LoopClosureConfig config)
     : classes_(std::move(classes)), config_(std::move(config)) {
   config_.validate();
+  for (ClassId id : classes_.ids())
+    neighbourhood_ = neighbourhood_ || (classes_.isProperty(id) && !classes_.at(id).whole_extent);
+  neighbourhood_ = neighbourhood_ && config_.partial_landmark_window > 0;
 }
 
 LabeledCloud LoopDetector::prepare(LabeledCloud cloud) const {
@@ -26,6 +29,11 @@ LabeledCloud LoopDetector::prepare(LabeledCloud cloud) const {
 std::size_t LoopDetector::addKeyframe(LabeledCloud cloud) {
   cloud.checkConsistent("loop closure keyframe " + std::to_string(clouds_.size()));
   landmarks_.push_back(extractLandmarks(cloud, classes_, config_.landmarks));
+  if (neighbourhood_) {
+    auto& whole = whole_landmarks_.emplace_back();
+    auto& partial = partial_landmarks_.emplace_back();
+    for (const PropertyLandmark& l : landmarks_.back()) (classes_.at(l.class_id).whole_extent ? whole : partial).push_back(l);
+  }
   clouds_.push_back(std::make_shared<const LabeledCloud>(prepare(std::move(cloud))));
   // Bound memory: only the newest keyframes stay resident when they can be reloaded.
   if (loader_ && clouds_.size() > config_.resident_keyframes)
@@ -94,22 +102,24 @@ std::size_t LoopDetector::residentClouds() const {
   return n;
 }
 
+std::vector<LoopCandidate> LoopDetector::constellationCandidates(std::size_t query, std::size_t newest,
+                                                                 const PoseList& estimate) const {
+  if (config_.landmark_window <= 1 && !neighbourhood_)
+    return findConstellationCandidates(query, landmarks_, config_.candidates);
+  if (estimate.size() <= newest)
+    fail("loop closure", "landmark windows need a pose estimate for keyframe " + std::to_string(newest));
+  // A past keyframe's neighbourhood stops where the query's recent keyframes begin.
+  const std::size_t gap = config_.candidates.min_index_gap;
+  std::vector<std::vector<PropertyLandmark>> places(query + 1);
+  places[query] = placeLandmarks(query, newest, estimate);
+  for (std::size_t j = 0; j + gap <= query; ++j) places[j] = placeLandmarks(j, query - gap, estimate);
+  return findConstellationCandidates(query, places, config_.candidates);
+}
+
 std::vector<LoopCandidate> LoopDetector::candidates(std::size_t query, const PoseList& estimate) const {
   if (query >= size()) fail("loop closure", "query keyframe " + std::to_string(query) + " does not exist");
   std::vector<LoopCandidate> out;
-  if (config_.method != CandidateMethod::Distance) {
-    if (config_.landmark_window <= 1) {
-      out = findConstellationCandidates(query, landmarks_, config_.candidates);
-    } else {
-      if (estimate.size() <= query)
-        fail("loop closure", "landmark_window > 1 needs a pose estimate for keyframe " + std::to_string(query));
-      std::vector<std::vector<PropertyLandmark>> places(query + 1);
-      places[query] = placeLandmarks(query, estimate);
-      for (std::size_t j = 0; j + config_.candidates.min_index_gap <= query; ++j)
-        places[j] = placeLandmarks(j, estimate);
-      out = findConstellationCandidates(query, places, config_.candidates);
-    }
-  }
+  if (config_.method != CandidateMethod::Distance) out = constellationCandidates(query, query, estimate);
   if (config_.method != CandidateMethod::Constellation) {
     if (estimate.size() <= query)
       fail("loop closure", "the distance search needs a pose estimate for keyframe " + std::to_string(query));
@@ -126,10 +136,30 @@ std::vector<LoopCandidate> LoopDetector::candidates(std::size_t query, const Pos
 }
 
 std::vector<PropertyLandmark> LoopDetector::placeLandmarks(std::size_t k, const PoseList& estimate) const {
-  if (k >= size()) fail("loop closure", "keyframe " + std::to_string(k) + " does not exist");
-  if (config_.landmark_window <= 1) return landmarks_[k];
-  const std::size_t first = k + 1 >= config_.landmark_window ? k + 1 - config_.landmark_window : 0;
-  return mergeLandmarks(landmarks_, estimate, first, k, k, config_.landmark_merge_distance);
+  return placeLandmarks(k, size() - 1, estimate);
+}
+
+// Whole-extent classes: the keyframe and the landmark_window − 1 before it. Partial classes
+// (camera labels): partial_landmark_window keyframes on each side, up to `newest`.
+std::vector<PropertyLandmark> LoopDetector::placeLandmarks(std::size_t k, std::size_t newest,
+                                                           const PoseList& estimate) const {
+  if (k >= size() || newest < k) fail("loop closure", "keyframe " + std::to_string(k) + " does not exist");
+  const std::size_t w = config_.landmark_window;
+  const std::size_t first = k + 1 >= w ? k + 1 - w : 0;
+  if (!neighbourhood_) {
+    if (w <= 1) return landmarks_[k];
+    return mergeLandmarks(landmarks_, estimate, first, k, k, config_.landmark_merge_distance);
+  }
+  std::vector<PropertyLandmark> out =
+      w <= 1 ? whole_landmarks_[k] : mergeLandmarks(whole_landmarks_, estimate, first, k, k, config_.landmark_merge_distance);
+  const std::size_t p = config_.partial_landmark_window;
+  const std::size_t last = std::min({k + p, newest, size() - 1});
+  const auto partial = mergeLandmarks(partial_landmarks_, estimate, k >= p ? k - p : 0, last, k, config_.landmark_merge_distance);
+  out.insert(out.end(), partial.begin(), partial.end());
+  std::stable_sort(out.begin(), out.end(), [](const PropertyLandmark& a, const PropertyLandmark& b) {
+    return a.class_id < b.class_id;
+  });
+  return out;
 }
 
 LoopDetection LoopDetector::detect(std::size_t query, const PoseList& estimate) {
@@ -138,10 +168,30 @@ LoopDetection LoopDetector::detect(std::size_t query, const PoseList& estimate) 
   const bool gate = config_.consistency.use_drift_gate;
   if (gate && estimate.size() <= query)
     fail("loop closure", "the drift gate needs a pose estimate for keyframe " + std::to_string(query));
-  for (const auto& cand : det.candidates) {
+  verifyInto(det.candidates, estimate, det);
+  // Neighbourhood landmarks: the keyframe partial_landmark_window back now has its keyframes
+  // ahead too, the views of what it passed; search it again with them.
+  const std::size_t p = config_.partial_landmark_window;
+  if (!neighbourhood_ || config_.method == CandidateMethod::Distance || query < p) return det;
+  std::vector<LoopCandidate> again = constellationCandidates(query - p, query, estimate);
+  std::erase_if(again, [&](const LoopCandidate& c) {
+    return std::any_of(loops_.begin(), loops_.end(), [&](const LoopClosure& l) { return l.from == c.match && l.to == c.query; });
+  });
+  LoopDetection delayed;
+  verifyInto(again, estimate, delayed);
+  det.candidates.insert(det.candidates.end(), again.begin(), again.end());
+  det.verifications.insert(det.verifications.end(), delayed.verifications.begin(), delayed.verifications.end());
+  det.gates.insert(det.gates.end(), delayed.gates.begin(), delayed.gates.end());
+  det.accepted.insert(det.accepted.end(), delayed.accepted.begin(), delayed.accepted.end());
+  return det;
+}
+
+void LoopDetector::verifyInto(const std::vector<LoopCandidate>& candidates, const PoseList& estimate, LoopDetection& det) {
+  const bool gate = config_.consistency.use_drift_gate;
+  for (const auto& cand : candidates) {
     if (det.accepted.size() >= config_.max_loops_per_keyframe) break;
     if (relative_covariance_ && gate && !candidatePlausible(cand, estimate, det)) continue;
-    const auto target = submapTarget(cand.match, query, estimate);
+    const auto target = submapTarget(cand.match, cand.query, estimate);
     VerificationResult v = verifyCandidate(cand, *cloud(cand.query), *target, classes_, config_.verification);
     det.verifications.push_back(v);
     if (!v.accepted) continue;
@@ -162,7 +212,6 @@ LoopDetection LoopDetector::detect(std::size_t query, const PoseList& estimate) 
     det.accepted.push_back(v.closure);
     loops_.push_back(v.closure);
   }
-  return det;
 }
 
 std::vector<LoopClosure> LoopDetector::consistentLoops(const PoseList& estimate) const {
