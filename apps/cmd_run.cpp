@@ -79,7 +79,9 @@ void run(const RunOptions& o, const ParameterOptions& params) {
   config.deskew.enabled = !o.source.no_deskew;
   LabelReport labels;
   const std::string input = labelFromCameras(o, labels);
-  const auto scans = openScanSource(input, o.source.options(table, !o.quiet));
+  ScanSourceOptions tracking_source = o.source.options(table, !o.quiet);
+  tracking_source.read_channels = false;  // only the map (the second pass) keeps channels
+  const auto scans = openScanSource(input, tracking_source);
   ProgressBar bar(o.method, scans->size().value_or(0), o.quiet ? 0 : -1);
   const SlamResult result = runSlam(*scans, config, [&](std::size_t d, std::size_t) { bar.update(d); });
   bar.finish();

@@ -113,7 +113,23 @@ std::vector<LoopCandidate> LoopDetector::constellationCandidates(std::size_t que
   std::vector<std::vector<PropertyLandmark>> places(query + 1);
   places[query] = placeLandmarks(query, newest, estimate);
   for (std::size_t j = 0; j + gap <= query; ++j) places[j] = placeLandmarks(j, query - gap, estimate);
-  return findConstellationCandidates(query, places, config_.candidates);
+  if (!neighbourhood_) return findConstellationCandidates(query, places, config_.candidates);
+  // Neighbourhoods of keyframes up to 2·partial_landmark_window apart hold the same sources, so
+  // their constellations agree as well as those of keyframes at the same spot; the score cannot
+  // tell them apart, but verification can: its scans overlap less, and its ICP is less accurate,
+  // the farther apart they are. Among the candidates within one landmark of the best score, the
+  // nearest (by the constellation's own relative pose) go first.
+  CandidateSearchConfig all = config_.candidates;
+  all.max_candidates = query + 1;
+  std::vector<LoopCandidate> out = findConstellationCandidates(query, places, all);
+  if (out.empty()) return out;
+  const double best = out.front().score;
+  std::erase_if(out, [&](const LoopCandidate& c) { return c.score < best - 1.0; });
+  std::stable_sort(out.begin(), out.end(), [](const LoopCandidate& a, const LoopCandidate& b) {
+    return a.initial_guess.translation().norm() < b.initial_guess.translation().norm();
+  });
+  if (out.size() > config_.candidates.max_candidates) out.resize(config_.candidates.max_candidates);
+  return out;
 }
 
 std::vector<LoopCandidate> LoopDetector::candidates(std::size_t query, const PoseList& estimate) const {
@@ -155,7 +171,11 @@ std::vector<PropertyLandmark> LoopDetector::placeLandmarks(std::size_t k, std::s
   const std::size_t p = config_.partial_landmark_window;
   const std::size_t last = std::min({k + p, newest, size() - 1});
   const auto partial = mergeLandmarks(partial_landmarks_, estimate, k >= p ? k - p : 0, last, k, config_.landmark_merge_distance);
-  out.insert(out.end(), partial.begin(), partial.end());
+  // Only what lies within the landmarks' range of the keyframe, as its own scan would hold it:
+  // a neighbour's view reaches farther, and a constellation should describe this place.
+  const double range = config_.landmarks.max_range;
+  for (const PropertyLandmark& l : partial)
+    if (range <= 0.0 || l.centroid.norm() <= range) out.push_back(l);
   std::stable_sort(out.begin(), out.end(), [](const PropertyLandmark& a, const PropertyLandmark& b) {
     return a.class_id < b.class_id;
   });

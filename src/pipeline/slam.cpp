@@ -482,7 +482,7 @@ SlamResult runSlam(ScanSource& source, const SlamConfig& config, const FrameProg
 }
 
 SlamResult runSlam(const Sequence& sequence, const SlamConfig& config, const FrameProgress& progress) {
-  const auto source = sequenceScanSource(sequence);
+  const auto source = sequenceScanSource(sequence, /*read_channels=*/false);  // tracking needs no channels
   return runSlam(*source, config, progress);
 }
 

@@ -22,7 +22,7 @@ std::unique_ptr<ScanSource> openScanSource(const fs::path& path, const ScanSourc
   std::error_code ec;
   if (!fs::exists(path, ec)) fail(path.string(), "not found");
   if (fs::is_directory(path / "velodyne", ec))
-    return sequenceScanSource(Sequence::open(path, options.class_table));
+    return sequenceScanSource(Sequence::open(path, options.class_table), options.read_channels);
   if (isBag(path)) return sources::openBagScanSource(path, options);
   if (isPcap(path)) return sources::openPcapScanSource(path, options);
   fail(path.string(), "neither a sequence folder (velodyne/), a bag (.bag, .mcap, rosbag2 folder) nor a "

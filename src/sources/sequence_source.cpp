@@ -29,8 +29,10 @@ std::vector<double> readScanTimes(const std::filesystem::path& dir, std::size_t 
 
 class SequenceSource final : public ScanSource {
  public:
-  explicit SequenceSource(Sequence sequence)
-      : sequence_(std::move(sequence)), times_(readScanTimes(sequence_.directory(), sequence_.size())) {}
+  SequenceSource(Sequence sequence, bool read_channels)
+      : sequence_(std::move(sequence)),
+        times_(readScanTimes(sequence_.directory(), sequence_.size())),
+        read_channels_(read_channels) {}
 
   std::optional<Scan> next() override {
     if (next_ >= sequence_.size()) return std::nullopt;
@@ -38,7 +40,7 @@ class SequenceSource final : public ScanSource {
     scan.index = next_;
     scan.stamp = times_[next_];
     scan.cloud = sequence_.frame(next_);
-    if (!sequence_.channels().empty()) scan.channels = sequence_.frameChannels(next_, scan.cloud.size());
+    if (read_channels_ && !sequence_.channels().empty()) scan.channels = sequence_.frameChannels(next_, scan.cloud.size());
     if (const auto& odometry = sequence_.odometry()) scan.odometry = odometry->poses[next_];
     if (const auto& truth = sequence_.groundTruth()) scan.ground_truth = truth->poses[next_];
     ++next_;
@@ -53,13 +55,14 @@ class SequenceSource final : public ScanSource {
  private:
   Sequence sequence_;
   std::vector<double> times_;
+  bool read_channels_ = true;
   std::size_t next_ = 0;
 };
 
 }  // namespace
 
-std::unique_ptr<ScanSource> sequenceScanSource(Sequence sequence) {
-  return std::make_unique<SequenceSource>(std::move(sequence));
+std::unique_ptr<ScanSource> sequenceScanSource(Sequence sequence, bool read_channels) {
+  return std::make_unique<SequenceSource>(std::move(sequence), read_channels);
 }
 
 }  // namespace hazmap

@@ -39,7 +39,11 @@ struct ClassInfo {
   /// truth). False for labels from a camera: it sees part of a region, and the labelled patch
   /// ends where its view ends, which moves with the robot. Property ICP then trusts the class
   /// but not the patch's outline: a same-class pair gets the plane residual, not the 3-D one
-  /// that would pull the two scans' differently cut patches onto each other.
+  /// that would pull the two scans' differently cut patches onto each other, and the class
+  /// searches only the registration's default correspondence radius, not its wider
+  /// `search_radius` (the nearest same-class point metres away is another part of the region,
+  /// not the point's counterpart). Loop closure builds its landmarks from the keyframe's
+  /// neighbourhood on both sides (LoopClosureConfig::partial_landmark_window).
   bool whole_extent = true;
 };
 

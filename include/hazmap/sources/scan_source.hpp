@@ -40,6 +40,9 @@ struct ScanSourceOptions {
   std::filesystem::path sensor_metadata;     ///< Ouster metadata JSON (else from a bag topic)
   std::filesystem::path velodyne_calibration;  ///< optional calibration YAML (else factory)
   std::optional<ClassTable> class_table;     ///< overrides the recording's
+  /// Read the named per-point channels (Scan::channels). Only map assembly uses them: a pass
+  /// that only tracks (hazmap run's first) turns this off and skips their files.
+  bool read_channels = true;
   /// One-line notices (topics not read, odometry clamped at the recording's ends, bytes a
   /// truncated bag lost); none when unset.
   std::function<void(const std::string&)> notice;
@@ -63,8 +66,9 @@ class ScanSource {
 };
 
 /// A sequence folder as a stream: scans in name order, odometry.txt → Scan::odometry, poses.txt
-/// → Scan::ground_truth, times.txt (when it has one line per scan) → Scan::stamp, else the index.
-std::unique_ptr<ScanSource> sequenceScanSource(Sequence sequence);
+/// → Scan::ground_truth, times.txt (when it has one line per scan) → Scan::stamp, else the index;
+/// the `channels:` files → Scan::channels when `read_channels`.
+std::unique_ptr<ScanSource> sequenceScanSource(Sequence sequence, bool read_channels = true);
 
 /// Opens a sequence folder, a bag or a capture. Throws hazmap::Error naming the path.
 std::unique_ptr<ScanSource> openScanSource(const std::filesystem::path& path,
