@@ -113,23 +113,9 @@ std::vector<LoopCandidate> LoopDetector::constellationCandidates(std::size_t que
   std::vector<std::vector<PropertyLandmark>> places(query + 1);
   places[query] = placeLandmarks(query, newest, estimate);
   for (std::size_t j = 0; j + gap <= query; ++j) places[j] = placeLandmarks(j, query - gap, estimate);
-  if (!neighbourhood_) return findConstellationCandidates(query, places, config_.candidates);
-  // Neighbourhoods of keyframes up to 2·partial_landmark_window apart hold the same sources, so
-  // their constellations agree as well as those of keyframes at the same spot; the score cannot
-  // tell them apart, but verification can: its scans overlap less, and its ICP is less accurate,
-  // the farther apart they are. Among the candidates within one landmark of the best score, the
-  // nearest (by the constellation's own relative pose) go first.
-  CandidateSearchConfig all = config_.candidates;
-  all.max_candidates = query + 1;
-  std::vector<LoopCandidate> out = findConstellationCandidates(query, places, all);
-  if (out.empty()) return out;
-  const double best = out.front().score;
-  std::erase_if(out, [&](const LoopCandidate& c) { return c.score < best - 1.0; });
-  std::stable_sort(out.begin(), out.end(), [](const LoopCandidate& a, const LoopCandidate& b) {
-    return a.initial_guess.translation().norm() < b.initial_guess.translation().norm();
-  });
-  if (out.size() > config_.candidates.max_candidates) out.resize(config_.candidates.max_candidates);
-  return out;
+  // Ranked as with whole-extent labels. (Moving each candidate to the matched stretch's keyframe
+  // nearest the query gave better single loops but no better maps; docs/properties.md.)
+  return findConstellationCandidates(query, places, config_.candidates);
 }
 
 std::vector<LoopCandidate> LoopDetector::candidates(std::size_t query, const PoseList& estimate) const {
