@@ -191,6 +191,17 @@ TEST(MapChannels, SequenceFolderChannelsReachTheScans) {
   ASSERT_EQ(s->channels.size(), 2u);
   EXPECT_FLOAT_EQ(s->channels[0].values[0], 70.0f);
   EXPECT_EQ(s->channels[1].values, dose);
+  // A pass that only tracks skips the channel files (ScanSourceOptions::read_channels): the
+  // broken file below goes unread, the property channel still comes with the points.
+  writeTextAtomically(dir / "dose_rate" / "000000.bin", "abc");
+  ScanSourceOptions tracking;
+  tracking.read_channels = false;
+  const std::optional<Scan> t = openScanSource(dir, tracking)->next();
+  ASSERT_TRUE(t);
+  EXPECT_TRUE(t->channels.empty());
+  ASSERT_EQ(t->cloud.property.size(), 3u);
+  EXPECT_FLOAT_EQ(t->cloud.property[0], 70.0f);
+  EXPECT_THROW((void)openScanSource(dir)->next(), Error);  // read by default (map assembly)
   // A channel file of the wrong size is a one-line error naming the file.
   writeTextAtomically(dir / "dose_rate" / "000000.bin", "abc");
   try {
