@@ -14,6 +14,7 @@
 #include "hazmap/io/sequence.hpp"
 #include "hazmap/loop/consistency.hpp"
 #include "hazmap/loop/loop_closure.hpp"
+#include "hazmap/loop/verification.hpp"
 #include "hazmap/odometry/local_map.hpp"
 #include "hazmap/odometry/odometry.hpp"
 #include "hazmap/pipeline/map_entropy.hpp"
@@ -181,6 +182,70 @@ TEST(GuardedOptimisation, AWrongLoopAgainstStiffOdometryStaysBeyondTheGate) {
   EXPECT_EQ(beyond[0], g.edges.size() - 1);
 }
 
+// Honest loop covariance (VerificationConfig::misfit_scale, label_only_sigma): the whole misfit
+// along the Hessian's weak axis, and no information along a direction only labels constrain.
+namespace {
+
+RegistrationResult loopRegistration() {
+  RegistrationResult r;
+  r.converged = true;
+  r.fitness = 0.9;
+  r.inlier_rmse = 0.3;
+  r.transform = pose(3.0, 0.0, 0.0);
+  r.covariance = isotropic(0.002, 0.0002);
+  // Well constrained except yaw: H = diag(1e4, 1e4, 1e4, 1e3, 1e3, 10).
+  r.hessian = (Vector6d() << 1e4, 1e4, 1e4, 1e3, 1e3, 10.0).finished().asDiagonal();
+  return r;
+}
+
+LoopCandidate candidateAt(const Eigen::Isometry3d& guess) {
+  LoopCandidate c;
+  c.match = 2;
+  c.query = 40;
+  c.initial_guess = guess;
+  return c;
+}
+
+}  // namespace
+
+TEST(HonestLoopCovariance, TheMisfitGoesAlongTheHessiansWeakAxis) {
+  const RegistrationResult r = loopRegistration();
+  VerificationConfig c;
+  const Matrix6d extra = honestyTerms(r, c);
+  // rmse² · H⁻¹: 0.09 / 10 on yaw, 0.09 / 1e4 on x.
+  EXPECT_NEAR(extra(5, 5), 0.009, 1e-12);
+  EXPECT_NEAR(extra(0, 0), 9e-6, 1e-15);
+  EXPECT_NEAR(extra(0, 5), 0.0, 1e-15);
+  const VerificationResult v = evaluateRegistration(candidateAt(r.transform), r, c);
+  ASSERT_TRUE(v.accepted) << v.reason;
+  // The yaw the sandwich claimed (0.2 mrad) is now 95 mrad: a 10 mrad error is within 1 σ.
+  EXPECT_GT(std::sqrt(v.closure.covariance(5, 5)), 0.09);
+  EXPECT_LT(std::sqrt(v.closure.covariance(0, 0)), 0.011);  // x stays near its floor (1 cm)
+  // Off: the sandwich covariance and the floors only, as before.
+  c.misfit_scale = 0.0;
+  const VerificationResult old = evaluateRegistration(candidateAt(r.transform), r, c);
+  EXPECT_NEAR(old.closure.covariance(5, 5), 0.0002 * 0.0002 + 0.001 * 0.001, 1e-15);
+}
+
+TEST(HonestLoopCovariance, ALabelOnlyDirectionCarriesNoInformation) {
+  RegistrationResult r = loopRegistration();
+  r.hessian = (Vector6d() << 1e4, 1e4, 1e4, 1e3, 1e3, 1e3).finished().asDiagonal();
+  r.label_only_directions.push_back((Vector6d() << -1, 0, 0, 0, 0, 0).finished());  // a corridor's axis
+  VerificationConfig c;
+  const VerificationResult v = evaluateRegistration(candidateAt(r.transform), r, c);
+  ASSERT_TRUE(v.accepted) << v.reason;
+  // Along x the loop says nothing (σ ≥ 100 m); across the corridor it keeps its centimetre.
+  EXPECT_LT(v.closure.information(0, 0), 1e-4 + 1e-9);
+  EXPECT_GT(v.closure.information(1, 1), 1e3);
+  // A loop 0.5 m off along the axis costs nothing in the graph; 5 cm across it costs d² ≈ 22.
+  const Vector6d along = (Vector6d() << 0.5, 0, 0, 0, 0, 0).finished();
+  const Vector6d across = (Vector6d() << 0, 0.05, 0, 0, 0, 0).finished();
+  EXPECT_LT(along.dot(v.closure.information * along), 1e-3);
+  EXPECT_GT(across.dot(v.closure.information * across), 20.0);
+  c.label_only_sigma = 0.0;
+  EXPECT_GT(evaluateRegistration(candidateAt(r.transform), r, c).closure.information(0, 0), 1e3);
+}
+
 // The never-worse rule on whole simulated routes (frame-to-map, the default): with loops and
 // PGO the map error is at most 2 mm above tracking alone, and run.json says why each rejected
 // loop was dropped and whether each optimisation was applied.
@@ -188,7 +253,8 @@ class NeverWorse : public ::testing::TestWithParam<std::pair<const char*, int>> 
 
 TEST_P(NeverWorse, PgoMapErrorIsAtMostTrackingPlusTwoMillimetres) {
   const auto [scenario, seed] = GetParam();
-  const auto dir = hazmap::test::writeSimulatedSequence(std::string("backend-") + scenario, scenario, seed, 0);
+  const auto dir = hazmap::test::writeSimulatedSequence(std::string("backend-") + scenario + std::to_string(seed), scenario,
+                                                        seed, 0);
   const Sequence seq = Sequence::open(dir);
   OutputConfig out;
   out.write_pngs = false;
@@ -217,7 +283,8 @@ TEST_P(NeverWorse, PgoMapErrorIsAtMostTrackingPlusTwoMillimetres) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Scenes, NeverWorse,
-                         ::testing::Values(std::make_pair("naraha", 1), std::make_pair("tanks", 2)),
+                         ::testing::Values(std::make_pair("naraha", 1), std::make_pair("naraha", 2),
+                                           std::make_pair("corridor", 2), std::make_pair("tanks", 2)),
                          [](const auto& info) { return std::string(info.param.first) + std::to_string(info.param.second); });
 
 // The map follows the graph: every local-map point moves with the correction of the scan that

@@ -95,6 +95,10 @@ const ConfigFields<VerificationConfig>& configFields(ConfigTag<VerificationConfi
           .number("min_rotation_sigma", &C::min_rotation_sigma, nonNegative(), "rad")
           .number("covariance_scale", &C::covariance_scale, positive(),
                   "Calibration: the ICP covariance is multiplied by this before the floors (fitted by NEES)")
+          .number("misfit_scale", &C::misfit_scale, nonNegative(),
+                  "Adds this × inlier_rmse² · H⁻¹ (the whole misfit along the Hessian's weak axes) to the loop covariance (0 = off)")
+          .number("label_only_sigma", &C::label_only_sigma, nonNegative(),
+                  "m; standard deviation added along directions only labelled patches constrain; the default removes the loop's information there (0 = off)")
           .number("probe_distance", &C::probe_distance, nonNegative(),
                   "m; basin probes: ICP again from ±this along x and y, their spread joins the covariance (0 = off)")
           .number("max_probe_spread", &C::max_probe_spread, nonNegative(),

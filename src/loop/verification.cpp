@@ -24,6 +24,29 @@ double largestSigma(const Eigen::Matrix3d& block) {
 
 }  // namespace
 
+Matrix6d honestyTerms(const RegistrationResult& reg, const VerificationConfig& c) {
+  Matrix6d extra = Matrix6d::Zero();
+  if (c.misfit_scale > 0.0 && reg.hessian.allFinite() && reg.hessian.trace() > 0.0) {
+    // inlier_rmse² · H⁻¹, eigenvalues of H bounded below (a degenerate loop is rejected before).
+    Eigen::SelfAdjointEigenSolver<Matrix6d> eig(0.5 * (reg.hessian + reg.hessian.transpose()));
+    const Vector6d values = eig.eigenvalues().cwiseMax(1e-9 * eig.eigenvalues().maxCoeff());
+    extra += c.misfit_scale * reg.inlier_rmse * reg.inlier_rmse *
+             (eig.eigenvectors() * values.cwiseInverse().asDiagonal() * eig.eigenvectors().transpose());
+  }
+  const double L = c.registration.degeneracy_length > 0.0 ? c.registration.degeneracy_length : 1.0;
+  for (const Vector6d& d : reg.label_only_directions) {
+    // d is a unit vector in pose units; in the balanced space (rotation × L) σ is isotropic.
+    Vector6d v = d;
+    v.tail<3>() *= L;
+    const double n = v.norm();
+    if (!(n > 0.0)) continue;
+    Vector6d u = v / n;
+    u.tail<3>() /= L;  // back to pose units: σ along a translation, σ/L along a rotation
+    extra += c.label_only_sigma * c.label_only_sigma * u * u.transpose();
+  }
+  return extra;
+}
+
 VerificationResult evaluateRegistration(const LoopCandidate& cand, const RegistrationResult& reg,
                                         const VerificationConfig& c) {
   validate(c);
@@ -73,6 +96,7 @@ VerificationResult evaluateRegistration(const LoopCandidate& cand, const Registr
                   "translation sigma " + fmt(st) + " m > " + fmt(c.max_translation_sigma));
   if (sr > c.max_rotation_sigma)
     return reject(LoopRejection::UncertainRotation, "rotation sigma " + fmt(sr) + " rad > " + fmt(c.max_rotation_sigma));
+  cov += honestyTerms(reg, c);
   // Add the floor variances so the information stays finite and no loop becomes rigid.
   Eigen::Matrix<double, 6, 1> floor;
   floor << Eigen::Vector3d::Constant(c.min_translation_sigma * c.min_translation_sigma),

@@ -147,6 +147,8 @@ class SlamRun {
     LoopClosureConfig loop_config = config_.loop_closure;
     if (config_.submaps_only_frame_to_map && config_.odometry.mode != OdometryMode::FrameToMap)
       loop_config.submap_keyframes = 0;
+    if (config_.misfit_only_frame_to_map && config_.odometry.mode != OdometryMode::FrameToMap)
+      loop_config.verification.misfit_scale = 0.0;
     loops_ = std::make_unique<LoopDetector>(classes_, loop_config);
     if (config_.innovation_gate)
       loops_->setRelativeCovariance([this](std::size_t from, std::size_t to) { return relativeCovariance(from, to); });

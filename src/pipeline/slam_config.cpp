@@ -55,7 +55,9 @@ const ConfigFields<SlamConfig>& slamSectionFields() {
           .flag("innovation_gate", &C::innovation_gate,
                 "Gate loops by the χ² test against the graph's own relative-pose covariance (else the drift model)")
           .flag("submaps_only_frame_to_map", &C::submaps_only_frame_to_map,
-                "Verify loops against submaps only when tracking is frame-to-map (frame-to-frame: scan to scan)");
+                "Verify loops against submaps only when tracking is frame-to-map (frame-to-frame: scan to scan)")
+          .flag("misfit_only_frame_to_map", &C::misfit_only_frame_to_map,
+                "The loop covariance's misfit term (verification.misfit_scale) only when tracking is frame-to-map");
   return fields;
 }
 

@@ -470,6 +470,7 @@ void IcpSolver::estimateCovariance(RegistrationResult& result) const {
   result.covariance = pc.covariance;
   result.residual_sigma = pc.residual_sigma;
   result.degenerate_directions = pc.degenerate_directions;
+  result.label_only_directions = mix_.directions;
 }
 
 RegistrationResult solve(const LabeledCloud& source, const RegistrationTarget& target,

@@ -44,6 +44,9 @@ struct TangentMix {
   double w_t = 1.0;
   Vector6d d = Vector6d::Ones();  ///< diagonal of S
   Matrix6d P = Matrix6d::Zero();
+  /// The degenerate eigenvectors of the geometry in pose units (unit, translation first): the
+  /// directions only the labelled pairs' in-plane parts constrain.
+  std::vector<Vector6d> directions;
   TangentMix() = default;
   TangentMix(const Matrix6d& H_geometry, double pairs_weight, double w_tangent, double length,
              double threshold)
@@ -53,8 +56,10 @@ struct TangentMix {
     const Matrix6d Hs = d.asDiagonal() * H_geometry * d.asDiagonal();
     const Eigen::SelfAdjointEigenSolver<Matrix6d> es(0.5 * (Hs + Hs.transpose()));
     for (int i = 0; i < 6; ++i)
-      if (es.eigenvalues()(i) < threshold * pairs_weight)
+      if (es.eigenvalues()(i) < threshold * pairs_weight) {
         P.noalias() += es.eigenvectors().col(i) * es.eigenvectors().col(i).transpose();
+        directions.push_back((d.asDiagonal() * es.eigenvectors().col(i)).normalized());
+      }
   }
   Matrix6d operator()(const Matrix6d& X) const {
     const Matrix6d Xs = d.asDiagonal() * X * d.asDiagonal();

@@ -60,6 +60,24 @@ struct VerificationConfig {
   /// Calibration of the loop covariance against the simulator's truth (issue 14, NEES):
   /// Σ_loop = covariance_scale · Σ_ICP + diag(floor²). docs/pose_graph.md has the fit.
   double covariance_scale = 1.0;
+  /// Honest loop covariance (issue 14). The sandwich ICP covariance treats the residuals as
+  /// independent noise; two scans of one place from different viewpoints differ systematically
+  /// (different rings, different ranges), which does not average out over thousands of pairs. The
+  /// loops that passed every test and pulled maps off (naraha: 11–12 m baselines, 4–5.6 cm /
+  /// 6.5–8 mrad off while claiming 1.5 cm / 1.1 mrad) have a large misfit and a weak Hessian, so
+  /// the Gauss–Newton covariance of the whole misfit, inlier_rmse² · H⁻¹, is added: it carries
+  /// the Hessian's weak axis with the misfit the registration actually has. This is its weight
+  /// (0 = off).
+  double misfit_scale = 1.0;
+  /// Along a direction the geometry leaves degenerate and only labelled patches constrain
+  /// (RegistrationResult::label_only_directions: a featureless corridor's axis), the loop knows
+  /// its position only to where two scans happened to sample the patches: this standard
+  /// deviation (m; rad per degeneracy_length m for rotations) is added along it. On the
+  /// corridor the loops were 3–76 cm off along its axis while claiming 1–4.5 cm (RMS 34 cm), but
+  /// σ = 0.35 m still let them pull the graph there (its frame-to-map edges know the axis no
+  /// better): the default makes a loop carry no information along such a direction, so only the
+  /// directions the geometry constrains are closed. 0 = off.
+  double label_only_sigma = 100.0;
   /// Basin probes: an accepted loop is registered again from its result shifted by ±probe_distance
   /// along the match frame's x and y; the spread of where those runs land (their sample covariance
   /// around the result) is added to the loop covariance. A repetitive corridor or a row of tanks
@@ -129,6 +147,11 @@ struct VerificationResult {
 VerificationResult evaluateRegistration(const LoopCandidate& candidate,
                                         const RegistrationResult& registration,
                                         const VerificationConfig& config = {});
+
+/// What the loop covariance adds to the (scaled) ICP covariance to be honest
+/// (VerificationConfig::misfit_scale, label_only_sigma): misfit_scale · inlier_rmse² · H⁻¹, and
+/// label_only_sigma² along each of the registration's label-only directions. Translation first.
+Matrix6d honestyTerms(const RegistrationResult& registration, const VerificationConfig& config = {});
 
 /// Runs hazmap::registerClouds(query_cloud → match_cloud) from candidate.initial_guess, then
 /// evaluateRegistration. Clouds are in their keyframes' sensor frames.

@@ -177,6 +177,11 @@ struct RegistrationResult {
   int coarse_iterations = 0;  ///< … of the coarse stage (0 = none ran; see coarse_source_points)
   bool converged = false;
   std::vector<Vector6d> degenerate_directions;  ///< unit tangent directions, translation-first
+  /// Directions the geometry (plane residuals, along-normal parts) leaves degenerate and only the
+  /// labelled pairs' in-plane parts constrain (the test of property_tangent_weight; unit,
+  /// translation-first; point-to-plane only). Along them the covariance rests on where two scans
+  /// happened to sample a labelled patch, which the sandwich estimate does not see.
+  std::vector<Vector6d> label_only_directions;
   Termination termination = Termination::NotRun;
   std::string reason;  ///< why it did not converge, for people (empty when converged)
   // --- additions ---
