@@ -84,6 +84,25 @@ const ConfigFields<OdometryConfig>& configFields(ConfigTag<OdometryConfig>) {
                   "A recovered answer fitting with an inlier RMSE above this × that of tracked frames is rejected")
           .number("relocalise_map_radius", &C::relocalise_map_radius, positive(),
                   "m; the global registration's target is the local map within this radius of the previous pose")
+          .flag("whole_map_relocalise", &C::whole_map_relocalise,
+                "After whole_map_after consecutive fallback frames, register the scan globally against the keyframes "
+                "(a kidnapped robot); verified by ICP, ambiguity refused, the local map rebuilt from the keyframes")
+          .integer("whole_map_after", &C::whole_map_after, atLeast(1),
+                   "Consecutive fallback frames before the whole map is tried")
+          .number("keyframe_distance", &C::keyframe_distance, positive(),
+                  "m; a verified frame this far from the last keyframe becomes one (whole-map re-localisation)")
+          .number("keyframe_rotation", &C::keyframe_rotation, positive(), "rad; …or turned this much")
+          .number("whole_map_min_fit", &C::whole_map_min_fit, closed(0, 1),
+                  "A whole-map answer must put this share of the source points on a keyframe surface")
+          .flag("map_skips_flagged", &C::map_skips_flagged,
+                "Frame to map: a flagged frame's points (fallback; degenerate or weak-axis with relocalise_suspect) "
+                "stay out of the local map, so a wrong pose is not matched by the next frames")
+          .flag("map_confirms_fallback", &C::map_confirms_fallback,
+                "Frame to map: a fallback frame's scan enters the local map only once the next frame is verified "
+                "without it (else it is dropped)")
+          .flag("flag_weak_axis", &C::flag_weak_axis,
+                "With relocalise_suspect: a frame weakly constrained along a horizontal axis is flagged "
+                "(degenerate), not tracked")
           .section("global_registration", &C::global,
                    "Used when relocalise triggers; use_classes applies only when registration.use_classes does")
           .rule("max_range", [](const C& c) { return c.max_range > c.min_range; }, "must be > min_range");

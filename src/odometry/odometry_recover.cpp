@@ -15,27 +15,6 @@
 
 namespace hazmap {
 
-namespace {
-
-using Clock = std::chrono::steady_clock;
-double msSince(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
-
-struct Start {
-  Eigen::Isometry3d pose;  ///< W space
-  std::string name;
-  /// Only a probe: its answer can make the frame ambiguous but is never used (along a weak axis
-  /// a better surface fit is no proof: corridor with wheel odometry, 19 frames wrong when used).
-  bool probe = false;
-};
-
-struct Verified {
-  RegistrationResult registration;
-  std::string name;
-  bool from_guess = false;
-  double fit = 0.0;
-  bool probe = false;  ///< share of source points on a target surface (surfaceFit)
-};
-
 // Share of the source points that lie on a target surface at `pose` (W ← source): the nearest
 // target point within the correspondence gate and the distance along its normal (or to it,
 // without normals) at most `inlier_distance`. ICP's fitness counts partners within 1 m, which a
@@ -61,6 +40,27 @@ double surfaceFit(const LabeledCloud& source, const RegistrationTarget& target, 
   }
   return static_cast<double>(on_surface) / static_cast<double>(source.size());
 }
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double msSince(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
+
+struct Start {
+  Eigen::Isometry3d pose;  ///< W space
+  std::string name;
+  /// Only a probe: its answer can make the frame ambiguous but is never used (along a weak axis
+  /// a better surface fit is no proof: corridor with wheel odometry, 19 frames wrong when used).
+  bool probe = false;
+};
+
+struct Verified {
+  RegistrationResult registration;
+  std::string name;
+  bool from_guess = false;
+  double fit = 0.0;
+  bool probe = false;  ///< share of source points on a target surface (surfaceFit)
+};
 
 // The local map (or previous scan) near the sensor: the global registration's target.
 LabeledCloud nearbyTarget(const LabeledCloud& cloud, const Eigen::Vector3d& centre, double radius) {
