@@ -94,6 +94,35 @@ std::string describeNoGain(const Verified& v, double guess_fit) {
   return buf;
 }
 
+// The best fit wins; ICP from the guess gets relocalise_min_gain ahead (it is what tracking
+// trusts when nothing is wrong). A probe along a weak axis wins only when it fits better than
+// that by relocalise_probe_gain (a slip along a corridor-like stretch the encoders lied about:
+// naraha, ICP from the guess 0.55 on a surface, the probe 0.94). A distinct answer that fits as
+// well as the winner makes the frame ambiguous. Returns verified.size() when nothing is used.
+std::size_t pickAnswer(const std::vector<Verified>& verified, const OdometryConfig& config, std::string& outcome,
+                       const std::string& rejected) {
+  const auto rank = [&](const Verified& v) { return v.fit + (v.from_guess ? config.relocalise_min_gain : 0.0); };
+  std::size_t best = verified.size(), probe = verified.size();
+  for (std::size_t i = 0; i < verified.size(); ++i) {
+    std::size_t& slot = verified[i].probe ? probe : best;
+    if (slot == verified.size() || rank(verified[i]) > rank(verified[slot])) slot = i;
+  }
+  if (probe != verified.size() &&
+      (best == verified.size() || verified[probe].fit >= rank(verified[best]) + config.relocalise_probe_gain))
+    best = probe;
+  if (best == verified.size()) {
+    outcome += (outcome.empty() ? "" : "; ") + std::string("only probes verified (") + rejected + ")";
+    return best;
+  }
+  for (std::size_t i = 0; i < verified.size(); ++i)
+    if (i != best && distinct(verified[i].registration.transform, verified[best].registration.transform, config) &&
+        verified[i].fit >= verified[best].fit - config.relocalise_ambiguity) {
+      outcome = describeAmbiguity(verified[best], verified[i]);
+      return verified.size();
+    }
+  return best;
+}
+
 }  // namespace
 
 std::optional<Eigen::Vector3d> weakHorizontalAxis(const RegistrationResult& r, double ratio);
@@ -162,7 +191,7 @@ std::optional<Odometry::Recovery> Odometry::recover(OdometryFrame& f, const Labe
   if (!probes_only) {
     if (auto g = globalStart(f, source, target, W)) starts.push_back({*g, "global registration"});
     starts.push_back({prev, "no motion"});
-    for (const double deg : {-30.0, 30.0})
+    for (const double deg : {-45.0, -30.0, -15.0, 15.0, 30.0, 45.0})  // a yaw kick the encoders missed
       starts.push_back({prev * f.guess * Eigen::AngleAxisd(deg * M_PI / 180.0, Eigen::Vector3d::UnitZ()),
                         "guess turned " + std::to_string(int(deg)) + " deg"});
     if (f.wheel_guess && frames_.size() >= 2) starts.push_back({prev * frames_.back().increment, "constant velocity"});
@@ -205,22 +234,8 @@ std::optional<Odometry::Recovery> Odometry::recover(OdometryFrame& f, const Labe
     f.global.outcome += (f.global.outcome.empty() ? "" : "; ") + std::string("nothing verified (") + rejected + ")";
     return std::nullopt;
   }
-  // The best fit wins; ICP from the guess gets relocalise_min_gain ahead (it is what tracking
-  // trusts when nothing is wrong). A distinct answer that fits as well makes the frame ambiguous.
-  const auto rank = [&](const Verified& v) { return v.fit + (v.from_guess ? config_.relocalise_min_gain : 0.0); };
-  std::size_t best = verified.size();
-  for (std::size_t i = 0; i < verified.size(); ++i)
-    if (!verified[i].probe && (best == verified.size() || rank(verified[i]) > rank(verified[best]))) best = i;
-  if (best == verified.size()) {
-    f.global.outcome += (f.global.outcome.empty() ? "" : "; ") + std::string("only probes verified (") + rejected + ")";
-    return std::nullopt;
-  }
-  for (std::size_t i = 0; i < verified.size(); ++i)
-    if (i != best && distinct(verified[i].registration.transform, verified[best].registration.transform, config_) &&
-        verified[i].fit >= verified[best].fit - config_.relocalise_ambiguity) {
-      f.global.outcome = describeAmbiguity(verified[best], verified[i]);
-      return std::nullopt;
-    }
+  const std::size_t best = pickAnswer(verified, config_, f.global.outcome, rejected);
+  if (best == verified.size()) return std::nullopt;
   // When ICP from the guess failed, the frame falls back to the guess itself: an answer must fit
   // clearly better than that pose does, or tracking keeps the guess (and flags the frame).
   if (!verified[best].from_guess && !guess_passed) {

@@ -77,6 +77,9 @@ struct OdometryConfig {
   /// answers that fit alike make the frame ambiguous (flagged) instead of silently wrong.
   double suspect_weak_axis_ratio = 0.15;
   double relocalise_axis_step = 1.0;  ///< m
+  /// A probe's answer is used only when it fits better than the best other answer (ICP from the
+  /// guess with its relocalise_min_gain head start) by this much (1 = probes never used).
+  double relocalise_probe_gain = 0.2;
   /// A recovered answer replaces ICP from the guess (when that passed) or the guess itself (when
   /// it failed) only when it fits better by at least this much: share of source points within
   /// relocalise_inlier_distance of a target surface.
