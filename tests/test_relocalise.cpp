@@ -87,6 +87,7 @@ struct Score {
 Score trackWorstDay(const sim::Simulator& sim, bool wheel, OdometryConfig config) {
   config.relocalise = true;
   config.relocalise_suspect = true;
+  config.map_confirms_fallback = true;
   Odometry odo(sim.classTable(), config);
   Score s;
   for (std::size_t i = 0; i < sim.frames(); ++i) {
@@ -205,7 +206,9 @@ TEST(WholeMap, AKidnappedRobotIsFoundAgainAgainstTheKeyframes) {
   sim::SimulatorConfig sc;
   sc.max_frames = 40;
   const sim::Simulator sim(sc);
-  const Teleport t = teleport(sim, OdometryConfig::defaults(), 34, 6, 12);
+  OdometryConfig c = OdometryConfig::defaults();
+  c.map_confirms_fallback = true;  // else frame 36 on tracks against frame 35's scan, placed wrong
+  const Teleport t = teleport(sim, c, 34, 6, 12);
   ASSERT_GT(translationNorm(t.truth[34].inverse() * t.truth[35]), 8.0);  // a real kidnapping
   std::size_t found = 0;
   for (std::size_t k = 35; k < t.frames.size(); ++k) {
@@ -240,6 +243,7 @@ TEST(WholeMap, WithoutItTheKidnappedRobotStaysLost) {
   const sim::Simulator sim(sc);
   OdometryConfig c = OdometryConfig::defaults();
   c.whole_map_relocalise = false;
+  c.map_confirms_fallback = true;
   const Teleport t = teleport(sim, c, 34, 6, 8);
   for (std::size_t k = 35; k < t.frames.size(); ++k) {
     EXPECT_FALSE(t.frames[k].global.whole_map);
@@ -258,6 +262,7 @@ TEST(WholeMap, AnUnknownPlaceIsNeverRelocalised) {
   const sim::Simulator corridor(sc);
   OdometryConfig c = OdometryConfig::defaults();
   c.whole_map_after = 1;
+  c.map_confirms_fallback = true;
   Odometry odo(naraha.classTable(), c);
   for (std::size_t i = 0; i < 20; ++i)
     odo.addFrame(naraha.scan(i), i ? std::optional(naraha.odometry()[i - 1].inverse() * naraha.odometry()[i]) : std::nullopt);

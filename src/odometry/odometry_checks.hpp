@@ -36,6 +36,9 @@ struct Odometry::Impl {
   std::optional<LabeledCloud> pending_scan;  ///< consecutive fallback frames up to the previous one
   /// The whole map as last prepared (rebuilt when keyframes were added or re-anchored since).
   std::shared_ptr<const WholeMap> whole_map;
+  /// whole_map_confirm: the last frame's verified whole-map answer (world ← scan), awaiting the next.
+  std::optional<Eigen::Isometry3d> whole_map_candidate;
+  std::size_t whole_map_candidate_frame = 0;
   std::size_t whole_map_keyframes = 0, whole_map_version = 0, reanchors = 0;
 };
 

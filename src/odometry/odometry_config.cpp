@@ -36,6 +36,8 @@ static ConfigFields<OdometryConfig>& addWholeMapFields(ConfigFields<OdometryConf
           .number("keyframe_rotation", &C::keyframe_rotation, positive(), "rad; …or turned this much")
           .number("whole_map_min_fit", &C::whole_map_min_fit, closed(0, 1),
                   "A whole-map answer must put this share of the source points on a keyframe surface")
+          .flag("whole_map_confirm", &C::whole_map_confirm,
+                "A whole-map answer is used only when the next frame's agrees with it (a plausible motion apart)")
           .flag("map_skips_flagged", &C::map_skips_flagged,
                 "Frame to map: a flagged frame's points (fallback; degenerate or weak-axis with relocalise_suspect) "
                 "stay out of the local map, so a wrong pose is not matched by the next frames")
@@ -93,6 +95,10 @@ const ConfigFields<OdometryConfig>& configFields(ConfigTag<OdometryConfig>) {
           .number("relocalise_probe_gain", &C::relocalise_probe_gain, closed(0, 1),
                   "A weak-axis probe's answer is used only when it fits better than the other answers by this much "
                   "(surface fit; 1 = never)")
+          .number("relocalise_start_correction", &C::relocalise_start_correction, positive(),
+                  "m; ICP from a recovery start other than the guess may end this far from it")
+          .number("relocalise_start_correction_rotation", &C::relocalise_start_correction_rotation, positive(),
+                  "rad; …and turn this much")
           .number("relocalise_min_gain", &C::relocalise_min_gain, closed(0, 1),
                   "A recovered answer replaces ICP from the guess (or, when that failed, the guess) only when it "
                   "fits better by this much (share of source points on a target surface)")

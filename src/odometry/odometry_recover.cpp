@@ -4,6 +4,7 @@
 // Every answer is verified by the tracking ICP and its checks, and must be a plausible motion
 // for the platform; the best one is used unless a distinct one fits as well (ambiguous).
 #include <Eigen/Eigenvalues>
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -200,9 +201,14 @@ std::optional<Odometry::Recovery> Odometry::recover(OdometryFrame& f, const Labe
 
   std::vector<Verified> verified;
   std::string rejected;
+  OdometryConfig seed_config = config_;
+  seed_config.max_correction_translation = std::max(config_.max_correction_translation, config_.relocalise_start_correction);
+  seed_config.max_correction_rotation = std::max(config_.max_correction_rotation, config_.relocalise_start_correction_rotation);
   const auto check = [&](RegistrationResult r, const Eigen::Isometry3d& start, const std::string& name, bool guess,
                          bool probe) {
-    std::string why = registrationFailure(r, start, config_);
+    // A start other than the guess is only a seed: ICP may travel farther from it (up to
+    // relocalise_start_correction) — surface fit, RMSE, plausibility and ambiguity judge the answer.
+    std::string why = registrationFailure(r, start, guess ? config_ : seed_config);
     const Eigen::Isometry3d increment = prev.inverse() * r.transform;
     char buf[96];
     if (why.empty() && !guess && !r.degenerate_directions.empty()) {

@@ -73,6 +73,19 @@ static std::shared_ptr<const WholeMap> buildWholeMap(const Keyframes& keyframes,
   return map;
 }
 
+// whole_map_confirm: the previous frame's whole-map answer and this one are a plausible motion
+// apart. Remembers this answer for the next frame either way.
+bool Odometry::confirmed(const Eigen::Isometry3d& answer, std::size_t frame) {
+  if (!config_.whole_map_confirm) return true;
+  const bool agrees = impl_->whole_map_candidate && impl_->whole_map_candidate_frame + 1 == frame && [&] {
+    const Eigen::Isometry3d d = impl_->whole_map_candidate->inverse() * answer;
+    return translationNorm(d) <= config_.relocalise_max_translation && rotationAngle(d) <= config_.relocalise_max_rotation;
+  }();
+  impl_->whole_map_candidate = answer;
+  impl_->whole_map_candidate_frame = frame;
+  return agrees;
+}
+
 std::optional<RegistrationResult> Odometry::relocaliseInWholeMap(OdometryFrame& f, const LabeledCloud& source,
                                                                  const Eigen::Isometry3d& world_guess) {
   const auto t = Clock::now();
@@ -118,7 +131,8 @@ std::optional<RegistrationResult> Odometry::relocaliseInWholeMap(OdometryFrame& 
                   why.empty() ? "re-localised" : why.c_str(), map.keyframes, fit, guess_fit, translationNorm(jump),
                   rotationAngle(jump) * 180.0 / M_PI);
     outcome += buf;
-    if (why.empty()) verified = std::move(r);
+    if (why.empty() && !confirmed(r.transform, f.index)) outcome += "; awaiting the next frame's confirmation";
+    else if (why.empty()) verified = std::move(r);
   }
   f.global.milliseconds += msSince(t);
   return verified;

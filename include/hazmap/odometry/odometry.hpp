@@ -80,6 +80,10 @@ struct OdometryConfig {
   /// A probe's answer is used only when it fits better than the best other answer (ICP from the
   /// guess with its relocalise_min_gain head start) by this much (1 = probes never used).
   double relocalise_probe_gain = 0.2;
+  /// ICP from a recovery start other than the guess may end this far from that start (m / rad;
+  /// the tracking limits max_correction_* apply when larger): a start is a seed, not a prior.
+  double relocalise_start_correction = 2.0;
+  double relocalise_start_correction_rotation = 0.5;
   /// A recovered answer replaces ICP from the guess (when that passed) or the guess itself (when
   /// it failed) only when it fits better by at least this much: share of source points within
   /// relocalise_inlier_distance of a target surface.
@@ -117,6 +121,10 @@ struct OdometryConfig {
   double keyframe_distance = 2.0;    ///< m; a verified frame this far from the last keyframe is one
   double keyframe_rotation = 0.5;    ///< rad; …or turned this much
   double whole_map_min_fit = 0.5;    ///< share of source points on a keyframe surface
+  /// A whole-map answer is used only when the next frame's whole-map answer agrees with it (within
+  /// relocalise_max_translation / relocalise_max_rotation): a single scan can look like another
+  /// place (naraha without odometry: 27.8 m / 127 deg off with surface fit 0.71).
+  bool whole_map_confirm = true;
   // --- keeping doubtful frames out of the local map ---
   /// Frame to map: a flagged frame's points (fallback, or degenerate/weak-axis while
   /// relocalise_suspect is on) stay out of the local map, like map_skips_fallback: a wrong pose in
@@ -126,8 +134,10 @@ struct OdometryConfig {
   /// verified against the map without it (then both enter, with the next frame's scan); when the
   /// next frame is not verified either, it is dropped. An isolated failure (ICP tripped on a good
   /// guess) costs nothing; a robot that is lost (kidnapped, a slip the encoders lied about) does
-  /// not fill the map with scans at wrong poses that the next frames would then match.
-  bool map_confirms_fallback = true;
+  /// not fill the map with scans at wrong poses that the next frames would then match. Off by
+  /// default: on, tanks seed 3 property ICP 0.925 -> 1.339 m (its isolated fallbacks had good
+  /// guesses); on for a crawler's worst day and to find a kidnapped robot (docs/registration.md).
+  bool map_confirms_fallback = false;
   /// With relocalise_suspect: a frame whose ICP is weakly constrained along a horizontal axis
   /// (suspect_weak_axis_ratio) and that recovery did not replace is flagged (status degenerate,
   /// fallback covariance along the axis) instead of `tracked`: along that axis ICP cannot know the
@@ -258,6 +268,8 @@ class Odometry {
   /// Keyframes (odometry_whole_map.cpp): a verified frame far enough from the last one becomes
   /// one; after a whole-map re-localisation the local map is rebuilt from them.
   void keepKeyframe(const OdometryFrame& f, const LabeledCloud& frame);
+  /// whole_map_confirm: whether the previous frame's whole-map answer agrees with `answer`.
+  bool confirmed(const Eigen::Isometry3d& answer, std::size_t frame);
   void rebuildLocalMapFromKeyframes(const Eigen::Isometry3d& pose);
 
   struct Impl;
