@@ -40,12 +40,12 @@ void appendFrameRows(std::size_t i, const OdometryFrame& f, std::ostringstream& 
   for (char& c : reason)
     if (c == ',' || c == '\n') c = ';';
   char line[512];  // the numbers; the reason (any length: a recovery lists every start) follows
-  std::snprintf(line, sizeof line, "%zu,%.6f,%s,%d,%.4f,%.4f,%zu,%zu,%zu,%.3f,%.3f,%.3f,%d,%.3f,%d,%d,%s,%.3f,%.3f,%.3f,",
+  std::snprintf(line, sizeof line, "%zu,%.6f,%s,%d,%.4f,%.4f,%zu,%zu,%zu,%.3f,%.3f,%.3f,%d,%.3f,%d,%d,%s,%.3f,%.3f,%.3f,%d,",
                 i, f.stamp, toString(f.status), f.registration.iterations, f.registration.fitness,
                 f.registration.inlier_rmse, f.scan_points, f.source_points, f.map_points, f.preprocess_ms,
                 f.registration_ms, f.total_ms, int(f.wheel_guess), f.registration.label_agreement,
                 int(f.registration.labels_used), int(f.global.tried), f.global.tried ? toString(f.global.status) : "",
-                f.global.score, f.global.second_best_score, f.global.milliseconds);
+                f.global.score, f.global.second_best_score, f.global.milliseconds, int(f.global.whole_map));
   csv << line << reason << '\n';
   cov << i;
   for (int r = 0; r < 6; ++r)
@@ -86,7 +86,7 @@ void run(const OdometryOptions& o, const ParameterOptions& params) {
   std::ostringstream csv, cov;
   csv << "frame,stamp,status,iterations,fitness,rmse,scan_points,source_points,map_points,"
          "preprocess_ms,registration_ms,total_ms,wheel_guess,label_agreement,labels_used,global_tried,global_status,"
-         "global_score,global_second_best,global_ms,reason\n";
+         "global_score,global_second_best,global_ms,global_whole_map,reason\n";
   cov << "# frame, then the 36 entries (row-major) of the increment covariance (previous <- current),"
          " translation first [x y z rx ry rz]\n";
   std::size_t fallbacks = 0, degenerate = 0, relocalised = 0, global_tried = 0;
@@ -115,7 +115,8 @@ void run(const OdometryOptions& o, const ParameterOptions& params) {
       std::fprintf(stderr, "frame %zu: fell back to the %s guess (flagged): %s\n", i,
                    f.wheel_guess ? "wheel-odometry" : "constant-velocity", f.reason.c_str());
     if (!o.quiet && f.status == FrameStatus::Relocalised)
-      std::fprintf(stderr, "frame %zu: relocalised by global registration (%s)\n", i, f.reason.c_str());
+      std::fprintf(stderr, "frame %zu: relocalised by global registration%s (%s)\n", i,
+                   f.global.whole_map ? " against the whole map" : "", f.reason.c_str());
   }
   if (n == 0) fail(o.sequence, "has no scans");
   const Trajectory traj = odo.trajectory();

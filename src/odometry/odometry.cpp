@@ -199,6 +199,23 @@ Estimate keepGuessAlong(const std::vector<Vector6d>& basis, const RegistrationRe
   return e;
 }
 
+// With relocalise_suspect: along a weakly constrained horizontal axis ICP cannot know the motion
+// (a corridor: "no motion" fits as well as the true step), so such a frame is flagged, ICP's
+// answer kept, with the fallback covariance along the axis.
+void flagWeakAxis(OdometryFrame& f, const RegistrationResult& r, Estimate& estimate, const OdometryConfig& config) {
+  if (!config.relocalise_suspect || !config.flag_weak_axis) return;
+  const std::optional<Eigen::Vector3d> axis = weakHorizontalAxis(r, config.suspect_weak_axis_ratio);
+  if (!axis) return;
+  Vector6d b = Vector6d::Zero();
+  b.head<3>() = *axis;
+  estimate.covariance += config.fallback_sigma_translation * config.fallback_sigma_translation * b * b.transpose();
+  char buf[160];
+  std::snprintf(buf, sizeof buf, "weakly constrained along [%.2f %.2f %.2f]: ICP cannot know the motion along it (flagged)",
+                (*axis)(0), (*axis)(1), (*axis)(2));
+  f.reason = f.reason.empty() ? std::string(buf) : f.reason + "; " + buf;
+  f.status = FrameStatus::Degenerate;
+}
+
 }  // namespace
 
 // The paper's Fig. 1 for one scan: preprocess, register against the previous scan or the local
@@ -269,25 +286,22 @@ void Odometry::track(OdometryFrame& f, const LabeledCloud& source, std::optional
     r.reason = "no previous scan to register against";
   }
 
-  // A guess-free global registration when ICP from the guess failed or is suspect (issue 19).
-  std::string failure = registrationFailure(r, reg_guess, config_);
   const bool has_prior = wheel_increment.has_value() || impl_->velocity_verified;
-  bool only_weak_axis = false;
-  const std::string trigger = !failure.empty() ? "ICP from the guess failed: " + failure
-                                               : suspicion(r, reg_guess, has_prior, impl_->typical_rmse, config_,
-                                                           only_weak_axis);
   bool relocalised = false;
-  if (config_.relocalise && !trigger.empty() && target && !source.empty()) {
-    f.global.trigger = trigger;
-    std::optional<Recovery> recovered = recover(f, source, *target, W, r, failure.empty(), only_weak_axis);
-    if (!recovered && failure.empty()) failure = f.global.outcome;  // ambiguous: flagged
-    if (recovered && !recovered->from_guess) {
-      r = std::move(recovered->registration);
+  std::string failure = checkAndRecover(f, source, target, W, reg_guess, has_prior, r, relocalised);
+  if (to_map) map_target.reset();  // its lazy normals read the map, which changes below
+  // A kidnapped robot: several frames in a row nothing verified; try the whole map.
+  if (!failure.empty() && config_.relocalise && config_.whole_map_relocalise && !source.empty() &&
+      impl_->fallback_streak + 1 >= static_cast<std::size_t>(config_.whole_map_after)) {
+    if (std::optional<RegistrationResult> g = relocaliseInWholeMap(f, source, prev_pose * f.guess)) {
+      r = std::move(*g);
+      const Matrix6d Ad = adjoint(W.inverse());  // world → W space (identity frame to map)
+      r.transform = W.inverse() * r.transform;
+      r.covariance = Ad * r.covariance * Ad.transpose();
       failure.clear();
       relocalised = true;
     }
   }
-  if (to_map) map_target.reset();  // its lazy normals read the map, which changes below
 
   Estimate estimate{r.transform, r.covariance};
   if (!failure.empty()) {
@@ -305,6 +319,7 @@ void Odometry::track(OdometryFrame& f, const LabeledCloud& source, std::optional
   } else {
     f.status = FrameStatus::Tracked;
   }
+  if (f.status == FrameStatus::Tracked || f.status == FrameStatus::Relocalised) flagWeakAxis(f, r, estimate, config_);
   f.increment = normalized(prev_pose.inverse() * W * estimate.pose);
   // W-frame perturbation → previous-frame perturbation of the increment
   const Matrix6d Ad = adjoint(prev_pose.inverse() * W);
@@ -315,17 +330,58 @@ void Odometry::track(OdometryFrame& f, const LabeledCloud& source, std::optional
   impl_->velocity = f.increment;
   impl_->has_velocity = true;
   impl_->velocity_verified = f.status != FrameStatus::Fallback;
+  impl_->fallback_streak = f.status == FrameStatus::Fallback ? impl_->fallback_streak + 1 : 0;
   if (f.status == FrameStatus::Tracked || f.status == FrameStatus::Degenerate)
     impl_->typical_rmse = impl_->typical_rmse > 0.0 ? 0.9 * impl_->typical_rmse + 0.1 * f.registration.inlier_rmse
                                                     : f.registration.inlier_rmse;
 }
 
+// A guess-free global registration when ICP from the guess failed or is suspect (issue 19).
+std::string Odometry::checkAndRecover(OdometryFrame& f, const LabeledCloud& source, const RegistrationTarget* target,
+                                      const Eigen::Isometry3d& W, const Eigen::Isometry3d& reg_guess, bool has_prior,
+                                      RegistrationResult& r, bool& relocalised) {
+  std::string failure = registrationFailure(r, reg_guess, config_);
+  bool only_weak_axis = false;
+  const std::string trigger = !failure.empty() ? "ICP from the guess failed: " + failure
+                                               : suspicion(r, reg_guess, has_prior, impl_->typical_rmse, config_,
+                                                           only_weak_axis);
+  if (config_.relocalise && !trigger.empty() && target && !source.empty()) {
+    f.global.trigger = trigger;
+    std::optional<Recovery> recovered = recover(f, source, *target, W, r, failure.empty(), only_weak_axis);
+    if (!recovered && failure.empty()) failure = f.global.outcome;  // ambiguous: flagged
+    if (recovered && !recovered->from_guess) {
+      r = std::move(recovered->registration);
+      failure.clear();
+      relocalised = true;
+    }
+  }
+  return failure;
+}
+
 void Odometry::remember(OdometryFrame& f, const LabeledCloud& frame) {
+  keepKeyframe(f, frame);
+  if (f.global.whole_map && f.status == FrameStatus::Relocalised) {
+    rebuildLocalMapFromKeyframes(f.pose);
+    impl_->pending_scan.reset();
+  }
   if (config_.mode == OdometryMode::FrameToMap) {
     // A fallback frame's pose is an unverified guess: its points would place a wrong copy of the
     // scene in the map that the next frames then track against (issue 14, naraha seed 7).
-    const bool keep_out = config_.map_skips_fallback && f.status == FrameStatus::Fallback;
-    map_.integrate(keep_out ? LabeledCloud() : frame.transformed(f.pose), f.pose.translation(), classes_);
+    const bool fallback = f.status == FrameStatus::Fallback;
+    const bool keep_out = (config_.map_skips_fallback && fallback) || (config_.map_skips_flagged && isFlagged(f.status));
+    LabeledCloud scan_world = keep_out ? LabeledCloud() : frame.transformed(f.pose);
+    if (config_.map_confirms_fallback && !config_.map_skips_fallback) {
+      std::optional<LabeledCloud> waiting = std::move(impl_->pending_scan);
+      impl_->pending_scan.reset();
+      if (fallback) {
+        impl_->pending_scan = std::move(scan_world);  // the one before, if any, was not confirmed
+        scan_world = LabeledCloud();
+      } else if (waiting) {
+        waiting->append(scan_world);  // confirmed: it enters with this frame (its integrate() call)
+        scan_world = std::move(*waiting);
+      }
+    }
+    map_.integrate(scan_world, f.pose.translation(), classes_);
     f.map_points = map_.size();
   } else if (!frame.empty() || !impl_->previous) {
     impl_->previous = std::make_unique<RegistrationTarget>(frame, classes_, config_.registration);

@@ -5,12 +5,16 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "hazmap/registration/registration_target.hpp"
 
 #include "hazmap/odometry/odometry.hpp"
 
 namespace hazmap {
+
+/// The keyframes assembled into one cloud, prepared for global registration and ICP.
+struct WholeMap;
 
 struct Odometry::Impl {
   std::unique_ptr<RegistrationTarget> previous;  ///< FrameToFrame: the last non-empty scan
@@ -20,6 +24,22 @@ struct Odometry::Impl {
   bool velocity_verified = false;  ///< the last increment came from a verified registration
   /// Running mean of the inlier RMSE of tracked frames: how well a right answer fits here.
   double typical_rmse = 0.0;
+  // --- whole-map re-localisation (odometry_whole_map.cpp) ---
+  struct Keyframe {
+    std::size_t frame = 0;  ///< index into frames_ (its pose is the current estimate)
+    LabeledCloud scan;      ///< preprocessed, sensor frame
+  };
+  std::vector<Keyframe> keyframes;
+  std::size_t fallback_streak = 0;
+  /// Frame to map (map_confirms_fallback): the last fallback frame's scan (world frame), waiting
+  /// for the next frame to be verified.
+  std::optional<LabeledCloud> pending_scan;  ///< consecutive fallback frames up to the previous one
+  /// The whole map as last prepared (rebuilt when keyframes were added or re-anchored since).
+  std::shared_ptr<const WholeMap> whole_map;
+  /// whole_map_confirm: the last frame's verified whole-map answer (world ← scan), awaiting the next.
+  std::optional<Eigen::Isometry3d> whole_map_candidate;
+  std::size_t whole_map_candidate_frame = 0;
+  std::size_t whole_map_keyframes = 0, whole_map_version = 0, reanchors = 0;
 };
 
 /// Why ICP's answer cannot be used (empty when it can): did not converge (stopping at the
@@ -31,5 +51,10 @@ std::string registrationFailure(const RegistrationResult& r, const Eigen::Isomet
 /// The registration's weakest horizontal translation axis (unit, registration space) when its
 /// Hessian eigenvalue, rotation marginalised, is below `ratio` × the strongest; else nothing.
 std::optional<Eigen::Vector3d> weakHorizontalAxis(const RegistrationResult& r, double ratio);
+
+/// Share of the source points on a target surface at `pose` (W ← source): nearest target point
+/// within the correspondence gate, at most `inlier_distance` from it along its normal.
+double surfaceFit(const LabeledCloud& source, const RegistrationTarget& target, const Eigen::Isometry3d& pose,
+                  double inlier_distance);
 
 }  // namespace hazmap

@@ -22,10 +22,37 @@ const ConfigFields<LocalMapConfig>& configFields(ConfigTag<LocalMapConfig>) {
   return fields;
 }
 
+// Whole-map re-localisation and what enters the local map (issue 19).
+static ConfigFields<OdometryConfig>& addWholeMapFields(ConfigFields<OdometryConfig>& fields) {
+  using C = OdometryConfig;
+  return fields
+          .flag("whole_map_relocalise", &C::whole_map_relocalise,
+                "After whole_map_after consecutive fallback frames, register the scan globally against the keyframes "
+                "(a kidnapped robot); verified by ICP, ambiguity refused, the local map rebuilt from the keyframes")
+          .integer("whole_map_after", &C::whole_map_after, atLeast(1),
+                   "Consecutive fallback frames before the whole map is tried")
+          .number("keyframe_distance", &C::keyframe_distance, positive(),
+                  "m; a verified frame this far from the last keyframe becomes one (whole-map re-localisation)")
+          .number("keyframe_rotation", &C::keyframe_rotation, positive(), "rad; …or turned this much")
+          .number("whole_map_min_fit", &C::whole_map_min_fit, closed(0, 1),
+                  "A whole-map answer must put this share of the source points on a keyframe surface")
+          .flag("whole_map_confirm", &C::whole_map_confirm,
+                "A whole-map answer is used only when the next frame's agrees with it (a plausible motion apart)")
+          .flag("map_skips_flagged", &C::map_skips_flagged,
+                "Frame to map: a flagged frame's points (fallback; degenerate or weak-axis with relocalise_suspect) "
+                "stay out of the local map, so a wrong pose is not matched by the next frames")
+          .flag("map_confirms_fallback", &C::map_confirms_fallback,
+                "Frame to map: a fallback frame's scan enters the local map only once the next frame is verified "
+                "without it (else it is dropped)")
+          .flag("flag_weak_axis", &C::flag_weak_axis,
+                "With relocalise_suspect: a frame weakly constrained along a horizontal axis is flagged "
+                "(degenerate), not tracked");
+}
+
 const ConfigFields<OdometryConfig>& configFields(ConfigTag<OdometryConfig>) {
   using C = OdometryConfig;
   static const ConfigFields<C> fields =
-      ConfigFields<C>("Tracking: preprocessing, (property-)ICP against the previous scan or the local "
+      addWholeMapFields(ConfigFields<C>("Tracking: preprocessing, (property-)ICP against the previous scan or the local "
                       "map, failure detection.")
           .choice("mode", &C::mode, {{"map", OdometryMode::FrameToMap}, {"frame", OdometryMode::FrameToFrame}},
                   "map: scan to local map; frame: scan to previous scan (the paper)")
@@ -65,6 +92,13 @@ const ConfigFields<OdometryConfig>& configFields(ConfigTag<OdometryConfig>) {
                   "strongest: suspect, and recovery also starts along that axis")
           .number("relocalise_axis_step", &C::relocalise_axis_step, positive(),
                   "m; recovery starts at +-1 and +-2 steps along a weak axis")
+          .number("relocalise_probe_gain", &C::relocalise_probe_gain, closed(0, 1),
+                  "A weak-axis probe's answer is used only when it fits better than the other answers by this much "
+                  "(surface fit; 1 = never)")
+          .number("relocalise_start_correction", &C::relocalise_start_correction, positive(),
+                  "m; ICP from a recovery start other than the guess may end this far from it")
+          .number("relocalise_start_correction_rotation", &C::relocalise_start_correction_rotation, positive(),
+                  "rad; …and turn this much")
           .number("relocalise_min_gain", &C::relocalise_min_gain, closed(0, 1),
                   "A recovered answer replaces ICP from the guess (or, when that failed, the guess) only when it "
                   "fits better by this much (share of source points on a target surface)")
@@ -83,7 +117,7 @@ const ConfigFields<OdometryConfig>& configFields(ConfigTag<OdometryConfig>) {
           .number("relocalise_max_rmse_ratio", &C::relocalise_max_rmse_ratio, atLeast(1),
                   "A recovered answer fitting with an inlier RMSE above this × that of tracked frames is rejected")
           .number("relocalise_map_radius", &C::relocalise_map_radius, positive(),
-                  "m; the global registration's target is the local map within this radius of the previous pose")
+                  "m; the global registration's target is the local map within this radius of the previous pose"))
           .section("global_registration", &C::global,
                    "Used when relocalise triggers; use_classes applies only when registration.use_classes does")
           .rule("max_range", [](const C& c) { return c.max_range > c.min_range; }, "must be > min_range");

@@ -20,6 +20,7 @@ void Odometry::reanchor(const std::vector<Eigen::Isometry3d>& poses) {
   std::vector<Eigen::Isometry3d> corrections(frames_.size());
   for (std::size_t i = 0; i < frames_.size(); ++i) corrections[i] = normalized(poses[i] * frames_[i].pose.inverse());
   map_.reanchor(corrections, poses.back().translation(), classes_);
+  ++impl_->reanchors;  // the whole-map target (keyframes at their poses) is stale
   for (std::size_t i = 0; i < frames_.size(); ++i) frames_[i].pose = poses[i];
 }
 

@@ -4,6 +4,7 @@
 // Every answer is verified by the tracking ICP and its checks, and must be a plausible motion
 // for the platform; the best one is used unless a distinct one fits as well (ambiguous).
 #include <Eigen/Eigenvalues>
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -14,27 +15,6 @@
 #include "odometry/odometry_checks.hpp"
 
 namespace hazmap {
-
-namespace {
-
-using Clock = std::chrono::steady_clock;
-double msSince(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
-
-struct Start {
-  Eigen::Isometry3d pose;  ///< W space
-  std::string name;
-  /// Only a probe: its answer can make the frame ambiguous but is never used (along a weak axis
-  /// a better surface fit is no proof: corridor with wheel odometry, 19 frames wrong when used).
-  bool probe = false;
-};
-
-struct Verified {
-  RegistrationResult registration;
-  std::string name;
-  bool from_guess = false;
-  double fit = 0.0;
-  bool probe = false;  ///< share of source points on a target surface (surfaceFit)
-};
 
 // Share of the source points that lie on a target surface at `pose` (W ← source): the nearest
 // target point within the correspondence gate and the distance along its normal (or to it,
@@ -61,6 +41,27 @@ double surfaceFit(const LabeledCloud& source, const RegistrationTarget& target, 
   }
   return static_cast<double>(on_surface) / static_cast<double>(source.size());
 }
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double msSince(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
+
+struct Start {
+  Eigen::Isometry3d pose;  ///< W space
+  std::string name;
+  /// Only a probe: its answer can make the frame ambiguous but is never used (along a weak axis
+  /// a better surface fit is no proof: corridor with wheel odometry, 19 frames wrong when used).
+  bool probe = false;
+};
+
+struct Verified {
+  RegistrationResult registration;
+  std::string name;
+  bool from_guess = false;
+  double fit = 0.0;
+  bool probe = false;  ///< share of source points on a target surface (surfaceFit)
+};
 
 // The local map (or previous scan) near the sensor: the global registration's target.
 LabeledCloud nearbyTarget(const LabeledCloud& cloud, const Eigen::Vector3d& centre, double radius) {
@@ -92,6 +93,35 @@ std::string describeNoGain(const Verified& v, double guess_fit) {
   std::snprintf(buf, sizeof buf, "%s fits no better than the guess (%.3f vs %.3f on a surface)", v.name.c_str(), v.fit,
                 guess_fit);
   return buf;
+}
+
+// The best fit wins; ICP from the guess gets relocalise_min_gain ahead (it is what tracking
+// trusts when nothing is wrong). A probe along a weak axis wins only when it fits better than
+// that by relocalise_probe_gain (a slip along a corridor-like stretch the encoders lied about:
+// naraha, ICP from the guess 0.55 on a surface, the probe 0.94). A distinct answer that fits as
+// well as the winner makes the frame ambiguous. Returns verified.size() when nothing is used.
+std::size_t pickAnswer(const std::vector<Verified>& verified, const OdometryConfig& config, std::string& outcome,
+                       const std::string& rejected) {
+  const auto rank = [&](const Verified& v) { return v.fit + (v.from_guess ? config.relocalise_min_gain : 0.0); };
+  std::size_t best = verified.size(), probe = verified.size();
+  for (std::size_t i = 0; i < verified.size(); ++i) {
+    std::size_t& slot = verified[i].probe ? probe : best;
+    if (slot == verified.size() || rank(verified[i]) > rank(verified[slot])) slot = i;
+  }
+  if (probe != verified.size() &&
+      (best == verified.size() || verified[probe].fit >= rank(verified[best]) + config.relocalise_probe_gain))
+    best = probe;
+  if (best == verified.size()) {
+    outcome += (outcome.empty() ? "" : "; ") + std::string("only probes verified (") + rejected + ")";
+    return best;
+  }
+  for (std::size_t i = 0; i < verified.size(); ++i)
+    if (i != best && distinct(verified[i].registration.transform, verified[best].registration.transform, config) &&
+        verified[i].fit >= verified[best].fit - config.relocalise_ambiguity) {
+      outcome = describeAmbiguity(verified[best], verified[i]);
+      return verified.size();
+    }
+  return best;
 }
 
 }  // namespace
@@ -162,7 +192,7 @@ std::optional<Odometry::Recovery> Odometry::recover(OdometryFrame& f, const Labe
   if (!probes_only) {
     if (auto g = globalStart(f, source, target, W)) starts.push_back({*g, "global registration"});
     starts.push_back({prev, "no motion"});
-    for (const double deg : {-30.0, 30.0})
+    for (const double deg : {-45.0, -30.0, -15.0, 15.0, 30.0, 45.0})  // a yaw kick the encoders missed
       starts.push_back({prev * f.guess * Eigen::AngleAxisd(deg * M_PI / 180.0, Eigen::Vector3d::UnitZ()),
                         "guess turned " + std::to_string(int(deg)) + " deg"});
     if (f.wheel_guess && frames_.size() >= 2) starts.push_back({prev * frames_.back().increment, "constant velocity"});
@@ -171,9 +201,14 @@ std::optional<Odometry::Recovery> Odometry::recover(OdometryFrame& f, const Labe
 
   std::vector<Verified> verified;
   std::string rejected;
+  OdometryConfig seed_config = config_;
+  seed_config.max_correction_translation = std::max(config_.max_correction_translation, config_.relocalise_start_correction);
+  seed_config.max_correction_rotation = std::max(config_.max_correction_rotation, config_.relocalise_start_correction_rotation);
   const auto check = [&](RegistrationResult r, const Eigen::Isometry3d& start, const std::string& name, bool guess,
                          bool probe) {
-    std::string why = registrationFailure(r, start, config_);
+    // A start other than the guess is only a seed: ICP may travel farther from it (up to
+    // relocalise_start_correction) — surface fit, RMSE, plausibility and ambiguity judge the answer.
+    std::string why = registrationFailure(r, start, guess ? config_ : seed_config);
     const Eigen::Isometry3d increment = prev.inverse() * r.transform;
     char buf[96];
     if (why.empty() && !guess && !r.degenerate_directions.empty()) {
@@ -205,22 +240,8 @@ std::optional<Odometry::Recovery> Odometry::recover(OdometryFrame& f, const Labe
     f.global.outcome += (f.global.outcome.empty() ? "" : "; ") + std::string("nothing verified (") + rejected + ")";
     return std::nullopt;
   }
-  // The best fit wins; ICP from the guess gets relocalise_min_gain ahead (it is what tracking
-  // trusts when nothing is wrong). A distinct answer that fits as well makes the frame ambiguous.
-  const auto rank = [&](const Verified& v) { return v.fit + (v.from_guess ? config_.relocalise_min_gain : 0.0); };
-  std::size_t best = verified.size();
-  for (std::size_t i = 0; i < verified.size(); ++i)
-    if (!verified[i].probe && (best == verified.size() || rank(verified[i]) > rank(verified[best]))) best = i;
-  if (best == verified.size()) {
-    f.global.outcome += (f.global.outcome.empty() ? "" : "; ") + std::string("only probes verified (") + rejected + ")";
-    return std::nullopt;
-  }
-  for (std::size_t i = 0; i < verified.size(); ++i)
-    if (i != best && distinct(verified[i].registration.transform, verified[best].registration.transform, config_) &&
-        verified[i].fit >= verified[best].fit - config_.relocalise_ambiguity) {
-      f.global.outcome = describeAmbiguity(verified[best], verified[i]);
-      return std::nullopt;
-    }
+  const std::size_t best = pickAnswer(verified, config_, f.global.outcome, rejected);
+  if (best == verified.size()) return std::nullopt;
   // When ICP from the guess failed, the frame falls back to the guess itself: an answer must fit
   // clearly better than that pose does, or tracking keeps the guess (and flags the frame).
   if (!verified[best].from_guess && !guess_passed) {

@@ -77,6 +77,13 @@ struct OdometryConfig {
   /// answers that fit alike make the frame ambiguous (flagged) instead of silently wrong.
   double suspect_weak_axis_ratio = 0.15;
   double relocalise_axis_step = 1.0;  ///< m
+  /// A probe's answer is used only when it fits better than the best other answer (ICP from the
+  /// guess with its relocalise_min_gain head start) by this much (1 = probes never used).
+  double relocalise_probe_gain = 0.2;
+  /// ICP from a recovery start other than the guess may end this far from that start (m / rad;
+  /// the tracking limits max_correction_* apply when larger): a start is a seed, not a prior.
+  double relocalise_start_correction = 2.0;
+  double relocalise_start_correction_rotation = 0.5;
   /// A recovered answer replaces ICP from the guess (when that passed) or the guess itself (when
   /// it failed) only when it fits better by at least this much: share of source points within
   /// relocalise_inlier_distance of a target surface.
@@ -100,6 +107,42 @@ struct OdometryConfig {
   /// The global registration's target: the local map within this radius (m) of the previous pose.
   double relocalise_map_radius = 40.0;
   GlobalRegistrationConfig global;  ///< the global registration (its use_classes follows registration's)
+  // --- whole-map re-localisation: a kidnapped robot (issue 19) ---
+  /// After whole_map_after consecutive fallback frames, the scan is registered globally against the
+  /// whole map: the keyframes (verified frames kept every keyframe_distance / keyframe_rotation,
+  /// their scans placed at their current poses, which reanchor() moves with the pose graph), with
+  /// no plausibility bound on the motion. The answer is verified by the tracking ICP against the
+  /// keyframes, must fit (surface fit) at least whole_map_min_fit and better than the guess by
+  /// relocalise_min_gain, and an ambiguous global registration is refused. Used: status
+  /// relocalised, GlobalAttempt::whole_map, and the local map is rebuilt from the keyframes (the
+  /// scans placed while lost are dropped). Needs relocalise; costs nothing until tracking fails.
+  bool whole_map_relocalise = true;
+  int whole_map_after = 3;           ///< consecutive fallback frames before the whole map is tried
+  double keyframe_distance = 2.0;    ///< m; a verified frame this far from the last keyframe is one
+  double keyframe_rotation = 0.5;    ///< rad; …or turned this much
+  double whole_map_min_fit = 0.5;    ///< share of source points on a keyframe surface
+  /// A whole-map answer is used only when the next frame's whole-map answer agrees with it (within
+  /// relocalise_max_translation / relocalise_max_rotation): a single scan can look like another
+  /// place (naraha without odometry: 27.8 m / 127 deg off with surface fit 0.71).
+  bool whole_map_confirm = true;
+  // --- keeping doubtful frames out of the local map ---
+  /// Frame to map: a flagged frame's points (fallback, or degenerate/weak-axis while
+  /// relocalise_suspect is on) stay out of the local map, like map_skips_fallback: a wrong pose in
+  /// the map is matched by the following frames and the errors compound.
+  bool map_skips_flagged = false;
+  /// Frame to map: a fallback frame's scan waits outside the local map until the next frame is
+  /// verified against the map without it (then both enter, with the next frame's scan); when the
+  /// next frame is not verified either, it is dropped. An isolated failure (ICP tripped on a good
+  /// guess) costs nothing; a robot that is lost (kidnapped, a slip the encoders lied about) does
+  /// not fill the map with scans at wrong poses that the next frames would then match. Off by
+  /// default: on, tanks seed 3 property ICP 0.925 -> 1.339 m (its isolated fallbacks had good
+  /// guesses); on for a crawler's worst day and to find a kidnapped robot (docs/registration.md).
+  bool map_confirms_fallback = false;
+  /// With relocalise_suspect: a frame whose ICP is weakly constrained along a horizontal axis
+  /// (suspect_weak_axis_ratio) and that recovery did not replace is flagged (status degenerate,
+  /// fallback covariance along the axis) instead of `tracked`: along that axis ICP cannot know the
+  /// motion (a corridor).
+  bool flag_weak_axis = true;
 
   /// The defaults above (max correspondence 1 m, scan voxel 0.5 m, map voxel 1 m), set for the
   /// simulated 10 Hz VLP-16 of the paper's experiment.
@@ -141,6 +184,9 @@ struct GlobalAttempt {
   std::string outcome;   ///< "used", or why not (the global reason or the failed verification)
   double score = 0.0, second_best_score = 0.0;
   double milliseconds = 0.0;  ///< target preparation + global registration + verification
+  /// The whole map (keyframes) was tried after several failed frames (kidnapped robot); `status`,
+  /// `score` and `outcome` are then that attempt's.
+  bool whole_map = false;
 };
 
 struct OdometryFrame {
@@ -210,6 +256,21 @@ class Odometry {
                                                const RegistrationTarget& target, const Eigen::Isometry3d& W);
   /// Step 5: the scan (`frame`, preprocessed) enters the local map or becomes the next target.
   void remember(OdometryFrame& f, const LabeledCloud& frame);
+  /// Steps 3–4 of track(): recovery when a trigger fires; returns the failure left (empty = use
+  /// `r`), `relocalised` when a recovered answer replaced r.
+  std::string checkAndRecover(OdometryFrame& f, const LabeledCloud& source, const RegistrationTarget* target,
+                              const Eigen::Isometry3d& W, const Eigen::Isometry3d& reg_guess, bool has_prior,
+                              RegistrationResult& r, bool& relocalised);
+  /// Whole-map re-localisation (odometry_whole_map.cpp): the scan against the keyframes; the
+  /// verified answer (world ← scan) or nothing, f.global says why.
+  std::optional<RegistrationResult> relocaliseInWholeMap(OdometryFrame& f, const LabeledCloud& source,
+                                                         const Eigen::Isometry3d& world_guess);
+  /// Keyframes (odometry_whole_map.cpp): a verified frame far enough from the last one becomes
+  /// one; after a whole-map re-localisation the local map is rebuilt from them.
+  void keepKeyframe(const OdometryFrame& f, const LabeledCloud& frame);
+  /// whole_map_confirm: whether the previous frame's whole-map answer agrees with `answer`.
+  bool confirmed(const Eigen::Isometry3d& answer, std::size_t frame);
+  void rebuildLocalMapFromKeyframes(const Eigen::Isometry3d& pose);
 
   struct Impl;
   ClassTable classes_;

@@ -1,0 +1,156 @@
+// Whole-map re-localisation of a kidnapped robot (issue 19): after several consecutive frames
+// that nothing verified, the scan is registered without a guess against the keyframes — verified
+// frames kept along the route, their scans placed at their current poses (reanchor() moves them
+// with the pose graph) — by the same global registration as the local recovery, verified by the
+// tracking ICP against the same keyframes. Unlike the local recovery there is no bound on the
+// motion (the robot may have been carried anywhere); instead the answer must fit the keyframes
+// well, better than the guess does, and the global registration must not be ambiguous.
+#include <chrono>
+#include <cstdio>
+#include <memory>
+#include <string>
+
+#include "hazmap/preprocess/voxel_downsample.hpp"
+#include "hazmap/registration/global_registration.hpp"
+#include "odometry/odometry_checks.hpp"
+
+namespace hazmap {
+
+struct WholeMap {
+  GlobalRegistrationTarget global;
+  std::unique_ptr<RegistrationTarget> icp;
+  std::size_t keyframes = 0, points = 0;
+};
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double msSince(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
+
+GlobalRegistrationConfig globalConfig(const OdometryConfig& c) {
+  GlobalRegistrationConfig gc = c.global;
+  gc.use_classes = gc.use_classes && c.registration.use_classes;
+  return gc;
+}
+
+}  // namespace
+
+void Odometry::keepKeyframe(const OdometryFrame& f, const LabeledCloud& frame) {
+  if (!config_.relocalise || !config_.whole_map_relocalise || frame.empty()) return;
+  if (f.status != FrameStatus::First && f.status != FrameStatus::Tracked && f.status != FrameStatus::Relocalised)
+    return;  // a flagged frame's pose is (partly) a guess
+  auto& keyframes = impl_->keyframes;
+  if (!keyframes.empty()) {
+    const Eigen::Isometry3d d = frames_[keyframes.back().frame].pose.inverse() * f.pose;
+    if (translationNorm(d) < config_.keyframe_distance && rotationAngle(d) < config_.keyframe_rotation) return;
+  }
+  keyframes.push_back({f.index, frame});
+}
+
+// The keyframes in the world at their current poses, downsampled to the scan's voxel size, with
+// the global registration's features (normals oriented towards the keyframes' mean position: the
+// map is seen from inside) and the tracking ICP's target. Kept until keyframes are added or moved.
+template <class Keyframes>
+static std::shared_ptr<const WholeMap> buildWholeMap(const Keyframes& keyframes,
+                                                     const std::vector<OdometryFrame>& frames,
+                                                     const OdometryConfig& config, const ClassTable& classes) {
+  LabeledCloud all;
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+  for (const auto& k : keyframes) {
+    all.append(k.scan.transformed(frames[k.frame].pose));
+    centre += frames[k.frame].pose.translation();
+  }
+  centre /= static_cast<double>(keyframes.size());
+  VoxelDownsampleConfig vd;
+  vd.voxel_size = config.voxel_size;
+  vd.vote = ClassVote::PreferProperty;
+  LabeledCloud cloud = voxelDownsample(all, vd, classes);
+  auto map = std::make_shared<WholeMap>();
+  map->keyframes = keyframes.size();
+  map->points = cloud.size();
+  map->global = prepareGlobalTarget(cloud, classes, globalConfig(config), centre.cast<float>());
+  map->icp = std::make_unique<RegistrationTarget>(std::move(cloud), classes, config.registration);
+  return map;
+}
+
+// whole_map_confirm: the previous frame's whole-map answer and this one are a plausible motion
+// apart. Remembers this answer for the next frame either way.
+bool Odometry::confirmed(const Eigen::Isometry3d& answer, std::size_t frame) {
+  if (!config_.whole_map_confirm) return true;
+  const bool agrees = impl_->whole_map_candidate && impl_->whole_map_candidate_frame + 1 == frame && [&] {
+    const Eigen::Isometry3d d = impl_->whole_map_candidate->inverse() * answer;
+    return translationNorm(d) <= config_.relocalise_max_translation && rotationAngle(d) <= config_.relocalise_max_rotation;
+  }();
+  impl_->whole_map_candidate = answer;
+  impl_->whole_map_candidate_frame = frame;
+  return agrees;
+}
+
+std::optional<RegistrationResult> Odometry::relocaliseInWholeMap(OdometryFrame& f, const LabeledCloud& source,
+                                                                 const Eigen::Isometry3d& world_guess) {
+  const auto t = Clock::now();
+  char buf[256];
+  std::snprintf(buf, sizeof buf, "%zu consecutive frames not verified", impl_->fallback_streak + 1);
+  if (f.global.trigger.empty()) f.global.trigger = buf;
+  else f.global.trigger += std::string("; ") + buf;
+  std::string& outcome = f.global.outcome;
+  outcome += outcome.empty() ? "whole map: " : "; whole map: ";
+  if (impl_->keyframes.empty()) {
+    outcome += "no keyframes yet";
+    return std::nullopt;
+  }
+  if (!impl_->whole_map || impl_->whole_map_keyframes != impl_->keyframes.size() ||
+      impl_->whole_map_version != impl_->reanchors) {
+    impl_->whole_map = buildWholeMap(impl_->keyframes, frames_, config_, classes_);
+    impl_->whole_map_keyframes = impl_->keyframes.size();
+    impl_->whole_map_version = impl_->reanchors;
+  }
+  const WholeMap& map = *impl_->whole_map;
+  const GlobalRegistrationResult g = registerGlobally(source, map.global, classes_, globalConfig(config_));
+  f.global.tried = f.global.whole_map = true;
+  f.global.status = g.status;
+  f.global.score = g.score;
+  f.global.second_best_score = g.second_best_score;
+  std::optional<RegistrationResult> verified = std::nullopt;
+  if (!g.success || g.ambiguous) {
+    outcome += g.reason.empty() ? std::string(toString(g.status)) : g.reason;
+  } else {
+    RegistrationResult r = registerClouds(source, *map.icp, g.transform, classes_, config_.registration);
+    std::string why = registrationFailure(r, g.transform, config_);
+    const double fit = surfaceFit(source, *map.icp, r.transform, config_.relocalise_inlier_distance);
+    const double guess_fit = surfaceFit(source, *map.icp, world_guess, config_.relocalise_inlier_distance);
+    if (why.empty() && !r.degenerate_directions.empty()) why = "degenerate";
+    // Along a weakly constrained axis (a corridor) any place along it fits: no proof of where.
+    if (why.empty() && weakHorizontalAxis(r, config_.suspect_weak_axis_ratio)) why = "weakly constrained along an axis";
+    if (why.empty() && impl_->typical_rmse > 0.0 && r.inlier_rmse > config_.relocalise_max_rmse_ratio * impl_->typical_rmse)
+      why = "inlier RMSE above that of tracked frames";
+    if (why.empty() && fit < config_.whole_map_min_fit) why = "fits poorly";
+    if (why.empty() && fit < guess_fit + config_.relocalise_min_gain) why = "fits no better than the guess";
+    const Eigen::Isometry3d jump = world_guess.inverse() * r.transform;
+    std::snprintf(buf, sizeof buf, "%s against %zu keyframes (surface fit %.3f, guess %.3f; %.2f m / %.1f deg from the guess)",
+                  why.empty() ? "re-localised" : why.c_str(), map.keyframes, fit, guess_fit, translationNorm(jump),
+                  rotationAngle(jump) * 180.0 / M_PI);
+    outcome += buf;
+    if (why.empty() && !confirmed(r.transform, f.index)) outcome += "; awaiting the next frame's confirmation";
+    else if (why.empty()) verified = std::move(r);
+  }
+  f.global.milliseconds += msSince(t);
+  return verified;
+}
+
+// After a whole-map re-localisation the local map holds the scans placed while the robot was
+// lost: it is rebuilt from the keyframes (one integrate() per frame so far, empty for the
+// others, so reanchor()'s scan i stays frame i).
+void Odometry::rebuildLocalMapFromKeyframes(const Eigen::Isometry3d& pose) {
+  map_.clear();
+  std::size_t k = 0;
+  const auto& keyframes = impl_->keyframes;
+  for (std::size_t i = 0; i < frames_.size(); ++i) {
+    const bool keyframe = k < keyframes.size() && keyframes[k].frame == i;
+    map_.integrate(keyframe ? keyframes[k].scan.transformed(frames_[i].pose) : LabeledCloud(), pose.translation(),
+                   classes_);
+    k += keyframe;
+  }
+}
+
+}  // namespace hazmap
