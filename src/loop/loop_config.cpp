@@ -97,6 +97,8 @@ const ConfigFields<VerificationConfig>& configFields(ConfigTag<VerificationConfi
                   "Calibration: the ICP covariance is multiplied by this before the floors (fitted by NEES)")
           .number("misfit_scale", &C::misfit_scale, nonNegative(),
                   "Adds this × inlier_rmse² · H⁻¹ (the whole misfit along the Hessian's weak axes) to the loop covariance (0 = off)")
+          .number("cross_check_chi2", &C::cross_check_chi2, nonNegative(),
+                  "χ²; the misfit term is dropped for a loop whose reverse registration agrees to within this (0 = off)")
           .number("label_only_sigma", &C::label_only_sigma, nonNegative(),
                   "m; standard deviation added along directions only labelled patches constrain; the default removes the loop's information there (0 = off)")
           .number("probe_distance", &C::probe_distance, nonNegative(),

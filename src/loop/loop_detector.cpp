@@ -192,6 +192,30 @@ LoopDetection LoopDetector::detect(std::size_t query, const PoseList& estimate) 
   return det;
 }
 
+// The misfit term's cross-check (VerificationConfig::cross_check_chi2): the match keyframe
+// registered onto the query keyframe from the inverse guess; a loop whose two answers agree keeps
+// its full information (the misfit term comes off again).
+void LoopDetector::crossCheck(const LoopCandidate& cand, VerificationResult& v) const {
+  const VerificationConfig& c = config_.verification;
+  if (!(c.cross_check_chi2 > 0.0) || !(c.misfit_scale > 0.0)) return;
+  const auto query = cloud(cand.query), match = cloud(cand.match);
+  if (!query || !match || query->empty() || match->empty()) return;
+  const RegistrationTarget target(*query, classes_, c.registration);
+  const RegistrationResult rev = registerClouds(*match, target, cand.initial_guess.inverse(), classes_, c.registration);
+  if (!rev.converged || !isFinite(rev.transform)) return;
+  const Vector6d d = se3Log(rev.transform.inverse() * v.closure.T_from_to.inverse());
+  Matrix6d sigma = 2.0 * c.covariance_scale * 0.5 * (v.registration.covariance + v.registration.covariance.transpose());
+  Vector6d floor;
+  floor << Eigen::Vector3d::Constant(c.min_translation_sigma * c.min_translation_sigma),
+      Eigen::Vector3d::Constant(c.min_rotation_sigma * c.min_rotation_sigma);
+  sigma += floor.asDiagonal();
+  const double d2 = d.dot(sigma.llt().solve(d));
+  if (!(d2 <= c.cross_check_chi2)) return;
+  v.closure.covariance -= misfitTerm(v.registration, c);
+  const Matrix6d info = v.closure.covariance.llt().solve(Matrix6d::Identity());
+  v.closure.information = 0.5 * (info + info.transpose());
+}
+
 void LoopDetector::verifyInto(const std::vector<LoopCandidate>& candidates, const PoseList& estimate, LoopDetection& det) {
   const bool gate = config_.consistency.use_drift_gate;
   for (const auto& cand : candidates) {
@@ -199,6 +223,7 @@ void LoopDetector::verifyInto(const std::vector<LoopCandidate>& candidates, cons
     if (relative_covariance_ && gate && !candidatePlausible(cand, estimate, det)) continue;
     const auto target = submapTarget(cand.match, cand.query, estimate);
     VerificationResult v = verifyCandidate(cand, *cloud(cand.query), *target, classes_, config_.verification);
+    if (v.accepted) crossCheck(cand, v);
     det.verifications.push_back(v);
     if (!v.accepted) continue;
     if (gate) {

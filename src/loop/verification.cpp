@@ -24,7 +24,7 @@ double largestSigma(const Eigen::Matrix3d& block) {
 
 }  // namespace
 
-Matrix6d honestyTerms(const RegistrationResult& reg, const VerificationConfig& c) {
+Matrix6d misfitTerm(const RegistrationResult& reg, const VerificationConfig& c) {
   Matrix6d extra = Matrix6d::Zero();
   if (c.misfit_scale > 0.0 && reg.hessian.allFinite() && reg.hessian.trace() > 0.0) {
     // inlier_rmse² · H⁻¹, eigenvalues of H bounded below (a degenerate loop is rejected before).
@@ -33,6 +33,11 @@ Matrix6d honestyTerms(const RegistrationResult& reg, const VerificationConfig& c
     extra += c.misfit_scale * reg.inlier_rmse * reg.inlier_rmse *
              (eig.eigenvectors() * values.cwiseInverse().asDiagonal() * eig.eigenvectors().transpose());
   }
+  return extra;
+}
+
+Matrix6d honestyTerms(const RegistrationResult& reg, const VerificationConfig& c) {
+  Matrix6d extra = misfitTerm(reg, c);
   const double L = c.registration.degeneracy_length > 0.0 ? c.registration.degeneracy_length : 1.0;
   for (const Vector6d& d : reg.label_only_directions) {
     // d is a unit vector in pose units; in the balanced space (rotation × L) σ is isotropic.

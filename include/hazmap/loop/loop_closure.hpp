@@ -192,6 +192,7 @@ class LoopDetector {
   std::vector<LoopCandidate> constellationCandidates(std::size_t query, std::size_t newest, const PoseList& estimate) const;
   /// Verifies and gates the candidates into `det` (at most max_loops_per_keyframe accepted).
   void verifyInto(const std::vector<LoopCandidate>& candidates, const PoseList& estimate, LoopDetection& det);
+  void crossCheck(const LoopCandidate& cand, VerificationResult& v) const;
   bool neighbourhood_ = false;
   std::vector<std::vector<PropertyLandmark>> whole_landmarks_, partial_landmarks_;  ///< landmarks_ split by class kind
   std::vector<std::shared_ptr<const LabeledCloud>> clouds_;  ///< null = evicted

@@ -69,6 +69,15 @@ struct VerificationConfig {
   /// the Hessian's weak axis with the misfit the registration actually has. This is its weight
   /// (0 = off).
   double misfit_scale = 1.0;
+  /// Cross-check of the misfit term (issue 14): the loop is registered again the other way
+  /// (match keyframe → query keyframe, from the inverse of the candidate's guess); when the two
+  /// answers agree to within this χ² (6 dof, against twice the forward ICP covariance plus the
+  /// floors) the loop keeps its full information and the misfit term is not added. 0 = off
+  /// (the misfit term is always added). Both answers come from the same two scans, so a right
+  /// loop's agree far inside the independent-estimates χ²: at 16.8 (6 dof, 99 %) naraha 2's
+  /// wrong 22→152 (4 cm off, d² = 8.3) kept full information; 4 separates it
+  /// (docs/pose_graph.md, fifth shift).
+  double cross_check_chi2 = 4.0;
   /// Along a direction the geometry leaves degenerate and only labelled patches constrain
   /// (RegistrationResult::label_only_directions: a featureless corridor's axis), the loop knows
   /// its position only to where two scans happened to sample the patches: this standard
@@ -152,6 +161,8 @@ VerificationResult evaluateRegistration(const LoopCandidate& candidate,
 /// (VerificationConfig::misfit_scale, label_only_sigma): misfit_scale · inlier_rmse² · H⁻¹, and
 /// label_only_sigma² along each of the registration's label-only directions. Translation first.
 Matrix6d honestyTerms(const RegistrationResult& registration, const VerificationConfig& config = {});
+/// The misfit part of honestyTerms alone: misfit_scale · inlier_rmse² · H⁻¹ (0 when off).
+Matrix6d misfitTerm(const RegistrationResult& registration, const VerificationConfig& config = {});
 
 /// Runs hazmap::registerClouds(query_cloud → match_cloud) from candidate.initial_guess, then
 /// evaluateRegistration. Clouds are in their keyframes' sensor frames.
