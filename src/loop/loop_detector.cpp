@@ -205,15 +205,10 @@ void LoopDetector::crossCheck(const LoopCandidate& cand, VerificationResult& v) 
   if (!rev.converged || !isFinite(rev.transform)) return;
   const Vector6d d = se3Log(rev.transform.inverse() * v.closure.T_from_to.inverse());
   Matrix6d sigma = 2.0 * c.covariance_scale * 0.5 * (v.registration.covariance + v.registration.covariance.transpose());
-  Vector6d floor;
-  floor << Eigen::Vector3d::Constant(c.min_translation_sigma * c.min_translation_sigma),
-      Eigen::Vector3d::Constant(c.min_rotation_sigma * c.min_rotation_sigma);
-  sigma += floor.asDiagonal();
+  sigma += floorVariances(c).asDiagonal();
   const double d2 = d.dot(sigma.llt().solve(d));
   if (!(d2 <= c.cross_check_chi2)) return;
-  v.closure.covariance -= misfitTerm(v.registration, c);
-  const Matrix6d info = v.closure.covariance.llt().solve(Matrix6d::Identity());
-  v.closure.information = 0.5 * (info + info.transpose());
+  setLoopCovariance(v.closure, v.closure.covariance - misfitTerm(v.registration, c));
 }
 
 void LoopDetector::verifyInto(const std::vector<LoopCandidate>& candidates, const PoseList& estimate, LoopDetection& det) {

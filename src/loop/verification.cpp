@@ -36,6 +36,19 @@ Matrix6d misfitTerm(const RegistrationResult& reg, const VerificationConfig& c) 
   return extra;
 }
 
+Vector6d floorVariances(const VerificationConfig& c) {
+  Vector6d floor;
+  floor << Eigen::Vector3d::Constant(c.min_translation_sigma * c.min_translation_sigma),
+      Eigen::Vector3d::Constant(c.min_rotation_sigma * c.min_rotation_sigma);
+  return floor;
+}
+
+void setLoopCovariance(LoopClosure& closure, const Matrix6d& covariance) {
+  closure.covariance = covariance;
+  const Matrix6d info = covariance.llt().solve(Matrix6d::Identity());
+  closure.information = 0.5 * (info + info.transpose());
+}
+
 Matrix6d honestyTerms(const RegistrationResult& reg, const VerificationConfig& c) {
   Matrix6d extra = misfitTerm(reg, c);
   const double L = c.registration.degeneracy_length > 0.0 ? c.registration.degeneracy_length : 1.0;
@@ -103,13 +116,8 @@ VerificationResult evaluateRegistration(const LoopCandidate& cand, const Registr
     return reject(LoopRejection::UncertainRotation, "rotation sigma " + fmt(sr) + " rad > " + fmt(c.max_rotation_sigma));
   cov += honestyTerms(reg, c);
   // Add the floor variances so the information stays finite and no loop becomes rigid.
-  Eigen::Matrix<double, 6, 1> floor;
-  floor << Eigen::Vector3d::Constant(c.min_translation_sigma * c.min_translation_sigma),
-      Eigen::Vector3d::Constant(c.min_rotation_sigma * c.min_rotation_sigma);
-  cov += floor.asDiagonal();
-  lc.covariance = cov;
-  Matrix6d info = cov.llt().solve(Matrix6d::Identity());
-  lc.information = 0.5 * (info + info.transpose());
+  cov += floorVariances(c).asDiagonal();
+  setLoopCovariance(lc, cov);
   out.accepted = true;
   return out;
 }

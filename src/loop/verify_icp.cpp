@@ -43,9 +43,7 @@ void widenByBasinProbes(VerificationResult& v, const LabeledCloud& query_cloud, 
     v.reason = "basin probes landed " + std::to_string(rms) + " m (RMS) from the result";
     return;
   }
-  v.closure.covariance += spread;
-  const Matrix6d info = v.closure.covariance.llt().solve(Matrix6d::Identity());
-  v.closure.information = 0.5 * (info + info.transpose());
+  setLoopCovariance(v.closure, v.closure.covariance + spread);
 }
 
 // The coarse check: the verification ICP on a strided subset; only its fitness is judged

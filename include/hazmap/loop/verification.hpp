@@ -163,6 +163,11 @@ VerificationResult evaluateRegistration(const LoopCandidate& candidate,
 Matrix6d honestyTerms(const RegistrationResult& registration, const VerificationConfig& config = {});
 /// The misfit part of honestyTerms alone: misfit_scale · inlier_rmse² · H⁻¹ (0 when off).
 Matrix6d misfitTerm(const RegistrationResult& registration, const VerificationConfig& config = {});
+/// The floor variances every loop covariance carries (min_translation_sigma², min_rotation_sigma²),
+/// so no loop becomes rigid. Translation first.
+Vector6d floorVariances(const VerificationConfig& config);
+/// Sets closure.covariance and its symmetrised inverse, closure.information.
+void setLoopCovariance(LoopClosure& closure, const Matrix6d& covariance);
 
 /// Runs hazmap::registerClouds(query_cloud → match_cloud) from candidate.initial_guess, then
 /// evaluateRegistration. Clouds are in their keyframes' sensor frames.
