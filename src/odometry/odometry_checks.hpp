@@ -48,6 +48,14 @@ struct Odometry::Impl {
 std::string registrationFailure(const RegistrationResult& r, const Eigen::Isometry3d& start,
                                 const OdometryConfig& config);
 
+/// How far ICP moved the sensor from `start` (start⁻¹ · answer: translation in the sensor frame).
+Vector6d correctionOf(const RegistrationResult& r, const Eigen::Isometry3d& start);
+
+/// Whether every degenerate direction is vertical (height, roll, pitch): a ground robot's
+/// recovery seeds differ in yaw and horizontal position, so ICP from a seed that slides only
+/// vertically still says where the robot is (naraha frames 50-55: the floor out of view).
+bool onlyVerticalDegeneracy(const std::vector<Vector6d>& directions);
+
 /// The registration's weakest horizontal translation axis (unit, registration space) when its
 /// Hessian eigenvalue, rotation marginalised, is below `ratio` × the strongest; else nothing.
 std::optional<Eigen::Vector3d> weakHorizontalAxis(const RegistrationResult& r, double ratio);

@@ -147,6 +147,12 @@ void addWeakAxisProbes(std::vector<Start>& starts, const RegistrationResult& fro
 
 }  // namespace
 
+bool onlyVerticalDegeneracy(const std::vector<Vector6d>& directions) {
+  for (const Vector6d& b : directions)
+    if (std::hypot(b(0), b(1), b(5)) > 0.3 * b.norm()) return false;
+  return true;
+}
+
 std::optional<Eigen::Vector3d> weakHorizontalAxis(const RegistrationResult& r, double ratio) {
   if (!(ratio > 0.0) || !r.hessian.allFinite() || r.hessian.isZero()) return std::nullopt;
   const Matrix6d H = 0.5 * (r.hessian + r.hessian.transpose());
@@ -178,6 +184,12 @@ std::optional<Eigen::Isometry3d> Odometry::globalStart(OdometryFrame& f, const L
   f.global.score = g.score;
   f.global.second_best_score = g.second_best_score;
   if (g.success && !g.ambiguous) return g.transform;
+  // Unconstrained only in height / roll / pitch: the answer still places the robot on the ground
+  // plane; it is a seed, and ICP from it is verified like any other.
+  if (g.status == GlobalStatus::Degenerate && onlyVerticalDegeneracy(g.refinement.degenerate_directions)) {
+    f.global.outcome = "global registration: vertically degenerate, used as a seed";
+    return g.transform;
+  }
   f.global.outcome = "global registration: " + (g.reason.empty() ? std::string(toString(g.status)) : g.reason);
   return std::nullopt;
 }
@@ -211,7 +223,7 @@ std::optional<Odometry::Recovery> Odometry::recover(OdometryFrame& f, const Labe
     std::string why = registrationFailure(r, start, guess ? config_ : seed_config);
     const Eigen::Isometry3d increment = prev.inverse() * r.transform;
     char buf[96];
-    if (why.empty() && !guess && !r.degenerate_directions.empty()) {
+    if (why.empty() && !guess && !onlyVerticalDegeneracy(r.degenerate_directions)) {
       // Along an unconstrained direction ICP stays where it started: the answer says nothing
       // there, and tracking keeps the guess along it (tanks seed 3: "no motion" won this way).
       std::snprintf(buf, sizeof buf, "degenerate (%zu unconstrained direction(s))", r.degenerate_directions.size());
