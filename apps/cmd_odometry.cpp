@@ -105,12 +105,6 @@ void run(const OdometryOptions& o, const ParameterOptions& params) {
     deskewer.apply(scan->cloud, scan->stamp, inc);
     const OdometryFrame& f = odo.addFrame(scan->cloud, inc, scan->stamp);
     deskewer.tracked(f.increment);
-    fallbacks += f.status == FrameStatus::Fallback;
-    degenerate += f.status == FrameStatus::Degenerate;
-    relocalised += f.status == FrameStatus::Relocalised;
-    global_tried += f.global.tried;
-    total_ms += f.total_ms;
-    appendFrameRows(i, f, csv, cov);
     if (!o.quiet && f.status == FrameStatus::Fallback)
       std::fprintf(stderr, "frame %zu: fell back to the %s guess (flagged): %s\n", i,
                    f.wheel_guess ? "wheel-odometry" : "constant-velocity", f.reason.c_str());
@@ -119,6 +113,16 @@ void run(const OdometryOptions& o, const ParameterOptions& params) {
                    f.global.whole_map ? " against the whole map" : "", f.reason.c_str());
   }
   if (n == 0) fail(o.sequence, "has no scans");
+  // The frames as they ended: a lost frame's pose is re-estimated once a later one is verified.
+  for (std::size_t i = 0; i < odo.frames().size(); ++i) {
+    const OdometryFrame& f = odo.frames()[i];
+    fallbacks += f.status == FrameStatus::Fallback;
+    degenerate += f.status == FrameStatus::Degenerate;
+    relocalised += f.status == FrameStatus::Relocalised;
+    global_tried += f.global.tried;
+    total_ms += f.total_ms;
+    appendFrameRows(i, f, csv, cov);
+  }
   const Trajectory traj = odo.trajectory();
   const std::filesystem::path out(o.out);
   writeKittiTrajectory(out / "poses.txt", traj);

@@ -217,7 +217,6 @@ TEST(WholeMap, AKidnappedRobotIsFoundAgainAgainstTheKeyframes) {
   sc.max_frames = 40;
   const sim::Simulator sim(sc);
   OdometryConfig c = OdometryConfig::defaults();
-  c.map_confirms_fallback = true;  // else frame 36 on tracks against frame 35's scan, placed wrong
   const Teleport t = teleport(sim, c, 34, 6, 12);
   ASSERT_GT(translationNorm(t.truth[34].inverse() * t.truth[35]), 8.0);  // a real kidnapping
   std::size_t found = 0;
@@ -253,7 +252,6 @@ TEST(WholeMap, WithoutItTheKidnappedRobotStaysLost) {
   const sim::Simulator sim(sc);
   OdometryConfig c = OdometryConfig::defaults();
   c.whole_map_relocalise = false;
-  c.map_confirms_fallback = true;
   const Teleport t = teleport(sim, c, 34, 6, 8);
   for (std::size_t k = 35; k < t.frames.size(); ++k) {
     EXPECT_FALSE(t.frames[k].global.whole_map);
@@ -272,7 +270,6 @@ TEST(WholeMap, AnUnknownPlaceIsNeverRelocalised) {
   const sim::Simulator corridor(sc);
   OdometryConfig c = OdometryConfig::defaults();
   c.whole_map_after = 1;
-  c.map_confirms_fallback = true;
   Odometry odo(naraha.classTable(), c);
   for (std::size_t i = 0; i < 20; ++i)
     odo.addFrame(naraha.scan(i), i ? std::optional(naraha.odometry()[i - 1].inverse() * naraha.odometry()[i]) : std::nullopt);

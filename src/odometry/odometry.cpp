@@ -370,7 +370,9 @@ void Odometry::remember(OdometryFrame& f, const LabeledCloud& frame) {
   keepKeyframe(f, frame);
   if (f.global.whole_map && f.status == FrameStatus::Relocalised) {
     rebuildLocalMapFromKeyframes(f.pose);
-    impl_->pending_scan.reset();
+    for (const auto& lost : impl_->lost)  // carried: where they were in between is unknown
+      frames_[lost.frame].reason += "; left as it was: the robot was found again against the whole map";
+    impl_->lost.clear();
   }
   if (config_.mode == OdometryMode::FrameToMap) {
     // A fallback frame's pose is an unverified guess: its points would place a wrong copy of the
@@ -378,15 +380,12 @@ void Odometry::remember(OdometryFrame& f, const LabeledCloud& frame) {
     const bool fallback = f.status == FrameStatus::Fallback;
     const bool keep_out = (config_.map_skips_fallback && fallback) || (config_.map_skips_flagged && isFlagged(f.status));
     LabeledCloud scan_world = keep_out ? LabeledCloud() : frame.transformed(f.pose);
-    if (config_.map_confirms_fallback && !config_.map_skips_fallback) {
-      std::optional<LabeledCloud> waiting = std::move(impl_->pending_scan);
-      impl_->pending_scan.reset();
+    if (config_.reestimate_lost_frames && !config_.map_skips_fallback) {
       if (fallback) {
-        impl_->pending_scan = std::move(scan_world);  // the one before, if any, was not confirmed
+        impl_->lost.push_back({f.index, frame});  // waits outside the map until a later frame is verified
         scan_world = LabeledCloud();
-      } else if (waiting) {
-        waiting->append(scan_world);  // confirmed: it enters with this frame (its integrate() call)
-        scan_world = std::move(*waiting);
+      } else if (!impl_->lost.empty()) {
+        scan_world.append(reestimateLostFrames(f, scan_world));  // they enter with this frame's integrate()
       }
     }
     map_.integrate(scan_world, f.pose.translation(), classes_);

@@ -31,9 +31,13 @@ struct Odometry::Impl {
   };
   std::vector<Keyframe> keyframes;
   std::size_t fallback_streak = 0;
-  /// Frame to map (map_confirms_fallback): the last fallback frame's scan (world frame), waiting
-  /// for the next frame to be verified.
-  std::optional<LabeledCloud> pending_scan;  ///< consecutive fallback frames up to the previous one
+  /// Frame to map (reestimate_lost_frames): the fallback frames since the last verified one, their
+  /// preprocessed scans (sensor frame) waiting outside the local map.
+  struct LostFrame {
+    std::size_t frame = 0;
+    LabeledCloud scan;
+  };
+  std::vector<LostFrame> lost;
   /// The whole map as last prepared (rebuilt when keyframes were added or re-anchored since).
   std::shared_ptr<const WholeMap> whole_map;
   /// whole_map_confirm: the last frame's verified whole-map answer (world ← scan), awaiting the next.

@@ -41,9 +41,10 @@ static ConfigFields<OdometryConfig>& addWholeMapFields(ConfigFields<OdometryConf
           .flag("map_skips_flagged", &C::map_skips_flagged,
                 "Frame to map: a flagged frame's points (fallback; degenerate or weak-axis with relocalise_suspect) "
                 "stay out of the local map, so a wrong pose is not matched by the next frames")
-          .flag("map_confirms_fallback", &C::map_confirms_fallback,
-                "Frame to map: a fallback frame's scan enters the local map only once the next frame is verified "
-                "without it (else it is dropped)")
+          .flag("reestimate_lost_frames", &C::reestimate_lost_frames,
+                "Frame to map: a fallback frame's scan waits outside the local map; once a later frame is verified "
+                "the waiting frames are re-registered against the recovered map from interpolated poses (verified: "
+                "relocalised, the scan enters the map; else the interpolated pose is kept, flagged)")
           .flag("flag_weak_axis", &C::flag_weak_axis,
                 "With relocalise_suspect: a frame weakly constrained along a horizontal axis is flagged "
                 "(degenerate), not tracked");

@@ -130,14 +130,18 @@ struct OdometryConfig {
   /// relocalise_suspect is on) stay out of the local map, like map_skips_fallback: a wrong pose in
   /// the map is matched by the following frames and the errors compound.
   bool map_skips_flagged = false;
-  /// Frame to map: a fallback frame's scan waits outside the local map until the next frame is
-  /// verified against the map without it (then both enter, with the next frame's scan); when the
-  /// next frame is not verified either, it is dropped. An isolated failure (ICP tripped on a good
-  /// guess) costs nothing; a robot that is lost (kidnapped, a slip the encoders lied about) does
-  /// not fill the map with scans at wrong poses that the next frames would then match. Off by
-  /// default: on, tanks seed 3 property ICP 0.925 -> 1.339 m (its isolated fallbacks had good
-  /// guesses); on for a crawler's worst day and to find a kidnapped robot (docs/registration.md).
-  bool map_confirms_fallback = false;
+  /// Frame to map: a fallback frame's scan (its pose an unverified guess) waits outside the local
+  /// map, so a lost frame cannot poison the map the next frames track against. Once a later frame
+  /// is verified (tracked, degenerate or relocalised against the map without them), the waiting
+  /// frames are re-registered against the recovered map, each from its pose interpolated between
+  /// the last frame before the gap and the verified one; an answer that passes the tracking checks
+  /// (and is horizontally constrained, fits like tracked frames, a plausible motion on both sides)
+  /// replaces the frame's pose (status relocalised) and its scan enters the map with the verified
+  /// frame's; otherwise the interpolated pose is kept, flagged (fallback), and the scan stays out.
+  /// The increments on both sides follow (frames() holds the final values; addFrame()'s returned
+  /// frame is the one at that time). After a whole-map re-localisation (a kidnapped robot) the
+  /// waiting frames keep their poses, flagged. naraha worst day: docs/registration.md.
+  bool reestimate_lost_frames = true;
   /// With relocalise_suspect: a frame whose ICP is weakly constrained along a horizontal axis
   /// (suspect_weak_axis_ratio) and that recovery did not replace is flagged (status degenerate,
   /// fallback covariance along the axis) instead of `tracked`: along that axis ICP cannot know the
@@ -271,6 +275,10 @@ class Odometry {
   /// whole_map_confirm: whether the previous frame's whole-map answer agrees with `answer`.
   bool confirmed(const Eigen::Isometry3d& answer, std::size_t frame);
   void rebuildLocalMapFromKeyframes(const Eigen::Isometry3d& pose);
+  /// reestimate_lost_frames (odometry_lost.cpp): `f` (not yet in frames_) was verified; the
+  /// waiting fallback frames get their poses re-estimated against the map plus `f_world` (f's scan
+  /// in the world). Returns the scans (world) of the frames re-registered, to enter the map with f's.
+  LabeledCloud reestimateLostFrames(OdometryFrame& f, const LabeledCloud& f_world);
 
   struct Impl;
   ClassTable classes_;

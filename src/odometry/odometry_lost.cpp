@@ -1,0 +1,79 @@
+// Lost frames made good (issue 19, reestimate_lost_frames): a fallback frame's pose is an
+// unverified guess — after a 40 deg kick nobody recovered it is 40 deg wrong — so its scan waits
+// outside the local map, and the next frames track against the map without it. Once a frame is
+// verified again, the waiting frames are re-registered against the recovered map (which now holds
+// the verified frame's scan too), each from its pose interpolated between the last frame before
+// the gap and the verified one. A verified answer replaces the frame's pose; otherwise the
+// interpolated pose is kept, flagged. Either way the increments on both sides follow, so one lost
+// frame no longer turns the rest of the route.
+#include <cstdio>
+#include <string>
+
+#include "hazmap/registration/registration_target.hpp"
+#include "odometry/odometry_checks.hpp"
+
+namespace hazmap {
+
+namespace {
+
+// The pose a fraction s of the way from a to b (constant velocity over the gap).
+Eigen::Isometry3d interpolate(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b, double s) {
+  return normalized(a * se3Exp(s * se3Log(a.inverse() * b)));
+}
+
+bool plausible(const Eigen::Isometry3d& increment, const OdometryConfig& c) {
+  return translationNorm(increment) <= c.relocalise_max_translation && rotationAngle(increment) <= c.relocalise_max_rotation;
+}
+
+}  // namespace
+
+LabeledCloud Odometry::reestimateLostFrames(OdometryFrame& f, const LabeledCloud& f_world) {
+  std::vector<Impl::LostFrame> lost = std::move(impl_->lost);
+  impl_->lost.clear();
+  LabeledCloud entering;
+  if (lost.empty() || lost.front().frame == 0) return entering;
+  // The recovered map: the local map and the verified frame's scan (a one-off target).
+  LabeledCloud map_cloud = map_.cloud();
+  map_cloud.append(f_world);
+  const RegistrationTarget target(std::move(map_cloud), classes_, config_.registration);
+
+  const std::size_t before = lost.front().frame - 1;  // the last frame before the gap
+  const auto span = static_cast<double>(f.index - before);
+  for (const Impl::LostFrame& l : lost) {
+    OdometryFrame& lf = frames_[l.frame];
+    const Eigen::Isometry3d& prev = frames_[l.frame - 1].pose;
+    // From the (re-estimated) previous frame towards the verified one, at constant velocity.
+    const double s = 1.0 / (span - static_cast<double>(l.frame - 1 - before));
+    const Eigen::Isometry3d guess = interpolate(prev, f.pose, s);
+    RegistrationResult r = registerClouds(l.scan, target, guess, classes_, config_.registration);
+    std::string why = registrationFailure(r, guess, config_);
+    if (why.empty() && !onlyVerticalDegeneracy(r.degenerate_directions)) why = "degenerate";
+    if (why.empty() && weakHorizontalAxis(r, config_.suspect_weak_axis_ratio)) why = "weakly constrained along an axis";
+    if (why.empty() && impl_->typical_rmse > 0.0 && r.inlier_rmse > config_.relocalise_max_rmse_ratio * impl_->typical_rmse)
+      why = "inlier RMSE above that of tracked frames";
+    if (why.empty() && (!plausible(prev.inverse() * r.transform, config_) || !plausible(r.transform.inverse() * f.pose, config_)))
+      why = "implausible motion";
+    char buf[200];
+    if (why.empty()) {
+      lf.pose = normalized(r.transform);
+      lf.status = FrameStatus::Relocalised;
+      lf.registration = std::move(r);
+      const Matrix6d Ad = adjoint(prev.inverse());
+      lf.covariance = Ad * lf.registration.covariance * Ad.transpose();
+      std::snprintf(buf, sizeof buf, "; re-estimated once frame %zu was verified: ICP against the recovered map", f.index);
+      entering.append(l.scan.transformed(lf.pose));
+    } else {
+      lf.pose = guess;  // flagged, its scan stays out of the map
+      std::snprintf(buf, sizeof buf, "; pose interpolated between frames %zu and %zu once %zu was verified (re-registration: %s)",
+                    before, f.index, f.index, why.c_str());
+    }
+    lf.reason += buf;
+    lf.increment = normalized(prev.inverse() * lf.pose);
+  }
+  // The verified frame's increment now starts from the re-estimated last lost frame.
+  f.increment = normalized(frames_[lost.back().frame].pose.inverse() * f.pose);
+  impl_->velocity = f.increment;
+  return entering;
+}
+
+}  // namespace hazmap
