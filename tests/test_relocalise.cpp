@@ -78,21 +78,31 @@ TEST(WorstDay, NoOdometryFileWithoutWheelOdometry) {
   EXPECT_NE(readTextFile(dir / "simulation.yaml").find("preset: worst-day"), std::string::npos);
 }
 
-/// Per-frame increment errors of an odometry run against the truth.
+/// Per-frame increment errors of an odometry run against the truth, scored on the frames as they
+/// ended (a lost frame's pose is re-estimated once a later frame is verified).
 struct Score {
   std::size_t frames = 0, within = 0, silently_wrong = 0, relocalised = 0, flagged = 0;
+  double mean_position_error = 0.0;  ///< m, no alignment: a proxy for the map error
   double within_share() const { return frames ? double(within) / double(frames) : 0.0; }
 };
 
-Score trackWorstDay(const sim::Simulator& sim, bool wheel, OdometryConfig config) {
+enum class Guess { None, Wheel, Exact };
+
+Score trackWorstDay(const sim::Simulator& sim, bool wheel, OdometryConfig config, Guess guess = Guess::None) {
+  if (guess == Guess::None && wheel) guess = Guess::Wheel;
   config.relocalise = true;
   config.relocalise_suspect = true;
   Odometry odo(sim.classTable(), config);
-  Score s;
   for (std::size_t i = 0; i < sim.frames(); ++i) {
     std::optional<Eigen::Isometry3d> inc;
-    if (wheel && i > 0) inc = sim.odometry()[i - 1].inverse() * sim.odometry()[i];
-    const OdometryFrame& f = odo.addFrame(sim.scan(i), inc);
+    if (guess == Guess::Wheel && i > 0) inc = sim.odometry()[i - 1].inverse() * sim.odometry()[i];
+    if (guess == Guess::Exact && i > 0) inc = sim.groundTruth()[i - 1].inverse() * sim.groundTruth()[i];
+    odo.addFrame(sim.scan(i), inc);
+  }
+  Score s;
+  for (std::size_t i = 0; i < sim.frames(); ++i) {
+    const OdometryFrame& f = odo.frames()[i];
+    s.mean_position_error += (f.pose.translation() - sim.groundTruth()[i].translation()).norm() / double(sim.frames());
     if (i == 0) continue;
     const Eigen::Isometry3d truth = sim.groundTruth()[i - 1].inverse() * sim.groundTruth()[i];
     const Eigen::Isometry3d error = truth.inverse() * f.increment;
@@ -103,9 +113,10 @@ Score trackWorstDay(const sim::Simulator& sim, bool wheel, OdometryConfig config
     s.flagged += isFlagged(f.status);
     if ((t > 0.2 || r > 2 * kDeg) && !isFlagged(f.status)) ++s.silently_wrong;
   }
-  std::printf("worst day, %s wheel odometry: %zu/%zu frames within 5 cm / 0.5 deg, %zu relocalised, %zu flagged, "
-              "%zu silently wrong\n", wheel ? "with" : "without", s.within, s.frames, s.relocalised, s.flagged,
-              s.silently_wrong);
+  std::printf("worst day, %s: %zu/%zu frames within 5 cm / 0.5 deg, %zu relocalised, %zu flagged, "
+              "%zu silently wrong, mean position error %.3f m\n",
+              guess == Guess::Exact ? "exact odometry" : wheel ? "with wheel odometry" : "without wheel odometry",
+              s.within, s.frames, s.relocalised, s.flagged, s.silently_wrong, s.mean_position_error);
   return s;
 }
 
@@ -114,24 +125,6 @@ sim::Simulator worstDay(const std::string& scenario, std::size_t frames) {
   c.scenario = scenario;
   c.max_frames = frames;
   return sim::Simulator(sim::SimulatorConfig::withPreset("worst-day", c, "test"));
-}
-
-// The issue's targets are ≥ 98 % of frames within 5 cm / 0.5° and no frame silently wrong (off
-// by > 20 cm / 2° yet not flagged). Today's tracking reaches them only in part (docs/
-// registration.md, "Tracking when the robot slips"): these tests hold what it reaches, so a drop
-// is a regression; DISABLED_MeetsTheIssueTargets states the targets themselves.
-TEST(WorstDay, NarahaWithWheelOdometry) {
-  const Score s = trackWorstDay(worstDay("naraha", 40), /*wheel=*/true, OdometryConfig::defaults());
-  EXPECT_GE(s.within_share(), 0.95) << s.within << "/" << s.frames;  // 38/39 (was 37/39)
-  EXPECT_EQ(s.silently_wrong, 0u);                                    // (was 1)
-  EXPECT_GE(s.relocalised, 3u);  // the jumps were recovered, not just flagged
-}
-
-TEST(WorstDay, NarahaWithoutWheelOdometryFlagsWhatItCannotRecover) {
-  const Score s = trackWorstDay(worstDay("naraha", 40), /*wheel=*/false, OdometryConfig::defaults());
-  EXPECT_GE(s.within_share(), 0.95) << s.within << "/" << s.frames;  // 39/39 (was 28/39)
-  EXPECT_EQ(s.silently_wrong, 0u);
-  EXPECT_GE(s.relocalised, 3u);
 }
 
 // The corridor without odometry: along the corridor the walls cannot tell the motion (the open
@@ -177,13 +170,72 @@ TEST(Relocalise, NeverWorseThanTheGuessOnTanks) {
   EXPECT_LE(on, off + 1e-3);
 }
 
-TEST(WorstDay, DISABLED_MeetsTheIssueTargets) {
-  for (const char* scenario : {"naraha", "corridor"})
-    for (const bool wheel : {true, false}) {
-      const Score s = trackWorstDay(worstDay(scenario, 60), wheel, OdometryConfig::defaults());
-      EXPECT_GE(s.within_share(), 0.98) << scenario << (wheel ? " with" : " without") << " wheel odometry";
-      EXPECT_EQ(s.silently_wrong, 0u) << scenario << (wheel ? " with" : " without") << " wheel odometry";
+// The issue's targets on naraha, with and without wheel odometry: >= 98 % of the frames within
+// 5 cm / 0.5 deg of their true increment, none silently wrong, and the map error (here its proxy,
+// the mean position error without alignment) within 2x of the same route tracked with exact
+// odometry (the kicks are true motion: a calm simulation would be another, shorter route).
+TEST(WorstDay, MeetsTheIssueTargetsOnNaraha) {
+  const sim::Simulator sim = worstDay("naraha", 60);
+  const Score reference = trackWorstDay(sim, true, OdometryConfig::defaults(), Guess::Exact);
+  for (const bool wheel : {true, false}) {
+    const Score s = trackWorstDay(sim, wheel, OdometryConfig::defaults());
+    EXPECT_GE(s.within_share(), 0.98) << (wheel ? "with" : "without") << " wheel odometry";
+    EXPECT_EQ(s.silently_wrong, 0u) << (wheel ? "with" : "without") << " wheel odometry";
+    EXPECT_LE(s.mean_position_error, 2.0 * std::max(reference.mean_position_error, 0.005))
+        << (wheel ? "with" : "without") << " wheel odometry";
+    EXPECT_GE(s.relocalised, 3u);  // the kicks were recovered, not just flagged
+  }
+}
+
+// The corridor does not meet them (docs/registration.md): along its axis the walls cannot tell the
+// motion, so without a motion prior most frames are flagged, and slips the encoders lied about
+// cannot be told from true travel there. Kept as the statement of what is left.
+TEST(WorstDay, DISABLED_MeetsTheIssueTargetsOnTheCorridor) {
+  for (const bool wheel : {true, false}) {
+    const Score s = trackWorstDay(worstDay("corridor", 60), wheel, OdometryConfig::defaults());
+    EXPECT_GE(s.within_share(), 0.98) << (wheel ? "with" : "without") << " wheel odometry";
+    EXPECT_EQ(s.silently_wrong, 0u) << (wheel ? "with" : "without") << " wheel odometry";
+  }
+}
+
+// A lost frame is made good once tracking recovers: frame 8 of naraha gets a wheel increment 30 deg
+// off and no recovery (relocalise off), so it falls back to that guess; frame 9's encoders catch up
+// (its guess is right in the world). With reestimate_lost_frames frame 8's scan waited outside the
+// map, and once frame 9 is tracked it is re-registered against the map from the pose halfway
+// between frames 7 and 9: both increments are right again. Without it frame 8 stays 30 deg wrong.
+TEST(LostFrames, AreReestimatedOnceTrackingRecovers) {
+  sim::SimulatorConfig sc;
+  sc.max_frames = 12;
+  const sim::Simulator sim(sc);
+  const auto run = [&](bool reestimate) {
+    OdometryConfig c = OdometryConfig::defaults();
+    c.relocalise = false;
+    c.reestimate_lost_frames = reestimate;
+    Odometry odo(sim.classTable(), c);
+    const auto& truth = sim.groundTruth();
+    for (std::size_t i = 0; i < sim.frames(); ++i) {
+      std::optional<Eigen::Isometry3d> inc;
+      if (i > 0) inc = truth[i - 1].inverse() * truth[i];
+      if (i == 8) *inc = *inc * Eigen::AngleAxisd(30 * kDeg, Eigen::Vector3d::UnitZ());
+      if (i == 9) inc = odo.frames()[8].pose.inverse() * truth[9];  // the encoders catch up
+      const OdometryFrame& f = odo.addFrame(sim.scan(i), inc);
+      if (i == 8) EXPECT_EQ(f.status, FrameStatus::Fallback) << f.reason;
     }
+    return odo.frames();
+  };
+  const auto increment_error = [&](const std::vector<OdometryFrame>& frames, std::size_t i) {
+    return (sim.groundTruth()[i - 1].inverse() * sim.groundTruth()[i]).inverse() * frames[i].increment;
+  };
+  const std::vector<OdometryFrame> made_good = run(true);
+  EXPECT_EQ(made_good[8].status, FrameStatus::Relocalised) << made_good[8].reason;
+  EXPECT_NE(made_good[8].reason.find("re-estimated"), std::string::npos) << made_good[8].reason;
+  for (std::size_t i = 8; i < made_good.size(); ++i) {
+    EXPECT_LT(translationNorm(increment_error(made_good, i)), 0.05) << i;
+    EXPECT_LT(rotationAngle(increment_error(made_good, i)), 0.5 * kDeg) << i;
+  }
+  const std::vector<OdometryFrame> left = run(false);
+  EXPECT_EQ(left[8].status, FrameStatus::Fallback);
+  EXPECT_GT(rotationAngle(increment_error(left, 8)), 20 * kDeg);
 }
 
 // A kidnapped robot: after frame 34 of naraha the robot is carried back to where it was at frame
