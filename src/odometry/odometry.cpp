@@ -185,6 +185,14 @@ std::string describeDegenerate(const std::vector<Vector6d>& basis) {
   return out;
 }
 
+// The motion without its roll and pitch: translation and yaw kept.
+Eigen::Isometry3d levelled(const Eigen::Isometry3d& T) {
+  Eigen::Isometry3d out = Eigen::Isometry3d::Identity();
+  out.translation() = T.translation();
+  out.linear() = Eigen::AngleAxisd(yawOf(T), Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  return out;
+}
+
 struct Estimate {
   Eigen::Isometry3d pose;  ///< in registration space
   Matrix6d covariance;
@@ -335,7 +343,11 @@ void Odometry::track(OdometryFrame& f, const LabeledCloud& source, std::optional
                                                    : Matrix6d(Ad * estimate.covariance * Ad.transpose());
   f.pose = normalized(prev_pose * f.increment);
   f.registration = std::move(r);
-  impl_->velocity = f.increment;
+  // A relocalised increment also undoes the drift before it, which is not motion: a ground robot's
+  // next guess keeps its travel and yaw but not the roll / pitch of that correction (carried on at
+  // constant velocity where the floor leaves pitch weak, naraha without odometry drifted 1 deg a
+  // frame until the next relocalisation).
+  impl_->velocity = f.status == FrameStatus::Relocalised ? levelled(f.increment) : f.increment;
   impl_->has_velocity = true;
   impl_->velocity_verified = f.status != FrameStatus::Fallback;
   impl_->fallback_streak = f.status == FrameStatus::Fallback ? impl_->fallback_streak + 1 : 0;

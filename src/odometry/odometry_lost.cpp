@@ -72,7 +72,7 @@ LabeledCloud Odometry::reestimateLostFrames(OdometryFrame& f, const LabeledCloud
   }
   // The verified frame's increment now starts from the re-estimated last lost frame.
   f.increment = normalized(frames_[lost.back().frame].pose.inverse() * f.pose);
-  impl_->velocity = f.increment;
+  impl_->velocity = f.increment;  // the motion again, no longer the jump back from a wrong pose
   return entering;
 }
 
