@@ -61,6 +61,8 @@ double msSince(Clock::time_point t) {
 
 
 
+}  // namespace
+
 Matrix6d fallbackCovariance(const OdometryConfig& c) {
   Vector6d d;
   const double t2 = c.fallback_sigma_translation * c.fallback_sigma_translation;
@@ -68,6 +70,8 @@ Matrix6d fallbackCovariance(const OdometryConfig& c) {
   d << t2, t2, t2, r2, r2, r2;
   return d.asDiagonal();
 }
+
+namespace {
 
 // A scan after preprocessing: cropped and downsampled keeping property classes (`frame`, what
 // enters the map or becomes the next frame's target), and the source that is registered.
@@ -396,6 +400,12 @@ void Odometry::remember(OdometryFrame& f, const LabeledCloud& frame) {
       if (fallback) {
         impl_->lost.push_back({f.index, frame});  // waits outside the map until a later frame is verified
         scan_world = LabeledCloud();
+        // Lost for long (a corridor nothing can place along): the map must follow the robot, so the
+        // oldest waiting scan enters at its guessed pose, as it would have without waiting.
+        if (impl_->lost.size() > static_cast<std::size_t>(config_.lost_frames_max)) {
+          scan_world = impl_->lost.front().scan.transformed(frames_[impl_->lost.front().frame].pose);
+          impl_->lost.erase(impl_->lost.begin());
+        }
       } else if (!impl_->lost.empty()) {
         scan_world.append(reestimateLostFrames(f, scan_world));  // they enter with this frame's integrate()
       }

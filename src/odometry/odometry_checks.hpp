@@ -52,6 +52,9 @@ struct Odometry::Impl {
 std::string registrationFailure(const RegistrationResult& r, const Eigen::Isometry3d& start,
                                 const OdometryConfig& config);
 
+/// The covariance of a fallback increment (fallback_sigma_*).
+Matrix6d fallbackCovariance(const OdometryConfig& config);
+
 /// How far ICP moved the sensor from `start` (start⁻¹ · answer: translation in the sensor frame).
 Vector6d correctionOf(const RegistrationResult& r, const Eigen::Isometry3d& start);
 

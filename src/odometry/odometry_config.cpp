@@ -45,6 +45,8 @@ static ConfigFields<OdometryConfig>& addWholeMapFields(ConfigFields<OdometryConf
                 "Frame to map: a fallback frame's scan waits outside the local map; once a later frame is verified "
                 "the waiting frames are re-registered against the recovered map from interpolated poses (verified: "
                 "relocalised, the scan enters the map; else the interpolated pose is kept, flagged)")
+          .integer("lost_frames_max", &C::lost_frames_max, atLeast(1),
+                   "Frame to map: lost frames that wait at most; beyond, the oldest enters the map at its guessed pose")
           .flag("flag_weak_axis", &C::flag_weak_axis,
                 "With relocalise_suspect: a frame weakly constrained along a horizontal axis is flagged "
                 "(degenerate), not tracked");

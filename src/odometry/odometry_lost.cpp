@@ -54,13 +54,18 @@ LabeledCloud Odometry::reestimateLostFrames(OdometryFrame& f, const LabeledCloud
     if (why.empty() && (!plausible(prev.inverse() * r.transform, config_) || !plausible(r.transform.inverse() * f.pose, config_)))
       why = "implausible motion";
     char buf[200];
+    // Its increment starts from the previous frame's pose: after a frame left interpolated it is
+    // no better than that guess, so the frame stays flagged though its own pose is re-registered
+    // (used as relocalised, a corridor's such frames were 12-18 deg off in their increments).
+    const bool after_unverified = frames_[l.frame - 1].status == FrameStatus::Fallback;
     if (why.empty()) {
       lf.pose = normalized(r.transform);
-      lf.status = FrameStatus::Relocalised;
+      if (!after_unverified) lf.status = FrameStatus::Relocalised;
       lf.registration = std::move(r);
       const Matrix6d Ad = adjoint(prev.inverse());
       lf.covariance = Ad * lf.registration.covariance * Ad.transpose();
-      std::snprintf(buf, sizeof buf, "; re-estimated once frame %zu was verified: ICP against the recovered map", f.index);
+      std::snprintf(buf, sizeof buf, "; re-estimated once frame %zu was verified: ICP against the recovered map%s", f.index,
+                    after_unverified ? " (flagged: the frame before it is interpolated)" : "");
       entering.append(l.scan.transformed(lf.pose));
     } else {
       lf.pose = guess;  // flagged, its scan stays out of the map
@@ -69,9 +74,15 @@ LabeledCloud Odometry::reestimateLostFrames(OdometryFrame& f, const LabeledCloud
     }
     lf.reason += buf;
     lf.increment = normalized(prev.inverse() * lf.pose);
+    if (lf.status == FrameStatus::Fallback) lf.covariance = fallbackCovariance(config_);
   }
   // The verified frame's increment now starts from the re-estimated last lost frame.
   f.increment = normalized(frames_[lost.back().frame].pose.inverse() * f.pose);
+  if (frames_[lost.back().frame].status == FrameStatus::Fallback) {  // an increment from a guessed pose
+    f.covariance = fallbackCovariance(config_);
+    f.reason += f.reason.empty() ? "" : "; ";
+    f.reason += "increment from an interpolated pose (loose covariance)";
+  }
   impl_->velocity = f.increment;  // the motion again, no longer the jump back from a wrong pose
   return entering;
 }

@@ -142,6 +142,10 @@ struct OdometryConfig {
   /// frame is the one at that time). After a whole-map re-localisation (a kidnapped robot) the
   /// waiting frames keep their poses, flagged. naraha worst day: docs/registration.md.
   bool reestimate_lost_frames = true;
+  /// At most this many lost frames wait; when more are lost in a row the oldest enters the map at
+  /// its guessed pose (the map follows the robot through a stretch nothing can verify: held out
+  /// for longer, the corridor without odometry starved its map, 1 -> 61 of 99 frames silently wrong).
+  int lost_frames_max = 3;
   /// With relocalise_suspect: a frame whose ICP is weakly constrained along a horizontal axis
   /// (suspect_weak_axis_ratio) and that recovery did not replace is flagged (status degenerate,
   /// fallback covariance along the axis) instead of `tracked`: along that axis ICP cannot know the
