@@ -51,6 +51,11 @@ LabeledCloud Odometry::reestimateLostFrames(OdometryFrame& f, const LabeledCloud
     if (why.empty() && weakHorizontalAxis(r, config_.suspect_weak_axis_ratio)) why = "weakly constrained along an axis";
     if (why.empty() && impl_->typical_rmse > 0.0 && r.inlier_rmse > config_.relocalise_max_rmse_ratio * impl_->typical_rmse)
       why = "inlier RMSE above that of tracked frames";
+    // Interpolated translation is close for a ground robot (a kick turns it, a lost scan is a
+    // longer step at the same pace); an answer farther from it slid somewhere (a corridor, 1 m
+    // along its axis: 13 of 99 frames silently wrong when such answers were used).
+    if (why.empty() && correctionOf(r, guess).head<3>().norm() > config_.suspect_correction_translation)
+      why = "far from the interpolated pose";
     if (why.empty() && (!plausible(prev.inverse() * r.transform, config_) || !plausible(r.transform.inverse() * f.pose, config_)))
       why = "implausible motion";
     char buf[200];
