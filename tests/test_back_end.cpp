@@ -388,10 +388,14 @@ TEST(MapSkipsFallback, NarahaSeed7IsNotLost) {
     ASSERT_TRUE(s.map_error);
     c.error = s.map_error->point.mean;
   }
-  EXPECT_GE(cases[0].fallback, 2u);  // the slips fall back, flagged
-  EXPECT_GT(cases[0].error, 0.2);    // lost with the slipped frames in the map
-  EXPECT_GE(cases[1].fallback, 2u);
-  EXPECT_LT(cases[1].error, 0.1);
+  // Since ICP's correction is measured in the sensor frame (issue 19, 2026-12-02) ICP from the
+  // slipped guess passes at frames 31-32 even without recovery: the slips were refused as
+  // "diverged" only because a turn 30 m from the world origin read as metres. Nothing falls back
+  // any more (map error 0.85 -> 0.015 m), so this sequence no longer exercises map_skips_fallback.
+  EXPECT_EQ(cases[0].fallback, 0u);
+  EXPECT_LT(cases[0].error, 0.05);
+  EXPECT_EQ(cases[1].fallback, 0u);
+  EXPECT_LT(cases[1].error, 0.05);
   EXPECT_EQ(cases[2].fallback, 0u);  // recovered instead
   EXPECT_LT(cases[2].error, 0.05);
   std::filesystem::remove_all(dir);

@@ -58,7 +58,9 @@ TEST(PropertyVsPlain, CorridorLabelsHoldTheAxis) {
   const TrackRun plain = track(sim, false), prop = track(sim, true);
   std::printf("corridor (default label noise): plain %.3f m, property %.3f m, labels used %.0f%%\n",
               plain.mean_error, prop.mean_error, 100.0 * prop.labels_used);
-  EXPECT_LT(prop.mean_error, 0.6 * plain.mean_error);
+  // 0.6x until 2026-12-02; then plain ICP stopped refusing right answers as "diverged" (ICP's
+  // correction measured in the sensor frame, issue 19): plain 4.02 -> 0.89 m, property 0.534 -> 0.541 m.
+  EXPECT_LT(prop.mean_error, 0.65 * plain.mean_error);
   EXPECT_GT(prop.labels_used, 0.9);
 }
 
