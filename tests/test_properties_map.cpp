@@ -14,7 +14,6 @@
 #include "hazmap/io/sequence.hpp"
 #include "hazmap/map/global_map.hpp"
 #include "hazmap/map/hazards.hpp"
-#include "hazmap/odometry/local_map.hpp"
 #include "hazmap/preprocess/voxel_downsample.hpp"
 #include "hazmap/registration/registration.hpp"
 #include "hazmap/registration/registration_target.hpp"
@@ -152,37 +151,6 @@ TEST(PropertyIcpCameraLabels, DownsampledVoxelKeepsTheValuesObserved) {
   const std::size_t seen = d.points[0].x() < 1.0f ? 0 : 1;
   EXPECT_FLOAT_EQ(d.property[seen], 35.0f);
   EXPECT_TRUE(std::isnan(d.property[1 - seen]));
-}
-
-// A full local-map voxel takes what a camera observed in place of what no camera saw: an
-// observed cold point replaces an unobserved one (before, it was dropped), and a property point
-// replaces an unobserved point before an observed cold one.
-TEST(PropertyIcpCameraLabels, LocalMapVoxelPrefersObservedPointsToUnobservedOnes) {
-  const ClassTable table = ClassTable::defaults();
-  LocalMapConfig lc;
-  lc.max_points_per_voxel = 4;
-  LocalMap map(lc);
-  const auto scan = [](std::initializer_list<std::pair<ClassId, float>> points, float x0) {
-    LabeledCloud s;
-    s.enableProperty();
-    float x = x0;
-    for (const auto& [c, v] : points) s.push_back({x += 0.01f, 0.5f, 0.5f}, c, 0, 0, v);
-    return s;
-  };
-  map.integrate(scan({{0, 20.0f}, {0, NAN}, {0, NAN}, {0, NAN}}, 0.1f), Eigen::Vector3d::Zero(), table);
-  map.integrate(scan({{0, 21.0f}}, 0.5f), Eigen::Vector3d::Zero(), table);  // observed cold
-  map.integrate(scan({{1, 80.0f}}, 0.6f), Eigen::Vector3d::Zero(), table);  // heat
-  const LabeledCloud cloud = map.cloud();
-  ASSERT_EQ(cloud.size(), 4u);
-  int cold = 0, heat = 0, unobserved = 0;
-  for (std::size_t i = 0; i < cloud.size(); ++i) {
-    heat += cloud.classes[i] == 1;
-    unobserved += cloud.classes[i] == 0 && std::isnan(cloud.property[i]);
-    cold += cloud.classes[i] == 0 && !std::isnan(cloud.property[i]);
-  }
-  EXPECT_EQ(heat, 1);
-  EXPECT_EQ(cold, 2);  // the first one and the one that replaced an unobserved point
-  EXPECT_EQ(unobserved, 1);
 }
 
 TEST(PropertyIcpCameraLabels, WholeExtentRoundTripsThroughTheClassTableYaml) {

@@ -38,15 +38,10 @@ void LocalMap::clear() {
   normal_neighbors_ = -1;
   index_.clear();
   points_ = 0;
-  unobserved_seen_ = false;
 }
 
-// One point into its voxel: appended while the voxel has room. A full voxel prefers observed
-// labels to unobserved ones (a camera saw only part of the surface, and what it saw is the
-// evidence): a property point replaces the oldest unobserved point, else the oldest unlabelled
-// one (while property points hold at most half of it); an observed unlabelled point replaces
-// the oldest unobserved one. Unobserved = NaN value and no property class (unobservedPoint());
-// maps without such points (label files, ground truth) fill exactly as before. `origin` = the
+// One point into its voxel: appended while the voxel has room, else a property point replaces the
+// oldest unlabelled one (while property points hold at most half of it). `origin` = the
 // integrate() call that brought it (reanchor() moves it with that call's correction).
 void LocalMap::addPoint(const Eigen::Vector3f& p, ClassId cls, float value, std::uint32_t origin,
                         const ClassTable& table) {
@@ -66,7 +61,6 @@ void LocalMap::addPoint(const Eigen::Vector3f& p, ClassId cls, float value, std:
       close = (v.points[k] - p).squaredNorm() < min_d2 && (!prop || v.classes[k] == cls);
     if (close) return;
   }
-  unobserved_seen_ = unobserved_seen_ || (!prop && std::isnan(value));
   if (static_cast<int>(v.points.size()) < config_.max_points_per_voxel) {
     v.points.push_back(p);
     v.classes.push_back(cls);
@@ -76,39 +70,24 @@ void LocalMap::addPoint(const Eigen::Vector3f& p, ClassId cls, float value, std:
     v.delta.push_back(p);
     v.changed = true;
     ++points_;
-    return;
+  } else if (prop && 2 * v.property_points < config_.max_points_per_voxel) {
+    // Replace the oldest unlabelled point.
+    for (std::size_t k = 0; k < v.points.size(); ++k) {
+      if (table.isProperty(v.classes[k])) continue;
+      v.delta.push_back(v.points[k]);
+      v.delta.push_back(p);
+      v.points[k] = p;
+      v.classes[k] = cls;
+      v.values[k] = value;
+      v.origins[k] = origin;
+      if (k < v.normals.size()) v.normals[k].setZero();  // estimated anew
+      if (k < v.updates.size()) v.updates[k] = 0;
+      if (k < v.reach2.size()) v.reach2[k] = -1.0f;
+      ++v.property_points;
+      v.changed = true;
+      break;
+    }
   }
-  const auto unobserved = [&](std::size_t k) { return !table.isProperty(v.classes[k]) && std::isnan(v.values[k]); };
-  const auto replaceFirst = [&](const auto& replaceable) {
-    for (std::size_t k = 0; k < v.points.size(); ++k)
-      if (replaceable(k)) {
-        replacePoint(v, k, p, cls, value, origin);
-        v.property_points += prop;
-        return true;
-      }
-    return false;
-  };
-  if (prop && 2 * v.property_points < config_.max_points_per_voxel) {
-    if (!(unobserved_seen_ && replaceFirst(unobserved)))
-      replaceFirst([&](std::size_t k) { return !table.isProperty(v.classes[k]); });
-  } else if (unobserved_seen_ && !prop && !std::isnan(value)) {
-    replaceFirst(unobserved);
-  }
-}
-
-// Point k of voxel v becomes the given point (its cached normal estimated anew).
-void LocalMap::replacePoint(Voxel& v, std::size_t k, const Eigen::Vector3f& p, ClassId cls, float value,
-                            std::uint32_t origin) {
-  v.delta.push_back(v.points[k]);
-  v.delta.push_back(p);
-  v.points[k] = p;
-  v.classes[k] = cls;
-  v.values[k] = value;
-  v.origins[k] = origin;
-  if (k < v.normals.size()) v.normals[k].setZero();
-  if (k < v.updates.size()) v.updates[k] = 0;
-  if (k < v.reach2.size()) v.reach2[k] = -1.0f;
-  v.changed = true;
 }
 
 void LocalMap::integrate(const LabeledCloud& scan, const Eigen::Vector3d& origin, const ClassTable& table) {

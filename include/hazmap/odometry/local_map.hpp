@@ -85,8 +85,6 @@ class LocalMap {
     std::vector<std::uint32_t> origins;  ///< the integrate() call that added each point
   };
   void addPoint(const Eigen::Vector3f& p, ClassId cls, float value, std::uint32_t origin, const ClassTable& table);
-  static void replacePoint(Voxel& v, std::size_t k, const Eigen::Vector3f& p, ClassId cls, float value,
-                           std::uint32_t origin);
   Eigen::Vector3f estimateNormal(Voxel& v, std::size_t i, const NormalConfig& nc) const;
   std::vector<std::array<std::int64_t, 3>> dropFarVoxels(const Eigen::Vector3d& origin);
   // The steps of makeTarget().
@@ -106,7 +104,6 @@ class LocalMap {
   double inverse_voxel_ = 1.0;
   float min_point_distance2_ = 0.0f;
   bool has_values_ = false;
-  bool unobserved_seen_ = false;  ///< an unobserved point was added (else no voxel holds one)
   // settings the cached normals were estimated with (a change invalidates them all)
   int normal_neighbors_ = -1;
   double normal_radius_ = -1.0;
