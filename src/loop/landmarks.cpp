@@ -89,20 +89,14 @@ namespace {
 
 using CellGrid = std::unordered_map<CellKey, std::vector<std::uint32_t>, CellHash>;
 
-// Class id → property? (a table lookup per point is slow)
-std::vector<char> propertyClasses(const ClassTable& table) {
-  std::vector<char> is_property;
+// The labelled points (a few percent of a scan, so what follows stays small): finite, of a
+// property class, within max_range.
+std::vector<std::size_t> labelledPoints(const LabeledCloud& cloud, const ClassTable& table, double max_range) {
+  std::vector<char> is_property;  // class id → property? (a table lookup per point is slow)
   for (ClassId id : table.ids()) {
     if (id >= is_property.size()) is_property.resize(static_cast<std::size_t>(id) + 1, 0);
     is_property[id] = table.isProperty(id);
   }
-  return is_property;
-}
-
-// The labelled points (a few percent of a scan, so what follows stays small): finite, of a
-// property class, within max_range.
-std::vector<std::size_t> labelledPoints(const LabeledCloud& cloud, const std::vector<char>& is_property,
-                                        double max_range) {
   const double max_range2 = max_range > 0 ? max_range * max_range : 0.0;
   std::vector<std::size_t> idx;
   for (std::size_t i = 0; i < cloud.size(); ++i) {
@@ -175,25 +169,20 @@ std::vector<std::vector<std::size_t>> clustersOf(DisjointSets& sets, const std::
   return clusters;
 }
 
-// Purity: the share of the cluster among all observed points (any class) in the grid cells it
-// occupies. A real source is mostly labelled where it is seen; label noise on a dense nearby wall
-// chains into clusters whose cells hold hundreds of unlabelled points. Points no camera saw
-// (NaN value, not labelled) are no evidence either way and do not count: a source a camera saw
-// from one keyframe is not diluted by the same surface's unobserved points from the others.
+// Purity: the share of the cluster among all points (any class) in the grid cells it occupies.
+// A real source is mostly labelled where it is seen; label noise on a dense nearby wall chains
+// into clusters whose cells hold hundreds of unlabelled points.
 class Purity {
  public:
   Purity(const LabeledCloud& cloud, const CellOf& cell_of, const std::vector<std::vector<std::size_t>>& clusters,
-         std::size_t min_points, const std::vector<char>& is_property)
+         std::size_t min_points)
       : cell_of_(cell_of) {
     std::unordered_map<CellKey, char, CellHash> wanted;
     for (const auto& members : clusters)
       if (members.size() >= min_points)
         for (std::size_t i : members) wanted.emplace(anyClass(i), 1);
-    const bool values = cloud.property.size() == cloud.size();
     for (std::size_t i = 0; i < cloud.size(); ++i) {
       if (!cloud.points[i].allFinite()) continue;
-      const ClassId c = cloud.classes[i];
-      if (values && std::isnan(cloud.property[i]) && !(c < is_property.size() && is_property[c])) continue;
       const CellKey k = anyClass(i);
       if (wanted.count(k)) ++all_counts_[k];
     }
@@ -224,8 +213,7 @@ std::vector<PropertyLandmark> extractLandmarks(const LabeledCloud& cloud, const 
                                                const LandmarkConfig& config) {
   validate(config);
   if (cloud.classes.size() != cloud.size()) fail("extractLandmarks", "cloud has no per-point classes");
-  const std::vector<char> is_property = propertyClasses(table);
-  const std::vector<std::size_t> idx = labelledPoints(cloud, is_property, config.max_range);
+  const std::vector<std::size_t> idx = labelledPoints(cloud, table, config.max_range);
   if (idx.empty()) return {};
 
   // Hash grid with cell edge tol/√3: the cell diagonal is tol.
@@ -244,7 +232,7 @@ std::vector<PropertyLandmark> extractLandmarks(const LabeledCloud& cloud, const 
   const std::vector<std::vector<std::size_t>> clusters = clustersOf(sets, idx);
 
   std::optional<Purity> purity;
-  if (config.min_purity > 0.0) purity.emplace(cloud, cell_of, clusters, config.min_points, is_property);
+  if (config.min_purity > 0.0) purity.emplace(cloud, cell_of, clusters, config.min_points);
   std::vector<PropertyLandmark> out;
   for (const auto& members : clusters) {
     if (members.size() < config.min_points) continue;
