@@ -7,13 +7,16 @@
 
 #include <cmath>
 #include <fstream>
+#include <random>
 
 #include "hazmap/core/error.hpp"
 #include "hazmap/io/atomic_file.hpp"
 #include "hazmap/io/sequence.hpp"
 #include "hazmap/map/global_map.hpp"
 #include "hazmap/map/hazards.hpp"
+#include "hazmap/preprocess/voxel_downsample.hpp"
 #include "hazmap/registration/registration.hpp"
+#include "hazmap/registration/registration_target.hpp"
 #include "hazmap/sources/scan_source.hpp"
 #include "test_helpers.hpp"
 
@@ -62,6 +65,92 @@ TEST(PropertyIcpCameraLabels, PatchesCutByTheViewDoNotPullScansAlongTheWall) {
   EXPECT_LT(std::abs(alongCorridor(source, target, /*whole_extent=*/false)), 0.02);
   // The same cut in both scans: no slide either way.
   EXPECT_LT(std::abs(alongCorridor(target, target, /*whole_extent=*/true)), 0.02);
+}
+
+// "Not observed" (NaN value, no property class: no camera saw the point) is not "observed and
+// none": it pairs with the nearest point of any class, without the mismatch penalty α, on either
+// side of the pair. Observed points of differing classes still pay α.
+TEST(PropertyIcpCameraLabels, UnobservedPointsPairWithoutTheMismatchPenalty) {
+  ClassTable table = ClassTable::defaults();
+  table.mismatch_penalty = 1.0;
+  RegistrationConfig cfg;
+  cfg.metric = IcpMetric::PointToPoint;
+  LabeledCloud target;
+  target.enableProperty();
+  target.push_back({0.1f, 0, 0}, 1, 0, 0, 80.0f);   // 0: heat, observed (80 °C)
+  target.push_back({0.5f, 0, 0}, 0, 0, 0, 20.0f);   // 1: none, observed cold
+  target.push_back({0, -0.3f, 0}, 0, 0, 0, NAN);    // 2: none, not observed
+  const RegistrationTarget t(target, table, cfg);
+  // An unobserved source point pairs with the nearest point whatever its class, without α.
+  TargetMatch m = t.match({0.05f, 0, 0}, 0, NAN, INFINITY, /*observed=*/false);
+  EXPECT_EQ(m.index, 0);
+  EXPECT_TRUE(m.unobserved);
+  EXPECT_NEAR(m.cost, 0.0025, 1e-6);
+  // The same point observed cold pays α for the heat point: the unobserved one wins.
+  m = t.match({0.05f, 0, 0}, 0, 20.0f);
+  EXPECT_EQ(m.index, 2);
+  EXPECT_TRUE(m.unobserved);
+  EXPECT_NEAR(m.cost, 0.05f * 0.05f + 0.09f, 1e-6);
+  // An observed heat point: its own class first; an unobserved point nearer than it wins
+  // without α; an observed none point never beats it.
+  EXPECT_EQ(t.match({0.3f, 0, 0}, 1, 80.0f).index, 0);
+  EXPECT_EQ(t.match({0, -0.25f, 0}, 1, 80.0f).index, 2);
+  m = t.match({0.7f, 0, 0}, 1, 80.0f);  // heat at 0.36 m² beats none at 0.04 + α
+  EXPECT_EQ(m.index, 0);
+  EXPECT_FALSE(m.cross_class);
+  // The label gate's nearest-any-class search reports which target points were observed.
+  EXPECT_TRUE(t.nearestAnyClass({0, -0.3f, 0}, 1).unobserved);
+  EXPECT_FALSE(t.nearestAnyClass({0.5f, 0, 0}, 1).unobserved);
+  // Observed shares: one heat point among two observed ones.
+  EXPECT_DOUBLE_EQ(t.classShare(1), 0.5);
+}
+
+// The cost bound (ICP's previous partner) never changes the answer, observed or not.
+TEST(PropertyIcpCameraLabels, CostBoundIsExactWithUnobservedPoints) {
+  const ClassTable table = ClassTable::defaults();
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> u(-3.0f, 3.0f);
+  std::uniform_int_distribution<int> cls(0, 3), coin(0, 2);
+  LabeledCloud target;
+  target.enableProperty();
+  for (int i = 0; i < 3000; ++i) {
+    const auto c = static_cast<ClassId>(cls(rng) == 3 ? cls(rng) : 0);
+    target.push_back({u(rng), u(rng), 0.3f * u(rng)}, c, 0, 0, c == 0 && coin(rng) == 0 ? NAN : 20.0f);
+  }
+  const RegistrationTarget t(target, table, RegistrationConfig{});
+  std::uniform_int_distribution<int> pick(-1, 2999);
+  int bounded = 0;
+  for (int q = 0; q < 3000; ++q) {
+    const Eigen::Vector3f p(u(rng), u(rng), 0.3f * u(rng));
+    const auto c = static_cast<ClassId>(cls(rng));
+    const bool observed = c != 0 || coin(rng) != 0;
+    const float bound = t.costBound(p, c, pick(rng), true, observed);
+    bounded += std::isfinite(bound);
+    const TargetMatch free = t.match(p, c, NAN, INFINITY, observed);
+    const TargetMatch tight = t.match(p, c, NAN, bound, observed);
+    ASSERT_EQ(free.index, tight.index) << "query " << q << " class " << int(c) << " observed " << observed;
+    if (free.index >= 0) EXPECT_LE(free.cost, bound);
+  }
+  EXPECT_GT(bounded, 100);
+}
+
+// Downsampling averages the values that were observed: a voxel is unobserved only when none of
+// its points was (the mean with a NaN would have made a half-seen voxel unobserved).
+TEST(PropertyIcpCameraLabels, DownsampledVoxelKeepsTheValuesObserved) {
+  LabeledCloud c;
+  c.enableProperty();
+  c.push_back({0.01f, 0.01f, 0.01f}, 0, 0, 0, 30.0f);
+  c.push_back({0.02f, 0.02f, 0.02f}, 0, 0, 0, NAN);
+  c.push_back({0.03f, 0.03f, 0.03f}, 0, 0, 0, 40.0f);
+  c.push_back({5.01f, 0.01f, 0.01f}, 0, 0, 0, NAN);
+  c.push_back({5.02f, 0.02f, 0.02f}, 0, 0, 0, NAN);
+  VoxelDownsampleConfig vd;
+  vd.voxel_size = 1.0;
+  const LabeledCloud d = voxelDownsample(c, vd);
+  ASSERT_EQ(d.size(), 2u);
+  const std::size_t seen = d.points[0].x() < 1.0f ? 0 : 1;
+  EXPECT_FLOAT_EQ(d.property[seen], 35.0f);
+  EXPECT_TRUE(std::isnan(d.property[1 - seen]));
 }
 
 TEST(PropertyIcpCameraLabels, WholeExtentRoundTripsThroughTheClassTableYaml) {

@@ -138,13 +138,17 @@ LabeledCloud downsample(const LabeledCloud& cloud, const VoxelDownsampleConfig& 
       const std::size_t begin = start[v], end = start[v + 1];
       Eigen::Vector3d sum = Eigen::Vector3d::Zero();
       double si = 0, st = 0, sp = 0;
+      std::size_t valued = 0;  // points with a property value (NaN = not observed)
       votes.clear();
       for (std::size_t k = begin; k < end; ++k) {
         const std::uint32_t i = grouped[k];
         sum += cloud.points[i].cast<double>();
         if (has_i) si += cloud.intensity[i];
         if (has_t) st += cloud.timestamps[i];
-        if (has_p) sp += cloud.property[i];
+        if (has_p && !std::isnan(cloud.property[i])) {
+          sp += cloud.property[i];
+          ++valued;
+        }
         const ClassId c = cloud.classes[i];
         auto it = std::find_if(votes.begin(), votes.end(), [c](const auto& e) { return e.first == c; });
         if (it == votes.end()) votes.push_back({c, 1}); else ++it->second;
@@ -163,7 +167,8 @@ LabeledCloud downsample(const LabeledCloud& cloud, const VoxelDownsampleConfig& 
       out.classes[o] = cls;
       if (has_i) out.intensity[o] = static_cast<float>(si / count);
       if (has_t) out.timestamps[o] = st / count;
-      if (has_p) out.property[o] = static_cast<float>(sp / count);
+      // The mean of the values observed: a voxel is unobserved only if none of its points was.
+      if (has_p) out.property[o] = valued ? static_cast<float>(sp / static_cast<double>(valued)) : std::nanf("");
     }
   });
   return out;

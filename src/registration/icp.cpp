@@ -288,8 +288,11 @@ void IcpSolver::pair(std::size_t k, const Eigen::Matrix3f& R, const Eigen::Vecto
   const float value = use_value_ ? source_.property[i] : std::numeric_limits<float>::quiet_NaN();
   Corr& cr = corr_[k];
   // The previous iteration's partner bounds the search (exact, see costBound).
-  const float bound = target_.costBound(p, cls, cr.target, use_labels_);
-  const TargetMatch m = use_labels_ ? target_.match(p, cls, value, bound) : target_.nearestAnyClass(p, cls, bound);
+  // A point no camera saw is no evidence of its class: it pairs without the penalty.
+  const bool observed = !use_labels_ || !unobservedPoint(source_, i, cls < is_property_.size() && is_property_[cls]);
+  const float bound = target_.costBound(p, cls, cr.target, use_labels_, observed);
+  const TargetMatch m =
+      use_labels_ ? target_.match(p, cls, value, bound, observed) : target_.nearestAnyClass(p, cls, bound);
   cr.target = static_cast<std::int32_t>(m.index);
   if (m.index < 0) return;
   // A same-class property pair constrains where the labelled patch is, which a plane residual
@@ -315,7 +318,7 @@ void IcpSolver::pair(std::size_t k, const Eigen::Matrix3f& R, const Eigen::Vecto
   cr.distance2 = m.distance2;
   cr.cross = m.cross_class;
   cr.weight = use_labels_ && cls < class_weight_.size() ? class_weight_[cls] : 1.0f;
-  if (m.cross_class && soft_ && use_labels_) cr.weight *= mismatch_weight_;
+  if (m.cross_class && !m.unobserved && soft_ && use_labels_) cr.weight *= mismatch_weight_;
 }
 
 // Adaptive robust scale from the observed residuals (median absolute residual), separately for
@@ -537,7 +540,7 @@ double labelAgreement(const LabeledCloud& source, const RegistrationTarget& targ
     const ClassId cls = source.classes[i];
     if (cls >= is_property.size() || !is_property[cls] || !source.points[i].allFinite()) continue;
     const TargetMatch m = target.nearestAnyClass(R * source.points[i] + t, cls);
-    if (m.index < 0) continue;
+    if (m.index < 0 || m.unobserved) continue;  // no sensor saw that target point: no evidence
     if (share.size() <= cls) share.resize(std::size_t(cls) + 1, -1.0);
     if (share[cls] < 0.0) share[cls] = target.classShare(cls);
     ++paired;

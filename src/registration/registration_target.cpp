@@ -147,13 +147,16 @@ void RegistrationTarget::build(const ClassTable& classes, const RegistrationConf
   // The continuous-property term needs the channel; without it the term is off.
   property_weight_ = cloud_.hasProperty() ? static_cast<float>(config.property_weight) : 0.0f;
 
-  for (ClassId c : cloud_.classes) {
+  ClassId max_id = 0;
+  for (ClassId id : classes.ids()) max_id = std::max(max_id, id);
+  markUnobserved(classes, max_id);
+  for (std::size_t i = 0; i < cloud_.size(); ++i) {
+    if (unobservedTarget(static_cast<std::int64_t>(i))) continue;
+    const ClassId c = cloud_.classes[i];
     if (class_count_.size() <= c) class_count_.resize(std::size_t(c) + 1, 0);
     ++class_count_[c];
   }
   // Same-class radius per class id (0 in the table = the default radius).
-  ClassId max_id = 0;
-  for (ClassId id : classes.ids()) max_id = std::max(max_id, id);
   class_radius_.assign(std::size_t(max_id) + 1, radius_);
   for (ClassId id : classes.ids()) {
     const double r = sameClassSearchRadius(classes.at(id));
@@ -170,7 +173,10 @@ void RegistrationTarget::build(const ClassTable& classes, const RegistrationConf
   }
   if (use_classes_) {
     std::vector<std::vector<std::uint32_t>> members(std::size_t(max_id) + 1);
-    for (std::size_t i = 0; i < cloud_.size(); ++i) members[cloud_.classes[i]].push_back(std::uint32_t(i));
+    std::vector<std::uint32_t> unobserved;
+    for (std::size_t i = 0; i < cloud_.size(); ++i)
+      (unobservedTarget(static_cast<std::int64_t>(i)) ? unobserved : members[cloud_.classes[i]]).push_back(std::uint32_t(i));
+    if (!unobserved.empty()) unobserved_index_ = makeIndex(index_kind_, cloud_.points, unobserved, cell_, radius_);
     slot_of_class_.assign(std::size_t(max_id) + 1, -1);
     for (std::size_t c = 0; c < members.size(); ++c) {
       if (members[c].empty()) continue;
@@ -204,6 +210,25 @@ void RegistrationTarget::build(const ClassTable& classes, const RegistrationConf
   }
 }
 
+// Flags the points no sensor observed (unobservedPoint()); leaves unobserved_ empty when there
+// are none, so fully labelled targets take exactly the paths they always took.
+void RegistrationTarget::markUnobserved(const ClassTable& classes, ClassId max_id) {
+  observed_points_ = cloud_.size();
+  if (!cloud_.hasProperty()) return;
+  std::vector<char> property_class(std::size_t(max_id) + 1, 0);
+  for (ClassId id : classes.ids()) property_class[id] = classes.isProperty(id);
+  std::vector<char> unobserved(cloud_.size(), 0);
+  std::size_t count = 0;
+  for (std::size_t i = 0; i < cloud_.size(); ++i) {
+    const ClassId c = cloud_.classes[i];
+    unobserved[i] = unobservedPoint(cloud_, i, c < property_class.size() && property_class[c]);
+    count += unobserved[i];
+  }
+  if (count == 0) return;
+  unobserved_ = std::move(unobserved);
+  observed_points_ = cloud_.size() - count;
+}
+
 float RegistrationTarget::sameClassRadius(ClassId cls) const {
   return use_classes_ && cls < class_radius_.size() ? class_radius_[cls] : radius_;
 }
@@ -230,7 +255,7 @@ bool RegistrationTarget::compatibleWith(const RegistrationConfig& config, const 
 }
 
 float RegistrationTarget::costBound(const Eigen::Vector3f& p, ClassId cls, std::int64_t previous,
-                                     bool labels) const {
+                                     bool labels, bool observed) const {
   constexpr float kNone = std::numeric_limits<float>::infinity();
   if (previous < 0 || previous >= static_cast<std::int64_t>(cloud_.size())) return kNone;
   const float d2 = (cloud_.points[previous] - p).squaredNorm();
@@ -241,10 +266,12 @@ float RegistrationTarget::costBound(const Eigen::Vector3f& p, ClassId cls, std::
     if (property_weight_ > 0.0f) return kNone;
     // Valid only inside its gate: an own-class partner within the class radius, another class
     // within the default radius (match()'s gates).
+    // A pair with an unobserved side: the default radius, no penalty (match()).
+    const bool free = !observed || unobservedTarget(previous);
     const bool same = cloud_.classes[previous] == cls;
-    const float gate = same ? sameClassRadius(cls) : radius_;
+    const float gate = same && !free ? sameClassRadius(cls) : radius_;
     if (!(d2 < gate * gate)) return kNone;
-    if (!same) cost += alpha_;
+    if (!same && !free) cost += alpha_;
   } else if (!(d2 < radius_ * radius_)) {  // plain ICP ranks by distance alone
     return kNone;
   }
@@ -254,7 +281,7 @@ float RegistrationTarget::costBound(const Eigen::Vector3f& p, ClassId cls, std::
 }
 
 TargetMatch RegistrationTarget::match(const Eigen::Vector3f& p, ClassId cls, float value,
-                                      float cost_bound) const {
+                                      float cost_bound, bool observed) const {
   TargetMatch m;
   const float r2 = radius_ * radius_;
   const auto propertyCost = [&](std::int64_t j) {
@@ -270,6 +297,7 @@ TargetMatch RegistrationTarget::match(const Eigen::Vector3f& p, ClassId cls, flo
     if (property_weight_ > 0.0f) m.cost += propertyCost(j);
     return m;
   }
+  if (!observed) return matchAnyClass(p, cls, value, cost_bound);
   // Same class first, within the class's (possibly wider) radius.
   const std::int16_t own = cls < slot_of_class_.size() ? slot_of_class_[cls] : std::int16_t(-1);
   float best = std::numeric_limits<float>::infinity();
@@ -280,6 +308,16 @@ TargetMatch RegistrationTarget::match(const Eigen::Vector3f& p, ClassId cls, flo
       m = {j, d2, d2, false};
       best = d2 + (property_weight_ > 0.0f ? propertyCost(j) : 0.0f);
       m.cost = best;
+    }
+  }
+  // An unobserved target point: the default radius, no penalty.
+  if (unobserved_index_) {
+    float d2;
+    const std::int64_t j = unobserved_index_->nearest(p, std::min(r2, std::min(best, cost_bound)), d2);
+    const float cost = j < 0 ? best : d2 + (property_weight_ > 0.0f ? propertyCost(j) : 0.0f);
+    if (cost < best) {
+      best = cost;
+      m = {j, d2, cost, cloud_.classes[j] != cls, true};
     }
   }
   // Another class can only win if d² + α < best, i.e. within sqrt(best − α) (and the gate).
@@ -301,6 +339,31 @@ TargetMatch RegistrationTarget::match(const Eigen::Vector3f& p, ClassId cls, flo
   return m;
 }
 
+// An unobserved source point: the cheapest of each class's nearest point (and the nearest
+// unobserved one) within the default radius, no penalty.
+TargetMatch RegistrationTarget::matchAnyClass(const Eigen::Vector3f& p, ClassId cls, float value,
+                                              float cost_bound) const {
+  TargetMatch m;
+  float best = std::numeric_limits<float>::infinity();
+  const auto consider = [&](const NeighborIndex& index) {
+    float d2;
+    const std::int64_t j = index.nearest(p, std::min(radius_ * radius_, std::min(best, cost_bound)), d2);
+    if (j < 0) return;
+    float cost = d2;
+    if (property_weight_ > 0.0f) {
+      const float dv = value - cloud_.property[j];
+      if (!std::isnan(dv)) cost += property_weight_ * dv * dv;
+    }
+    if (cost < best) {
+      best = cost;
+      m = {j, d2, cost, cloud_.classes[j] != cls, true};
+    }
+  };
+  for (const ClassSlot& slot : slots_) consider(*slot.index);
+  if (unobserved_index_) consider(*unobserved_index_);
+  return m;
+}
+
 TargetMatch RegistrationTarget::nearestAnyClass(const Eigen::Vector3f& p, ClassId cls,
                                                 float distance2_bound) const {
   TargetMatch m;
@@ -310,18 +373,21 @@ TargetMatch RegistrationTarget::nearestAnyClass(const Eigen::Vector3f& p, ClassI
     const std::int64_t j = index.nearest(p, best, d2);
     if (j >= 0 && (m.index < 0 || d2 < best)) {
       best = d2;
-      m = {j, d2, d2, cloud_.classes[j] != cls};
+      m = {j, d2, d2, cloud_.classes[j] != cls, unobservedTarget(j)};
     }
   };
-  if (all_) consider(*all_);
-  else
+  if (all_) {
+    consider(*all_);
+  } else {
     for (const ClassSlot& slot : slots_) consider(*slot.index);
+    if (unobserved_index_) consider(*unobserved_index_);
+  }
   return m;
 }
 
 double RegistrationTarget::classShare(ClassId cls) const {
   if (cloud_.empty() || cls >= class_count_.size()) return 0.0;
-  return static_cast<double>(class_count_[cls]) / static_cast<double>(cloud_.size());
+  return observed_points_ == 0 ? 0.0 : static_cast<double>(class_count_[cls]) / static_cast<double>(observed_points_);
 }
 
 }  // namespace hazmap

@@ -6,6 +6,7 @@
 // Build it once for a local map or a loop-closure candidate and register many sources against it.
 #include <Eigen/Core>
 #include <atomic>
+#include <cmath>
 #include <cstdint>
 #include <functional>
 #include <limits>
@@ -26,7 +27,19 @@ struct TargetMatch {
   float distance2 = 0.0f;   ///< squared Euclidean distance (m²)
   float cost = 0.0f;        ///< distance2 + penalty (what the rule minimised)
   bool cross_class = false;  ///< classes differ (plain ICP reports it too, without penalty)
+  /// One side of the pair was not observed (unobservedPoint()): paired without the mismatch
+  /// penalty, whatever the classes say.
+  bool unobserved = false;
 };
+
+/// A point no property sensor observed: its property value is NaN and its class is not a
+/// property class (a camera left it `none` because it never saw it, not because it saw it cold;
+/// a labelled point was observed whatever its value). Property ICP pairs such a point with any
+/// class without the mismatch penalty α: "not observed" is no evidence of "observed and none".
+/// Clouds without the property channel (label files, ground truth) have no unobserved points.
+inline bool unobservedPoint(const LabeledCloud& cloud, std::size_t i, bool property_class) {
+  return !property_class && cloud.hasProperty() && std::isnan(cloud.property[i]);
+}
 
 class RegistrationTarget {
  public:
@@ -74,12 +87,16 @@ class RegistrationTarget {
   /// The paper's rule for one (already transformed) source point of class `cls` with property
   /// value `value` (ignored unless the property term is on). `cost_bound`: the caller knows a
   /// candidate of at most this cost (see costBound); the search skips everything costlier, which
-  /// makes it cheap without changing its answer.
+  /// makes it cheap without changing its answer. `observed` false: the source point was not
+  /// observed (unobservedPoint()), so it pairs with the nearest point of any class within the
+  /// default radius, without penalty. An observed point pairs with an unobserved target point
+  /// within the default radius without penalty too; only observed, differing classes pay α.
   TargetMatch match(const Eigen::Vector3f& p, ClassId cls, float value,
-                    float cost_bound = std::numeric_limits<float>::infinity()) const;
+                    float cost_bound = std::numeric_limits<float>::infinity(), bool observed = true) const;
 
   /// The nearest target point of any class within the default radius, no penalty (labels
   /// ignored): what plain ICP would pair `p` with. `distance2_bound` as cost_bound above.
+  /// TargetMatch::unobserved tells whether that target point was observed.
   TargetMatch nearestAnyClass(const Eigen::Vector3f& p, ClassId cls,
                               float distance2_bound = std::numeric_limits<float>::infinity()) const;
 
@@ -88,8 +105,10 @@ class RegistrationTarget {
   /// `previous` (-1 = none). Infinity when that candidate is not within its gates any more (then
   /// it bounds nothing). Between ICP iterations a point moves little, so the bound is tight and
   /// the search touches one or two voxels instead of a neighbourhood.
-  float costBound(const Eigen::Vector3f& p, ClassId cls, std::int64_t previous, bool labels) const;
-  /// Share of target points of class `cls` (0 for an absent class).
+  /// `observed` as in match().
+  float costBound(const Eigen::Vector3f& p, ClassId cls, std::int64_t previous, bool labels,
+                  bool observed = true) const;
+  /// Share of class `cls` among the target's observed points (0 for an absent class).
   double classShare(ClassId cls) const;
 
   /// True if `config` asks for the same search structure this target was built with.
@@ -119,6 +138,15 @@ class RegistrationTarget {
   mutable std::vector<Eigen::Vector3f> normals_;
   std::unique_ptr<NeighborIndex> all_;  ///< every point (plain ICP, normals)
   std::vector<ClassSlot> slots_;        ///< one per class present in the target (use_classes)
+  /// Target points no sensor observed (unobservedPoint()), with classes: kept out of slots_ and
+  /// indexed here; they pair with any class within the default radius, without penalty.
+  /// unobserved_ is empty when the target has none (then every path is the labelled-only one).
+  std::vector<char> unobserved_;
+  std::unique_ptr<NeighborIndex> unobserved_index_;
+  std::size_t observed_points_ = 0;
+  bool unobservedTarget(std::int64_t j) const { return !unobserved_.empty() && unobserved_[j]; }
+  TargetMatch matchAnyClass(const Eigen::Vector3f& p, ClassId cls, float value, float cost_bound) const;
+  void markUnobserved(const ClassTable& classes, ClassId max_id);
   std::vector<std::int16_t> slot_of_class_;  ///< class id → slot, -1 = absent
   std::vector<float> class_radius_;     ///< class id → same-class radius (m)
   std::vector<std::size_t> class_count_;  ///< class id → points of that class
