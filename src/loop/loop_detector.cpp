@@ -228,6 +228,9 @@ double LoopDetector::crossCheckDistance(const LoopCandidate& cand, const PoseLis
 void LoopDetector::crossCheck(const LoopCandidate& cand, const PoseList& estimate, VerificationResult& v) const {
   const VerificationConfig& c = config_.verification;
   if (!(c.cross_check_chi2 > 0.0) || !(c.misfit_scale > 0.0)) return;
+  // Along a label-only direction both answers sit where the same labelled patches put them, so
+  // their agreement is no evidence there (corridor 4: 46→78, 90 cm off, agreed to d² = 0.15).
+  if (!v.registration.label_only_directions.empty()) return;
   const double d2 = crossCheckDistance(cand, estimate, v.closure.T_from_to, v.registration.covariance);
   if (!(d2 <= c.cross_check_chi2)) return;
   setLoopCovariance(v.closure, v.closure.covariance - misfitTerm(v.registration, c));
