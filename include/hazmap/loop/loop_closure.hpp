@@ -37,6 +37,7 @@ const char* toString(CandidateMethod method);
 ///     landmark_merge_distance: 1.0
 ///     partial_landmark_window: 10
 ///     submap_keyframes: 3
+///     cross_check_query_keyframes: 6
 ///     landmarks:    {cluster_tolerance: 0.7, min_points: 8, max_range: 15, min_purity: 0.2}
 ///     candidates:   {min_index_gap: 15, search_radius: 3, max_candidates: 3,
 ///                    constellation: {model: planar, distance_tolerance: 0.8, inlier_distance: 1,
