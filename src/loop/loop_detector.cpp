@@ -214,7 +214,10 @@ double LoopDetector::crossCheckDistance(const LoopCandidate& cand, const PoseLis
   const VerificationConfig& c = config_.verification;
   const bool submaps = config_.cross_check_query_keyframes > 0;
   const LabeledCloud query = submaps ? querySubmap(cand.query, estimate) : *cloud(cand.query);
-  const LabeledCloud match = submaps ? submap(cand.match, cand.query, estimate) : *cloud(cand.match);
+  // The match submap is the forward registration's (cached) target: its points, not a rebuild.
+  const auto match_target = submaps ? submapTarget(cand.match, cand.query, estimate) : nullptr;
+  const auto match_scan = submaps ? nullptr : cloud(cand.match);
+  const LabeledCloud& match = submaps ? match_target->cloud() : *match_scan;
   if (query.empty() || match.empty()) return std::numeric_limits<double>::quiet_NaN();
   const RegistrationTarget target(query, classes_, c.registration);
   const RegistrationResult rev = registerClouds(match, target, cand.initial_guess.inverse(), classes_, c.registration);
