@@ -147,6 +147,99 @@ TEST(LoopSubmap, PlacesNeighbourKeyframesWithTheEstimateInTheMatchFrame) {
   EXPECT_THROW(det.submap(2, 5, PoseList(est.begin(), est.begin() + 3)), Error);
 }
 
+TEST(LoopSubmap, TheQuerySubmapPlacesTheKeyframesBeforeTheQueryInItsFrame) {
+  ClassTable classes = ClassTable::defaults();
+  LoopClosureConfig c;
+  c.keyframe_voxel = 0.0;
+  c.cross_check_query_keyframes = 2;
+  LoopDetector det(classes, c);
+  PoseList est;
+  for (int k = 0; k < 5; ++k) {
+    LabeledCloud cloud;
+    cloud.push_back(Eigen::Vector3f(1.0f, static_cast<float>(k), 0.0f), 0);
+    det.addKeyframe(cloud);
+    est.push_back(pose(2.0 * k, 0, 0));
+  }
+  // Keyframe 4 with the two before it (3 at −2 m, 2 at −4 m); keyframe 5 does not exist.
+  const LabeledCloud s = det.querySubmap(4, est);
+  ASSERT_EQ(s.size(), 3u);
+  for (const Eigen::Vector3f e : {Eigen::Vector3f(1, 4, 0), Eigen::Vector3f(-1, 3, 0), Eigen::Vector3f(-3, 2, 0)}) {
+    bool found = false;
+    for (const auto& p : s.points) found = found || (p - e).norm() < 1e-5f;
+    EXPECT_TRUE(found) << e.transpose();
+  }
+  EXPECT_EQ(det.querySubmap(1, est).size(), 2u);  // only keyframe 0 before it
+  EXPECT_THROW(det.querySubmap(5, est), Error);
+  EXPECT_THROW(det.querySubmap(4, PoseList(est.begin(), est.begin() + 3)), Error);
+}
+
+// The reverse cross-check, submap against submap: a right loop agrees with it, one 5 cm / 8 mrad
+// off (naraha's wrong long-baseline loops: height and pitch) does not. The query keyframe's own
+// scan sees only the floor, so registering onto it alone cannot check the loop; its neighbourhood can.
+namespace {
+
+LabeledCloud corridorWorld() {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  LabeledCloud w;
+  for (int i = 0; i < 40000; ++i) {
+    const float x = -6.0f + 30.0f * u(rng), y = -4.0f + 8.0f * u(rng), z = 3.0f * u(rng);
+    w.push_back(Eigen::Vector3f(x, y, 0.0f), 0);                     // floor
+    w.push_back(Eigen::Vector3f(x, i % 2 ? -4.0f : 4.0f, z), 0);     // walls
+  }
+  for (int b = 0; b < 12; ++b)  // pillars along the walls fix the corridor's axis
+    for (int i = 0; i < 600; ++i) {
+      const float a = 6.2832f * u(rng);
+      const float y = b % 2 ? -3.4f : 3.4f;
+      w.push_back(Eigen::Vector3f(-4.0f + 2.3f * b + 0.3f * std::cos(a), y + 0.3f * std::sin(a), 3.0f * u(rng)), 0);
+    }
+  return w;
+}
+
+LabeledCloud scanAt(const LabeledCloud& world, const Eigen::Isometry3d& T_world_sensor, bool floor_only) {
+  LabeledCloud scan;
+  const Eigen::Isometry3f T = T_world_sensor.inverse().cast<float>();
+  for (std::size_t i = 0; i < world.size(); ++i) {
+    const Eigen::Vector3f p = T * world.points[i];
+    if (p.head<2>().norm() > 10.0f || (floor_only && std::abs(world.points[i].z()) > 1e-6f)) continue;
+    scan.push_back(p, world.classes[i]);
+  }
+  return scan;
+}
+
+}  // namespace
+
+TEST(LoopCrossCheck, TheQuerysNeighbourhoodTellsARightLoopFromOneOffInHeightAndPitch) {
+  const LabeledCloud world = corridorWorld();
+  ClassTable classes = ClassTable::defaults();
+  LoopClosureConfig c;
+  c.verification.registration.use_classes = false;
+  // Keyframes 0–5 at x = 0…5, 6–16 far away (nothing there), 17–23 at x = 4…10: the same corridor again.
+  PoseList truth;
+  for (int k = 0; k < 24; ++k) truth.push_back(k < 6 ? pose(k, 0, 0) : k < 17 ? pose(200.0 + k, 0, 0) : pose(k - 13.0, 0, 0));
+  auto make = [&](std::size_t query_keyframes) {
+    c.cross_check_query_keyframes = query_keyframes;
+    auto det = std::make_unique<LoopDetector>(classes, c);
+    for (int k = 0; k < 24; ++k) det->addKeyframe(scanAt(world, truth[k], k == 23));
+    return det;
+  };
+  LoopCandidate cand;
+  cand.match = 3;
+  cand.query = 23;
+  const Eigen::Isometry3d right = truth[3].inverse() * truth[23];  // 7 m apart
+  cand.initial_guess = pose(0.1, -0.05, 0.01) * right;
+  Vector6d off;
+  off << 0.0, 0.0, 0.05, 0.0, 0.008, 0.0;
+  const Eigen::Isometry3d wrong = se3Exp(off) * right;
+  const Matrix6d forward = isotropic(0.005, 0.0005);
+  const auto submaps = make(6);
+  EXPECT_LT(submaps->crossCheckDistance(cand, truth, right, forward), 1.0);
+  EXPECT_GT(submaps->crossCheckDistance(cand, truth, wrong, forward), 10.0);
+  // The floor-only scan alone leaves x, y and yaw to the guess: the right loop fails the check.
+  const double single = make(0)->crossCheckDistance(cand, truth, right, forward);
+  EXPECT_FALSE(single <= c.verification.cross_check_chi2) << single;
+}
+
 TEST(GuardedOptimisation, AGraphThatCannotBeSolvedKeepsThePreviousEstimate) {
   PoseGraph g;
   g.addNode(pose(0, 0, 0));

@@ -152,6 +152,8 @@ const ConfigFields<LoopClosureConfig>& configFields(ConfigTag<LoopClosureConfig>
                    "Classes labelled only in part (camera labels) take their landmarks from this many keyframes on each side (0 = as the others)")
           .integer("submap_keyframes", &C::submap_keyframes, atLeast(0),
                    "Loops are verified against the matched keyframe and this many neighbours on each side (0 = its scan alone)")
+          .integer("cross_check_query_keyframes", &C::cross_check_query_keyframes, atLeast(0),
+                   "The reverse cross-check registers the match submap onto the query keyframe and this many keyframes before it (0 = the two scans alone)")
           .section("landmarks", &C::landmarks, "")
           .section("candidates", &C::candidates, "")
           .section("verification", &C::verification, "")

@@ -37,6 +37,7 @@ const char* toString(CandidateMethod method);
 ///     landmark_merge_distance: 1.0
 ///     partial_landmark_window: 10
 ///     submap_keyframes: 3
+///     cross_check_query_keyframes: 6
 ///     landmarks:    {cluster_tolerance: 0.7, min_points: 8, max_range: 15, min_purity: 0.2}
 ///     candidates:   {min_index_gap: 15, search_radius: 3, max_candidates: 3,
 ///                    constellation: {model: planar, distance_tolerance: 0.8, inlier_distance: 1,
@@ -90,6 +91,11 @@ struct LoopClosureConfig {
   /// (a dense *submap*, as dense as the map the tracker registers to). 0 = the matched scan alone.
   /// Only keyframes at least candidates.min_index_gap older than the query join.
   std::size_t submap_keyframes = 3;
+  /// The reverse cross-check (verification.cross_check_chi2) registers the match keyframe's
+  /// submap onto the query keyframe together with this many keyframes before it, placed with the
+  /// current estimate in the query's frame: submap against submap, from scans the forward loop
+  /// did not use on the query side. 0 = the match keyframe's scan onto the query's scan alone.
+  std::size_t cross_check_query_keyframes = 6;
   LandmarkConfig landmarks;
   CandidateSearchConfig candidates;
   VerificationConfig verification;
@@ -159,6 +165,17 @@ class LoopDetector {
   std::shared_ptr<const RegistrationTarget> submapTarget(std::size_t k, std::size_t query,
                                                          const PoseList& estimate) const;
   std::size_t submapTargetsBuilt() const { return submap_targets_built_; }
+  /// The query side of the reverse cross-check: keyframe `query` and the
+  /// cross_check_query_keyframes keyframes before it, placed in query's frame with `estimate`
+  /// and downsampled to keyframe_voxel.
+  LabeledCloud querySubmap(std::size_t query, const PoseList& estimate) const;
+  /// The reverse cross-check (verification.cross_check_chi2) of a forward loop answer T_from_to
+  /// (match ← query) with covariance `forward_covariance`: the match submap registered onto
+  /// querySubmap from the inverse of the candidate's guess; returns the χ² (6 dof) of the two
+  /// answers' difference against twice the forward covariance plus the floors, NaN when the
+  /// reverse registration fails. With cross_check_query_keyframes = 0: the two single scans.
+  double crossCheckDistance(const LoopCandidate& cand, const PoseList& estimate, const Eigen::Isometry3d& T_from_to,
+                            const Matrix6d& forward_covariance) const;
 
   /// Candidates for `query` by the configured method. `estimate` (world ← keyframe, at least
   /// query + 1 poses) is used by the distance search and, with landmark_window > 1, to merge
@@ -192,7 +209,7 @@ class LoopDetector {
   std::vector<LoopCandidate> constellationCandidates(std::size_t query, std::size_t newest, const PoseList& estimate) const;
   /// Verifies and gates the candidates into `det` (at most max_loops_per_keyframe accepted).
   void verifyInto(const std::vector<LoopCandidate>& candidates, const PoseList& estimate, LoopDetection& det);
-  void crossCheck(const LoopCandidate& cand, VerificationResult& v) const;
+  void crossCheck(const LoopCandidate& cand, const PoseList& estimate, VerificationResult& v) const;
   bool neighbourhood_ = false;
   std::vector<std::vector<PropertyLandmark>> whole_landmarks_, partial_landmarks_;  ///< landmarks_ split by class kind
   std::vector<std::shared_ptr<const LabeledCloud>> clouds_;  ///< null = evicted

@@ -69,14 +69,16 @@ struct VerificationConfig {
   /// the Hessian's weak axis with the misfit the registration actually has. This is its weight
   /// (0 = off).
   double misfit_scale = 1.0;
-  /// Cross-check of the misfit term (issue 14): the loop is registered again the other way
-  /// (match keyframe → query keyframe, from the inverse of the candidate's guess); when the two
-  /// answers agree to within this χ² (6 dof, against twice the forward ICP covariance plus the
-  /// floors) the loop keeps its full information and the misfit term is not added. 0 = off
-  /// (the misfit term is always added). Both answers come from the same two scans, so a right
-  /// loop's agree far inside the independent-estimates χ²: at 16.8 (6 dof, 99 %) naraha 2's
-  /// wrong 22→152 (4 cm off, d² = 8.3) kept full information; 4 separates it
-  /// (docs/pose_graph.md, fifth shift).
+  /// Cross-check of the misfit term (issue 14): the loop is registered again the other way — the
+  /// match keyframe's submap onto the query keyframe and the keyframes before it
+  /// (LoopClosureConfig::cross_check_query_keyframes), from the inverse of the candidate's guess;
+  /// when the two answers agree to within this χ² (6 dof, against twice the forward ICP covariance
+  /// plus the floors) the loop keeps its full information and the misfit term is not added. A loop
+  /// with a label-only direction always keeps the term. 0 = off (the misfit term is always added).
+  /// With single scans on the reverse side (first version) naraha 2's wrong 22→152 (4 cm off)
+  /// agreed at d² = 8.3 and right 180° loops disagreed (d² 11–60); submap against submap, the wrong
+  /// long-baseline loops of naraha 1–6 give d² 15–940 and the right ones ≤ 4 but for 8 of 185
+  /// (docs/pose_graph.md, sixth shift).
   double cross_check_chi2 = 4.0;
   /// Along a direction the geometry leaves degenerate and only labelled patches constrain
   /// (RegistrationResult::label_only_directions: a featureless corridor's axis), the loop knows
