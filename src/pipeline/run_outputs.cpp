@@ -64,6 +64,7 @@ nlohmann::json runJson(const SlamResult& r, const SlamConfig& config, const RunS
   j["loop_closure"] = {{"enabled", usesPoseGraph(r.method)},
                        {"candidate_method", toString(config.loop_closure.method)},
                        {"keyframes", r.keyframes},
+                       {"keyframes_searched", r.keyframes_searched},
                        {"candidates", r.loop_candidates},
                        {"verified", r.loops_verified},
                        {"accepted", r.loops.size()},

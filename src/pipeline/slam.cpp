@@ -15,6 +15,7 @@
 #include "hazmap/io/atomic_file.hpp"
 #include "hazmap/pipeline/map_entropy.hpp"
 #include "pipeline/keyframe_spill.hpp"
+#include "pipeline/loop_schedule.hpp"
 
 namespace hazmap {
 
@@ -263,7 +264,10 @@ class SlamRun {
     if (spill_) spill_->store(keyframe_frames_.back(), cloud);
     const std::size_t k = loops_->addKeyframe(std::move(cloud));
     addAnchorEdge();
+    if (!schedule_.searches(k)) return void(result_.timings.loop_s += secondsSince(t_loop));
+    ++result_.keyframes_searched;
     const LoopDetection detection = loops_->detect(k, keyframeEstimate());
+    if (!detection.accepted.empty()) schedule_.accepted(k);
     result_.loop_candidates += detection.candidates.size();
     for (const auto& v : detection.verifications) {
       result_.loops_verified += v.accepted ? 1 : 0;
@@ -452,6 +456,7 @@ class SlamRun {
   std::vector<Eigen::Isometry3d> tracked_;
   bool pgo_ = false;
   std::unique_ptr<LoopDetector> loops_;
+  LoopSchedule schedule_{config_.loop_search_every, config_.loop_pause_after_accept};
   std::optional<KeyframeSpill> spill_;
   std::vector<std::size_t> keyframe_frames_;  // keyframe index → frame index
   std::vector<Matrix6d> step_covariance_;      // frame index → its odometry edge's covariance
