@@ -9,9 +9,10 @@
 // time: tracking_s (preprocessing, ICP, local map), loop_s (keyframes, landmarks, loop search and
 // verification), graph_s (optimisations). The peer must run first (registration order).
 //   BM_Naraha_PropertyIcp                   tracking alone (the peer)
-//   BM_Naraha_PropertyIcpPgo                the defaults (slam.loop_search_every,
-//                                           slam.loop_pause_after_accept)
-//   BM_Naraha_PropertyIcpPgo_EveryKeyframe  loops searched on every keyframe (the old schedule)
+//   BM_Naraha_PropertyIcpPgo                the defaults (loops searched on every keyframe)
+//   BM_Naraha_PropertyIcpPgo_Every2nd       slam.loop_search_every = 2: half the loop searches
+//                                           (same naraha mean map error over seeds 1–8, but not
+//                                           on every seed or scene: docs/measurements.md)
 #include <benchmark/benchmark.h>
 
 #include "bench_main.hpp"
@@ -87,15 +88,14 @@ void BM_Naraha_PropertyIcp(benchmark::State& state) {
 void BM_Naraha_PropertyIcpPgo(benchmark::State& state) {
   runConfig(state, SlamConfig::forMethod(SlamMethod::PropertyIcpPgo), false);
 }
-void BM_Naraha_PropertyIcpPgo_EveryKeyframe(benchmark::State& state) {
+void BM_Naraha_PropertyIcpPgo_Every2nd(benchmark::State& state) {
   SlamConfig c = SlamConfig::forMethod(SlamMethod::PropertyIcpPgo);
-  c.loop_search_every = 1;
-  c.loop_pause_after_accept = 0;
+  c.loop_search_every = 2;
   runConfig(state, c, false);
 }
 BENCHMARK(BM_Naraha_PropertyIcp)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
 BENCHMARK(BM_Naraha_PropertyIcpPgo)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
-BENCHMARK(BM_Naraha_PropertyIcpPgo_EveryKeyframe)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
+BENCHMARK(BM_Naraha_PropertyIcpPgo_Every2nd)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
 
 }  // namespace
 
