@@ -72,3 +72,32 @@ TEST(LoopSchedule, ARunSearchesOnlyTheScheduledKeyframes) {
   SlamConfig bad = every;
   EXPECT_THROW(bad.applySetting("slam.loop_search_every=0"), Error);
 }
+
+// The loop stage beside tracking (SlamConfig::loops_beside_tracking) is a pure speed change: the
+// same run with it off gives the same trajectory, graph and loop decisions bit for bit. Naraha's
+// first 45 frames hold loop candidates that are verified and rejected (low fitness, the gate).
+TEST(LoopsBesideTracking, SameResultsBitForBit) {
+  const auto dir = test::writeSimulatedSequence("loops-beside", "naraha", 1, 45);
+  const Sequence seq = Sequence::open(dir);
+  SlamConfig beside = SlamConfig::forMethod(SlamMethod::PropertyIcpPgo);
+  beside.threads = 2;
+  beside.loops_beside_tracking = true;
+  SlamConfig after = beside;
+  after.loops_beside_tracking = false;
+  const SlamResult a = runSlam(seq, beside), b = runSlam(seq, after);
+  EXPECT_GT(a.loop_candidates, 0u);
+  EXPECT_EQ(a.loop_candidates, b.loop_candidates);
+  EXPECT_EQ(a.keyframes, b.keyframes);
+  EXPECT_EQ(a.loops.size(), b.loops.size());
+  ASSERT_EQ(a.rejected_loops.size(), b.rejected_loops.size());
+  for (std::size_t i = 0; i < a.rejected_loops.size(); ++i) {
+    EXPECT_EQ(a.rejected_loops[i].to_frame, b.rejected_loops[i].to_frame);
+    EXPECT_EQ(a.rejected_loops[i].detail, b.rejected_loops[i].detail);
+  }
+  ASSERT_EQ(a.graph.edges.size(), b.graph.edges.size());
+  for (std::size_t i = 0; i < a.graph.edges.size(); ++i)
+    EXPECT_TRUE(a.graph.edges[i].information == b.graph.edges[i].information) << "edge " << i;
+  ASSERT_EQ(a.estimate.poses.size(), b.estimate.poses.size());
+  for (std::size_t i = 0; i < a.estimate.poses.size(); ++i)
+    EXPECT_TRUE(a.estimate.poses[i].matrix() == b.estimate.poses[i].matrix()) << "frame " << i;
+}

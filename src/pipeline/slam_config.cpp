@@ -32,6 +32,8 @@ const ConfigFields<SlamConfig>& slamSectionFields() {
                    "Search loops on every n-th keyframe (online cost; 1 = every keyframe)")
           .integer("loop_pause_after_accept", &C::loop_pause_after_accept, nonNegative(),
                    "Keyframes not searched for loops after one whose search accepted a loop")
+          .flag("loops_beside_tracking", &C::loops_beside_tracking,
+                "Run a keyframe's loop stage while the next scan is tracked (same results; not with reanchor_map)")
           .number("min_translation_sigma", &C::min_translation_sigma, positive(),
                   "m; floor on an ICP increment's standard deviation before inverting it")
           .number("min_rotation_sigma", &C::min_rotation_sigma, positive(), "rad")

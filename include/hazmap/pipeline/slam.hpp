@@ -119,6 +119,10 @@ struct SlamConfig {
   /// neighbour; docs/measurements.md has the cost and the map errors). 1 and 0 = every keyframe.
   std::size_t loop_search_every = 1;
   std::size_t loop_pause_after_accept = 0;
+  /// Run a keyframe's loop stage (search, verification, optimisation) while the next scan is
+  /// tracked, the two sharing the threads; same results bit for bit (the next scan's node joins
+  /// the graph after both). Ignored with reanchor_map (tracking then needs the optimised map).
+  bool loops_beside_tracking = true;
   int threads = 0;  ///< 0 = TBB default
   /// Motion compensation of scans with per-point times (spinning LiDARs in bags and captures;
   /// sequence folders of .bin scans have no times and are never touched).
