@@ -63,7 +63,7 @@ nlohmann::json runJson(const SlamResult& r, const SlamConfig& config, const RunS
     rejected.push_back({{"from", l.from_frame}, {"to", l.to_frame}, {"reason", toString(l.reason)}, {"detail", l.detail}});
   j["loop_closure"] = {{"enabled", usesPoseGraph(r.method)},
                        {"candidate_method", toString(config.loop_closure.method)},
-                       {"keyframes", r.keyframes},
+                       {"keyframes", r.keyframes}, {"keyframes_searched", r.keyframes_searched},
                        {"candidates", r.loop_candidates},
                        {"verified", r.loops_verified},
                        {"accepted", r.loops.size()},

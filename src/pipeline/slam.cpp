@@ -1,6 +1,7 @@
 #include "hazmap/pipeline/slam.hpp"
 
 #include <tbb/global_control.h>
+#include <tbb/parallel_invoke.h>
 #include <Eigen/Eigenvalues>
 
 #include <chrono>
@@ -15,6 +16,7 @@
 #include "hazmap/io/atomic_file.hpp"
 #include "hazmap/pipeline/map_entropy.hpp"
 #include "pipeline/keyframe_spill.hpp"
+#include "pipeline/loop_schedule.hpp"
 
 namespace hazmap {
 
@@ -87,21 +89,23 @@ class SlamRun {
   /// Fig. 1 for one scan: wheel-odometry guess → deskewing and (property-)ICP tracking → the
   /// graph's node and odometry edge → on keyframes, loop closure (and online optimisation).
   void addScan(Scan scan) {
-    const auto t_frame = Clock::now();
     if (frames() == 0) start(scan);
     const std::optional<Eigen::Isometry3d> wheel_increment = wheelIncrement(scan);
-    FrameRecord record = track(scan, wheel_increment);
-    record.milliseconds = 1e3 * secondsSince(t_frame);
-    result_.timings.tracking_s += secondsSince(t_frame);
+    FrameRecord record = trackBesideLoops(scan, wheel_increment);
     const Eigen::Isometry3d pose = addToTrajectory(record);
     addOdometryEdge(record);
     result_.frames.push_back(std::move(record));
-    if (pgo_ && isKeyframe(pose)) closeLoops(pose, std::move(scan.cloud));
+    if (!pgo_ || !isKeyframe(pose)) return;
+    if (loopsBesideTracking())
+      pending_loops_.emplace(PendingLoops{pose, std::move(scan.cloud)});
+    else
+      closeLoops(pose, std::move(scan.cloud));
   }
 
   std::size_t frames() const { return result_.frames.size(); }
 
   SlamResult finish() {
+    runPendingLoops();
     result_.source = source_.describe();  // after the scans: a decoder knows its sensor by then
     result_.tracked = trajectoryOf(tracked_);
     if (pgo_) {
@@ -247,6 +251,39 @@ class SlamRun {
     return cov;
   }
 
+  /// Online cost (SlamConfig::loops_beside_tracking): a keyframe's loop stage runs while the
+  /// next scan is tracked. The tracker reads nothing the loop stage writes (graph, keyframes,
+  /// loops) and the loop stage nothing the tracker writes, and the next scan's node and edges
+  /// join the graph only after both finished, so the results are the same bit for bit. Not when
+  /// an optimisation re-anchors the tracker's map (reanchor_map): then tracking waits for it.
+  bool loopsBesideTracking() const { return config_.loops_beside_tracking && !config_.reanchor_map; }
+
+  /// track(), with the previous keyframe's pending loop stage (if any) running beside it.
+  FrameRecord trackBesideLoops(Scan& scan, const std::optional<Eigen::Isometry3d>& wheel_increment) {
+    FrameRecord record;
+    const auto tracking = [&] {
+      const auto t_frame = Clock::now();
+      record = track(scan, wheel_increment);
+      record.milliseconds = 1e3 * secondsSince(t_frame);
+      result_.timings.tracking_s += secondsSince(t_frame);
+    };
+    if (!pending_loops_) {
+      tracking();
+      return record;
+    }
+    PendingLoops p = std::move(*pending_loops_);
+    pending_loops_.reset();
+    tbb::parallel_invoke(tracking, [&] { closeLoops(p.pose, std::move(p.cloud)); });
+    return record;
+  }
+
+  void runPendingLoops() {
+    if (!pending_loops_) return;
+    PendingLoops p = std::move(*pending_loops_);
+    pending_loops_.reset();
+    closeLoops(p.pose, std::move(p.cloud));
+  }
+
   bool isKeyframe(const Eigen::Isometry3d& pose) const {
     if (keyframe_frames_.empty()) return true;
     const Eigen::Isometry3d since = last_keyframe_pose_.inverse() * pose;
@@ -263,7 +300,10 @@ class SlamRun {
     if (spill_) spill_->store(keyframe_frames_.back(), cloud);
     const std::size_t k = loops_->addKeyframe(std::move(cloud));
     addAnchorEdge();
+    if (!schedule_.searches(k)) return void(result_.timings.loop_s += secondsSince(t_loop));
+    ++result_.keyframes_searched;
     const LoopDetection detection = loops_->detect(k, keyframeEstimate());
+    if (!detection.accepted.empty()) schedule_.accepted(k);
     result_.loop_candidates += detection.candidates.size();
     for (const auto& v : detection.verifications) {
       result_.loops_verified += v.accepted ? 1 : 0;
@@ -452,6 +492,12 @@ class SlamRun {
   std::vector<Eigen::Isometry3d> tracked_;
   bool pgo_ = false;
   std::unique_ptr<LoopDetector> loops_;
+  LoopSchedule schedule_{config_.loop_search_every, config_.loop_pause_after_accept};
+  struct PendingLoops {
+    Eigen::Isometry3d pose;
+    LabeledCloud cloud;
+  };
+  std::optional<PendingLoops> pending_loops_;  // the newest keyframe's loop stage, not yet run
   std::optional<KeyframeSpill> spill_;
   std::vector<std::size_t> keyframe_frames_;  // keyframe index → frame index
   std::vector<Matrix6d> step_covariance_;      // frame index → its odometry edge's covariance

@@ -28,6 +28,12 @@ const ConfigFields<SlamConfig>& slamSectionFields() {
                   "m of travel after which a frame becomes a loop-closure keyframe")
           .number("keyframe_angle", &C::keyframe_angle, positive(), "rad of turn, likewise")
           .flag("optimise_online", &C::optimise_online, "Re-optimise the graph whenever a loop is accepted")
+          .integer("loop_search_every", &C::loop_search_every, atLeast(1),
+                   "Search loops on every n-th keyframe (online cost; 1 = every keyframe)")
+          .integer("loop_pause_after_accept", &C::loop_pause_after_accept, nonNegative(),
+                   "Keyframes not searched for loops after one whose search accepted a loop")
+          .flag("loops_beside_tracking", &C::loops_beside_tracking,
+                "Run a keyframe's loop stage while the next scan is tracked (same results; not with reanchor_map)")
           .number("min_translation_sigma", &C::min_translation_sigma, positive(),
                   "m; floor on an ICP increment's standard deviation before inverting it")
           .number("min_rotation_sigma", &C::min_rotation_sigma, positive(), "rad")

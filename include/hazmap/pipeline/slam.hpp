@@ -113,6 +113,16 @@ struct SlamConfig {
   double keyframe_angle = 0.2;
   /// Re-optimise the graph as soon as a loop is accepted (online), and once at the end.
   bool optimise_online = true;
+  /// Online cost (issue 14): loops are searched on every loop_search_every-th keyframe, and after
+  /// a keyframe whose search accepted a loop the next loop_pause_after_accept keyframes are not
+  /// searched (along a revisited stretch every keyframe would otherwise close a loop to its old
+  /// neighbour; docs/measurements.md has the cost and the map errors). 1 and 0 = every keyframe.
+  std::size_t loop_search_every = 1;
+  std::size_t loop_pause_after_accept = 0;
+  /// Run a keyframe's loop stage (search, verification, optimisation) while the next scan is
+  /// tracked, the two sharing the threads; same results bit for bit (the next scan's node joins
+  /// the graph after both). Ignored with reanchor_map (tracking then needs the optimised map).
+  bool loops_beside_tracking = true;
   int threads = 0;  ///< 0 = TBB default
   /// Motion compensation of scans with per-point times (spinning LiDARs in bags and captures;
   /// sequence folders of .bin scans have no times and are never touched).
@@ -197,6 +207,7 @@ struct SlamResult {
   PoseGraph graph;           ///< nodes = frames
   std::vector<LoopRecord> loops;
   std::size_t keyframes = 0, loop_candidates = 0, loops_verified = 0;
+  std::size_t keyframes_searched = 0;  ///< keyframes whose loops were searched (SlamConfig::loop_search_every)
   std::vector<PoseGraphReport> optimisations;
   std::vector<OptimisationOutcome> optimisation_outcomes;  ///< one per optimisation
   std::vector<LoopRejectionRecord> rejected_loops;

@@ -1,0 +1,103 @@
+// The loop-search schedule (SlamConfig::loop_search_every, loop_pause_after_accept): which
+// keyframes the back end searches for loops, alone and inside a run.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <vector>
+
+#include "hazmap/core/error.hpp"
+#include "hazmap/io/sequence.hpp"
+#include "hazmap/pipeline/slam.hpp"
+#include "pipeline/loop_schedule.hpp"
+#include "test_helpers.hpp"
+
+using namespace hazmap;
+
+namespace {
+
+std::vector<std::size_t> searched(LoopSchedule& s, std::size_t n, const std::vector<std::size_t>& accepted) {
+  std::vector<std::size_t> out;
+  for (std::size_t k = 0; k < n; ++k) {
+    if (!s.searches(k)) continue;
+    out.push_back(k);
+    if (std::find(accepted.begin(), accepted.end(), k) != accepted.end()) s.accepted(k);
+  }
+  return out;
+}
+
+}  // namespace
+
+TEST(LoopSchedule, EveryKeyframeByDefault) {
+  LoopSchedule s(1, 0);
+  EXPECT_EQ(searched(s, 6, {1, 2}), (std::vector<std::size_t>{0, 1, 2, 3, 4, 5}));
+  EXPECT_EQ(s.skipped(), 0u);
+}
+
+TEST(LoopSchedule, EveryNthKeyframe) {
+  LoopSchedule s(3, 0);
+  EXPECT_EQ(searched(s, 10, {3}), (std::vector<std::size_t>{0, 3, 6, 9}));
+  EXPECT_EQ(s.skipped(), 6u);
+}
+
+TEST(LoopSchedule, PauseAfterAnAcceptedLoop) {
+  LoopSchedule s(1, 2);
+  // 2 accepted: 3, 4 skipped; 5 accepted: 6, 7 skipped.
+  EXPECT_EQ(searched(s, 10, {2, 5}), (std::vector<std::size_t>{0, 1, 2, 5, 8, 9}));
+  // Both: after the pause the stride decides (4 accepted: pause 1 skips 5, 6 is on stride;
+  // pause 2 skips 5 and 6, and 7 is off stride).
+  LoopSchedule both(2, 1);
+  EXPECT_EQ(searched(both, 10, {4}), (std::vector<std::size_t>{0, 2, 4, 6, 8}));
+  LoopSchedule longer(2, 2);
+  EXPECT_EQ(searched(longer, 10, {4}), (std::vector<std::size_t>{0, 2, 4, 8}));
+}
+
+TEST(LoopSchedule, ARunSearchesOnlyTheScheduledKeyframes) {
+  const auto dir = test::writeSimulatedSequence("loop-schedule", "corridor", 3, 12);
+  const Sequence seq = Sequence::open(dir);
+  SlamConfig every = SlamConfig::forMethod(SlamMethod::PropertyIcpPgo);
+  every.loop_search_every = 1;
+  every.loop_pause_after_accept = 0;
+  const SlamResult all = runSlam(seq, every);
+  EXPECT_EQ(all.keyframes_searched, all.keyframes);
+  SlamConfig third = every;
+  third.loop_search_every = 3;
+  const SlamResult r = runSlam(seq, third);
+  ASSERT_GT(r.keyframes, 3u);
+  EXPECT_EQ(r.keyframes, all.keyframes);  // tracking is untouched
+  EXPECT_EQ(r.keyframes_searched, (r.keyframes + 2) / 3);
+  EXPECT_EQ(r.tracked.poses.size(), all.tracked.poses.size());
+  for (std::size_t i = 0; i < r.tracked.poses.size(); ++i)
+    EXPECT_TRUE(r.tracked.poses[i].isApprox(all.tracked.poses[i], 0.0)) << "frame " << i;
+  // Bad settings name the key.
+  SlamConfig bad = every;
+  EXPECT_THROW(bad.applySetting("slam.loop_search_every=0"), Error);
+}
+
+// The loop stage beside tracking (SlamConfig::loops_beside_tracking) is a pure speed change: the
+// same run with it off gives the same trajectory, graph and loop decisions bit for bit. Naraha's
+// first 45 frames hold loop candidates that are verified and rejected (low fitness, the gate).
+TEST(LoopsBesideTracking, SameResultsBitForBit) {
+  const auto dir = test::writeSimulatedSequence("loops-beside", "naraha", 1, 45);
+  const Sequence seq = Sequence::open(dir);
+  SlamConfig beside = SlamConfig::forMethod(SlamMethod::PropertyIcpPgo);
+  beside.threads = 2;
+  beside.loops_beside_tracking = true;
+  SlamConfig after = beside;
+  after.loops_beside_tracking = false;
+  const SlamResult a = runSlam(seq, beside), b = runSlam(seq, after);
+  EXPECT_GT(a.loop_candidates, 0u);
+  EXPECT_EQ(a.loop_candidates, b.loop_candidates);
+  EXPECT_EQ(a.keyframes, b.keyframes);
+  EXPECT_EQ(a.loops.size(), b.loops.size());
+  ASSERT_EQ(a.rejected_loops.size(), b.rejected_loops.size());
+  for (std::size_t i = 0; i < a.rejected_loops.size(); ++i) {
+    EXPECT_EQ(a.rejected_loops[i].to_frame, b.rejected_loops[i].to_frame);
+    EXPECT_EQ(a.rejected_loops[i].detail, b.rejected_loops[i].detail);
+  }
+  ASSERT_EQ(a.graph.edges.size(), b.graph.edges.size());
+  for (std::size_t i = 0; i < a.graph.edges.size(); ++i)
+    EXPECT_TRUE(a.graph.edges[i].information == b.graph.edges[i].information) << "edge " << i;
+  ASSERT_EQ(a.estimate.poses.size(), b.estimate.poses.size());
+  for (std::size_t i = 0; i < a.estimate.poses.size(); ++i)
+    EXPECT_TRUE(a.estimate.poses[i].matrix() == b.estimate.poses[i].matrix()) << "frame " << i;
+}
