@@ -224,7 +224,7 @@ Estimate keepGuessAlong(const std::vector<Vector6d>& basis, const RegistrationRe
 // answer kept, with the fallback covariance along the axis.
 void flagWeakAxis(OdometryFrame& f, const RegistrationResult& r, Estimate& estimate, const OdometryConfig& config) {
   if (!config.relocalise_suspect || !config.flag_weak_axis) return;
-  const std::optional<Eigen::Vector3d> axis = weakHorizontalAxis(r, config.suspect_weak_axis_ratio);
+  const std::optional<Eigen::Vector3d> axis = weakHorizontalAxis(r, config.flag_weak_axis_ratio);
   if (!axis) return;
   Vector6d b = Vector6d::Zero();
   b.head<3>() = *axis;
@@ -339,6 +339,10 @@ void Odometry::track(OdometryFrame& f, const LabeledCloud& source, std::optional
   } else {
     f.status = FrameStatus::Tracked;
   }
+  // A relocalised answer flagged only by the looser flag_weak_axis_ratio still levels the velocity.
+  const bool level_velocity = f.status == FrameStatus::Relocalised &&
+                              !(config_.relocalise_suspect && config_.flag_weak_axis &&
+                                weakHorizontalAxis(r, config_.suspect_weak_axis_ratio));
   if (f.status == FrameStatus::Tracked || f.status == FrameStatus::Relocalised) flagWeakAxis(f, r, estimate, config_);
   f.increment = normalized(prev_pose.inverse() * W * estimate.pose);
   // W-frame perturbation → previous-frame perturbation of the increment
@@ -351,7 +355,7 @@ void Odometry::track(OdometryFrame& f, const LabeledCloud& source, std::optional
   // next guess keeps its travel and yaw but not the roll / pitch of that correction (carried on at
   // constant velocity where the floor leaves pitch weak, naraha without odometry drifted 1 deg a
   // frame until the next relocalisation).
-  impl_->velocity = f.status == FrameStatus::Relocalised ? levelled(f.increment) : f.increment;
+  impl_->velocity = level_velocity ? levelled(f.increment) : f.increment;
   impl_->has_velocity = true;
   impl_->velocity_verified = f.status != FrameStatus::Fallback;
   impl_->fallback_streak = f.status == FrameStatus::Fallback ? impl_->fallback_streak + 1 : 0;

@@ -49,7 +49,9 @@ static ConfigFields<OdometryConfig>& addWholeMapFields(ConfigFields<OdometryConf
                    "Frame to map: lost frames that wait at most; beyond, the oldest enters the map at its guessed pose")
           .flag("flag_weak_axis", &C::flag_weak_axis,
                 "With relocalise_suspect: a frame weakly constrained along a horizontal axis is flagged "
-                "(degenerate), not tracked");
+                "(degenerate), not tracked")
+          .number("flag_weak_axis_ratio", &C::flag_weak_axis_ratio, closed(0, 1),
+                  "With flag_weak_axis: the weak-axis ratio (as suspect_weak_axis_ratio) below which a frame is flagged");
 }
 
 const ConfigFields<OdometryConfig>& configFields(ConfigTag<OdometryConfig>) {

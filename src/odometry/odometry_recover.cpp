@@ -145,6 +145,31 @@ void addWeakAxisProbes(std::vector<Start>& starts, const RegistrationResult& fro
   }
 }
 
+// A recovery answer can slide along a corridor as far as its seed was off (a "no motion" seed
+// ends 1 m short and passes every check; corridor worst day: 13 of 99 frames silently wrong) even
+// when the Hessian does not call the axis weak. ICP restarted a step or two either way along the
+// answer's weakest horizontal axis shows whether another position fits as well: then the answer
+// is ambiguous (empty when it is not).
+std::string probeAnswerAlongWeakestAxis(const LabeledCloud& source, const RegistrationTarget& target,
+                                        const ClassTable& classes, const OdometryConfig& config,
+                                        const OdometryConfig& seed_config, const Verified& answer) {
+  const auto axis = weakHorizontalAxis(answer.registration, 1.0);
+  if (!axis) return {};
+  const Eigen::Isometry3d& pose = answer.registration.transform;
+  for (const double k : {-2.0, -1.0, 1.0, 2.0}) {
+    Eigen::Isometry3d s = pose;
+    s.translation() += k * config.relocalise_axis_step * *axis;
+    RegistrationResult r = registerClouds(source, target, s, classes, config.registration);
+    if (!registrationFailure(r, s, seed_config).empty() || !distinct(r.transform, pose, config)) continue;
+    const double fit = surfaceFit(source, target, r.transform, config.relocalise_inlier_distance);
+    if (fit < answer.fit - config.relocalise_ambiguity) continue;
+    char name[64];
+    std::snprintf(name, sizeof name, "its answer %+.1f m along its weakest axis", k * config.relocalise_axis_step);
+    return describeAmbiguity(answer, Verified{std::move(r), name, false, fit, true});
+  }
+  return {};
+}
+
 }  // namespace
 
 bool onlyVerticalDegeneracy(const std::vector<Vector6d>& directions) {
@@ -264,6 +289,13 @@ std::optional<Odometry::Recovery> Odometry::recover(OdometryFrame& f, const Labe
     const double guess_fit = surfaceFit(source, target, guess, config_.relocalise_inlier_distance);
     if (verified[best].fit < guess_fit + config_.relocalise_min_gain) {
       f.global.outcome = describeNoGain(verified[best], guess_fit);
+      return std::nullopt;
+    }
+  }
+  if (config_.relocalise_suspect && !verified[best].from_guess) {
+    std::string doubt = probeAnswerAlongWeakestAxis(source, target, classes_, config_, seed_config, verified[best]);
+    if (!doubt.empty()) {
+      f.global.outcome = std::move(doubt);
       return std::nullopt;
     }
   }
