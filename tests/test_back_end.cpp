@@ -1,6 +1,7 @@
 // Issue 14's back end: the calibrated χ² gate, submap construction, the graph's chain
 // covariance, the failure paths (a loop the solution rejects, a graph Ceres cannot solve), the
 // records in run.json, and the rule that loops and PGO never make the map worse.
+#include <algorithm>
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -35,6 +36,22 @@ Eigen::Isometry3d pose(double x, double y, double yaw) {
 
 Matrix6d isotropic(double st, double sr) {
   return (Vector6d() << st * st, st * st, st * st, sr * sr, sr * sr, sr * sr).finished().asDiagonal();
+}
+
+// Keyframes 0..n-1 of one point each, (1, k, 0) in the keyframe's frame, placed 2 m apart along x.
+PoseList addPointKeyframes(LoopDetector& det, int n) {
+  PoseList est;
+  for (int k = 0; k < n; ++k) {
+    LabeledCloud cloud;
+    cloud.push_back(Eigen::Vector3f(1.0f, static_cast<float>(k), 0.0f), 0);
+    det.addKeyframe(cloud);
+    est.push_back(pose(2.0 * k, 0, 0));
+  }
+  return est;
+}
+
+bool hasPoint(const LabeledCloud& cloud, const Eigen::Vector3f& e) {
+  return std::any_of(cloud.points.begin(), cloud.points.end(), [&](const Eigen::Vector3f& p) { return (p - e).norm() < 1e-5f; });
 }
 
 }  // namespace
@@ -120,22 +137,12 @@ TEST(LoopSubmap, PlacesNeighbourKeyframesWithTheEstimateInTheMatchFrame) {
   c.submap_keyframes = 1;
   c.candidates.min_index_gap = 2;
   LoopDetector det(classes, c);
-  PoseList est;
-  for (int k = 0; k < 6; ++k) {
-    LabeledCloud cloud;
-    cloud.push_back(Eigen::Vector3f(1.0f, static_cast<float>(k), 0.0f), 0);
-    det.addKeyframe(cloud);
-    est.push_back(pose(2.0 * k, 0, 0));
-  }
+  const PoseList est = addPointKeyframes(det, 6);
   // Keyframe 2 with neighbours 1 and 3 (a query at 5 allows up to 5 − 2 = 3).
   LabeledCloud s = det.submap(2, 5, est);
   ASSERT_EQ(s.size(), 3u);
   std::vector<Eigen::Vector3f> expected{{1, 2, 0}, {-1, 1, 0}, {3, 3, 0}};  // own, k=1 at −2 m, k=3 at +2 m
-  for (const auto& e : expected) {
-    bool found = false;
-    for (const auto& p : s.points) found = found || (p - e).norm() < 1e-5f;
-    EXPECT_TRUE(found) << e.transpose();
-  }
+  for (const auto& e : expected) EXPECT_TRUE(hasPoint(s, e)) << e.transpose();
   // A query too close in index keeps the newer neighbour out.
   EXPECT_EQ(det.submap(2, 4, est).size(), 2u);
   // Off: the keyframe's own cloud.
@@ -153,21 +160,12 @@ TEST(LoopSubmap, TheQuerySubmapPlacesTheKeyframesBeforeTheQueryInItsFrame) {
   c.keyframe_voxel = 0.0;
   c.cross_check_query_keyframes = 2;
   LoopDetector det(classes, c);
-  PoseList est;
-  for (int k = 0; k < 5; ++k) {
-    LabeledCloud cloud;
-    cloud.push_back(Eigen::Vector3f(1.0f, static_cast<float>(k), 0.0f), 0);
-    det.addKeyframe(cloud);
-    est.push_back(pose(2.0 * k, 0, 0));
-  }
+  const PoseList est = addPointKeyframes(det, 5);
   // Keyframe 4 with the two before it (3 at −2 m, 2 at −4 m); keyframe 5 does not exist.
   const LabeledCloud s = det.querySubmap(4, est);
   ASSERT_EQ(s.size(), 3u);
-  for (const Eigen::Vector3f e : {Eigen::Vector3f(1, 4, 0), Eigen::Vector3f(-1, 3, 0), Eigen::Vector3f(-3, 2, 0)}) {
-    bool found = false;
-    for (const auto& p : s.points) found = found || (p - e).norm() < 1e-5f;
-    EXPECT_TRUE(found) << e.transpose();
-  }
+  for (const Eigen::Vector3f e : {Eigen::Vector3f(1, 4, 0), Eigen::Vector3f(-1, 3, 0), Eigen::Vector3f(-3, 2, 0)})
+    EXPECT_TRUE(hasPoint(s, e)) << e.transpose();
   EXPECT_EQ(det.querySubmap(1, est).size(), 2u);  // only keyframe 0 before it
   EXPECT_THROW(det.querySubmap(5, est), Error);
   EXPECT_THROW(det.querySubmap(4, PoseList(est.begin(), est.begin() + 3)), Error);

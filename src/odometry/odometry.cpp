@@ -52,17 +52,6 @@ Odometry::Odometry(const ClassTable& classes, const OdometryConfig& config,
 
 Odometry::~Odometry() = default;
 
-namespace {
-
-using Clock = std::chrono::steady_clock;
-double msSince(Clock::time_point t) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - t).count();
-}
-
-
-
-}  // namespace
-
 Matrix6d fallbackCovariance(const OdometryConfig& c) {
   Vector6d d;
   const double t2 = c.fallback_sigma_translation * c.fallback_sigma_translation;
@@ -142,7 +131,7 @@ std::string suspicion(const RegistrationResult& r, const Eigen::Isometry3d& gues
   if (!config.relocalise_suspect) return {};
   if (!has_prior) return "no motion prior";
   char buf[160];
-  if (typical_rmse > 0.0 && r.inlier_rmse > config.relocalise_max_rmse_ratio * typical_rmse) {
+  if (fitsWorseThanTracked(r, typical_rmse, config)) {
     std::snprintf(buf, sizeof buf, "poor fit: inlier RMSE %.3f m above %.1f x that of tracked frames (%.3f m)",
                   r.inlier_rmse, config.relocalise_max_rmse_ratio, typical_rmse);
     return buf;

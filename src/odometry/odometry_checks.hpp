@@ -2,13 +2,16 @@
 // Failure detection of the odometry, shared by tracking (odometry.cpp) and the recovery of
 // frames where tracking failed (odometry_recover.cpp).
 #include <Eigen/Geometry>
+#include <chrono>
 #include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "hazmap/registration/global_registration.hpp"
 #include "hazmap/registration/registration_target.hpp"
 
+#include "hazmap/core/se3.hpp"
 #include "hazmap/odometry/odometry.hpp"
 
 namespace hazmap {
@@ -51,6 +54,29 @@ struct Odometry::Impl {
 /// larger than max_correction_*.
 std::string registrationFailure(const RegistrationResult& r, const Eigen::Isometry3d& start,
                                 const OdometryConfig& config);
+
+using Clock = std::chrono::steady_clock;
+inline double msSince(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
+
+/// Whether the inlier RMSE is above relocalise_max_rmse_ratio × that of tracked frames
+/// (`typical_rmse`, 0 = not known yet): a right answer fits about as well as they do.
+inline bool fitsWorseThanTracked(const RegistrationResult& r, double typical_rmse, const OdometryConfig& config) {
+  return typical_rmse > 0.0 && r.inlier_rmse > config.relocalise_max_rmse_ratio * typical_rmse;
+}
+
+/// Whether `motion` is one the platform can make between two frames (relocalise_max_translation,
+/// relocalise_max_rotation).
+inline bool plausibleMotion(const Eigen::Isometry3d& motion, const OdometryConfig& config) {
+  return translationNorm(motion) <= config.relocalise_max_translation &&
+         rotationAngle(motion) <= config.relocalise_max_rotation;
+}
+
+/// The odometry's global registration settings: its use_classes follows the registration's.
+inline GlobalRegistrationConfig globalConfigOf(const OdometryConfig& config) {
+  GlobalRegistrationConfig gc = config.global;
+  gc.use_classes = gc.use_classes && config.registration.use_classes;
+  return gc;
+}
 
 /// The covariance of a fallback increment (fallback_sigma_*).
 Matrix6d fallbackCovariance(const OdometryConfig& config);

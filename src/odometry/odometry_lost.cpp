@@ -21,10 +21,6 @@ Eigen::Isometry3d interpolate(const Eigen::Isometry3d& a, const Eigen::Isometry3
   return normalized(a * se3Exp(s * se3Log(a.inverse() * b)));
 }
 
-bool plausible(const Eigen::Isometry3d& increment, const OdometryConfig& c) {
-  return translationNorm(increment) <= c.relocalise_max_translation && rotationAngle(increment) <= c.relocalise_max_rotation;
-}
-
 }  // namespace
 
 LabeledCloud Odometry::reestimateLostFrames(OdometryFrame& f, const LabeledCloud& f_world) {
@@ -49,14 +45,14 @@ LabeledCloud Odometry::reestimateLostFrames(OdometryFrame& f, const LabeledCloud
     std::string why = registrationFailure(r, guess, config_);
     if (why.empty() && !onlyVerticalDegeneracy(r.degenerate_directions)) why = "degenerate";
     if (why.empty() && weakHorizontalAxis(r, config_.suspect_weak_axis_ratio)) why = "weakly constrained along an axis";
-    if (why.empty() && impl_->typical_rmse > 0.0 && r.inlier_rmse > config_.relocalise_max_rmse_ratio * impl_->typical_rmse)
+    if (why.empty() && fitsWorseThanTracked(r, impl_->typical_rmse, config_))
       why = "inlier RMSE above that of tracked frames";
     // Interpolated translation is close for a ground robot (a kick turns it, a lost scan is a
     // longer step at the same pace); an answer farther from it slid somewhere (a corridor, 1 m
     // along its axis: 13 of 99 frames silently wrong when such answers were used).
     if (why.empty() && correctionOf(r, guess).head<3>().norm() > config_.suspect_correction_translation)
       why = "far from the interpolated pose";
-    if (why.empty() && (!plausible(prev.inverse() * r.transform, config_) || !plausible(r.transform.inverse() * f.pose, config_)))
+    if (why.empty() && (!plausibleMotion(prev.inverse() * r.transform, config_) || !plausibleMotion(r.transform.inverse() * f.pose, config_)))
       why = "implausible motion";
     char buf[200];
     // Its increment starts from the previous frame's pose: after a frame left interpolated it is

@@ -44,9 +44,6 @@ double surfaceFit(const LabeledCloud& source, const RegistrationTarget& target, 
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
-double msSince(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
-
 struct Start {
   Eigen::Isometry3d pose;  ///< W space
   std::string name;
@@ -126,8 +123,6 @@ std::size_t pickAnswer(const std::vector<Verified>& verified, const OdometryConf
 
 }  // namespace
 
-std::optional<Eigen::Vector3d> weakHorizontalAxis(const RegistrationResult& r, double ratio);
-
 namespace {
 
 // Along an axis the geometry barely constrains (a corridor), ICP stays near where it starts:
@@ -197,8 +192,7 @@ std::optional<Eigen::Vector3d> weakHorizontalAxis(const RegistrationResult& r, d
 
 std::optional<Eigen::Isometry3d> Odometry::globalStart(OdometryFrame& f, const LabeledCloud& source,
                                                        const RegistrationTarget& target, const Eigen::Isometry3d& W) {
-  GlobalRegistrationConfig gc = config_.global;
-  gc.use_classes = gc.use_classes && config_.registration.use_classes;
+  const GlobalRegistrationConfig gc = globalConfigOf(config_);
   // Target points near the sensor; the viewpoint orients the target's normals.
   const Eigen::Vector3d viewpoint = (W.inverse() * frames_.back().pose).translation();
   const GlobalRegistrationTarget prepared = prepareGlobalTarget(
@@ -253,7 +247,7 @@ std::optional<Odometry::Recovery> Odometry::recover(OdometryFrame& f, const Labe
       // there, and tracking keeps the guess along it (tanks seed 3: "no motion" won this way).
       std::snprintf(buf, sizeof buf, "degenerate (%zu unconstrained direction(s))", r.degenerate_directions.size());
       why = buf;
-    } else if (why.empty() && impl_->typical_rmse > 0.0 && r.inlier_rmse > config_.relocalise_max_rmse_ratio * impl_->typical_rmse) {
+    } else if (why.empty() && fitsWorseThanTracked(r, impl_->typical_rmse, config_)) {
       std::snprintf(buf, sizeof buf, "inlier RMSE %.3f m", r.inlier_rmse);
       why = buf;
     } else if (why.empty() && (translationNorm(increment) > config_.relocalise_max_translation ||

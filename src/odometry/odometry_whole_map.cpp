@@ -22,19 +22,6 @@ struct WholeMap {
   std::size_t keyframes = 0, points = 0;
 };
 
-namespace {
-
-using Clock = std::chrono::steady_clock;
-double msSince(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
-
-GlobalRegistrationConfig globalConfig(const OdometryConfig& c) {
-  GlobalRegistrationConfig gc = c.global;
-  gc.use_classes = gc.use_classes && c.registration.use_classes;
-  return gc;
-}
-
-}  // namespace
-
 void Odometry::keepKeyframe(const OdometryFrame& f, const LabeledCloud& frame) {
   if (!config_.relocalise || !config_.whole_map_relocalise || frame.empty()) return;
   if (f.status != FrameStatus::First && f.status != FrameStatus::Tracked && f.status != FrameStatus::Relocalised)
@@ -68,7 +55,7 @@ static std::shared_ptr<const WholeMap> buildWholeMap(const Keyframes& keyframes,
   auto map = std::make_shared<WholeMap>();
   map->keyframes = keyframes.size();
   map->points = cloud.size();
-  map->global = prepareGlobalTarget(cloud, classes, globalConfig(config), centre.cast<float>());
+  map->global = prepareGlobalTarget(cloud, classes, globalConfigOf(config), centre.cast<float>());
   map->icp = std::make_unique<RegistrationTarget>(std::move(cloud), classes, config.registration);
   return map;
 }
@@ -77,10 +64,8 @@ static std::shared_ptr<const WholeMap> buildWholeMap(const Keyframes& keyframes,
 // apart. Remembers this answer for the next frame either way.
 bool Odometry::confirmed(const Eigen::Isometry3d& answer, std::size_t frame) {
   if (!config_.whole_map_confirm) return true;
-  const bool agrees = impl_->whole_map_candidate && impl_->whole_map_candidate_frame + 1 == frame && [&] {
-    const Eigen::Isometry3d d = impl_->whole_map_candidate->inverse() * answer;
-    return translationNorm(d) <= config_.relocalise_max_translation && rotationAngle(d) <= config_.relocalise_max_rotation;
-  }();
+  const bool agrees = impl_->whole_map_candidate && impl_->whole_map_candidate_frame + 1 == frame &&
+                      plausibleMotion(impl_->whole_map_candidate->inverse() * answer, config_);
   impl_->whole_map_candidate = answer;
   impl_->whole_map_candidate_frame = frame;
   return agrees;
@@ -106,7 +91,7 @@ std::optional<RegistrationResult> Odometry::relocaliseInWholeMap(OdometryFrame& 
     impl_->whole_map_version = impl_->reanchors;
   }
   const WholeMap& map = *impl_->whole_map;
-  const GlobalRegistrationResult g = registerGlobally(source, map.global, classes_, globalConfig(config_));
+  const GlobalRegistrationResult g = registerGlobally(source, map.global, classes_, globalConfigOf(config_));
   f.global.tried = f.global.whole_map = true;
   f.global.status = g.status;
   f.global.score = g.score;
@@ -122,7 +107,7 @@ std::optional<RegistrationResult> Odometry::relocaliseInWholeMap(OdometryFrame& 
     if (why.empty() && !r.degenerate_directions.empty()) why = "degenerate";
     // Along a weakly constrained axis (a corridor) any place along it fits: no proof of where.
     if (why.empty() && weakHorizontalAxis(r, config_.suspect_weak_axis_ratio)) why = "weakly constrained along an axis";
-    if (why.empty() && impl_->typical_rmse > 0.0 && r.inlier_rmse > config_.relocalise_max_rmse_ratio * impl_->typical_rmse)
+    if (why.empty() && fitsWorseThanTracked(r, impl_->typical_rmse, config_))
       why = "inlier RMSE above that of tracked frames";
     if (why.empty() && fit < config_.whole_map_min_fit) why = "fits poorly";
     if (why.empty() && fit < guess_fit + config_.relocalise_min_gain) why = "fits no better than the guess";

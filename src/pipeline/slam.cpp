@@ -267,13 +267,10 @@ class SlamRun {
       record.milliseconds = 1e3 * secondsSince(t_frame);
       result_.timings.tracking_s += secondsSince(t_frame);
     };
-    if (!pending_loops_) {
+    if (pending_loops_)
+      tbb::parallel_invoke(tracking, [&] { runPendingLoops(); });
+    else
       tracking();
-      return record;
-    }
-    PendingLoops p = std::move(*pending_loops_);
-    pending_loops_.reset();
-    tbb::parallel_invoke(tracking, [&] { closeLoops(p.pose, std::move(p.cloud)); });
     return record;
   }
 
