@@ -207,6 +207,8 @@ class LoopDetector {
   bool candidatePlausible(const LoopCandidate& cand, const PoseList& estimate, LoopDetection& det) const;
   /// Constellation candidates of `query` with neighbourhoods reaching at most keyframe `newest`.
   std::vector<LoopCandidate> constellationCandidates(std::size_t query, std::size_t newest, const PoseList& estimate) const;
+  /// Neighbourhood candidates moved to the keyframe of the matched stretch nearest the query.
+  std::vector<LoopCandidate> nearestInStretch(std::vector<LoopCandidate> candidates, const PoseList& estimate) const;
   /// Verifies and gates the candidates into `det` (at most max_loops_per_keyframe accepted).
   void verifyInto(const std::vector<LoopCandidate>& candidates, const PoseList& estimate, LoopDetection& det);
   void crossCheck(const LoopCandidate& cand, const PoseList& estimate, VerificationResult& v) const;
