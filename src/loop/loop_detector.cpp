@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <limits>
+#include <optional>
 
 namespace hazmap {
 
@@ -115,32 +116,34 @@ std::vector<LoopCandidate> LoopDetector::constellationCandidates(std::size_t que
   places[query] = placeLandmarks(query, newest, estimate);
   for (std::size_t j = 0; j + gap <= query; ++j) places[j] = placeLandmarks(j, query - gap, estimate);
   std::vector<LoopCandidate> found = findConstellationCandidates(query, places, config_.candidates);
-  return neighbourhood_ ? nearestInStretch(std::move(found), estimate) : found;
+  return neighbourhood_ && config_.partial_nearest_keyframe ? nearestInStretch(std::move(found), estimate) : found;
 }
 
-// A neighbourhood constellation describes a stretch of ±partial_landmark_window keyframes, so the
-// keyframe it names is any of them, often one 9–13 m from the query; registered from there the
-// loop rests on the far, sparse rings of both scans and comes out biased (naraha camera labels:
-// +2.5 to +6 cm in z, 4–8 mrad pitch, at NEES 7–14). The stretch's keyframe nearest the query
-// under the candidate's own guess (placed with the locally accurate estimate) is where the loop
-// is verified instead; duplicates keep the better-ranked candidate.
+// A neighbourhood constellation describes a stretch of keyframes, so the keyframe it names is any
+// of them, often one 9–13 m from the query; registered from there the loop rests on the far,
+// sparse rings of both scans and comes out biased (naraha camera labels, frame to local map:
+// +2.5 to +6 cm in z, 4–8 mrad pitch, at NEES 7–14). Each candidate is verified instead at the
+// stretch's keyframe nearest the query under the candidate's own guess (placed with the locally
+// accurate estimate) that no better-ranked candidate of this query took, so the candidates try
+// the query's nearest keyframes in turn.
 std::vector<LoopCandidate> LoopDetector::nearestInStretch(std::vector<LoopCandidate> cands, const PoseList& estimate) const {
-  const std::size_t p = config_.partial_landmark_window, gap = config_.candidates.min_index_gap;
+  // Both constellations span ±partial_landmark_window keyframes, so the landmarks they share put
+  // the query within twice that of the named keyframe along the old path.
+  const std::size_t p = 2 * config_.partial_landmark_window, gap = config_.candidates.min_index_gap;
   std::vector<LoopCandidate> out;
-  for (LoopCandidate c : cands) {
-    const std::size_t m = c.match, last = std::min(m + p, c.query - gap);
-    const Eigen::Isometry3d T_world_query = estimate[m] * c.initial_guess;
-    double best = translationNorm(c.initial_guess);
+  for (const LoopCandidate& named : cands) {
+    const std::size_t m = named.match, last = std::min(m + p, named.query - gap);
+    const Eigen::Isometry3d T_world_query = estimate[m] * named.initial_guess;
+    std::optional<LoopCandidate> best;
     for (std::size_t j = m >= p ? m - p : 0; j <= last; ++j) {
+      if (std::any_of(out.begin(), out.end(), [&](const LoopCandidate& o) { return o.match == j; })) continue;
       const Eigen::Isometry3d T_j_query = estimate[j].inverse() * T_world_query;
-      if (translationNorm(T_j_query) < best) {
-        best = translationNorm(T_j_query);
-        c.match = j;
-        c.initial_guess = T_j_query;
-      }
+      if (best && translationNorm(T_j_query) >= translationNorm(best->initial_guess)) continue;
+      best = named;
+      best->match = j;
+      best->initial_guess = T_j_query;
     }
-    const bool seen = std::any_of(out.begin(), out.end(), [&](const LoopCandidate& o) { return o.match == c.match; });
-    if (!seen) out.push_back(c);
+    if (best) out.push_back(*best);
   }
   return out;
 }

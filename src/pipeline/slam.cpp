@@ -153,6 +153,8 @@ class SlamRun {
       loop_config.submap_keyframes = 0;
     if (config_.misfit_only_frame_to_map && config_.odometry.mode != OdometryMode::FrameToMap)
       loop_config.verification.misfit_scale = 0.0;
+    if (config_.nearest_partial_loops_only_frame_to_map && config_.odometry.mode != OdometryMode::FrameToMap)
+      loop_config.partial_nearest_keyframe = false;
     loops_ = std::make_unique<LoopDetector>(classes_, loop_config);
     if (config_.innovation_gate)
       loops_->setRelativeCovariance([this](std::size_t from, std::size_t to) { return relativeCovariance(from, to); });

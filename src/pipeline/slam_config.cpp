@@ -63,7 +63,9 @@ const ConfigFields<SlamConfig>& slamSectionFields() {
           .flag("submaps_only_frame_to_map", &C::submaps_only_frame_to_map,
                 "Verify loops against submaps only when tracking is frame-to-map (frame-to-frame: scan to scan)")
           .flag("misfit_only_frame_to_map", &C::misfit_only_frame_to_map,
-                "The loop covariance's misfit term (verification.misfit_scale) only when tracking is frame-to-map");
+                "The loop covariance's misfit term (verification.misfit_scale) only when tracking is frame-to-map")
+          .flag("nearest_partial_loops_only_frame_to_map", &C::nearest_partial_loops_only_frame_to_map,
+                "Camera-label loops at the matched stretch's nearest keyframe (loop_closure.partial_nearest_keyframe) only when tracking is frame-to-map");
   return fields;
 }
 

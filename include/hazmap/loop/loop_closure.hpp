@@ -36,6 +36,7 @@ const char* toString(CandidateMethod method);
 ///     landmark_window: 5
 ///     landmark_merge_distance: 1.0
 ///     partial_landmark_window: 10
+///     partial_nearest_keyframe: true
 ///     submap_keyframes: 3
 ///     cross_check_query_keyframes: 6
 ///     landmarks:    {cluster_tolerance: 0.7, min_points: 8, max_range: 15, min_purity: 0.2}
@@ -86,6 +87,13 @@ struct LoopClosureConfig {
   /// keyframes ahead are known once the robot has driven on, so each keyframe is queried again
   /// this many keyframes later (LoopDetector::detect). No effect on a table without such classes.
   std::size_t partial_landmark_window = 10;
+  /// Such a neighbourhood constellation names any keyframe of the matched stretch, often one 9–13 m
+  /// from the query. true: each candidate is verified at the stretch's keyframe nearest the query
+  /// under the candidate's guess (the next-nearest for the query's next candidate, and so on);
+  /// false: at the keyframe the constellation named. Registered from 9–13 m the loops come out
+  /// biased (naraha camera labels, frame to local map: 2.5–6 cm too high, PGO worse than
+  /// tracking); docs/properties.md. No effect on a table without partial classes.
+  bool partial_nearest_keyframe = true;
   /// Verification target: the matched keyframe's scan together with this many keyframes on each
   /// side of it, placed with the current estimate in its frame and downsampled to keyframe_voxel
   /// (a dense *submap*, as dense as the map the tracker registers to). 0 = the matched scan alone.
