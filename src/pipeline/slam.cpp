@@ -37,6 +37,13 @@ Matrix6d flooredCovariance(const Matrix6d& covariance, double min_translation_si
   return eig.eigenvectors() * values.asDiagonal() * eig.eigenvectors().transpose();
 }
 
+// The positive semi-definite part of a symmetric matrix (negative eigenvalues set to zero).
+Matrix6d positivePart(const Matrix6d& m) {
+  Eigen::SelfAdjointEigenSolver<Matrix6d> eig(0.5 * (m + m.transpose()));
+  const Eigen::Matrix<double, 6, 1> values = eig.eigenvalues().cwiseMax(0.0);
+  return eig.eigenvectors() * values.asDiagonal() * eig.eigenvectors().transpose();
+}
+
 Matrix6d inverseOf(const Matrix6d& covariance) {
   Eigen::SelfAdjointEigenSolver<Matrix6d> eig(0.5 * (covariance + covariance.transpose()));
   Eigen::Matrix<double, 6, 1> values = eig.eigenvalues().cwiseMax(1e-12);
@@ -209,7 +216,27 @@ class SlamRun {
     rec.stalled = (f.status == FrameStatus::Tracked || f.status == FrameStatus::Degenerate) &&
                   !f.registration.converged && f.registration.termination == Termination::MaxIterations;
     rec.points = f.source_points;
+    rec.guess_covariance = guessCovariance(f);
+    rec.label_only_directions = labelOnlyDirections(f);
     return rec;
+  }
+
+  /// FrameRecord::label_only_directions (frame to map: world-frame directions to the increment's).
+  Matrix6d labelOnlyDirections(const OdometryFrame& f) const {
+    Matrix6d sum = Matrix6d::Zero();
+    if (f.status == FrameStatus::Fallback || config_.odometry.mode != OdometryMode::FrameToMap) return sum;
+    for (const Vector6d& u : f.registration.label_only_directions) sum += u * u.transpose();
+    const Matrix6d Ad = adjoint((f.pose * f.increment.inverse()).inverse());
+    return Ad * sum * Ad.transpose();
+  }
+
+  /// FrameRecord::guess_covariance. Frame to map registers in the world frame, so the
+  /// registration's own covariance maps to the increment's frame by Ad(T_world_prev⁻¹).
+  Matrix6d guessCovariance(const OdometryFrame& f) const {
+    if (f.status == FrameStatus::Fallback) return f.covariance;
+    if (f.status != FrameStatus::Degenerate || config_.odometry.mode != OdometryMode::FrameToMap) return Matrix6d::Zero();
+    const Matrix6d Ad = adjoint((f.pose * f.increment.inverse()).inverse());
+    return positivePart(f.covariance - Ad * f.registration.covariance * Ad.transpose());
   }
 
   /// The tracked pose, and the graph's new node continuing from the (possibly already
@@ -228,20 +255,24 @@ class SlamRun {
     if (rec.index == 0) {
       step_covariance_.push_back(Matrix6d::Zero());
       unverified_step_covariance_.push_back(Matrix6d::Zero());
+      guess_step_covariance_.push_back(Matrix6d::Zero());
       return;
     }
     const bool wheel = !rec.icp_used || (rec.stalled && config_.stalled_edges_use_wheel_noise);
     const Matrix6d cov = wheel ? inverseOf(config_.wheel_noise.information()) : odometryEdgeCovariance(rec);
     step_covariance_.push_back(cov);
     unverified_step_covariance_.push_back(rec.icp_used ? Matrix6d::Zero() : cov);
+    guess_step_covariance_.push_back(rec.icp_used ? Matrix6d(rec.guess_covariance + config_.label_only_sigma *
+                                                                config_.label_only_sigma * rec.label_only_directions)
+                                                  : cov);
     result_.graph.addEdge(static_cast<int>(rec.index - 1), static_cast<int>(rec.index), rec.T_prev_curr,
                           wheel ? config_.wheel_noise.information() : inverseOf(cov), EdgeKind::Odometry);
   }
 
   /// scale · floored Σ_ICP + (weight · departure from constant velocity)² (SlamConfig).
   Matrix6d odometryEdgeCovariance(const FrameRecord& rec) const {
-    Matrix6d cov = config_.odometry_covariance_scale *
-                   flooredCovariance(rec.covariance, config_.min_translation_sigma, config_.min_rotation_sigma);
+    Matrix6d cov = config_.odometry_covariance_scale * floored(rec.covariance);
+    cov += config_.label_only_sigma * config_.label_only_sigma * rec.label_only_directions;
     if (config_.motion_disagreement_weight > 0.0 && rec.index >= 2) {
       const Vector6d d = se3Log(result_.frames[rec.index - 1].T_prev_curr.inverse() * rec.T_prev_curr);
       const double w = config_.motion_disagreement_weight;
@@ -249,6 +280,14 @@ class SlamRun {
       cov.diagonal() += (Vector6d() << t2, t2, t2, r2, r2, r2).finished();
     }
     return cov;
+  }
+
+  Matrix6d floored(const Matrix6d& covariance) const {
+    if (!config_.additive_floor)
+      return flooredCovariance(covariance, config_.min_translation_sigma, config_.min_rotation_sigma);
+    const double t2 = config_.min_translation_sigma * config_.min_translation_sigma;
+    const double r2 = config_.min_rotation_sigma * config_.min_rotation_sigma;
+    return positivePart(covariance) + Vector6d((Vector6d() << t2, t2, t2, r2, r2, r2).finished()).asDiagonal().toDenseMatrix();
   }
 
   /// Online cost (SlamConfig::loops_beside_tracking): a keyframe's loop stage runs while the
@@ -343,7 +382,9 @@ class SlamRun {
     }
     if (!best) return;
     Matrix6d cov = anchorCovariance(j);
-    if (config_.anchors_carry_unverified_steps)
+    if (config_.anchors_carry_guess_directions)
+      cov += chainCovariance(result_.graph.poses, guess_step_covariance_, *best, j);
+    else if (config_.anchors_carry_unverified_steps)
       cov += chainCovariance(result_.graph.poses, unverified_step_covariance_, *best, j);
     result_.graph.addEdge(static_cast<int>(*best), static_cast<int>(j), normalized(mapPose(*best).inverse() * mapPose(j)),
                           inverseOf(cov), EdgeKind::MapAnchor);
@@ -500,6 +541,7 @@ class SlamRun {
   std::vector<Matrix6d> step_covariance_;      // frame index → its odometry edge's covariance
   Eigen::Isometry3d last_keyframe_pose_ = Eigen::Isometry3d::Identity();
   std::vector<Matrix6d> unverified_step_covariance_;  // the same, zero where a registration vouches for it
+  std::vector<Matrix6d> guess_step_covariance_;       // frame index → FrameRecord::guess_covariance
 };
 
 }  // namespace
