@@ -361,8 +361,8 @@ std::array<double, 2> mapErrorWithoutAndWithPgo(const char* scenario, int seed, 
     const SlamResult r = runSlam(seq, config);
     const auto folder = dir / (std::string("out-") + toString(method));
     const RunSummary s = writeRunOutputs(seq, r, config, out, folder);
-    ASSERT_TRUE(s.map_error);
-    error[m] = s.map_error->point.mean;
+    EXPECT_TRUE(s.map_error);
+    error[m] = s.map_error ? s.map_error->point.mean : 1e9;
     if (!m) continue;
     std::ifstream in(folder / "run.json");
     const nlohmann::json j = nlohmann::json::parse(in);
