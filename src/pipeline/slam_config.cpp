@@ -54,6 +54,8 @@ const ConfigFields<SlamConfig>& slamSectionFields() {
                 "Odometry edge of a frame whose ICP stopped at its iteration limit: wheel-odometry covariance")
           .flag("anchors_carry_unverified_steps", &C::anchors_carry_unverified_steps,
                 "A map anchor's covariance includes the unverified (fallback, stalled) increments it spans")
+          .flag("anchors_share_drift", &C::anchors_share_drift,
+                "Each anchor's chained guess covariance times the number of anchors whose spans overlap it")
           .flag("anchors_carry_guess_directions", &C::anchors_carry_guess_directions,
                 "A map anchor's covariance includes the chained covariance of the directions where tracking kept the guess")
           .flag("final_accept_test", &C::final_accept_test,
