@@ -83,7 +83,7 @@ TEST(EdgeNees, HonestCovarianceGivesChiSquareSix) {
   EXPECT_NEAR(r.odometry.within_95, 0.95, 0.015);
   for (double a : r.odometry.axis_mean) EXPECT_NEAR(a, 1.0, 0.1);
   EXPECT_NEAR(r.loop.mean, 6.0, 0.5);
-  EXPECT_EQ(r.all.count, r.odometry.count + r.loop.count);
+  EXPECT_EQ(r.all.count, r.odometry.count + r.loop.count + r.map_anchor.count);
   EXPECT_EQ(r.odometry.dof, 6);
 }
 

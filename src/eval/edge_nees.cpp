@@ -53,7 +53,9 @@ nlohmann::json statsJson(const NeesStats& s) {
           {"max", s.max}, {"within_95", s.within_95}, {"axis_mean", s.axis_mean}};
 }
 
-const char* kindName(EdgeKind kind) { return kind == EdgeKind::Loop ? "loop" : "odometry"; }
+const char* kindName(EdgeKind kind) {
+  return kind == EdgeKind::Loop ? "loop" : kind == EdgeKind::MapAnchor ? "map_anchor" : "odometry";
+}
 
 }  // namespace
 
@@ -77,13 +79,14 @@ EdgeNeesReport computeEdgeNees(const PoseGraph& graph, std::span<const Eigen::Is
     report.edges.push_back(neesOf(edge, T_true_ij, graph.dimension));
   }
   const int dof = graph.dimension == 2 ? 3 : 6;
-  std::vector<const EdgeNees*> odometry, loop, all;
+  std::vector<const EdgeNees*> odometry, loop, anchor, all;
   for (const EdgeNees& e : report.edges) {
-    (e.kind == EdgeKind::Loop ? loop : odometry).push_back(&e);
+    (e.kind == EdgeKind::Loop ? loop : e.kind == EdgeKind::MapAnchor ? anchor : odometry).push_back(&e);
     all.push_back(&e);
   }
   report.odometry = summariseNees(odometry, dof);
   report.loop = summariseNees(loop, dof);
+  report.map_anchor = summariseNees(anchor, dof);
   report.all = summariseNees(all, dof);
   return report;
 }
@@ -118,6 +121,7 @@ std::string toJson(const EdgeNeesReport& report, bool per_edge) {
   nlohmann::json j = {{"convention", "e = se3Log(T_true_ij * T_measured_ij^-1), NEES = e^T Omega e (left perturbation, translation first)"},
                       {"odometry", statsJson(report.odometry)},
                       {"loop", statsJson(report.loop)},
+                      {"map_anchor", statsJson(report.map_anchor)},
                       {"all", statsJson(report.all)}};
   if (per_edge) {
     nlohmann::json edges = nlohmann::json::array();
@@ -136,7 +140,7 @@ std::string toText(const EdgeNeesReport& report) {
   s += fmt::format("{:<9} {:>6} {:>10} {:>10} {:>10} {:>10} {:>8}   per axis mean [x y z rx ry rz]\n", "edges",
                    "count", "mean", "median", "p95", "max", "in 95%");
   for (const auto& [name, st] : {std::pair{"odometry", &report.odometry}, std::pair{"loop", &report.loop},
-                                 std::pair{"all", &report.all}}) {
+                                 std::pair{"anchor", &report.map_anchor}, std::pair{"all", &report.all}}) {
     s += fmt::format("{:<9} {:>6} {:>10.3f} {:>10.3f} {:>10.3f} {:>10.3f} {:>7.1f}%   ", name, st->count, st->mean,
                      st->median, st->p95, st->max, 100.0 * st->within_95);
     for (double a : st->axis_mean) s += fmt::format(" {:.2f}", a);

@@ -37,6 +37,10 @@ const ConfigFields<SlamConfig>& slamSectionFields() {
           .number("min_translation_sigma", &C::min_translation_sigma, positive(),
                   "m; floor on an ICP increment's standard deviation before inverting it")
           .number("min_rotation_sigma", &C::min_rotation_sigma, positive(), "rad")
+          .flag("additive_floor", &C::additive_floor,
+                "Floors added to the increment's covariance (every direction) instead of raising its diagonal")
+          .number("label_only_sigma", &C::label_only_sigma, nonNegative(),
+                  "m; added to an odometry edge along the directions only labelled patches fixed (0 = off)")
           .number("odometry_covariance_scale", &C::odometry_covariance_scale, positive(),
                   "Calibration: odometry-edge covariance = this × the floored ICP covariance (fitted by NEES)")
           .number("motion_disagreement_weight", &C::motion_disagreement_weight, nonNegative(),
@@ -50,6 +54,10 @@ const ConfigFields<SlamConfig>& slamSectionFields() {
                 "Odometry edge of a frame whose ICP stopped at its iteration limit: wheel-odometry covariance")
           .flag("anchors_carry_unverified_steps", &C::anchors_carry_unverified_steps,
                 "A map anchor's covariance includes the unverified (fallback, stalled) increments it spans")
+          .flag("anchors_share_drift", &C::anchors_share_drift,
+                "Each anchor's chained guess covariance times the number of anchors whose spans overlap it")
+          .flag("anchors_carry_guess_directions", &C::anchors_carry_guess_directions,
+                "A map anchor's covariance includes the chained covariance of the directions where tracking kept the guess")
           .flag("final_accept_test", &C::final_accept_test,
                 "Keep the optimised trajectory only when its keyframe map is as crisp (mean map entropy) as tracking's")
           .number("map_entropy_radius", &C::map_entropy_radius, positive(),

@@ -44,6 +44,9 @@ struct NeesStats {
 struct EdgeNeesReport {
   std::vector<EdgeNees> edges;  ///< in the graph's edge order
   NeesStats odometry, loop, all;
+  /// Map-anchor edges (frame to map: tracking's relative pose of a revisit), apart from the
+  /// odometry increments since their error is tracking's drift, not one registration's.
+  NeesStats map_anchor;
 };
 
 /// NEES of every edge of `graph` against the true node poses `truth` (T_world_node for every

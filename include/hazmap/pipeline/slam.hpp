@@ -54,6 +54,18 @@ struct SlamConfig {
   /// odometry-edge information (m, rad): an over-confident covariance must not make edges rigid.
   double min_translation_sigma = 0.005;
   double min_rotation_sigma = 0.0005;
+  /// How the floors apply: false = each diagonal entry raised to the floor (a combination of
+  /// axes may still claim far less: tanks' degenerate frames claimed 0.1-0.3 mm along
+  /// yaw-with-translation); true = the floor's covariance added to the increment's, so every
+  /// direction carries at least the floor (an error no Hessian sees: the map's own, the
+  /// correlation of neighbouring scans' residuals).
+  bool additive_floor = false;
+  /// Along the directions a registration could fix only through labelled patches
+  /// (RegistrationResult::label_only_directions: a corridor's axis), σ (m) added to the
+  /// increment's covariance (0 = off): there a scan may lock onto a patch half a patch away
+  /// (corridor odometry edges 30-80 cm off along the axis, claiming 1 cm). As for loops
+  /// (loop_closure.verification.label_only_sigma). Also chained into the map anchors.
+  double label_only_sigma = 0.0;
   /// Calibration of the odometry edges against the simulator's truth (issue 14, NEES fitted on
   /// some seeds, checked on others; docs/pose_graph.md): Σ_edge = scale · floored Σ_ICP, plus
   /// (motion_disagreement_weight · d)² per axis, d = how far the increment is from the previous one
@@ -107,6 +119,18 @@ struct SlamConfig {
   /// A map-anchor edge's covariance also carries the chained covariance of the unverified
   /// increments (fallback, stalled) between its keyframes.
   bool anchors_carry_unverified_steps = false;
+  /// A map-anchor edge's covariance also carries the chained covariance of every increment's
+  /// share that no registration vouched for (FrameRecord::guess_covariance: a fallback's whole
+  /// covariance, a degenerate frame's along the directions where the guess was kept): along
+  /// those directions the tracker dead-reckoned, so its map places the newer keyframe relative
+  /// to the older one no better than the chained guesses (tanks seed 8: anchors 25-42 cm and
+  /// 20-38 mrad off, claiming 2-3 cm, turned the whole route 5 deg; docs/pose_graph.md).
+  bool anchors_carry_guess_directions = true;
+  /// The anchors' chained dead-reckoned parts (above) are one error shared by all anchors whose
+  /// spans overlap: each one's is multiplied by how many overlap it, so that together they claim
+  /// it once (covariance intersection; corridor seed 3: 20-odd anchors held the return 30-90 cm
+  /// off along the axis against right loops, property-icp+pgo 0.57 m against tracking's 0.54).
+  bool anchors_share_drift = true;
   double map_entropy_radius = 0.3;  ///< m, the entropy's neighbourhood (MapEntropyConfig::radius)
   double reanchor_min_shift = 0.005;
   /// α and the class search radii (paper eq. 2), applied to the sequence's class table that
@@ -174,6 +198,13 @@ struct FrameRecord {
   /// Body-frame velocity the scan was deskewed with (so a second pass over the scans can redo
   /// it); nullopt when it was not deskewed.
   std::optional<Vector6d> deskew_velocity;
+  /// The share of `covariance` no registration vouches for (frame to map): all of it for a
+  /// fallback, the part the tracker added along the directions where it kept the guess for a
+  /// degenerate frame (covariance − the registration's own, its positive part); zero otherwise.
+  Matrix6d guess_covariance = Matrix6d::Zero();
+  /// Σ u uᵀ over the registration's label-only directions u, in the increment's frame
+  /// (SlamConfig::label_only_sigma scales it); zero when there are none.
+  Matrix6d label_only_directions = Matrix6d::Zero();
 };
 
 struct LoopRecord {
