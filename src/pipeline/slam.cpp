@@ -96,6 +96,7 @@ class SlamRun {
     addOdometryEdge(record);
     result_.frames.push_back(std::move(record));
     if (!pgo_ || !isKeyframe(pose)) return;
+    addGravityPrior(scan);
     if (loopsBesideTracking())
       pending_loops_.emplace(PendingLoops{pose, std::move(scan.cloud)});
     else
@@ -113,6 +114,7 @@ class SlamRun {
       optimiseWithLoops();
       const auto consistent = loops_->consistentLoops(keyframeEstimate());
       setLoopEdges(consistent);
+      if (consistent.empty() && !result_.graph.gravity_priors.empty()) optimise();  // the priors alone
       for (const auto& l : loops_->acceptedLoops()) {
         const bool kept = std::any_of(consistent.begin(), consistent.end(),
                                       [&](const LoopClosure& c) { return c.from == l.from && c.to == l.to; });
@@ -249,6 +251,15 @@ class SlamRun {
       cov.diagonal() += (Vector6d() << t2, t2, t2, r2, r2, r2).finished();
     }
     return cov;
+  }
+
+  /// The new keyframe's gravity-direction prior (PoseGraphConfig::gravity_prior) when its scan
+  /// has an IMU measurement: roll and pitch observed absolutely, also where no loop reaches.
+  void addGravityPrior(const Scan& scan) {
+    if (!config_.graph.gravity_prior || !scan.gravity) return;
+    const double sigma = config_.graph.gravity_sigma_deg > 0.0 ? config_.graph.gravity_sigma_deg * M_PI / 180.0
+                                                              : scan.gravity->sigmaRad();
+    result_.graph.addGravityPrior(static_cast<int>(frames() - 1), scan.gravity->down, sigma);
   }
 
   /// Online cost (SlamConfig::loops_beside_tracking): a keyframe's loop stage runs while the
