@@ -257,8 +257,9 @@ class SlamRun {
   /// has an IMU measurement: roll and pitch observed absolutely, also where no loop reaches.
   void addGravityPrior(const Scan& scan) {
     if (!config_.graph.gravity_prior || !scan.gravity) return;
-    const double sigma = config_.graph.gravity_sigma_deg > 0.0 ? config_.graph.gravity_sigma_deg * M_PI / 180.0
-                                                              : scan.gravity->sigmaRad();
+    double sigma = config_.graph.gravity_sigma_deg > 0.0 ? config_.graph.gravity_sigma_deg * M_PI / 180.0
+                                                        : scan.gravity->sigmaRad();
+    if (config_.odometry.mode == OdometryMode::FrameToMap) sigma *= config_.graph.gravity_sigma_scale_frame_to_map;
     result_.graph.addGravityPrior(static_cast<int>(frames() - 1), scan.gravity->down, sigma);
   }
 

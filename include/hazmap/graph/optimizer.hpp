@@ -62,6 +62,12 @@ struct PoseGraphConfig {
   bool gravity_prior = true;
   /// ° per axis of those priors; 0 = the σ the recording states with each measurement.
   double gravity_sigma_deg = 0.0;
+  /// Frame-to-map tracking only: the priors' σ × this. Scans registered against the same map
+  /// have anticorrelated increment errors (naraha: tracking's tilt stays within ~0.05° over 160
+  /// frames), but the graph chains them as independent (0.5 mrad per step, a random walk), so
+  /// honest priors would outweigh the chain over a few metres and add their own noise
+  /// (docs/pose_graph.md, 2026-12-02 gravity section: σ × 1 makes naraha 2 and 7 worse, × 3 never).
+  double gravity_sigma_scale_frame_to_map = 3.0;
 };
 
 /// The field table (keys, ranges, docs; core/config_fields.hpp, docs/configuration.md).
