@@ -25,7 +25,13 @@ const ConfigFields<PoseGraphConfig>& configFields(ConfigTag<PoseGraphConfig>) {
           .number("gradient_tolerance", &C::gradient_tolerance, nonNegative(), "Ceres gradient tolerance")
           .number("parameter_tolerance", &C::parameter_tolerance, nonNegative(), "Ceres parameter tolerance")
           .integer("threads", &C::threads, atLeast(1), "Threads for residual and Jacobian evaluation")
-          .flag("verbose", &C::verbose, "Ceres progress to stderr");
+          .flag("verbose", &C::verbose, "Ceres progress to stderr")
+          .flag("gravity_prior", &C::gravity_prior,
+                "SLAM runs: a gravity-direction (roll/pitch) prior on each keyframe with IMU gravity data (gravity.txt)")
+          .number("gravity_sigma_deg", &C::gravity_sigma_deg, closed(0, 45),
+                  "° per axis of the gravity priors; 0 = the σ stated with each measurement")
+          .number("gravity_sigma_scale_frame_to_map", &C::gravity_sigma_scale_frame_to_map, closed(1, 100),
+                  "Frame-to-map tracking: the gravity priors' σ × this (the chained increments overstate tilt drift)");
   return fields;
 }
 

@@ -8,9 +8,11 @@
 #include <memory>
 #include <vector>
 
+#include "graph/gravity_residual.hpp"
 #include "graph/residuals.hpp"
 #include "hazmap/core/error.hpp"
 #include "hazmap/graph/chordal_init.hpp"
+#include "hazmap/graph/gravity_prior.hpp"
 
 namespace hazmap {
 
@@ -179,11 +181,19 @@ Solved solve(PoseGraph& graph, const PoseGraphConfig& config) {
     problem.AddResidualBlock(edgeCost(e, graph.dimension, config), makeLoss(config, e.kind), blockOf(e.from),
                              blockOf(e.to));
   problem.SetParameterBlockConstant(blockOf(graph.fixed_node));
+  ceres::SphereManifold<3> sphere;  // world down: 2 degrees of freedom (not owned)
+  Vec3 gravity_world = graph.gravity_world;
+  if (!graph.gravity_priors.empty()) {
+    problem.AddParameterBlock(gravity_world.data(), 3, &sphere);
+    for (const auto& g : graph.gravity_priors)
+      problem.AddResidualBlock(new GravityPriorCost(g.down, g.sigma), nullptr, blockOf(g.node), gravity_world.data());
+  }
 
   ceres::Solver::Summary summary;
   ceres::Solve(solverOptions(config), &problem, &summary);
   if (config.verbose) std::fprintf(stderr, "%s\n", summary.FullReport().c_str());
   unpackPoses(params, block, graph);
+  graph.gravity_world = gravity_world.normalized();
   Solved s;
   s.iterations = summary.num_successful_steps + summary.num_unsuccessful_steps;
   s.converged = summary.termination_type == ceres::CONVERGENCE;
@@ -207,9 +217,13 @@ PoseGraphReport optimizePoseGraph(PoseGraph& graph, const PoseGraphConfig& confi
     case PoseGraphInit::Chordal: chordalInitialisation(graph); break;
     default: break;
   }
+  if (!graph.gravity_priors.empty()) {
+    if (graph.dimension != 3) fail("pose graph optimisation", "gravity priors need a 3-D graph");
+    graph.gravity_world = meanGravityWorld(graph);
+  }
   report.init_seconds = secondsSince(start);
-  report.initial_geodesic = geodesicCost(graph);
-  report.initial_chordal = chordalCost(graph);
+  report.initial_geodesic = geodesicCost(graph) + gravityPriorCost(graph);
+  report.initial_chordal = chordalCost(graph) + gravityPriorCost(graph);
   const auto solve_start = Clock::now();
   if (!graph.edges.empty() && graph.numNodes() > 1) {
     const Solved s = solve(graph, config);
@@ -221,8 +235,8 @@ PoseGraphReport optimizePoseGraph(PoseGraph& graph, const PoseGraphConfig& confi
     report.message = "nothing to optimise";
   }
   report.solve_seconds = secondsSince(solve_start);
-  report.final_geodesic = geodesicCost(graph);
-  report.final_chordal = chordalCost(graph);
+  report.final_geodesic = geodesicCost(graph) + gravityPriorCost(graph);
+  report.final_chordal = chordalCost(graph) + gravityPriorCost(graph);
   report.total_seconds = secondsSince(start);
   return report;
 }

@@ -153,6 +153,7 @@ Sequence Sequence::open(const fs::path& dir, const std::optional<ClassTable>& ta
   if (table_override) seq.table_ = *table_override;
   seq.ground_truth_ = readOptionalTrajectory(dir / "poses.txt", seq.scans_.size());
   seq.odometry_ = readOptionalTrajectory(dir / "odometry.txt", seq.scans_.size());
+  if (fs::exists(dir / "gravity.txt", ec)) seq.gravity_ = readGravityFile(dir / "gravity.txt", seq.scans_.size());
   return seq;
 }
 

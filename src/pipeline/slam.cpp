@@ -104,6 +104,7 @@ class SlamRun {
     addOdometryEdge(record);
     result_.frames.push_back(std::move(record));
     if (!pgo_ || !isKeyframe(pose)) return;
+    addGravityPrior(scan);
     if (loopsBesideTracking())
       pending_loops_.emplace(PendingLoops{pose, std::move(scan.cloud)});
     else
@@ -122,6 +123,7 @@ class SlamRun {
       refreshAnchorInformation();  // the graph written out carries what the last solve used
       const auto consistent = loops_->consistentLoops(keyframeEstimate());
       setLoopEdges(consistent);
+      if (consistent.empty() && !result_.graph.gravity_priors.empty()) optimise();  // the priors alone
       for (const auto& l : loops_->acceptedLoops()) {
         const bool kept = std::any_of(consistent.begin(), consistent.end(),
                                       [&](const LoopClosure& c) { return c.from == l.from && c.to == l.to; });
@@ -292,6 +294,16 @@ class SlamRun {
     const double t2 = config_.min_translation_sigma * config_.min_translation_sigma;
     const double r2 = config_.min_rotation_sigma * config_.min_rotation_sigma;
     return positivePart(covariance) + Vector6d((Vector6d() << t2, t2, t2, r2, r2, r2).finished()).asDiagonal().toDenseMatrix();
+  }
+
+  /// The new keyframe's gravity-direction prior (PoseGraphConfig::gravity_prior) when its scan
+  /// has an IMU measurement: roll and pitch observed absolutely, also where no loop reaches.
+  void addGravityPrior(const Scan& scan) {
+    if (!config_.graph.gravity_prior || !scan.gravity) return;
+    double sigma = config_.graph.gravity_sigma_deg > 0.0 ? config_.graph.gravity_sigma_deg * M_PI / 180.0
+                                                        : scan.gravity->sigmaRad();
+    if (config_.odometry.mode == OdometryMode::FrameToMap) sigma *= config_.graph.gravity_sigma_scale_frame_to_map;
+    result_.graph.addGravityPrior(static_cast<int>(frames() - 1), scan.gravity->down, sigma);
   }
 
   /// Online cost (SlamConfig::loops_beside_tracking): a keyframe's loop stage runs while the

@@ -9,6 +9,7 @@
 
 #include "hazmap/core/error.hpp"
 #include "hazmap/io/atomic_file.hpp"
+#include "hazmap/io/gravity.hpp"
 #include "hazmap/io/kitti.hpp"
 #include "hazmap/io/ply.hpp"
 #include "hazmap/io/sequence.hpp"
@@ -126,6 +127,11 @@ void writeTrajectories(const Simulator& sim, SequenceWriter& writer, const fs::p
   times.precision(9);
   for (std::size_t i = 0; i < sim.frames(); ++i) times << sim.samples()[i].time << "\n";
   writeTextAtomically(dir / "times.txt", times.str());
+  if (sim.config().imu.enabled) {
+    std::vector<GravitySample> gravity;
+    for (std::size_t i = 0; i < sim.frames(); ++i) gravity.push_back(sim.gravity(i));
+    writeGravityFile(dir / "gravity.txt", gravity);
+  }
 }
 
 /// reference_map.ply: the reference cloud downsampled, majority class per voxel, coloured.

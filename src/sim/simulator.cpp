@@ -59,6 +59,12 @@ LabeledCloud Simulator::scan(std::size_t i, std::vector<ClassId>* true_classes) 
   return simulateScan(inputs_, world_[i], rng, &temperature_rng, true_classes);
 }
 
+GravitySample Simulator::gravity(std::size_t i) const {
+  if (i >= truth_.size())
+    fail("simulator", "frame " + std::to_string(i) + " out of range (" + std::to_string(truth_.size()) + " frames)");
+  return simulateGravity(world_[i], samples_[i].time, config_.imu, config_.seed, i);
+}
+
 OdometryDrift odometryDrift(const PoseList& truth, const PoseList& odometry,
                             const std::vector<bool>& slips) {
   OdometryDrift d;

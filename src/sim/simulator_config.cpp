@@ -167,6 +167,17 @@ const ConfigFields<CrawlerUpsetConfig>& configFields(ConfigTag<CrawlerUpsetConfi
   return fields;
 }
 
+const ConfigFields<ImuConfig>& configFields(ConfigTag<ImuConfig>) {
+  using C = ImuConfig;
+  static const ConfigFields<C> fields =
+      ConfigFields<C>("The crawler's IMU as an AHRS: gravity's direction per scan (gravity.txt), which fixes roll "
+                      "and pitch (docs/formats.md).")
+          .flag("enabled", &C::enabled, "Write gravity.txt (false: a sequence without IMU)")
+          .number("gravity_sigma_deg", &C::gravity_sigma_deg, openClosed(0, 45),
+                  "° per axis, noise of the gravity direction (an industrial AHRS's roll/pitch: 0.1–0.3°)");
+  return fields;
+}
+
 namespace {
 // The crawler's worst day (issue 19): the paper's slips made large, spins on debris, lost scans.
 void applyWorstDay(SimulatorConfig& c) {
@@ -206,6 +217,7 @@ const ConfigFields<SimulatorConfig>& configFields(ConfigTag<SimulatorConfig>) {
           .writeIf([](const C& c) { return !c.cameras.empty(); })  // simulation.yaml as before without cameras
           .section("upsets", &C::upsets, "")
           .flag("wheel_odometry", &C::wheel_odometry, "Write odometry.txt (false: a run without wheel odometry)")
+          .section("imu", &C::imu, "")
           // Written by `hazmap simulate` into simulation.yaml for information; not settings.
           .ignore("stats")
           .ignore("world_from_first_frame");

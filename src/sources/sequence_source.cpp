@@ -43,6 +43,7 @@ class SequenceSource final : public ScanSource {
     if (read_channels_ && !sequence_.channels().empty()) scan.channels = sequence_.frameChannels(next_, scan.cloud.size());
     if (const auto& odometry = sequence_.odometry()) scan.odometry = odometry->poses[next_];
     if (const auto& truth = sequence_.groundTruth()) scan.ground_truth = truth->poses[next_];
+    if (const auto& gravity = sequence_.gravity()) scan.gravity = (*gravity)[next_];
     ++next_;
     return scan;
   }

@@ -57,6 +57,17 @@ struct PoseGraphConfig {
   double parameter_tolerance = 1e-9;
   int threads = 1;                  ///< threads for residual/Jacobian evaluation
   bool verbose = false;             ///< Ceres progress to stderr
+  /// The SLAM run puts a gravity-direction prior (graph/gravity_prior.hpp) on every keyframe
+  /// whose scan has an IMU gravity measurement (a sequence's gravity.txt); without data, none.
+  bool gravity_prior = true;
+  /// ° per axis of those priors; 0 = the σ the recording states with each measurement.
+  double gravity_sigma_deg = 0.0;
+  /// Frame-to-map tracking only: the priors' σ × this. Scans registered against the same map
+  /// have anticorrelated increment errors (naraha: tracking's tilt stays within ~0.05° over 160
+  /// frames), but the graph chains them as independent (0.5 mrad per step, a random walk), so
+  /// honest priors would outweigh the chain over a few metres and add their own noise
+  /// (docs/pose_graph.md, 2026-12-02 gravity section: σ × 1 makes naraha 2 and 7 worse, × 3 never).
+  double gravity_sigma_scale_frame_to_map = 3.0;
 };
 
 /// The field table (keys, ranges, docs; core/config_fields.hpp, docs/configuration.md).
@@ -67,7 +78,9 @@ const ConfigFields<PoseGraphConfig>& configFields(ConfigTag<PoseGraphConfig>);
 PoseGraphConfig loadPoseGraphConfig(const std::filesystem::path& yaml_file);
 
 struct PoseGraphReport {
-  double initial_geodesic = 0.0;  ///< costs (no ½, no robust loss) after initialisation
+  /// Costs (no ½, no robust loss) after initialisation; with gravity priors each includes
+  /// their cost (graph/gravity_prior.hpp), so the guard below compares the whole objective.
+  double initial_geodesic = 0.0;
   double initial_chordal = 0.0;
   double final_geodesic = 0.0;
   double final_chordal = 0.0;

@@ -35,12 +35,25 @@ struct PoseGraphEdge {
   EdgeKind kind = EdgeKind::Odometry;
 };
 
+/// A unary prior on a node's roll and pitch: the direction of gravity ("down", a unit vector)
+/// an IMU measured in the node's frame, with σ (rad) per axis (graph/gravity_prior.hpp).
+struct GravityPrior {
+  int node = 0;  ///< node index
+  Eigen::Vector3d down = Eigen::Vector3d(0.0, 0.0, -1.0);
+  double sigma = 0.0;  ///< rad
+};
+
 struct PoseGraph {
   int dimension = 3;  ///< 3 = SE(3) graph, 2 = SE(2) graph (poses in the plane z = 0)
   std::vector<Eigen::Isometry3d> poses;  ///< T_world_node, indexed by node index
   std::vector<std::int64_t> ids;         ///< external id of each node (g2o vertex id)
   std::vector<PoseGraphEdge> edges;
   int fixed_node = 0;  ///< index of the node held fixed (gauge); 0 = the first node
+  std::vector<GravityPrior> gravity_priors;
+  /// Gravity ("down") in the world frame the priors are measured against. The world is the
+  /// fixed node's frame, which need not be level, so it is estimated with the poses whenever
+  /// there are priors (2 degrees of freedom; initialised from the priors and current poses).
+  Eigen::Vector3d gravity_world = Eigen::Vector3d(0.0, 0.0, -1.0);
 
   /// Appends a node and returns its index. id < 0 means "use the index as id".
   int addNode(const Eigen::Isometry3d& T_world_node, std::int64_t id = -1);
@@ -49,6 +62,10 @@ struct PoseGraph {
   /// symmetric positive definite (on the [x y rz] block for 2-D graphs).
   int addEdge(int from, int to, const Eigen::Isometry3d& T_from_to, const Matrix6d& information,
               EdgeKind kind = EdgeKind::Odometry);
+
+  /// Appends a gravity prior (3-D graphs); throws hazmap::Error on a node out of range, a
+  /// direction that is not a finite unit vector or σ ≤ 0. Returns its index.
+  int addGravityPrior(int node, const Eigen::Vector3d& down, double sigma);
 
   int numNodes() const { return static_cast<int>(poses.size()); }
   int numEdges() const { return static_cast<int>(edges.size()); }

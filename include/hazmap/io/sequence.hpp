@@ -4,6 +4,7 @@
 //   labels/NNNNNN.label                  optional per-point labels (for .bin scans)
 //   poses.txt                            optional ground truth, KITTI format, one line per scan
 //   odometry.txt                         optional wheel odometry, KITTI format, one line per scan
+//   gravity.txt                          optional IMU gravity direction per scan (io/gravity.hpp)
 //   hazmap.yaml                          optional: `class_table:` (a class table), `sensor:` and
 //                                        `property_channel: NAME` (then NAME/NNNNNN.bin holds one
 //                                        float32 per point: LabeledCloud::property, NaN = unobserved)
@@ -17,6 +18,7 @@
 
 #include "hazmap/core/class_table.hpp"
 #include "hazmap/core/labeled_cloud.hpp"
+#include "hazmap/io/gravity.hpp"
 #include "hazmap/io/read_stats.hpp"
 #include "hazmap/io/trajectory.hpp"
 
@@ -44,6 +46,8 @@ class Sequence {
   const ClassTable& classTable() const { return table_; }
   const std::optional<Trajectory>& groundTruth() const { return ground_truth_; }
   const std::optional<Trajectory>& odometry() const { return odometry_; }
+  /// gravity.txt, one sample per scan; nullopt without the file (no gravity information).
+  const std::optional<std::vector<GravitySample>>& gravity() const { return gravity_; }
   /// The `sensor:` section of hazmap.yaml as YAML text (empty if none).
   const std::string& sensorYaml() const { return sensor_yaml_; }
   /// hazmap.yaml's `property_channel` (empty if none): frames then carry the property channel.
@@ -60,6 +64,7 @@ class Sequence {
   std::vector<std::optional<std::filesystem::path>> labels_;
   ClassTable table_ = ClassTable::defaults();
   std::optional<Trajectory> ground_truth_, odometry_;
+  std::optional<std::vector<GravitySample>> gravity_;
   std::string sensor_yaml_;
   std::string property_channel_;
   std::vector<std::string> channels_;

@@ -14,6 +14,7 @@
 #include "hazmap/core/class_table.hpp"
 #include "hazmap/core/labeled_cloud.hpp"
 #include "hazmap/sim/camera_sim.hpp"
+#include "hazmap/sim/imu.hpp"
 #include "hazmap/sim/lidar.hpp"
 #include "hazmap/sim/odometry_noise.hpp"
 #include "hazmap/sim/raycaster.hpp"
@@ -42,6 +43,7 @@ struct SimulatorConfig {
   OdometryNoiseConfig odometry;
   CrawlerUpsetConfig upsets;  ///< true motion the encoders miss (off by default)
   bool wheel_odometry = true;  ///< false: the sequence has no odometry.txt
+  ImuConfig imu;               ///< gravity.txt: the AHRS's gravity direction per scan
   double reference_voxel = 0.1;  ///< m, voxel size of reference_map.ply
   /// Property cameras (none by default; `hazmap simulate --cameras thermal,nir,gamma`).
   CameraSimConfig cameras;
@@ -71,6 +73,7 @@ const ConfigFields<TemperatureConfig>& configFields(ConfigTag<TemperatureConfig>
 const ConfigFields<RobotConfig>& configFields(ConfigTag<RobotConfig>);
 const ConfigFields<OdometryNoiseConfig>& configFields(ConfigTag<OdometryNoiseConfig>);
 const ConfigFields<CrawlerUpsetConfig>& configFields(ConfigTag<CrawlerUpsetConfig>);
+const ConfigFields<ImuConfig>& configFields(ConfigTag<ImuConfig>);
 const ConfigFields<SimulatorConfig>& configFields(ConfigTag<SimulatorConfig>);
 
 /// The scene a config asks for (built-in or loaded), validated against `table`.
@@ -96,6 +99,8 @@ class Simulator {
   const PoseList& worldPoses() const { return world_; }
   /// The first scan's pose in the scene frame (maps poses.txt / reference_map.ply to scene.ply).
   const Eigen::Isometry3d& worldFromFirst() const { return world_.front(); }
+  /// Frame i's gravity measurement (config().imu; same value for the same seed and index).
+  GravitySample gravity(std::size_t i) const;
   /// Whether a track slip happened between frame i-1 and i.
   const std::vector<bool>& slips() const { return slips_; }
   /// The yaw kick (rad, unseen by the encoders) between frame i-1 and i; empty without upsets.
@@ -150,7 +155,7 @@ struct SimulationSummary {
 };
 
 /// Writes the sequence directory `out_dir`: velodyne/*.bin, labels/*.label, poses.txt,
-/// odometry.txt, times.txt, hazmap.yaml, reference_map.ply, scene.ply, simulation.yaml (the
+/// odometry.txt, times.txt, gravity.txt (unless imu.enabled is false), hazmap.yaml, reference_map.ply, scene.ply, simulation.yaml (the
 /// effective config), with the temperature channel on temperature/*.bin and with cameras
 /// cameras/<name>/{NNNNNN.png, times.txt, camera.yaml}. Everything is
 /// written into a temporary sibling folder that is renamed to `out_dir` at the end, so a

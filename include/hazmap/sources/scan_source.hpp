@@ -32,6 +32,8 @@ struct Scan {
   /// The recording's named per-point channels (a sequence folder's `channels:`: temperature,
   /// nir_reflectance, …), aligned with cloud's points; the map keeps each one's mean and max.
   std::vector<PointChannel> channels;
+  /// The IMU's gravity direction at `stamp` (a sequence folder's gravity.txt) when recorded.
+  std::optional<GravitySample> gravity;
 };
 
 struct ScanSourceOptions {
