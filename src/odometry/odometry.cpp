@@ -332,7 +332,12 @@ void Odometry::track(OdometryFrame& f, const LabeledCloud& source, std::optional
   const bool level_velocity = f.status == FrameStatus::Relocalised &&
                               !(config_.relocalise_suspect && config_.flag_weak_axis &&
                                 weakHorizontalAxis(r, config_.suspect_weak_axis_ratio));
-  if (f.status == FrameStatus::Tracked || f.status == FrameStatus::Relocalised) flagWeakAxis(f, r, estimate, config_);
+  if (!impl_->label_note.empty() && (f.status == FrameStatus::Tracked || f.status == FrameStatus::Relocalised))
+    f.reason += (f.reason.empty() ? "" : "; ") + impl_->label_note;
+  else if (f.status == FrameStatus::Tracked || f.status == FrameStatus::Relocalised) {
+    flagWeakAxis(f, r, estimate, config_);
+    if (f.status == FrameStatus::Degenerate && !impl_->label_doubt.empty()) f.reason += "; " + impl_->label_doubt;
+  }
   f.increment = normalized(prev_pose.inverse() * W * estimate.pose);
   // W-frame perturbation → previous-frame perturbation of the increment
   const Matrix6d Ad = adjoint(prev_pose.inverse() * W);
@@ -357,11 +362,17 @@ void Odometry::track(OdometryFrame& f, const LabeledCloud& source, std::optional
 std::string Odometry::checkAndRecover(OdometryFrame& f, const LabeledCloud& source, const RegistrationTarget* target,
                                       const Eigen::Isometry3d& W, const Eigen::Isometry3d& reg_guess, bool has_prior,
                                       RegistrationResult& r, bool& relocalised) {
+  impl_->label_note.clear();
+  impl_->label_doubt.clear();
   std::string failure = registrationFailure(r, reg_guess, config_);
   bool only_weak_axis = false;
-  const std::string trigger = !failure.empty() ? "ICP from the guess failed: " + failure
-                                               : suspicion(r, reg_guess, has_prior, impl_->typical_rmse, config_,
-                                                           only_weak_axis);
+  std::string trigger = !failure.empty() ? "ICP from the guess failed: " + failure
+                                         : suspicion(r, reg_guess, has_prior, impl_->typical_rmse, config_,
+                                                     only_weak_axis);
+  // Suspect only for a weak axis: the labels may place the frame along it, leaving nothing to recover.
+  if (only_weak_axis && target && labelsDecideAxes(config_) && placeAlongWeakAxis(f, source, *target, r,
+                                                                                   config_.suspect_weak_axis_ratio))
+    trigger.clear();
   if (config_.relocalise && !trigger.empty() && target && !source.empty()) {
     f.global.trigger = trigger;
     std::optional<Recovery> recovered = recover(f, source, *target, W, r, failure.empty(), only_weak_axis);
@@ -372,7 +383,27 @@ std::string Odometry::checkAndRecover(OdometryFrame& f, const LabeledCloud& sour
       relocalised = true;
     }
   }
+  // ICP from the guess kept but weak along an axis (flag_weak_axis_ratio): the labels decide, or
+  // track() flags the frame.
+  if (failure.empty() && !relocalised && impl_->label_note.empty() && target && labelsDecideAxes(config_) &&
+      config_.flag_weak_axis)
+    placeAlongWeakAxis(f, source, *target, r, config_.flag_weak_axis_ratio);
   return failure;
+}
+
+bool Odometry::placeAlongWeakAxis(OdometryFrame& f, const LabeledCloud& source, const RegistrationTarget& target,
+                                  RegistrationResult& r, double ratio) {
+  (void)f;
+  const std::optional<Eigen::Vector3d> axis = weakHorizontalAxis(r, ratio);
+  if (!axis) return false;
+  const LabelPlacement lp = placeAlongAxisByLabels(source, target, classes_, r.transform, *axis, config_);
+  if (!lp.decided) {
+    impl_->label_doubt = lp.why;
+    return false;
+  }
+  applyLabelPlacement(r, *axis, lp, config_);
+  impl_->label_note = describe(lp);
+  return true;
 }
 
 void Odometry::remember(OdometryFrame& f, const LabeledCloud& frame) {

@@ -2,6 +2,7 @@
 // Failure detection of the odometry, shared by tracking (odometry.cpp) and the recovery of
 // frames where tracking failed (odometry_recover.cpp).
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <chrono>
 #include <memory>
 #include <optional>
@@ -47,6 +48,10 @@ struct Odometry::Impl {
   std::optional<Eigen::Isometry3d> whole_map_candidate;
   std::size_t whole_map_candidate_frame = 0;
   std::size_t whole_map_keyframes = 0, whole_map_version = 0, reanchors = 0;
+  /// The frame being tracked was placed along a weak axis by its labels (odometry_labels.cpp):
+  /// how, for its reason; empty = not (then a weak axis flags it).
+  std::string label_note;
+  std::string label_doubt;  ///< why the labels did not place it (for a flagged frame's reason)
 };
 
 /// Why ICP's answer cannot be used (empty when it can): did not converge (stopping at the
@@ -97,5 +102,52 @@ std::optional<Eigen::Vector3d> weakHorizontalAxis(const RegistrationResult& r, d
 /// within the correspondence gate, at most `inlier_distance` from it along its normal.
 double surfaceFit(const LabeledCloud& source, const RegistrationTarget& target, const Eigen::Isometry3d& pose,
                   double inlier_distance);
+
+/// Where the scan's labelled points say the pose lies along `axis` (odometry_labels.cpp): the
+/// offset (m) from `pose` whose property-aware label score is clearly best, or undecided (no
+/// labelled point in view, too little support, or another position scoring nearly as well).
+struct LabelPlacement {
+  bool decided = false;
+  double offset = 0.0;  ///< m along the axis from the pose
+  double score = 0.0;   ///< label score there
+  double second = 0.0;  ///< best score at least label_axis_gate away
+  std::size_t labelled = 0;  ///< labelled source points
+  std::size_t support = 0;   ///< of them, with a labelled partner at the offset
+  std::string why;           ///< why undecided
+};
+LabelPlacement placeAlongAxisByLabels(const LabeledCloud& source, const RegistrationTarget& target,
+                                      const ClassTable& classes, const Eigen::Isometry3d& pose,
+                                      const Eigen::Vector3d& axis, const OdometryConfig& config);
+/// "labels placed it +0.40 m along the weak axis (…)" or why undecided.
+std::string describe(const LabelPlacement& placement);
+/// `pose` moved `offset` along `axis` (registration space).
+Eigen::Isometry3d shiftedAlong(const Eigen::Isometry3d& pose, const Eigen::Vector3d& axis, double offset);
+/// Another position along the answer's weakest horizontal axis that fits (surface fit) as well:
+/// ICP restarted ±1, ±2 relocalise_axis_step along it. Empty when none; else the ambiguity.
+std::string ambiguousAlongWeakestAxis(const LabeledCloud& source, const RegistrationTarget& target,
+                                      const ClassTable& classes, const OdometryConfig& config,
+                                      const OdometryConfig& seed_config, const RegistrationResult& answer, double fit,
+                                      const std::string& answer_name);
+/// Moves `r` by the placement along `axis`, with label_axis_sigma² added there to its covariance.
+void applyLabelPlacement(RegistrationResult& r, const Eigen::Vector3d& axis, const LabelPlacement& placement,
+                         const OdometryConfig& config);
+/// An answer the geometry cannot place along a horizontal axis (weaker than flag_weak_axis_ratio,
+/// or `doubt`: another position along its weakest axis fits as well): the labels decide
+/// (labelsDecideAxes). Placed: the answer moves along the axis (`placed_along`, when given) and
+/// `note` says so; else `doubt` (or the labels' reason) stays. Returns whether it may be used.
+bool placeByLabels(const LabeledCloud& source, const RegistrationTarget& target, const ClassTable& classes,
+                   const OdometryConfig& config, RegistrationResult& answer, std::string& doubt, std::string& note,
+                   Eigen::Vector3d* placed_along);
+/// The checks of ICP from a recovery start (a seed): it may travel up to relocalise_start_correction.
+inline OdometryConfig seedConfigOf(const OdometryConfig& config) {
+  OdometryConfig seed = config;
+  seed.max_correction_translation = std::max(config.max_correction_translation, config.relocalise_start_correction);
+  seed.max_correction_rotation = std::max(config.max_correction_rotation, config.relocalise_start_correction_rotation);
+  return seed;
+}
+/// Whether labels may decide along weak axes: relocalise_suspect, label_axis_search and property ICP.
+inline bool labelsDecideAxes(const OdometryConfig& config) {
+  return config.relocalise_suspect && config.label_axis_search && config.registration.use_classes;
+}
 
 }  // namespace hazmap

@@ -23,6 +23,30 @@ Eigen::Isometry3d interpolate(const Eigen::Isometry3d& a, const Eigen::Isometry3
 
 }  // namespace
 
+// With relocalise_suspect: the geometry's doubt along the answer's weakest horizontal axis (weak,
+// or another position fitting as well) is settled by the labels or refuses the answer (a corridor
+// frame was re-estimated 1 m along the axis without this). Placed, `correction` loses its part
+// along the axis (the labels moved it there, not a slide). Returns why refused (empty = usable).
+std::string Odometry::placeLostFrameAlongAxis(const LabeledCloud& scan, const RegistrationTarget& target,
+                                              RegistrationResult& r, Vector6d& correction, std::string& note) {
+  std::string doubt;
+  const bool weak = weakHorizontalAxis(r, config_.flag_weak_axis_ratio).has_value();
+  if (!weak) {
+    const double fit = surfaceFit(scan, target, r.transform, config_.relocalise_inlier_distance);
+    doubt = ambiguousAlongWeakestAxis(scan, target, classes_, config_, seedConfigOf(config_), r, fit,
+                                      "ICP from the interpolated pose");
+  }
+  Eigen::Vector3d axis = Eigen::Vector3d::Zero();
+  if (!placeByLabels(scan, target, classes_, config_, r, doubt, note, &axis)) return doubt;
+  if (weak && note.empty()) return "weakly constrained along an axis";
+  if (!note.empty()) {
+    // The axis in the sensor frame (correctionOf measures there): the labels' move is not a slide.
+    const Eigen::Vector3d a = (r.transform.linear().transpose() * axis).normalized();
+    correction.head<3>() -= a.dot(correction.head<3>()) * a;
+  }
+  return {};
+}
+
 LabeledCloud Odometry::reestimateLostFrames(OdometryFrame& f, const LabeledCloud& f_world) {
   std::vector<Impl::LostFrame> lost = std::move(impl_->lost);
   impl_->lost.clear();
@@ -44,13 +68,18 @@ LabeledCloud Odometry::reestimateLostFrames(OdometryFrame& f, const LabeledCloud
     RegistrationResult r = registerClouds(l.scan, target, guess, classes_, config_.registration);
     std::string why = registrationFailure(r, guess, config_);
     if (why.empty() && !onlyVerticalDegeneracy(r.degenerate_directions)) why = "degenerate";
-    if (why.empty() && weakHorizontalAxis(r, config_.suspect_weak_axis_ratio)) why = "weakly constrained along an axis";
+    Vector6d correction = correctionOf(r, guess);
+    std::string label_note;
+    if (why.empty() && config_.relocalise_suspect)
+      why = placeLostFrameAlongAxis(l.scan, target, r, correction, label_note);
+    else if (why.empty() && weakHorizontalAxis(r, config_.suspect_weak_axis_ratio))
+      why = "weakly constrained along an axis";
     if (why.empty() && fitsWorseThanTracked(r, impl_->typical_rmse, config_))
       why = "inlier RMSE above that of tracked frames";
     // Interpolated translation is close for a ground robot (a kick turns it, a lost scan is a
     // longer step at the same pace); an answer farther from it slid somewhere (a corridor, 1 m
     // along its axis: 13 of 99 frames silently wrong when such answers were used).
-    if (why.empty() && correctionOf(r, guess).head<3>().norm() > config_.suspect_correction_translation)
+    if (why.empty() && correction.head<3>().norm() > config_.suspect_correction_translation)
       why = "far from the interpolated pose";
     if (why.empty() && (!plausibleMotion(prev.inverse() * r.transform, config_) || !plausibleMotion(r.transform.inverse() * f.pose, config_)))
       why = "implausible motion";
@@ -65,7 +94,8 @@ LabeledCloud Odometry::reestimateLostFrames(OdometryFrame& f, const LabeledCloud
       lf.registration = std::move(r);
       const Matrix6d Ad = adjoint(prev.inverse());
       lf.covariance = Ad * lf.registration.covariance * Ad.transpose();
-      std::snprintf(buf, sizeof buf, "; re-estimated once frame %zu was verified: ICP against the recovered map%s", f.index,
+      std::snprintf(buf, sizeof buf, "; re-estimated once frame %zu was verified: ICP against the recovered map%s%s%s",
+                    f.index, label_note.empty() ? "" : ", ", label_note.c_str(),
                     after_unverified ? " (flagged: the frame before it is interpolated)" : "");
       entering.append(l.scan.transformed(lf.pose));
     } else {
