@@ -17,6 +17,13 @@
 
 namespace hazmap {
 
+/// The labelled points the label search compares: this scan's (sensor frame) and the map's
+/// (registration space). Either may be missing (nothing to compare).
+struct LabelView {
+  const LabeledCloud* scan = nullptr;
+  const LabeledCloud* map = nullptr;
+};
+
 /// The keyframes assembled into one cloud, prepared for global registration and ICP.
 struct WholeMap;
 
@@ -40,6 +47,7 @@ struct Odometry::Impl {
   struct LostFrame {
     std::size_t frame = 0;
     LabeledCloud scan;
+    LabeledCloud labels;  ///< its labelled points (labelsDecideAxes)
   };
   std::vector<LostFrame> lost;
   /// The whole map as last prepared (rebuilt when keyframes were added or re-anchored since).
@@ -52,6 +60,13 @@ struct Odometry::Impl {
   /// how, for its reason; empty = not (then a weak axis flags it).
   std::string label_note;
   std::string label_doubt;  ///< why the labels did not place it (for a flagged frame's reason)
+  bool label_precise = false;  ///< the labels placed it precisely (else it stays flagged)
+  /// labelsDecideAxes: every frame's labelled points (labelledPointsOf, sensor frame); the label
+  /// map is built from those of verified frames at their current poses when a frame starts.
+  std::vector<std::pair<std::size_t, LabeledCloud>> frame_labels;
+  LabeledCloud scan_labels;  ///< the current frame's
+  LabeledCloud label_map;    ///< world
+  LabelView labelView() const { return {&scan_labels, &label_map}; }
 };
 
 /// Why ICP's answer cannot be used (empty when it can): did not converge (stopping at the
@@ -104,20 +119,27 @@ double surfaceFit(const LabeledCloud& source, const RegistrationTarget& target, 
                   double inlier_distance);
 
 /// Where the scan's labelled points say the pose lies along `axis` (odometry_labels.cpp): the
-/// offset (m) from `pose` whose property-aware label score is clearly best, or undecided (no
-/// labelled point in view, too little support, or another position scoring nearly as well).
+/// offset (m) from `pose` whose label score is clearly best, or undecided (no labelled point in
+/// view, too little support, or another position scoring nearly as well).
 struct LabelPlacement {
   bool decided = false;
-  double offset = 0.0;  ///< m along the axis from the pose
-  double score = 0.0;   ///< label score there
-  double second = 0.0;  ///< best score at least label_axis_gate away
-  std::size_t labelled = 0;  ///< labelled source points
+  bool precise = false;  ///< the two halves of the labelled points agree (label_axis_consistency)
+  double offset = 0.0;   ///< m along the axis from the pose
+  double score = 0.0;    ///< label score there
+  double second = 0.0;   ///< the next peak's score (at least label_axis_gate away)
+  double spread = 0.0;   ///< m between the halves' answers
+  std::size_t labelled = 0;  ///< labelled scan points
   std::size_t support = 0;   ///< of them, with a labelled partner at the offset
   std::string why;           ///< why undecided
 };
-LabelPlacement placeAlongAxisByLabels(const LabeledCloud& source, const RegistrationTarget& target,
-                                      const ClassTable& classes, const Eigen::Isometry3d& pose,
+LabelPlacement placeAlongAxisByLabels(const LabelView& view, const ClassTable& classes, const Eigen::Isometry3d& pose,
                                       const Eigen::Vector3d& axis, const OdometryConfig& config);
+/// A scan's labelled points for the label search: property classes within the crop range, lone
+/// returns (fewer than two of their class within 2 cm per metre of range) dropped, at label_axis_voxel.
+LabeledCloud labelledPointsOf(const LabeledCloud& scan, const OdometryConfig& config, const ClassTable& classes);
+/// Labelled points of frames placed at their poses, downsampled at label_axis_voxel.
+LabeledCloud labelMapOf(const std::vector<std::pair<Eigen::Isometry3d, const LabeledCloud*>>& frames,
+                        const OdometryConfig& config, const ClassTable& classes);
 /// "labels placed it +0.40 m along the weak axis (…)" or why undecided.
 std::string describe(const LabelPlacement& placement);
 /// `pose` moved `offset` along `axis` (registration space).
@@ -135,8 +157,8 @@ void applyLabelPlacement(RegistrationResult& r, const Eigen::Vector3d& axis, con
 /// or `doubt`: another position along its weakest axis fits as well): the labels decide
 /// (labelsDecideAxes). Placed: the answer moves along the axis (`placed_along`, when given) and
 /// `note` says so; else `doubt` (or the labels' reason) stays. Returns whether it may be used.
-bool placeByLabels(const LabeledCloud& source, const RegistrationTarget& target, const ClassTable& classes,
-                   const OdometryConfig& config, RegistrationResult& answer, std::string& doubt, std::string& note,
+bool placeByLabels(const LabelView& view, const ClassTable& classes, const OdometryConfig& config,
+                   RegistrationResult& answer, std::string& doubt, std::string& note, bool& precise,
                    Eigen::Vector3d* placed_along);
 /// The checks of ICP from a recovery start (a seed): it may travel up to relocalise_start_correction.
 inline OdometryConfig seedConfigOf(const OdometryConfig& config) {
@@ -145,9 +167,11 @@ inline OdometryConfig seedConfigOf(const OdometryConfig& config) {
   seed.max_correction_rotation = std::max(config.max_correction_rotation, config.relocalise_start_correction_rotation);
   return seed;
 }
-/// Whether labels may decide along weak axes: relocalise_suspect, label_axis_search and property ICP.
+/// Whether labels may decide along weak axes: relocalise_suspect, label_axis_search, property ICP,
+/// frame to map.
 inline bool labelsDecideAxes(const OdometryConfig& config) {
-  return config.relocalise_suspect && config.label_axis_search && config.registration.use_classes;
+  return config.relocalise_suspect && config.label_axis_search && config.registration.use_classes &&
+         config.mode == OdometryMode::FrameToMap;
 }
 
 }  // namespace hazmap

@@ -63,7 +63,12 @@ static ConfigFields<OdometryConfig>& addWholeMapFields(ConfigFields<OdometryConf
           .number("label_axis_ambiguity", &C::label_axis_ambiguity, closed(0, 1),
                   "A position label_axis_gate or more from the best scoring this x as much: undecided, flagged")
           .number("label_axis_sigma", &C::label_axis_sigma, positive(),
-                  "m; standard deviation added along the axis when labels placed the frame");
+                  "m; standard deviation added along the axis when labels placed the frame")
+          .number("label_axis_voxel", &C::label_axis_voxel, positive(), "m; the labelled points' resolution for the search")
+          .number("label_axis_context", &C::label_axis_context, positive(),
+                  "m; unlabelled returns this close to labelled ones take part (a mismatch costs the class penalty)")
+          .number("label_axis_consistency", &C::label_axis_consistency, positive(),
+                  "m; the halves of the labelled points place the frame this close, or it stays flagged");
 }
 
 const ConfigFields<OdometryConfig>& configFields(ConfigTag<OdometryConfig>) {

@@ -27,8 +27,9 @@ Eigen::Isometry3d interpolate(const Eigen::Isometry3d& a, const Eigen::Isometry3
 // or another position fitting as well) is settled by the labels or refuses the answer (a corridor
 // frame was re-estimated 1 m along the axis without this). Placed, `correction` loses its part
 // along the axis (the labels moved it there, not a slide). Returns why refused (empty = usable).
-std::string Odometry::placeLostFrameAlongAxis(const LabeledCloud& scan, const RegistrationTarget& target,
-                                              RegistrationResult& r, Vector6d& correction, std::string& note) {
+std::string Odometry::placeLostFrameAlongAxis(const LabeledCloud& scan, const LabeledCloud& labels,
+                                              const RegistrationTarget& target, RegistrationResult& r,
+                                              Vector6d& correction, std::string& note, bool& precise) {
   std::string doubt;
   const bool weak = weakHorizontalAxis(r, config_.flag_weak_axis_ratio).has_value();
   if (!weak) {
@@ -37,7 +38,7 @@ std::string Odometry::placeLostFrameAlongAxis(const LabeledCloud& scan, const Re
                                       "ICP from the interpolated pose");
   }
   Eigen::Vector3d axis = Eigen::Vector3d::Zero();
-  if (!placeByLabels(scan, target, classes_, config_, r, doubt, note, &axis)) return doubt;
+  if (!placeByLabels({&labels, &impl_->label_map}, classes_, config_, r, doubt, note, precise, &axis)) return doubt;
   if (weak && note.empty()) return "weakly constrained along an axis";
   if (!note.empty()) {
     // The axis in the sensor frame (correctionOf measures there): the labels' move is not a slide.
@@ -70,8 +71,9 @@ LabeledCloud Odometry::reestimateLostFrames(OdometryFrame& f, const LabeledCloud
     if (why.empty() && !onlyVerticalDegeneracy(r.degenerate_directions)) why = "degenerate";
     Vector6d correction = correctionOf(r, guess);
     std::string label_note;
+    bool label_precise = true;
     if (why.empty() && config_.relocalise_suspect)
-      why = placeLostFrameAlongAxis(l.scan, target, r, correction, label_note);
+      why = placeLostFrameAlongAxis(l.scan, l.labels, target, r, correction, label_note, label_precise);
     else if (why.empty() && weakHorizontalAxis(r, config_.suspect_weak_axis_ratio))
       why = "weakly constrained along an axis";
     if (why.empty() && fitsWorseThanTracked(r, impl_->typical_rmse, config_))
@@ -87,7 +89,8 @@ LabeledCloud Odometry::reestimateLostFrames(OdometryFrame& f, const LabeledCloud
     // Its increment starts from the previous frame's pose: after a frame left interpolated it is
     // no better than that guess, so the frame stays flagged though its own pose is re-registered
     // (used as relocalised, a corridor's such frames were 12-18 deg off in their increments).
-    const bool after_unverified = frames_[l.frame - 1].status == FrameStatus::Fallback;
+    // Placed by labels, but not to the centimetre: the labels' pose, still flagged.
+    const bool after_unverified = frames_[l.frame - 1].status == FrameStatus::Fallback || !label_precise;
     if (why.empty()) {
       lf.pose = normalized(r.transform);
       if (!after_unverified) lf.status = FrameStatus::Relocalised;
@@ -113,6 +116,9 @@ LabeledCloud Odometry::reestimateLostFrames(OdometryFrame& f, const LabeledCloud
     f.covariance = fallbackCovariance(config_);
     f.reason += f.reason.empty() ? "" : "; ";
     f.reason += "increment from an interpolated pose (loose covariance)";
+    // Its pose may be right, its increment is not known: flagged (with relocalise_suspect, whose
+    // worst-day runs count such frames; corridor: 0.5 m off yet tracked).
+    if (config_.relocalise_suspect && f.status == FrameStatus::Tracked) f.status = FrameStatus::Degenerate;
   }
   impl_->velocity = f.increment;  // the motion again, no longer the jump back from a wrong pose
   return entering;

@@ -60,6 +60,7 @@ struct Verified {
   double fit = 0.0;  ///< share of source points on a target surface (surfaceFit)
   bool probe = false;
   std::string label_note;  ///< the labels placed it along an axis (how)
+  bool label_precise = false;
   Eigen::Vector3d label_axis = Eigen::Vector3d::Zero();
 };
 
@@ -157,8 +158,8 @@ std::string probeAnswerAlongWeakestAxis(const LabeledCloud& source, const Regist
 
 // `best` and `other` differ by a shift, not a turn: the labels decide along the horizontal line
 // between them (once; a third answer along the same line is decided by then too).
-bool resolveByLabels(const LabeledCloud& source, const RegistrationTarget& target, const ClassTable& classes,
-                     const OdometryConfig& config, Verified& best, const Verified& other) {
+bool resolveByLabels(const LabelView& view, const LabeledCloud& source, const RegistrationTarget& target,
+                     const ClassTable& classes, const OdometryConfig& config, Verified& best, const Verified& other) {
   const Eigen::Isometry3d d = best.registration.transform.inverse() * other.registration.transform;
   if (rotationAngle(d) > config.relocalise_distinct_rotation) return false;
   Eigen::Vector3d line = other.registration.transform.translation() - best.registration.transform.translation();
@@ -166,10 +167,11 @@ bool resolveByLabels(const LabeledCloud& source, const RegistrationTarget& targe
   if (line.norm() < 1e-6) return false;
   line.normalize();
   if (!best.label_note.empty()) return std::abs(line.dot(best.label_axis)) > 0.9;
-  const LabelPlacement lp = placeAlongAxisByLabels(source, target, classes, best.registration.transform, line, config);
+  const LabelPlacement lp = placeAlongAxisByLabels(view, classes, best.registration.transform, line, config);
   if (!lp.decided) return false;
   applyLabelPlacement(best.registration, line, lp, config);
   best.label_note = describe(lp);
+  best.label_precise = lp.precise;
   best.label_axis = line;
   best.fit = surfaceFit(source, target, best.registration.transform, config.relocalise_inlier_distance);
   return true;
@@ -198,8 +200,8 @@ std::string ambiguousAlongWeakestAxis(const LabeledCloud& source, const Registra
     if (other_fit < fit - config.relocalise_ambiguity) continue;
     char name[64];
     std::snprintf(name, sizeof name, "its answer %+.1f m along its weakest axis", k * config.relocalise_axis_step);
-    return describeAmbiguity(Verified{answer, answer_name, false, fit, false, {}, {}},
-                             Verified{std::move(r), name, false, other_fit, true, {}, {}});
+    return describeAmbiguity(Verified{answer, answer_name, false, fit, false, {}, false, {}},
+                             Verified{std::move(r), name, false, other_fit, true, {}, false, {}});
   }
   return {};
 }
@@ -211,21 +213,22 @@ void applyLabelPlacement(RegistrationResult& r, const Eigen::Vector3d& axis, con
   r.covariance.topLeftCorner<3, 3>() += config.label_axis_sigma * config.label_axis_sigma * a * a.transpose();
 }
 
-bool placeByLabels(const LabeledCloud& source, const RegistrationTarget& target, const ClassTable& classes,
-                   const OdometryConfig& config, RegistrationResult& answer, std::string& doubt, std::string& note,
+bool placeByLabels(const LabelView& view, const ClassTable& classes, const OdometryConfig& config,
+                   RegistrationResult& answer, std::string& doubt, std::string& note, bool& precise,
                    Eigen::Vector3d* placed_along) {
   std::optional<Eigen::Vector3d> axis = weakHorizontalAxis(answer, config.flag_weak_axis_ratio);
   if (!axis && doubt.empty()) return true;
   if (!labelsDecideAxes(config)) return doubt.empty();
   if (!axis) axis = weakHorizontalAxis(answer, 1.0);
   if (!axis) return doubt.empty();
-  const LabelPlacement lp = placeAlongAxisByLabels(source, target, classes, answer.transform, *axis, config);
+  const LabelPlacement lp = placeAlongAxisByLabels(view, classes, answer.transform, *axis, config);
   if (!lp.decided) {  // merely weak: used, and tracking flags the frame; doubted: refused
     if (!doubt.empty()) doubt += "; " + lp.why;
     return doubt.empty();
   }
   applyLabelPlacement(answer, *axis, lp, config);
   note = describe(lp);
+  precise = lp.precise;
   doubt.clear();
   if (placed_along) *placed_along = *axis;
   return true;
@@ -321,7 +324,7 @@ std::optional<Odometry::Recovery> Odometry::recover(OdometryFrame& f, const Labe
     }
     if (why.empty()) {
       const double fit = surfaceFit(source, target, r.transform, config_.relocalise_inlier_distance);
-      verified.push_back({std::move(r), name, guess, fit, probe, {}, Eigen::Vector3d::Zero()});
+      verified.push_back({std::move(r), name, guess, fit, probe, {}, false, Eigen::Vector3d::Zero()});
     }
     else rejected += (rejected.empty() ? "" : "; ") + name + ": " + why;
   };
@@ -339,7 +342,7 @@ std::optional<Odometry::Recovery> Odometry::recover(OdometryFrame& f, const Labe
     return std::nullopt;
   }
   const LabelResolver resolve = [&](Verified& best, const Verified& other) {
-    return labelsDecideAxes(config_) && resolveByLabels(source, target, classes_, config_, best, other);
+    return labelsDecideAxes(config_) && resolveByLabels(impl_->labelView(), source, target, classes_, config_, best, other);
   };
   const std::size_t best = pickAnswer(verified, config_, f.global.outcome, rejected, resolve);
   if (best == verified.size()) return std::nullopt;
@@ -353,16 +356,19 @@ std::optional<Odometry::Recovery> Odometry::recover(OdometryFrame& f, const Labe
     }
   }
   std::string label_note = verified[best].label_note;
+  bool label_precise = verified[best].label_precise;
   if (config_.relocalise_suspect && !verified[best].from_guess && label_note.empty()) {
     // The geometry's doubt along the answer's weakest axis; the labels may settle it.
     std::string doubt = probeAnswerAlongWeakestAxis(source, target, classes_, config_, seed_config, verified[best]);
-    if (!placeByLabels(source, target, classes_, config_, verified[best].registration, doubt, label_note, nullptr)) {
+    if (!placeByLabels(impl_->labelView(), classes_, config_, verified[best].registration, doubt, label_note,
+                       label_precise, nullptr)) {
       f.global.outcome = std::move(doubt);
       return std::nullopt;
     }
   }
   f.global.outcome = "used " + verified[best].name + (label_note.empty() ? "" : "; " + label_note);
   impl_->label_note = std::move(label_note);
+  impl_->label_precise = label_precise;
   return Recovery{std::move(verified[best].registration), verified[best].from_guess};
 }
 

@@ -168,8 +168,15 @@ struct OdometryConfig {
   double label_axis_range = 2.5;       ///< m either way
   double label_axis_gate = 0.5;        ///< m
   double label_axis_min_support = 3.0;  ///< label score (≈ well-matched labelled points)
-  double label_axis_ambiguity = 0.7;   ///< the next-best position's score at most this × the best
+  double label_axis_ambiguity = 0.85;   ///< the next peak at most this × the best (above the profile's floor)
   double label_axis_sigma = 0.05;      ///< m; variance added along the axis when labels placed it
+  double label_axis_voxel = 0.1;       ///< m; the labelled points' resolution for the search
+  /// m; unlabelled returns this close to labelled ones take part too (a mismatch costs α): they
+  /// show where a panel ends, so a partial view cannot slide along it.
+  double label_axis_context = 0.5;
+  /// The two halves of the labelled points (alternate points) place the frame this close (m), or
+  /// the frame keeps the labels' position but stays flagged (far patches at a grazing angle).
+  double label_axis_consistency = 0.05;
 
   /// The defaults above (max correspondence 1 m, scan voxel 0.5 m, map voxel 1 m), set for the
   /// simulated 10 Hz VLP-16 of the paper's experiment.
@@ -290,8 +297,10 @@ class Odometry {
                               RegistrationResult& r, bool& relocalised);
   /// With labelsDecideAxes: `r` weakly constrained along a horizontal axis (below `ratio`) is
   /// placed along it by the scan's labels (odometry_labels.cpp); false when not weak or undecided.
-  bool placeAlongWeakAxis(OdometryFrame& f, const LabeledCloud& source, const RegistrationTarget& target,
-                          RegistrationResult& r, double ratio);
+  bool placeAlongWeakAxis(RegistrationResult& r, double ratio);
+  /// labelsDecideAxes (odometry_labels.cpp): this scan's labelled points and the label map of the
+  /// verified frames, for the frame about to be tracked.
+  void prepareLabels(const LabeledCloud& scan);
   /// Whole-map re-localisation (odometry_whole_map.cpp): the scan against the keyframes; the
   /// verified answer (world ← scan) or nothing, f.global says why.
   std::optional<RegistrationResult> relocaliseInWholeMap(OdometryFrame& f, const LabeledCloud& source,
@@ -308,8 +317,9 @@ class Odometry {
   LabeledCloud reestimateLostFrames(OdometryFrame& f, const LabeledCloud& f_world);
   /// A lost frame's re-registered answer `r` along its weak axis (odometry_lost.cpp): why it
   /// cannot be used, empty when it can (the labels may have moved it; `note` says how).
-  std::string placeLostFrameAlongAxis(const LabeledCloud& scan, const RegistrationTarget& target, RegistrationResult& r,
-                                      Vector6d& correction, std::string& note);
+  std::string placeLostFrameAlongAxis(const LabeledCloud& scan, const LabeledCloud& labels,
+                                      const RegistrationTarget& target, RegistrationResult& r, Vector6d& correction,
+                                      std::string& note, bool& precise);
 
   struct Impl;
   ClassTable classes_;
