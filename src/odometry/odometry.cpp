@@ -375,7 +375,8 @@ std::string Odometry::checkAndRecover(OdometryFrame& f, const LabeledCloud& sour
                                          : suspicion(r, reg_guess, has_prior, impl_->typical_rmse, config_,
                                                      only_weak_axis);
   // Suspect only for a weak axis: the labels may place the frame along it, leaving nothing to recover.
-  if (only_weak_axis && labelsDecideAxes(config_) && placeAlongWeakAxis(r, config_.suspect_weak_axis_ratio))
+  if (only_weak_axis && target && labelsDecideAxes(config_) &&
+      placeAlongWeakAxis(source, *target, r, config_.suspect_weak_axis_ratio))
     trigger.clear();
   if (config_.relocalise && !trigger.empty() && target && !source.empty()) {
     f.global.trigger = trigger;
@@ -389,12 +390,14 @@ std::string Odometry::checkAndRecover(OdometryFrame& f, const LabeledCloud& sour
   }
   // ICP from the guess kept but weak along an axis (flag_weak_axis_ratio): the labels decide, or
   // track() flags the frame.
-  if (failure.empty() && !relocalised && impl_->label_note.empty() && labelsDecideAxes(config_) && config_.flag_weak_axis)
-    placeAlongWeakAxis(r, config_.flag_weak_axis_ratio);
+  if (failure.empty() && !relocalised && impl_->label_note.empty() && target && labelsDecideAxes(config_) &&
+      config_.flag_weak_axis)
+    placeAlongWeakAxis(source, *target, r, config_.flag_weak_axis_ratio);
   return failure;
 }
 
-bool Odometry::placeAlongWeakAxis(RegistrationResult& r, double ratio) {
+bool Odometry::placeAlongWeakAxis(const LabeledCloud& source, const RegistrationTarget& target, RegistrationResult& r,
+                                  double ratio) {
   const std::optional<Eigen::Vector3d> axis = weakHorizontalAxis(r, ratio);
   if (!axis) return false;
   const LabelPlacement lp = placeAlongAxisByLabels(impl_->labelView(), classes_, r.transform, *axis, config_);
@@ -402,7 +405,10 @@ bool Odometry::placeAlongWeakAxis(RegistrationResult& r, double ratio) {
     impl_->label_doubt = lp.why;
     return false;
   }
-  applyLabelPlacement(r, *axis, lp, config_);
+  if (!applyPlacementIfGeometryAllows(source, target, r, *axis, lp, config_)) {
+    impl_->label_doubt = "the labels' position fits the geometry worse";
+    return false;
+  }
   impl_->label_note = describe(lp);
   impl_->label_precise = lp.precise;
   return true;

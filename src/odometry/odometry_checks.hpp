@@ -157,9 +157,23 @@ void applyLabelPlacement(RegistrationResult& r, const Eigen::Vector3d& axis, con
 /// or `doubt`: another position along its weakest axis fits as well): the labels decide
 /// (labelsDecideAxes). Placed: the answer moves along the axis (`placed_along`, when given) and
 /// `note` says so; else `doubt` (or the labels' reason) stays. Returns whether it may be used.
-bool placeByLabels(const LabelView& view, const ClassTable& classes, const OdometryConfig& config,
-                   RegistrationResult& answer, std::string& doubt, std::string& note, bool& precise,
-                   Eigen::Vector3d* placed_along);
+bool placeByLabels(const LabelView& view, const LabeledCloud& source, const RegistrationTarget& target,
+                   const ClassTable& classes, const OdometryConfig& config, RegistrationResult& answer,
+                   std::string& doubt, std::string& note, bool& precise, Eigen::Vector3d* placed_along);
+/// Whether a label placement may move `r` (in place; false = leave it, the caller flags it): a
+/// move within label_axis_confirm confirms ICP's answer and leaves it where it is (ICP is the
+/// finer of the two where it has anything to go by: naraha's weak-axis frames); a larger one only
+/// when the scan still fits the target as well there (surface fit within relocalise_ambiguity: a
+/// corridor fits anywhere along it, a room does not).
+bool applyPlacementIfGeometryAllows(const LabeledCloud& source, const RegistrationTarget& target, RegistrationResult& r,
+                                    const Eigen::Vector3d& axis, const LabelPlacement& placement,
+                                    const OdometryConfig& config);
+/// An answer the geometry placed (not weak) that its labels, decided, put more than
+/// relocalise_distinct_translation elsewhere along its weakest horizontal axis: why it is refused
+/// (empty when they agree or cannot tell). A recovery answer slid a metre along a corridor whose
+/// walls fitted either way.
+std::string labelsContradict(const LabelView& view, const ClassTable& classes, const OdometryConfig& config,
+                             const RegistrationResult& answer);
 /// The checks of ICP from a recovery start (a seed): it may travel up to relocalise_start_correction.
 inline OdometryConfig seedConfigOf(const OdometryConfig& config) {
   OdometryConfig seed = config;

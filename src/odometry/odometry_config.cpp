@@ -65,6 +65,8 @@ static ConfigFields<OdometryConfig>& addWholeMapFields(ConfigFields<OdometryConf
           .number("label_axis_sigma", &C::label_axis_sigma, positive(),
                   "m; standard deviation added along the axis when labels placed the frame")
           .number("label_axis_voxel", &C::label_axis_voxel, positive(), "m; the labelled points' resolution for the search")
+          .number("label_axis_confirm", &C::label_axis_confirm, nonNegative(),
+                  "m; labels placing the frame within this of ICP's answer confirm it (ICP's answer kept)")
           .number("label_axis_context", &C::label_axis_context, positive(),
                   "m; unlabelled returns this close to labelled ones take part (a mismatch costs the class penalty)")
           .number("label_axis_consistency", &C::label_axis_consistency, positive(),

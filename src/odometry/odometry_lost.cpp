@@ -38,8 +38,13 @@ std::string Odometry::placeLostFrameAlongAxis(const LabeledCloud& scan, const La
                                       "ICP from the interpolated pose");
   }
   Eigen::Vector3d axis = Eigen::Vector3d::Zero();
-  if (!placeByLabels({&labels, &impl_->label_map}, classes_, config_, r, doubt, note, precise, &axis)) return doubt;
+  if (!placeByLabels({&labels, &impl_->label_map}, scan, target, classes_, config_, r, doubt, note, precise, &axis))
+    return doubt.empty() ? std::string("weakly constrained along an axis") : doubt;
   if (weak && note.empty()) return "weakly constrained along an axis";
+  if (note.empty() && labelsDecideAxes(config_))
+    if (std::string contradiction = labelsContradict({&labels, &impl_->label_map}, classes_, config_, r);
+        !contradiction.empty())
+      return contradiction;
   if (!note.empty()) {
     // The axis in the sensor frame (correctionOf measures there): the labels' move is not a slide.
     const Eigen::Vector3d a = (r.transform.linear().transpose() * axis).normalized();

@@ -169,7 +169,7 @@ bool resolveByLabels(const LabelView& view, const LabeledCloud& source, const Re
   if (!best.label_note.empty()) return std::abs(line.dot(best.label_axis)) > 0.9;
   const LabelPlacement lp = placeAlongAxisByLabels(view, classes, best.registration.transform, line, config);
   if (!lp.decided) return false;
-  applyLabelPlacement(best.registration, line, lp, config);
+  if (!applyPlacementIfGeometryAllows(source, target, best.registration, line, lp, config)) return false;
   best.label_note = describe(lp);
   best.label_precise = lp.precise;
   best.label_axis = line;
@@ -213,9 +213,33 @@ void applyLabelPlacement(RegistrationResult& r, const Eigen::Vector3d& axis, con
   r.covariance.topLeftCorner<3, 3>() += config.label_axis_sigma * config.label_axis_sigma * a * a.transpose();
 }
 
-bool placeByLabels(const LabelView& view, const ClassTable& classes, const OdometryConfig& config,
-                   RegistrationResult& answer, std::string& doubt, std::string& note, bool& precise,
-                   Eigen::Vector3d* placed_along) {
+bool applyPlacementIfGeometryAllows(const LabeledCloud& source, const RegistrationTarget& target, RegistrationResult& r,
+                                    const Eigen::Vector3d& axis, const LabelPlacement& placement,
+                                    const OdometryConfig& config) {
+  if (std::abs(placement.offset) <= config.label_axis_confirm) return true;
+  const double before = surfaceFit(source, target, r.transform, config.relocalise_inlier_distance);
+  const double after = surfaceFit(source, target, shiftedAlong(r.transform, axis, placement.offset),
+                                  config.relocalise_inlier_distance);
+  if (after < before - config.relocalise_ambiguity) return false;
+  applyLabelPlacement(r, axis, placement, config);
+  return true;
+}
+
+std::string labelsContradict(const LabelView& view, const ClassTable& classes, const OdometryConfig& config,
+                             const RegistrationResult& answer) {
+  const std::optional<Eigen::Vector3d> axis = weakHorizontalAxis(answer, 1.0);
+  if (!axis) return {};
+  const LabelPlacement lp = placeAlongAxisByLabels(view, classes, answer.transform, *axis, config);
+  if (!lp.decided || std::abs(lp.offset) <= config.relocalise_distinct_translation) return {};
+  char buf[240];
+  std::snprintf(buf, sizeof buf, "the labels put it %+.2f m along its weakest axis (%zu of %zu labelled points agree): flagged",
+                lp.offset, lp.support, lp.labelled);
+  return buf;
+}
+
+bool placeByLabels(const LabelView& view, const LabeledCloud& source, const RegistrationTarget& target,
+                   const ClassTable& classes, const OdometryConfig& config, RegistrationResult& answer,
+                   std::string& doubt, std::string& note, bool& precise, Eigen::Vector3d* placed_along) {
   std::optional<Eigen::Vector3d> axis = weakHorizontalAxis(answer, config.flag_weak_axis_ratio);
   if (!axis && doubt.empty()) return true;
   if (!labelsDecideAxes(config)) return doubt.empty();
@@ -226,7 +250,10 @@ bool placeByLabels(const LabelView& view, const ClassTable& classes, const Odome
     if (!doubt.empty()) doubt += "; " + lp.why;
     return doubt.empty();
   }
-  applyLabelPlacement(answer, *axis, lp, config);
+  if (!applyPlacementIfGeometryAllows(source, target, answer, *axis, lp, config)) {
+    doubt = (doubt.empty() ? std::string() : doubt + "; ") + "the labels' position fits the geometry worse";
+    return false;
+  }
   note = describe(lp);
   precise = lp.precise;
   doubt.clear();
@@ -360,9 +387,16 @@ std::optional<Odometry::Recovery> Odometry::recover(OdometryFrame& f, const Labe
   if (config_.relocalise_suspect && !verified[best].from_guess && label_note.empty()) {
     // The geometry's doubt along the answer's weakest axis; the labels may settle it.
     std::string doubt = probeAnswerAlongWeakestAxis(source, target, classes_, config_, seed_config, verified[best]);
-    if (!placeByLabels(impl_->labelView(), classes_, config_, verified[best].registration, doubt, label_note,
-                       label_precise, nullptr)) {
+    if (!placeByLabels(impl_->labelView(), source, target, classes_, config_, verified[best].registration, doubt,
+                       label_note, label_precise, nullptr)) {
       f.global.outcome = std::move(doubt);
+      return std::nullopt;
+    }
+  }
+  if (label_note.empty() && labelsDecideAxes(config_)) {
+    std::string contradiction = labelsContradict(impl_->labelView(), classes_, config_, verified[best].registration);
+    if (!contradiction.empty()) {
+      f.global.outcome = verified[best].name + ": " + contradiction;
       return std::nullopt;
     }
   }

@@ -171,6 +171,9 @@ struct OdometryConfig {
   double label_axis_ambiguity = 0.85;   ///< the next peak at most this × the best (above the profile's floor)
   double label_axis_sigma = 0.05;      ///< m; variance added along the axis when labels placed it
   double label_axis_voxel = 0.1;       ///< m; the labelled points' resolution for the search
+  /// m; labels placing the frame within this of ICP's answer confirm it (ICP's answer is kept: where
+  /// the geometry has anything to go by it is the finer of the two; naraha's weak-axis frames).
+  double label_axis_confirm = 0.1;
   /// m; unlabelled returns this close to labelled ones take part too (a mismatch costs α): they
   /// show where a panel ends, so a partial view cannot slide along it.
   double label_axis_context = 0.5;
@@ -297,7 +300,8 @@ class Odometry {
                               RegistrationResult& r, bool& relocalised);
   /// With labelsDecideAxes: `r` weakly constrained along a horizontal axis (below `ratio`) is
   /// placed along it by the scan's labels (odometry_labels.cpp); false when not weak or undecided.
-  bool placeAlongWeakAxis(RegistrationResult& r, double ratio);
+  bool placeAlongWeakAxis(const LabeledCloud& source, const RegistrationTarget& target, RegistrationResult& r,
+                          double ratio);
   /// labelsDecideAxes (odometry_labels.cpp): this scan's labelled points and the label map of the
   /// verified frames, for the frame about to be tracked.
   void prepareLabels(const LabeledCloud& scan);
