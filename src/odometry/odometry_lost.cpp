@@ -123,7 +123,8 @@ LabeledCloud Odometry::reestimateLostFrames(OdometryFrame& f, const LabeledCloud
     f.reason += "increment from an interpolated pose (loose covariance)";
     // Its pose may be right, its increment is not known: flagged (with relocalise_suspect, whose
     // worst-day runs count such frames; corridor: 0.5 m off yet tracked).
-    if (config_.relocalise_suspect && f.status == FrameStatus::Tracked) f.status = FrameStatus::Degenerate;
+    if (config_.relocalise_suspect && (f.status == FrameStatus::Tracked || f.status == FrameStatus::Relocalised))
+      f.status = FrameStatus::Degenerate;
   }
   impl_->velocity = f.increment;  // the motion again, no longer the jump back from a wrong pose
   return entering;

@@ -250,9 +250,9 @@ bool placeByLabels(const LabelView& view, const LabeledCloud& source, const Regi
     if (!doubt.empty()) doubt += "; " + lp.why;
     return doubt.empty();
   }
-  if (!applyPlacementIfGeometryAllows(source, target, answer, *axis, lp, config)) {
-    doubt = (doubt.empty() ? std::string() : doubt + "; ") + "the labels' position fits the geometry worse";
-    return false;
+  if (!applyPlacementIfGeometryAllows(source, target, answer, *axis, lp, config)) {  // as undecided
+    if (!doubt.empty()) doubt += "; the labels' position fits the geometry worse";
+    return doubt.empty();
   }
   note = describe(lp);
   precise = lp.precise;
