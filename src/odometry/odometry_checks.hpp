@@ -170,10 +170,10 @@ bool applyPlacementIfGeometryAllows(const LabeledCloud& source, const Registrati
                                     const OdometryConfig& config);
 /// An answer the geometry placed (not weak) that its labels, decided, put more than
 /// relocalise_distinct_translation elsewhere along its weakest horizontal axis: why it is refused
-/// (empty when they agree or cannot tell). A recovery answer slid a metre along a corridor whose
-/// walls fitted either way.
-std::string labelsContradict(const LabelView& view, const ClassTable& classes, const OdometryConfig& config,
-                             const RegistrationResult& answer);
+/// (empty when they agree, cannot tell, or their position fits the geometry worse). A recovery
+/// answer slid a metre along a corridor whose walls fitted either way.
+std::string labelsContradict(const LabelView& view, const LabeledCloud& source, const RegistrationTarget& target,
+                             const ClassTable& classes, const OdometryConfig& config, const RegistrationResult& answer);
 /// The checks of ICP from a recovery start (a seed): it may travel up to relocalise_start_correction.
 inline OdometryConfig seedConfigOf(const OdometryConfig& config) {
   OdometryConfig seed = config;

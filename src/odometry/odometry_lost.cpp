@@ -42,7 +42,7 @@ std::string Odometry::placeLostFrameAlongAxis(const LabeledCloud& scan, const La
     return doubt.empty() ? std::string("weakly constrained along an axis") : doubt;
   if (weak && note.empty()) return "weakly constrained along an axis";
   if (note.empty() && labelsDecideAxes(config_))
-    if (std::string contradiction = labelsContradict({&labels, &impl_->label_map}, classes_, config_, r);
+    if (std::string contradiction = labelsContradict({&labels, &impl_->label_map}, scan, target, classes_, config_, r);
         !contradiction.empty())
       return contradiction;
   if (!note.empty()) {
