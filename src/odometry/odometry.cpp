@@ -225,6 +225,19 @@ void flagWeakAxis(OdometryFrame& f, const RegistrationResult& r, Estimate& estim
   f.status = FrameStatus::Degenerate;
 }
 
+// A tracked or relocalised frame: placed along its weak axis by its labels (flagged when not to
+// the centimetre), or flagged for the weak axis as before.
+void labelledOrFlagged(OdometryFrame& f, const RegistrationResult& r, Estimate& estimate, const OdometryConfig& config,
+                       const std::string& label_note, bool label_precise, const std::string& label_doubt) {
+  if (!label_note.empty()) {
+    f.reason += (f.reason.empty() ? "" : "; ") + label_note;
+    if (!label_precise) f.status = FrameStatus::Degenerate;
+    return;
+  }
+  flagWeakAxis(f, r, estimate, config);
+  if (f.status == FrameStatus::Degenerate && !label_doubt.empty()) f.reason += "; " + label_doubt;
+}
+
 }  // namespace
 
 // The paper's Fig. 1 for one scan: preprocess, register against the previous scan or the local
@@ -335,14 +348,8 @@ void Odometry::track(OdometryFrame& f, const LabeledCloud& source, std::optional
   const bool level_velocity = f.status == FrameStatus::Relocalised &&
                               !(config_.relocalise_suspect && config_.flag_weak_axis &&
                                 weakHorizontalAxis(r, config_.suspect_weak_axis_ratio));
-  if (!impl_->label_note.empty() && (f.status == FrameStatus::Tracked || f.status == FrameStatus::Relocalised)) {
-    f.reason += (f.reason.empty() ? "" : "; ") + impl_->label_note;
-    if (!impl_->label_precise) f.status = FrameStatus::Degenerate;  // placed, but not to the centimetre
-  }
-  else if (f.status == FrameStatus::Tracked || f.status == FrameStatus::Relocalised) {
-    flagWeakAxis(f, r, estimate, config_);
-    if (f.status == FrameStatus::Degenerate && !impl_->label_doubt.empty()) f.reason += "; " + impl_->label_doubt;
-  }
+  if (f.status == FrameStatus::Tracked || f.status == FrameStatus::Relocalised)
+    labelledOrFlagged(f, r, estimate, config_, impl_->label_note, impl_->label_precise, impl_->label_doubt);
   f.increment = normalized(prev_pose.inverse() * W * estimate.pose);
   // W-frame perturbation → previous-frame perturbation of the increment
   const Matrix6d Ad = adjoint(prev_pose.inverse() * W);

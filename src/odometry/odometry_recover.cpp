@@ -156,6 +156,30 @@ std::string probeAnswerAlongWeakestAxis(const LabeledCloud& source, const Regist
                                    answer.name);
 }
 
+// The winner's place along its weakest horizontal axis: where the geometry doubts it (another
+// position fits as well) the labels place it or it is refused; a winner the labels put clearly
+// elsewhere is refused. False (`outcome` says why) when refused.
+bool settleAlongWeakestAxis(const LabelView& view, const LabeledCloud& source, const RegistrationTarget& target,
+                            const ClassTable& classes, const OdometryConfig& config, const OdometryConfig& seed_config,
+                            Verified& answer, std::string& outcome) {
+  if (config.relocalise_suspect && !answer.from_guess && answer.label_note.empty()) {
+    std::string doubt = probeAnswerAlongWeakestAxis(source, target, classes, config, seed_config, answer);
+    if (!placeByLabels(view, source, target, classes, config, answer.registration, doubt, answer.label_note,
+                       answer.label_precise, nullptr)) {
+      outcome = std::move(doubt);
+      return false;
+    }
+  }
+  if (answer.label_note.empty() && labelsDecideAxes(config)) {
+    const std::string contradiction = labelsContradict(view, source, target, classes, config, answer.registration);
+    if (!contradiction.empty()) {
+      outcome = answer.name + ": " + contradiction;
+      return false;
+    }
+  }
+  return true;
+}
+
 // `best` and `other` differ by a shift, not a turn: the labels decide along the horizontal line
 // between them (once; a third answer along the same line is decided by then too).
 bool resolveByLabels(const LabelView& view, const LabeledCloud& source, const RegistrationTarget& target,
@@ -388,28 +412,13 @@ std::optional<Odometry::Recovery> Odometry::recover(OdometryFrame& f, const Labe
       return std::nullopt;
     }
   }
-  std::string label_note = verified[best].label_note;
-  bool label_precise = verified[best].label_precise;
-  if (config_.relocalise_suspect && !verified[best].from_guess && label_note.empty()) {
-    // The geometry's doubt along the answer's weakest axis; the labels may settle it.
-    std::string doubt = probeAnswerAlongWeakestAxis(source, target, classes_, config_, seed_config, verified[best]);
-    if (!placeByLabels(impl_->labelView(), source, target, classes_, config_, verified[best].registration, doubt,
-                       label_note, label_precise, nullptr)) {
-      f.global.outcome = std::move(doubt);
-      return std::nullopt;
-    }
-  }
-  if (label_note.empty() && labelsDecideAxes(config_)) {
-    std::string contradiction =
-        labelsContradict(impl_->labelView(), source, target, classes_, config_, verified[best].registration);
-    if (!contradiction.empty()) {
-      f.global.outcome = verified[best].name + ": " + contradiction;
-      return std::nullopt;
-    }
-  }
+  if (!settleAlongWeakestAxis(impl_->labelView(), source, target, classes_, config_, seed_config, verified[best],
+                              f.global.outcome))
+    return std::nullopt;
+  const std::string& label_note = verified[best].label_note;
   f.global.outcome = "used " + verified[best].name + (label_note.empty() ? "" : "; " + label_note);
-  impl_->label_note = std::move(label_note);
-  impl_->label_precise = label_precise;
+  impl_->label_note = label_note;
+  impl_->label_precise = verified[best].label_precise;
   return Recovery{std::move(verified[best].registration), verified[best].from_guess};
 }
 
