@@ -225,6 +225,19 @@ void flagWeakAxis(OdometryFrame& f, const RegistrationResult& r, Estimate& estim
   f.status = FrameStatus::Degenerate;
 }
 
+// A tracked or relocalised frame: placed along its weak axis by its labels (flagged when not to
+// the centimetre), or flagged for the weak axis as before.
+void labelledOrFlagged(OdometryFrame& f, const RegistrationResult& r, Estimate& estimate, const OdometryConfig& config,
+                       const std::string& label_note, bool label_precise, const std::string& label_doubt) {
+  if (!label_note.empty()) {
+    f.reason += (f.reason.empty() ? "" : "; ") + label_note;
+    if (!label_precise) f.status = FrameStatus::Degenerate;
+    return;
+  }
+  flagWeakAxis(f, r, estimate, config);
+  if (f.status == FrameStatus::Degenerate && !label_doubt.empty()) f.reason += "; " + label_doubt;
+}
+
 }  // namespace
 
 // The paper's Fig. 1 for one scan: preprocess, register against the previous scan or the local
@@ -265,10 +278,13 @@ const OdometryFrame& Odometry::addFrame(const LabeledCloud& scan,
     f.status = FrameStatus::First;
     impl_->velocity_verified = false;
   } else {
+    if (labelsDecideAxes(config_)) prepareLabels(scan);
     track(f, prepared.source(), map_target, wheel_increment);
   }
+  if (labelsDecideAxes(config_) && frames_.empty()) impl_->scan_labels = labelledPointsOf(scan, config_, classes_);
   // 5. the map / the previous scan
   remember(f, prepared.frame);
+  if (labelsDecideAxes(config_)) impl_->frame_labels.push_back({f.index, std::move(impl_->scan_labels)});
   f.total_ms = msSince(t_start);
   f.registration_ms = f.total_ms - f.preprocess_ms;
   frames_.push_back(std::move(f));
@@ -332,7 +348,8 @@ void Odometry::track(OdometryFrame& f, const LabeledCloud& source, std::optional
   const bool level_velocity = f.status == FrameStatus::Relocalised &&
                               !(config_.relocalise_suspect && config_.flag_weak_axis &&
                                 weakHorizontalAxis(r, config_.suspect_weak_axis_ratio));
-  if (f.status == FrameStatus::Tracked || f.status == FrameStatus::Relocalised) flagWeakAxis(f, r, estimate, config_);
+  if (f.status == FrameStatus::Tracked || f.status == FrameStatus::Relocalised)
+    labelledOrFlagged(f, r, estimate, config_, impl_->label_note, impl_->label_precise, impl_->label_doubt);
   f.increment = normalized(prev_pose.inverse() * W * estimate.pose);
   // W-frame perturbation → previous-frame perturbation of the increment
   const Matrix6d Ad = adjoint(prev_pose.inverse() * W);
@@ -357,11 +374,17 @@ void Odometry::track(OdometryFrame& f, const LabeledCloud& source, std::optional
 std::string Odometry::checkAndRecover(OdometryFrame& f, const LabeledCloud& source, const RegistrationTarget* target,
                                       const Eigen::Isometry3d& W, const Eigen::Isometry3d& reg_guess, bool has_prior,
                                       RegistrationResult& r, bool& relocalised) {
+  impl_->label_note.clear();
+  impl_->label_doubt.clear();
   std::string failure = registrationFailure(r, reg_guess, config_);
   bool only_weak_axis = false;
-  const std::string trigger = !failure.empty() ? "ICP from the guess failed: " + failure
-                                               : suspicion(r, reg_guess, has_prior, impl_->typical_rmse, config_,
-                                                           only_weak_axis);
+  std::string trigger = !failure.empty() ? "ICP from the guess failed: " + failure
+                                         : suspicion(r, reg_guess, has_prior, impl_->typical_rmse, config_,
+                                                     only_weak_axis);
+  // Suspect only for a weak axis: the labels may place the frame along it, leaving nothing to recover.
+  if (only_weak_axis && target && labelsDecideAxes(config_) &&
+      placeAlongWeakAxis(source, *target, r, config_.suspect_weak_axis_ratio))
+    trigger.clear();
   if (config_.relocalise && !trigger.empty() && target && !source.empty()) {
     f.global.trigger = trigger;
     std::optional<Recovery> recovered = recover(f, source, *target, W, r, failure.empty(), only_weak_axis);
@@ -372,7 +395,45 @@ std::string Odometry::checkAndRecover(OdometryFrame& f, const LabeledCloud& sour
       relocalised = true;
     }
   }
+  // ICP from the guess kept but weak along an axis (flag_weak_axis_ratio): the labels decide, or
+  // track() flags the frame.
+  if (failure.empty() && !relocalised && impl_->label_note.empty() && target && labelsDecideAxes(config_) &&
+      config_.flag_weak_axis)
+    placeAlongWeakAxis(source, *target, r, config_.flag_weak_axis_ratio);
   return failure;
+}
+
+bool Odometry::placeAlongWeakAxis(const LabeledCloud& source, const RegistrationTarget& target, RegistrationResult& r,
+                                  double ratio) {
+  const std::optional<Eigen::Vector3d> axis = weakHorizontalAxis(r, ratio);
+  if (!axis) return false;
+  const LabelPlacement lp = placeAlongAxisByLabels(impl_->labelView(), classes_, r.transform, *axis, config_);
+  if (!lp.decided) {
+    impl_->label_doubt = lp.why;
+    return false;
+  }
+  if (!applyPlacementIfGeometryAllows(source, target, r, *axis, lp, config_)) {
+    impl_->label_doubt = "the labels' position fits the geometry worse";
+    return false;
+  }
+  impl_->label_note = describe(lp);
+  impl_->label_precise = lp.precise;
+  return true;
+}
+
+void Odometry::prepareLabels(const LabeledCloud& scan) {
+  impl_->scan_labels = labelledPointsOf(scan, config_, classes_);
+  std::vector<std::pair<Eigen::Isometry3d, const LabeledCloud*>> placed;
+  const Eigen::Vector3d here = frames_.back().pose.translation();
+  const double reach = config_.relocalise_map_radius + config_.label_axis_range;
+  for (const auto& [index, labels] : impl_->frame_labels) {
+    const OdometryFrame& k = frames_[index];
+    // Not a fallback's guess; a flagged weak-axis frame's pose is ICP's (its labels starve the map
+    // otherwise: the frames after the first could never be placed).
+    const bool verified = k.status != FrameStatus::Fallback;
+    if (verified && !labels.empty() && (k.pose.translation() - here).norm() <= reach) placed.push_back({k.pose, &labels});
+  }
+  impl_->label_map = labelMapOf(placed, config_, classes_);
 }
 
 void Odometry::remember(OdometryFrame& f, const LabeledCloud& frame) {
@@ -391,7 +452,7 @@ void Odometry::remember(OdometryFrame& f, const LabeledCloud& frame) {
     LabeledCloud scan_world = keep_out ? LabeledCloud() : frame.transformed(f.pose);
     if (config_.reestimate_lost_frames && !config_.map_skips_fallback) {
       if (fallback) {
-        impl_->lost.push_back({f.index, frame});  // waits outside the map until a later frame is verified
+        impl_->lost.push_back({f.index, frame, impl_->scan_labels});  // waits outside the map until a later frame is verified
         scan_world = LabeledCloud();
         // Lost for long (a corridor nothing can place along): the map must follow the robot, so the
         // oldest waiting scan enters at its guessed pose, as it would have without waiting.

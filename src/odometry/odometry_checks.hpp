@@ -2,6 +2,7 @@
 // Failure detection of the odometry, shared by tracking (odometry.cpp) and the recovery of
 // frames where tracking failed (odometry_recover.cpp).
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <chrono>
 #include <memory>
 #include <optional>
@@ -15,6 +16,13 @@
 #include "hazmap/odometry/odometry.hpp"
 
 namespace hazmap {
+
+/// The labelled points the label search compares: this scan's (sensor frame) and the map's
+/// (registration space). Either may be missing (nothing to compare).
+struct LabelView {
+  const LabeledCloud* scan = nullptr;
+  const LabeledCloud* map = nullptr;
+};
 
 /// The keyframes assembled into one cloud, prepared for global registration and ICP.
 struct WholeMap;
@@ -39,6 +47,7 @@ struct Odometry::Impl {
   struct LostFrame {
     std::size_t frame = 0;
     LabeledCloud scan;
+    LabeledCloud labels;  ///< its labelled points (labelsDecideAxes)
   };
   std::vector<LostFrame> lost;
   /// The whole map as last prepared (rebuilt when keyframes were added or re-anchored since).
@@ -47,6 +56,17 @@ struct Odometry::Impl {
   std::optional<Eigen::Isometry3d> whole_map_candidate;
   std::size_t whole_map_candidate_frame = 0;
   std::size_t whole_map_keyframes = 0, whole_map_version = 0, reanchors = 0;
+  /// The frame being tracked was placed along a weak axis by its labels (odometry_labels.cpp):
+  /// how, for its reason; empty = not (then a weak axis flags it).
+  std::string label_note;
+  std::string label_doubt;  ///< why the labels did not place it (for a flagged frame's reason)
+  bool label_precise = false;  ///< the labels placed it precisely (else it stays flagged)
+  /// labelsDecideAxes: every frame's labelled points (labelledPointsOf, sensor frame); the label
+  /// map is built from those of verified frames at their current poses when a frame starts.
+  std::vector<std::pair<std::size_t, LabeledCloud>> frame_labels;
+  LabeledCloud scan_labels;  ///< the current frame's
+  LabeledCloud label_map;    ///< world
+  LabelView labelView() const { return {&scan_labels, &label_map}; }
 };
 
 /// Why ICP's answer cannot be used (empty when it can): did not converge (stopping at the
@@ -97,5 +117,75 @@ std::optional<Eigen::Vector3d> weakHorizontalAxis(const RegistrationResult& r, d
 /// within the correspondence gate, at most `inlier_distance` from it along its normal.
 double surfaceFit(const LabeledCloud& source, const RegistrationTarget& target, const Eigen::Isometry3d& pose,
                   double inlier_distance);
+
+/// Where the scan's labelled points say the pose lies along `axis` (odometry_labels.cpp): the
+/// offset (m) from `pose` whose label score is clearly best, or undecided (no labelled point in
+/// view, too little support, or another position scoring nearly as well).
+struct LabelPlacement {
+  bool decided = false;
+  bool precise = false;  ///< the two halves of the labelled points agree (label_axis_consistency)
+  double offset = 0.0;   ///< m along the axis from the pose
+  double score = 0.0;    ///< label score there
+  double second = 0.0;   ///< the next peak's score (at least label_axis_gate away)
+  double spread = 0.0;   ///< m between the halves' answers
+  std::size_t labelled = 0;  ///< labelled scan points
+  std::size_t support = 0;   ///< of them, with a labelled partner at the offset
+  std::string why;           ///< why undecided
+};
+LabelPlacement placeAlongAxisByLabels(const LabelView& view, const ClassTable& classes, const Eigen::Isometry3d& pose,
+                                      const Eigen::Vector3d& axis, const OdometryConfig& config);
+/// A scan's labelled points for the label search: property classes within the crop range, lone
+/// returns (fewer than two of their class within 2 cm per metre of range) dropped, at label_axis_voxel.
+LabeledCloud labelledPointsOf(const LabeledCloud& scan, const OdometryConfig& config, const ClassTable& classes);
+/// Labelled points of frames placed at their poses, downsampled at label_axis_voxel.
+LabeledCloud labelMapOf(const std::vector<std::pair<Eigen::Isometry3d, const LabeledCloud*>>& frames,
+                        const OdometryConfig& config, const ClassTable& classes);
+/// "labels placed it +0.40 m along the weak axis (…)" or why undecided.
+std::string describe(const LabelPlacement& placement);
+/// `pose` moved `offset` along `axis` (registration space).
+Eigen::Isometry3d shiftedAlong(const Eigen::Isometry3d& pose, const Eigen::Vector3d& axis, double offset);
+/// Another position along the answer's weakest horizontal axis that fits (surface fit) as well:
+/// ICP restarted ±1, ±2 relocalise_axis_step along it. Empty when none; else the ambiguity.
+std::string ambiguousAlongWeakestAxis(const LabeledCloud& source, const RegistrationTarget& target,
+                                      const ClassTable& classes, const OdometryConfig& config,
+                                      const OdometryConfig& seed_config, const RegistrationResult& answer, double fit,
+                                      const std::string& answer_name);
+/// Moves `r` by the placement along `axis`, with label_axis_sigma² added there to its covariance.
+void applyLabelPlacement(RegistrationResult& r, const Eigen::Vector3d& axis, const LabelPlacement& placement,
+                         const OdometryConfig& config);
+/// An answer the geometry cannot place along a horizontal axis (weaker than flag_weak_axis_ratio,
+/// or `doubt`: another position along its weakest axis fits as well): the labels decide
+/// (labelsDecideAxes). Placed: the answer moves along the axis (`placed_along`, when given) and
+/// `note` says so; else `doubt` (or the labels' reason) stays. Returns whether it may be used.
+bool placeByLabels(const LabelView& view, const LabeledCloud& source, const RegistrationTarget& target,
+                   const ClassTable& classes, const OdometryConfig& config, RegistrationResult& answer,
+                   std::string& doubt, std::string& note, bool& precise, Eigen::Vector3d* placed_along);
+/// Whether a label placement may move `r` (in place; false = leave it, the caller flags it): a
+/// move within label_axis_confirm confirms ICP's answer and leaves it where it is (ICP is the
+/// finer of the two where it has anything to go by: naraha's weak-axis frames); a larger one only
+/// when the scan still fits the target as well there (surface fit within relocalise_ambiguity: a
+/// corridor fits anywhere along it, a room does not).
+bool applyPlacementIfGeometryAllows(const LabeledCloud& source, const RegistrationTarget& target, RegistrationResult& r,
+                                    const Eigen::Vector3d& axis, const LabelPlacement& placement,
+                                    const OdometryConfig& config);
+/// An answer the geometry placed (not weak) that its labels, decided, put more than
+/// relocalise_distinct_translation elsewhere along its weakest horizontal axis: why it is refused
+/// (empty when they agree, cannot tell, or their position fits the geometry worse). A recovery
+/// answer slid a metre along a corridor whose walls fitted either way.
+std::string labelsContradict(const LabelView& view, const LabeledCloud& source, const RegistrationTarget& target,
+                             const ClassTable& classes, const OdometryConfig& config, const RegistrationResult& answer);
+/// The checks of ICP from a recovery start (a seed): it may travel up to relocalise_start_correction.
+inline OdometryConfig seedConfigOf(const OdometryConfig& config) {
+  OdometryConfig seed = config;
+  seed.max_correction_translation = std::max(config.max_correction_translation, config.relocalise_start_correction);
+  seed.max_correction_rotation = std::max(config.max_correction_rotation, config.relocalise_start_correction_rotation);
+  return seed;
+}
+/// Whether labels may decide along weak axes: relocalise_suspect, label_axis_search, property ICP,
+/// frame to map.
+inline bool labelsDecideAxes(const OdometryConfig& config) {
+  return config.relocalise_suspect && config.label_axis_search && config.registration.use_classes &&
+         config.mode == OdometryMode::FrameToMap;
+}
 
 }  // namespace hazmap

@@ -51,7 +51,26 @@ static ConfigFields<OdometryConfig>& addWholeMapFields(ConfigFields<OdometryConf
                 "With relocalise_suspect: a frame weakly constrained along a horizontal axis is flagged "
                 "(degenerate), not tracked")
           .number("flag_weak_axis_ratio", &C::flag_weak_axis_ratio, closed(0, 1),
-                  "With flag_weak_axis: the weak-axis ratio (as suspect_weak_axis_ratio) below which a frame is flagged");
+                  "With flag_weak_axis: the weak-axis ratio (as suspect_weak_axis_ratio) below which a frame is flagged")
+          .flag("label_axis_search", &C::label_axis_search,
+                "With relocalise_suspect and property ICP: along a horizontal axis the geometry cannot observe, the "
+                "scan's labelled points decide the position (else the frame is flagged)")
+          .number("label_axis_range", &C::label_axis_range, positive(), "m; the labels' search either way along the axis")
+          .number("label_axis_gate", &C::label_axis_gate, positive(),
+                  "m; a labelled pair within this (cost, with the mismatch penalty) scores")
+          .number("label_axis_min_support", &C::label_axis_min_support, nonNegative(),
+                  "Label score the best position needs (about that many well-matched labelled points)")
+          .number("label_axis_ambiguity", &C::label_axis_ambiguity, closed(0, 1),
+                  "A position label_axis_gate or more from the best scoring this x as much: undecided, flagged")
+          .number("label_axis_sigma", &C::label_axis_sigma, positive(),
+                  "m; standard deviation added along the axis when labels placed the frame")
+          .number("label_axis_voxel", &C::label_axis_voxel, positive(), "m; the labelled points' resolution for the search")
+          .number("label_axis_confirm", &C::label_axis_confirm, nonNegative(),
+                  "m; labels placing the frame within this of ICP's answer confirm it (ICP's answer kept)")
+          .number("label_axis_context", &C::label_axis_context, positive(),
+                  "m; unlabelled returns this close to labelled ones take part (a mismatch costs the class penalty)")
+          .number("label_axis_consistency", &C::label_axis_consistency, positive(),
+                  "m; the halves of the labelled points place the frame this close, or it stays flagged");
 }
 
 const ConfigFields<OdometryConfig>& configFields(ConfigTag<OdometryConfig>) {

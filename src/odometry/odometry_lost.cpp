@@ -23,6 +23,36 @@ Eigen::Isometry3d interpolate(const Eigen::Isometry3d& a, const Eigen::Isometry3
 
 }  // namespace
 
+// With relocalise_suspect: the geometry's doubt along the answer's weakest horizontal axis (weak,
+// or another position fitting as well) is settled by the labels or refuses the answer (a corridor
+// frame was re-estimated 1 m along the axis without this). Placed, `correction` loses its part
+// along the axis (the labels moved it there, not a slide). Returns why refused (empty = usable).
+std::string Odometry::placeLostFrameAlongAxis(const LabeledCloud& scan, const LabeledCloud& labels,
+                                              const RegistrationTarget& target, RegistrationResult& r,
+                                              Vector6d& correction, std::string& note, bool& precise) {
+  std::string doubt;
+  const bool weak = weakHorizontalAxis(r, config_.flag_weak_axis_ratio).has_value();
+  if (!weak) {
+    const double fit = surfaceFit(scan, target, r.transform, config_.relocalise_inlier_distance);
+    doubt = ambiguousAlongWeakestAxis(scan, target, classes_, config_, seedConfigOf(config_), r, fit,
+                                      "ICP from the interpolated pose");
+  }
+  Eigen::Vector3d axis = Eigen::Vector3d::Zero();
+  if (!placeByLabels({&labels, &impl_->label_map}, scan, target, classes_, config_, r, doubt, note, precise, &axis))
+    return doubt.empty() ? std::string("weakly constrained along an axis") : doubt;
+  if (weak && note.empty()) return "weakly constrained along an axis";
+  if (note.empty() && labelsDecideAxes(config_))
+    if (std::string contradiction = labelsContradict({&labels, &impl_->label_map}, scan, target, classes_, config_, r);
+        !contradiction.empty())
+      return contradiction;
+  if (!note.empty()) {
+    // The axis in the sensor frame (correctionOf measures there): the labels' move is not a slide.
+    const Eigen::Vector3d a = (r.transform.linear().transpose() * axis).normalized();
+    correction.head<3>() -= a.dot(correction.head<3>()) * a;
+  }
+  return {};
+}
+
 LabeledCloud Odometry::reestimateLostFrames(OdometryFrame& f, const LabeledCloud& f_world) {
   std::vector<Impl::LostFrame> lost = std::move(impl_->lost);
   impl_->lost.clear();
@@ -44,13 +74,19 @@ LabeledCloud Odometry::reestimateLostFrames(OdometryFrame& f, const LabeledCloud
     RegistrationResult r = registerClouds(l.scan, target, guess, classes_, config_.registration);
     std::string why = registrationFailure(r, guess, config_);
     if (why.empty() && !onlyVerticalDegeneracy(r.degenerate_directions)) why = "degenerate";
-    if (why.empty() && weakHorizontalAxis(r, config_.suspect_weak_axis_ratio)) why = "weakly constrained along an axis";
+    Vector6d correction = correctionOf(r, guess);
+    std::string label_note;
+    bool label_precise = true;
+    if (why.empty() && config_.relocalise_suspect)
+      why = placeLostFrameAlongAxis(l.scan, l.labels, target, r, correction, label_note, label_precise);
+    else if (why.empty() && weakHorizontalAxis(r, config_.suspect_weak_axis_ratio))
+      why = "weakly constrained along an axis";
     if (why.empty() && fitsWorseThanTracked(r, impl_->typical_rmse, config_))
       why = "inlier RMSE above that of tracked frames";
     // Interpolated translation is close for a ground robot (a kick turns it, a lost scan is a
     // longer step at the same pace); an answer farther from it slid somewhere (a corridor, 1 m
     // along its axis: 13 of 99 frames silently wrong when such answers were used).
-    if (why.empty() && correctionOf(r, guess).head<3>().norm() > config_.suspect_correction_translation)
+    if (why.empty() && correction.head<3>().norm() > config_.suspect_correction_translation)
       why = "far from the interpolated pose";
     if (why.empty() && (!plausibleMotion(prev.inverse() * r.transform, config_) || !plausibleMotion(r.transform.inverse() * f.pose, config_)))
       why = "implausible motion";
@@ -58,14 +94,16 @@ LabeledCloud Odometry::reestimateLostFrames(OdometryFrame& f, const LabeledCloud
     // Its increment starts from the previous frame's pose: after a frame left interpolated it is
     // no better than that guess, so the frame stays flagged though its own pose is re-registered
     // (used as relocalised, a corridor's such frames were 12-18 deg off in their increments).
-    const bool after_unverified = frames_[l.frame - 1].status == FrameStatus::Fallback;
+    // Placed by labels, but not to the centimetre: the labels' pose, still flagged.
+    const bool after_unverified = frames_[l.frame - 1].status == FrameStatus::Fallback || !label_precise;
     if (why.empty()) {
       lf.pose = normalized(r.transform);
       if (!after_unverified) lf.status = FrameStatus::Relocalised;
       lf.registration = std::move(r);
       const Matrix6d Ad = adjoint(prev.inverse());
       lf.covariance = Ad * lf.registration.covariance * Ad.transpose();
-      std::snprintf(buf, sizeof buf, "; re-estimated once frame %zu was verified: ICP against the recovered map%s", f.index,
+      std::snprintf(buf, sizeof buf, "; re-estimated once frame %zu was verified: ICP against the recovered map%s%s%s",
+                    f.index, label_note.empty() ? "" : ", ", label_note.c_str(),
                     after_unverified ? " (flagged: the frame before it is interpolated)" : "");
       entering.append(l.scan.transformed(lf.pose));
     } else {
@@ -83,6 +121,10 @@ LabeledCloud Odometry::reestimateLostFrames(OdometryFrame& f, const LabeledCloud
     f.covariance = fallbackCovariance(config_);
     f.reason += f.reason.empty() ? "" : "; ";
     f.reason += "increment from an interpolated pose (loose covariance)";
+    // Its pose may be right, its increment is not known: flagged (with relocalise_suspect, whose
+    // worst-day runs count such frames; corridor: 0.5 m off yet tracked).
+    if (config_.relocalise_suspect && (f.status == FrameStatus::Tracked || f.status == FrameStatus::Relocalised))
+      f.status = FrameStatus::Degenerate;
   }
   impl_->velocity = f.increment;  // the motion again, no longer the jump back from a wrong pose
   return entering;

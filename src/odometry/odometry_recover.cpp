@@ -8,6 +8,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -56,9 +57,16 @@ struct Verified {
   RegistrationResult registration;
   std::string name;
   bool from_guess = false;
-  double fit = 0.0;
-  bool probe = false;  ///< share of source points on a target surface (surfaceFit)
+  double fit = 0.0;  ///< share of source points on a target surface (surfaceFit)
+  bool probe = false;
+  std::string label_note;  ///< the labels placed it along an axis (how)
+  bool label_precise = false;
+  Eigen::Vector3d label_axis = Eigen::Vector3d::Zero();
 };
+
+// Two answers that fit alike but lie apart along a line (a corridor) are not ambiguous when the
+// labels decide along that line (labelsDecideAxes): `best` moves where they say. True when they did.
+using LabelResolver = std::function<bool(Verified& best, const Verified& other)>;
 
 // The local map (or previous scan) near the sensor: the global registration's target.
 LabeledCloud nearbyTarget(const LabeledCloud& cloud, const Eigen::Vector3d& centre, double radius) {
@@ -97,8 +105,8 @@ std::string describeNoGain(const Verified& v, double guess_fit) {
 // that by relocalise_probe_gain (a slip along a corridor-like stretch the encoders lied about:
 // naraha, ICP from the guess 0.55 on a surface, the probe 0.94). A distinct answer that fits as
 // well as the winner makes the frame ambiguous. Returns verified.size() when nothing is used.
-std::size_t pickAnswer(const std::vector<Verified>& verified, const OdometryConfig& config, std::string& outcome,
-                       const std::string& rejected) {
+std::size_t pickAnswer(std::vector<Verified>& verified, const OdometryConfig& config, std::string& outcome,
+                       const std::string& rejected, const LabelResolver& resolve) {
   const auto rank = [&](const Verified& v) { return v.fit + (v.from_guess ? config.relocalise_min_gain : 0.0); };
   std::size_t best = verified.size(), probe = verified.size();
   for (std::size_t i = 0; i < verified.size(); ++i) {
@@ -115,6 +123,7 @@ std::size_t pickAnswer(const std::vector<Verified>& verified, const OdometryConf
   for (std::size_t i = 0; i < verified.size(); ++i)
     if (i != best && distinct(verified[i].registration.transform, verified[best].registration.transform, config) &&
         verified[i].fit >= verified[best].fit - config.relocalise_ambiguity) {
+      if (resolve && resolve(verified[best], verified[i])) continue;
       outcome = describeAmbiguity(verified[best], verified[i]);
       return verified.size();
     }
@@ -140,32 +149,148 @@ void addWeakAxisProbes(std::vector<Start>& starts, const RegistrationResult& fro
   }
 }
 
+std::string probeAnswerAlongWeakestAxis(const LabeledCloud& source, const RegistrationTarget& target,
+                                        const ClassTable& classes, const OdometryConfig& config,
+                                        const OdometryConfig& seed_config, const Verified& answer) {
+  return ambiguousAlongWeakestAxis(source, target, classes, config, seed_config, answer.registration, answer.fit,
+                                   answer.name);
+}
+
+// The winner's place along its weakest horizontal axis: where the geometry doubts it (another
+// position fits as well) the labels place it or it is refused; a winner the labels put clearly
+// elsewhere is refused. False (`outcome` says why) when refused.
+bool settleAlongWeakestAxis(const LabelView& view, const LabeledCloud& source, const RegistrationTarget& target,
+                            const ClassTable& classes, const OdometryConfig& config, const OdometryConfig& seed_config,
+                            Verified& answer, std::string& outcome) {
+  if (config.relocalise_suspect && !answer.from_guess && answer.label_note.empty()) {
+    std::string doubt = probeAnswerAlongWeakestAxis(source, target, classes, config, seed_config, answer);
+    if (!placeByLabels(view, source, target, classes, config, answer.registration, doubt, answer.label_note,
+                       answer.label_precise, nullptr)) {
+      outcome = std::move(doubt);
+      return false;
+    }
+  }
+  if (answer.label_note.empty() && labelsDecideAxes(config)) {
+    const std::string contradiction = labelsContradict(view, source, target, classes, config, answer.registration);
+    if (!contradiction.empty()) {
+      outcome = answer.name + ": " + contradiction;
+      return false;
+    }
+  }
+  return true;
+}
+
+// `best` and `other` differ by a shift, not a turn: the labels decide along the horizontal line
+// between them (once; a third answer along the same line is decided by then too).
+bool resolveByLabels(const LabelView& view, const LabeledCloud& source, const RegistrationTarget& target,
+                     const ClassTable& classes, const OdometryConfig& config, Verified& best, const Verified& other) {
+  const Eigen::Isometry3d d = best.registration.transform.inverse() * other.registration.transform;
+  if (rotationAngle(d) > config.relocalise_distinct_rotation) return false;
+  Eigen::Vector3d line = other.registration.transform.translation() - best.registration.transform.translation();
+  line.z() = 0.0;
+  if (line.norm() < 1e-6) return false;
+  line.normalize();
+  if (!best.label_note.empty()) return std::abs(line.dot(best.label_axis)) > 0.9;
+  const LabelPlacement lp = placeAlongAxisByLabels(view, classes, best.registration.transform, line, config);
+  if (!lp.decided) return false;
+  if (!applyPlacementIfGeometryAllows(source, target, best.registration, line, lp, config)) return false;
+  best.label_note = describe(lp);
+  best.label_precise = lp.precise;
+  best.label_axis = line;
+  best.fit = surfaceFit(source, target, best.registration.transform, config.relocalise_inlier_distance);
+  return true;
+}
+
+}  // namespace
+
 // A recovery answer can slide along a corridor as far as its seed was off (a "no motion" seed
 // ends 1 m short and passes every check; corridor worst day: 13 of 99 frames silently wrong) even
 // when the Hessian does not call the axis weak. ICP restarted a step or two either way along the
 // answer's weakest horizontal axis shows whether another position fits as well: then the answer
 // is ambiguous (empty when it is not).
-std::string probeAnswerAlongWeakestAxis(const LabeledCloud& source, const RegistrationTarget& target,
-                                        const ClassTable& classes, const OdometryConfig& config,
-                                        const OdometryConfig& seed_config, const Verified& answer) {
-  const auto axis = weakHorizontalAxis(answer.registration, 1.0);
+std::string ambiguousAlongWeakestAxis(const LabeledCloud& source, const RegistrationTarget& target,
+                                      const ClassTable& classes, const OdometryConfig& config,
+                                      const OdometryConfig& seed_config, const RegistrationResult& answer, double fit,
+                                      const std::string& answer_name) {
+  const auto axis = weakHorizontalAxis(answer, 1.0);
   if (!axis) return {};
-  const Eigen::Isometry3d& pose = answer.registration.transform;
+  const Eigen::Isometry3d& pose = answer.transform;
   for (const double k : {-2.0, -1.0, 1.0, 2.0}) {
     Eigen::Isometry3d s = pose;
     s.translation() += k * config.relocalise_axis_step * *axis;
     RegistrationResult r = registerClouds(source, target, s, classes, config.registration);
     if (!registrationFailure(r, s, seed_config).empty() || !distinct(r.transform, pose, config)) continue;
-    const double fit = surfaceFit(source, target, r.transform, config.relocalise_inlier_distance);
-    if (fit < answer.fit - config.relocalise_ambiguity) continue;
+    const double other_fit = surfaceFit(source, target, r.transform, config.relocalise_inlier_distance);
+    if (other_fit < fit - config.relocalise_ambiguity) continue;
     char name[64];
     std::snprintf(name, sizeof name, "its answer %+.1f m along its weakest axis", k * config.relocalise_axis_step);
-    return describeAmbiguity(answer, Verified{std::move(r), name, false, fit, true});
+    return describeAmbiguity(Verified{answer, answer_name, false, fit, false, {}, false, {}},
+                             Verified{std::move(r), name, false, other_fit, true, {}, false, {}});
   }
   return {};
 }
 
-}  // namespace
+void applyLabelPlacement(RegistrationResult& r, const Eigen::Vector3d& axis, const LabelPlacement& placement,
+                         const OdometryConfig& config) {
+  r.transform = shiftedAlong(r.transform, axis, placement.offset);
+  const Eigen::Vector3d a = axis.normalized();
+  r.covariance.topLeftCorner<3, 3>() += config.label_axis_sigma * config.label_axis_sigma * a * a.transpose();
+}
+
+bool applyPlacementIfGeometryAllows(const LabeledCloud& source, const RegistrationTarget& target, RegistrationResult& r,
+                                    const Eigen::Vector3d& axis, const LabelPlacement& placement,
+                                    const OdometryConfig& config) {
+  if (std::abs(placement.offset) <= config.label_axis_confirm) return true;
+  const double before = surfaceFit(source, target, r.transform, config.relocalise_inlier_distance);
+  const double after = surfaceFit(source, target, shiftedAlong(r.transform, axis, placement.offset),
+                                  config.relocalise_inlier_distance);
+  if (after < before - config.relocalise_ambiguity) return false;
+  applyLabelPlacement(r, axis, placement, config);
+  return true;
+}
+
+std::string labelsContradict(const LabelView& view, const LabeledCloud& source, const RegistrationTarget& target,
+                             const ClassTable& classes, const OdometryConfig& config, const RegistrationResult& answer) {
+  const std::optional<Eigen::Vector3d> axis = weakHorizontalAxis(answer, 1.0);
+  if (!axis) return {};
+  const LabelPlacement lp = placeAlongAxisByLabels(view, classes, answer.transform, *axis, config);
+  if (!lp.decided || std::abs(lp.offset) <= config.relocalise_distinct_translation) return {};
+  // Where the labels say, the scan must fit the geometry as well, or the labels are the wrong ones
+  // (naraha frame 93: 27 of 36 labelled points agreed on a place 0.8 m off in a room).
+  const double here = surfaceFit(source, target, answer.transform, config.relocalise_inlier_distance);
+  const double there = surfaceFit(source, target, shiftedAlong(answer.transform, *axis, lp.offset),
+                                  config.relocalise_inlier_distance);
+  if (there < here - config.relocalise_ambiguity) return {};
+  char buf[240];
+  std::snprintf(buf, sizeof buf, "the labels put it %+.2f m along its weakest axis (%zu of %zu labelled points agree): flagged",
+                lp.offset, lp.support, lp.labelled);
+  return buf;
+}
+
+bool placeByLabels(const LabelView& view, const LabeledCloud& source, const RegistrationTarget& target,
+                   const ClassTable& classes, const OdometryConfig& config, RegistrationResult& answer,
+                   std::string& doubt, std::string& note, bool& precise, Eigen::Vector3d* placed_along) {
+  std::optional<Eigen::Vector3d> axis = weakHorizontalAxis(answer, config.flag_weak_axis_ratio);
+  if (!axis && doubt.empty()) return true;
+  if (!labelsDecideAxes(config)) return doubt.empty();
+  if (!axis) axis = weakHorizontalAxis(answer, 1.0);
+  if (!axis) return doubt.empty();
+  const LabelPlacement lp = placeAlongAxisByLabels(view, classes, answer.transform, *axis, config);
+  if (!lp.decided) {  // merely weak: used, and tracking flags the frame; doubted: refused
+    if (!doubt.empty()) doubt += "; " + lp.why;
+    return doubt.empty();
+  }
+  if (!applyPlacementIfGeometryAllows(source, target, answer, *axis, lp, config)) {  // as undecided
+    if (!doubt.empty()) doubt += "; the labels' position fits the geometry worse";
+    return doubt.empty();
+  }
+  note = describe(lp);
+  precise = lp.precise;
+  doubt.clear();
+  if (placed_along) *placed_along = *axis;
+  return true;
+}
+
 
 bool onlyVerticalDegeneracy(const std::vector<Vector6d>& directions) {
   for (const Vector6d& b : directions)
@@ -232,9 +357,7 @@ std::optional<Odometry::Recovery> Odometry::recover(OdometryFrame& f, const Labe
 
   std::vector<Verified> verified;
   std::string rejected;
-  OdometryConfig seed_config = config_;
-  seed_config.max_correction_translation = std::max(config_.max_correction_translation, config_.relocalise_start_correction);
-  seed_config.max_correction_rotation = std::max(config_.max_correction_rotation, config_.relocalise_start_correction_rotation);
+  const OdometryConfig seed_config = seedConfigOf(config_);
   const auto check = [&](RegistrationResult r, const Eigen::Isometry3d& start, const std::string& name, bool guess,
                          bool probe) {
     // A start other than the guess is only a seed: ICP may travel farther from it (up to
@@ -258,7 +381,7 @@ std::optional<Odometry::Recovery> Odometry::recover(OdometryFrame& f, const Labe
     }
     if (why.empty()) {
       const double fit = surfaceFit(source, target, r.transform, config_.relocalise_inlier_distance);
-      verified.push_back({std::move(r), name, guess, fit, probe});
+      verified.push_back({std::move(r), name, guess, fit, probe, {}, false, Eigen::Vector3d::Zero()});
     }
     else rejected += (rejected.empty() ? "" : "; ") + name + ": " + why;
   };
@@ -275,7 +398,10 @@ std::optional<Odometry::Recovery> Odometry::recover(OdometryFrame& f, const Labe
     f.global.outcome += (f.global.outcome.empty() ? "" : "; ") + std::string("nothing verified (") + rejected + ")";
     return std::nullopt;
   }
-  const std::size_t best = pickAnswer(verified, config_, f.global.outcome, rejected);
+  const LabelResolver resolve = [&](Verified& best, const Verified& other) {
+    return labelsDecideAxes(config_) && resolveByLabels(impl_->labelView(), source, target, classes_, config_, best, other);
+  };
+  const std::size_t best = pickAnswer(verified, config_, f.global.outcome, rejected, resolve);
   if (best == verified.size()) return std::nullopt;
   // When ICP from the guess failed, the frame falls back to the guess itself: an answer must fit
   // clearly better than that pose does, or tracking keeps the guess (and flags the frame).
@@ -286,14 +412,13 @@ std::optional<Odometry::Recovery> Odometry::recover(OdometryFrame& f, const Labe
       return std::nullopt;
     }
   }
-  if (config_.relocalise_suspect && !verified[best].from_guess) {
-    std::string doubt = probeAnswerAlongWeakestAxis(source, target, classes_, config_, seed_config, verified[best]);
-    if (!doubt.empty()) {
-      f.global.outcome = std::move(doubt);
-      return std::nullopt;
-    }
-  }
-  f.global.outcome = "used " + verified[best].name;
+  if (!settleAlongWeakestAxis(impl_->labelView(), source, target, classes_, config_, seed_config, verified[best],
+                              f.global.outcome))
+    return std::nullopt;
+  const std::string& label_note = verified[best].label_note;
+  f.global.outcome = "used " + verified[best].name + (label_note.empty() ? "" : "; " + label_note);
+  impl_->label_note = label_note;
+  impl_->label_precise = verified[best].label_precise;
   return Recovery{std::move(verified[best].registration), verified[best].from_guess};
 }
 

@@ -103,6 +103,7 @@ class SlamRun {
     const Eigen::Isometry3d pose = addToTrajectory(record);
     addOdometryEdge(record);
     result_.frames.push_back(std::move(record));
+    takeReestimatedLostFrames();
     if (!pgo_ || !isKeyframe(pose)) return;
     addGravityPrior(scan);
     if (loopsBesideTracking())
@@ -273,6 +274,44 @@ class SlamRun {
                                                   : cov);
     result_.graph.addEdge(static_cast<int>(rec.index - 1), static_cast<int>(rec.index), rec.T_prev_curr,
                           wheel ? config_.wheel_noise.information() : inverseOf(cov), EdgeKind::Odometry);
+  }
+
+  /// Issue 19 (odometry.reestimate_lost_frames): once a frame is verified again the tracker
+  /// re-estimates the lost frames before it and the increments on both sides; those replace the
+  /// recorded ones (record, odometry edge, tracked pose and graph node from the first changed frame
+  /// on), as `hazmap odometry` writes them. Only with relocalise_suspect (the worst-day set-up):
+  /// a normal run's graph stays bit for bit.
+  void takeReestimatedLostFrames() {
+    if (!tracker_ || !usesIcp(config_.method) || !config_.odometry.relocalise_suspect ||
+        !config_.odometry.reestimate_lost_frames)
+      return;
+    const std::vector<OdometryFrame>& tf = tracker_->frames();
+    const std::size_t n = result_.frames.size(), back = static_cast<std::size_t>(config_.odometry.lost_frames_max) + 2;
+    std::size_t first = n;
+    for (std::size_t k = n > back ? n - back : 1; k < n && k < tf.size(); ++k) {
+      FrameRecord& rec = result_.frames[k];
+      const OdometryFrame& f = tf[k];
+      if (f.increment.matrix() == rec.T_prev_curr.matrix() && f.status == rec.status) continue;
+      rec.T_prev_curr = f.increment;
+      rec.covariance = f.covariance;
+      rec.status = f.status;
+      rec.icp_used = f.status != FrameStatus::Fallback;
+      rec.fallback_reason = f.reason;
+      const bool wheel = !rec.icp_used || (rec.stalled && config_.stalled_edges_use_wheel_noise);
+      const Matrix6d cov = wheel ? inverseOf(config_.wheel_noise.information()) : odometryEdgeCovariance(rec);
+      step_covariance_[k] = cov;
+      unverified_step_covariance_[k] = rec.icp_used ? Matrix6d::Zero() : cov;
+      for (PoseGraphEdge& e : result_.graph.edges)
+        if (e.kind == EdgeKind::Odometry && e.from == static_cast<int>(k - 1) && e.to == static_cast<int>(k)) {
+          e.T_from_to = rec.T_prev_curr;
+          e.information = wheel ? config_.wheel_noise.information() : inverseOf(cov);
+        }
+      first = std::min(first, k);
+    }
+    for (std::size_t k = first; k < n; ++k) {
+      tracked_[k] = normalized(tracked_[k - 1] * result_.frames[k].T_prev_curr);
+      result_.graph.poses[k] = normalized(result_.graph.poses[k - 1] * result_.frames[k].T_prev_curr);
+    }
   }
 
   /// scale · floored Σ_ICP + (weight · departure from constant velocity)² (SlamConfig).

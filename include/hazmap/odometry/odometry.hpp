@@ -155,6 +155,31 @@ struct OdometryConfig {
   /// since flagging keeps ICP's answer. The corridor's frames sit at 0.15-0.25 and, at 0.15, some
   /// stayed `tracked` 1 m wrong depending on the map's content.
   double flag_weak_axis_ratio = 0.25;
+  /// With relocalise_suspect and property ICP: along a horizontal axis the geometry cannot observe
+  /// (weaker than flag_weak_axis_ratio, or another position along it fits as well), the scan's
+  /// labelled points decide. They are slid ±label_axis_range along the axis and scored against the
+  /// target's labelled points with the paper's rule (same class within its search radius, another
+  /// class only with the penalty α; a pair within label_axis_gate adds its class weight × (1 −
+  /// cost / gate²)); the best position is used when its score is at least label_axis_min_support
+  /// and no position label_axis_gate or more away scores label_axis_ambiguity × as much. Otherwise
+  /// (no labelled point in view, an even score) the frame is flagged as before. The heat panels and
+  /// puddles of a corridor: docs/registration.md.
+  bool label_axis_search = true;
+  double label_axis_range = 2.5;       ///< m either way
+  double label_axis_gate = 0.5;        ///< m
+  double label_axis_min_support = 3.0;  ///< label score (≈ well-matched labelled points)
+  double label_axis_ambiguity = 0.85;   ///< the next peak at most this × the best (above the profile's floor)
+  double label_axis_sigma = 0.05;      ///< m; variance added along the axis when labels placed it
+  double label_axis_voxel = 0.1;       ///< m; the labelled points' resolution for the search
+  /// m; labels placing the frame within this of ICP's answer confirm it (ICP's answer is kept: where
+  /// the geometry has anything to go by it is the finer of the two; naraha's weak-axis frames).
+  double label_axis_confirm = 0.1;
+  /// m; unlabelled returns this close to labelled ones take part too (a mismatch costs α): they
+  /// show where a panel ends, so a partial view cannot slide along it.
+  double label_axis_context = 0.5;
+  /// The two halves of the labelled points (alternate points) place the frame this close (m), or
+  /// the frame keeps the labels' position but stays flagged (far patches at a grazing angle).
+  double label_axis_consistency = 0.05;
 
   /// The defaults above (max correspondence 1 m, scan voxel 0.5 m, map voxel 1 m), set for the
   /// simulated 10 Hz VLP-16 of the paper's experiment.
@@ -273,6 +298,13 @@ class Odometry {
   std::string checkAndRecover(OdometryFrame& f, const LabeledCloud& source, const RegistrationTarget* target,
                               const Eigen::Isometry3d& W, const Eigen::Isometry3d& reg_guess, bool has_prior,
                               RegistrationResult& r, bool& relocalised);
+  /// With labelsDecideAxes: `r` weakly constrained along a horizontal axis (below `ratio`) is
+  /// placed along it by the scan's labels (odometry_labels.cpp); false when not weak or undecided.
+  bool placeAlongWeakAxis(const LabeledCloud& source, const RegistrationTarget& target, RegistrationResult& r,
+                          double ratio);
+  /// labelsDecideAxes (odometry_labels.cpp): this scan's labelled points and the label map of the
+  /// verified frames, for the frame about to be tracked.
+  void prepareLabels(const LabeledCloud& scan);
   /// Whole-map re-localisation (odometry_whole_map.cpp): the scan against the keyframes; the
   /// verified answer (world ← scan) or nothing, f.global says why.
   std::optional<RegistrationResult> relocaliseInWholeMap(OdometryFrame& f, const LabeledCloud& source,
@@ -287,6 +319,11 @@ class Odometry {
   /// waiting fallback frames get their poses re-estimated against the map plus `f_world` (f's scan
   /// in the world). Returns the scans (world) of the frames re-registered, to enter the map with f's.
   LabeledCloud reestimateLostFrames(OdometryFrame& f, const LabeledCloud& f_world);
+  /// A lost frame's re-registered answer `r` along its weak axis (odometry_lost.cpp): why it
+  /// cannot be used, empty when it can (the labels may have moved it; `note` says how).
+  std::string placeLostFrameAlongAxis(const LabeledCloud& scan, const LabeledCloud& labels,
+                                      const RegistrationTarget& target, RegistrationResult& r, Vector6d& correction,
+                                      std::string& note, bool& precise);
 
   struct Impl;
   ClassTable classes_;
