@@ -124,7 +124,7 @@ class SlamRun {
       refreshAnchorInformation();  // the graph written out carries what the last solve used
       const auto consistent = loops_->consistentLoops(keyframeEstimate());
       setLoopEdges(consistent);
-      if (consistent.empty() && !result_.graph.gravity_priors.empty()) optimise();  // the priors alone
+      if (consistent.empty() && gravityAloneHelps()) optimise();
       for (const auto& l : loops_->acceptedLoops()) {
         const bool kept = std::any_of(consistent.begin(), consistent.end(),
                                       [&](const LoopClosure& c) { return c.from == l.from && c.to == l.to; });
@@ -333,6 +333,13 @@ class SlamRun {
     const double t2 = config_.min_translation_sigma * config_.min_translation_sigma;
     const double r2 = config_.min_rotation_sigma * config_.min_rotation_sigma;
     return positivePart(covariance) + Vector6d((Vector6d() << t2, t2, t2, r2, r2, r2).finished()).asDiagonal().toDenseMatrix();
+  }
+
+  /// Whether a run that closed no loop is optimised with its gravity priors alone
+  /// (PoseGraphConfig::gravity_alone_frame_to_map).
+  bool gravityAloneHelps() const {
+    if (result_.graph.gravity_priors.empty()) return false;
+    return config_.odometry.mode != OdometryMode::FrameToMap || config_.graph.gravity_alone_frame_to_map;
   }
 
   /// The new keyframe's gravity-direction prior (PoseGraphConfig::gravity_prior) when its scan
