@@ -24,6 +24,8 @@
 using namespace hazmap;
 namespace fs = std::filesystem;
 
+using test::errorOf;
+
 namespace {
 
 const Eigen::Vector3d kDown(0.0, 0.0, -1.0);
@@ -38,26 +40,9 @@ std::vector<double> poseBlock(const Eigen::Isometry3d& T) {
   return b;
 }
 
-fs::path tempDir(const std::string& name) {
-  const char* base = std::getenv("HAZMAP_TEST_TMP");
-  const fs::path d = fs::path(base ? base : "/tmp/hazmap-test") / (name + "-" + std::to_string(::getpid()));
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
-
 void writeText(const fs::path& path, const std::string& text) {
   std::ofstream out(path);
   out << text;
-}
-
-std::string errorOf(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "";
 }
 
 }  // namespace
@@ -225,7 +210,7 @@ TEST(GravityPrior, EstimatesTheWorldsDownWhenTheFirstNodeIsTilted) {
 // gravity.txt.
 
 TEST(GravityFile, RoundTripIsExactAndCommentsAreSkipped) {
-  const fs::path d = tempDir("gravity-roundtrip");
+  const fs::path d = test::scratchDir();
   std::vector<GravitySample> samples;
   for (int i = 0; i < 4; ++i) {
     GravitySample s;
@@ -248,7 +233,7 @@ TEST(GravityFile, RoundTripIsExactAndCommentsAreSkipped) {
 }
 
 TEST(GravityFile, BadInputGivesOneLineErrorsNamingTheFileAndLine) {
-  const fs::path d = tempDir("gravity-bad");
+  const fs::path d = test::scratchDir();
   const auto check = [&](const std::string& text, const std::string& expected, std::optional<std::size_t> scans) {
     writeText(d / "gravity.txt", text);
     const std::string e = errorOf([&] { readGravityFile(d / "gravity.txt", scans); });
@@ -301,7 +286,7 @@ TEST(GravitySimulation, NoiseHasTheConfiguredSigmaAndChangesNothingElse) {
 }
 
 TEST(GravitySimulation, SequenceHasGravityUnlessTheImuIsOffAndBadFilesAreRefused) {
-  const fs::path d = tempDir("gravity-seq");
+  const fs::path d = test::scratchDir();
   sim::SimulatorConfig c;
   c.scenario = "corridor";
   c.max_frames = 5;

@@ -5,11 +5,13 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <functional>
 #include <string>
 
 #include <unistd.h>
 
 #include "hazmap/core/class_table.hpp"
+#include "hazmap/core/error.hpp"
 #include "hazmap/core/se3.hpp"
 #include "hazmap/io/kitti.hpp"
 #include "hazmap/sim/simulator.hpp"
@@ -51,6 +53,16 @@ inline std::filesystem::path scratchDir() {
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   return dir;
+}
+
+/// The message of the hazmap::Error that f throws; "" when it throws none.
+inline std::string errorOf(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
 }
 
 struct CommandResult {

@@ -21,6 +21,8 @@
 namespace fs = std::filesystem;
 using namespace hazmap;
 
+using test::errorOf;
+
 namespace {
 
 struct Packet {
@@ -163,15 +165,6 @@ std::vector<DecodedScan> decodeAll(const std::vector<Message>& messages, const V
     }
   if (auto s = decoder->flush()) scans.push_back(std::move(*s));
   return scans;
-}
-
-std::string errorOf(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "";
 }
 
 }  // namespace
