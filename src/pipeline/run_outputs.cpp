@@ -36,10 +36,12 @@ nlohmann::json runJson(const SlamResult& r, const SlamConfig& config, const RunS
   nlohmann::json relocalised_frames = nlohmann::json::array();
   nlohmann::json status = nlohmann::json::array();  // per frame: tracked / relocalised / fallback …
   nlohmann::json stalled = nlohmann::json::array();  // ICP stopped at its iteration limit (issue 14)
+  nlohmann::json doubtful = nlohmann::json::array();  // slam.honest_odometry_edges: a prior contradicted the increment
   double ms_sum = 0;
   for (const auto& f : r.frames) {
     ms_sum += f.milliseconds;
     if (f.stalled) stalled.push_back(f.index);
+    if (!f.edge_doubt.empty()) doubtful.push_back({{"frame", f.index}, {"contradicted_by", f.edge_doubt}});
     status.push_back(toString(f.status));
     if (f.status == FrameStatus::Relocalised)
       relocalised_frames.push_back({{"frame", f.index}, {"reason", f.fallback_reason}});
@@ -53,7 +55,8 @@ nlohmann::json runJson(const SlamResult& r, const SlamConfig& config, const RunS
                    {"odometry_fallbacks", fallbacks}, {"fallback_frames", fallback_frames},
                    {"tracked", counts.tracked}, {"relocalised", counts.relocalised},
                    {"flagged", counts.fallback}, {"relocalised_frames", relocalised_frames},
-                   {"frame_status", status}, {"stalled_frames", stalled}};
+                   {"frame_status", status}, {"stalled_frames", stalled},
+                   {"doubtful_edges", doubtful}};
   nlohmann::json loops = nlohmann::json::array();
   for (const auto& l : r.loops)
     loops.push_back({{"from", l.from_frame}, {"to", l.to_frame}, {"source", l.source},

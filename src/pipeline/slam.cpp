@@ -45,6 +45,37 @@ Matrix6d positivePart(const Matrix6d& m) {
   return eig.eigenvectors() * values.asDiagonal() * eig.eigenvectors().transpose();
 }
 
+// The χ²(3) quantile of probability p (bisection on the CDF P(3/2, x/2) = erf(√(x/2)) − √(2x/π) e^(−x/2)).
+double chiSquare3Quantile(double p) {
+  const auto cdf = [](double x) { return std::erf(std::sqrt(0.5 * x)) - std::sqrt(2.0 * x / M_PI) * std::exp(-0.5 * x); };
+  double lo = 0.0, hi = 1.0;
+  while (cdf(hi) < p && hi < 1e6) hi *= 2.0;
+  for (int i = 0; i < 100; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (cdf(mid) < p ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
+// The planar components of an se(3) vector (translation first): x, y, yaw.
+constexpr int kPlanar[3] = {0, 1, 5};
+
+Eigen::Vector3d planarPart(const Vector6d& v) { return {v(kPlanar[0]), v(kPlanar[1]), v(kPlanar[2])}; }
+
+Eigen::Matrix3d planarBlock(const Matrix6d& m) {
+  Eigen::Matrix3d b;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) b(r, c) = m(kPlanar[r], kPlanar[c]);
+  return b;
+}
+
+Matrix6d embedPlanar(const Eigen::Matrix3d& b) {
+  Matrix6d m = Matrix6d::Zero();
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) m(kPlanar[r], kPlanar[c]) = b(r, c);
+  return m;
+}
+
 Matrix6d inverseOf(const Matrix6d& covariance) {
   Eigen::SelfAdjointEigenSolver<Matrix6d> eig(0.5 * (covariance + covariance.transpose()));
   Eigen::Matrix<double, 6, 1> values = eig.eigenvalues().cwiseMax(1e-12);
@@ -224,6 +255,7 @@ class SlamRun {
                   !f.registration.converged && f.registration.termination == Termination::MaxIterations;
     rec.points = f.source_points;
     rec.guess_covariance = guessCovariance(f);
+    rec.wheel_increment = wheel_increment;
     rec.label_only_directions = labelOnlyDirections(f);
     return rec;
   }
@@ -258,7 +290,7 @@ class SlamRun {
 
   /// Odometry edge, information = inverse of the calibrated ICP covariance (eq. 3), or the wheel
   /// noise when the tracker fell back to the encoders. The covariance is kept for the gate.
-  void addOdometryEdge(const FrameRecord& rec) {
+  void addOdometryEdge(FrameRecord& rec) {
     if (rec.index == 0) {
       step_covariance_.push_back(Matrix6d::Zero());
       unverified_step_covariance_.push_back(Matrix6d::Zero());
@@ -266,14 +298,15 @@ class SlamRun {
       return;
     }
     const bool wheel = !rec.icp_used || (rec.stalled && config_.stalled_edges_use_wheel_noise);
-    const Matrix6d cov = wheel ? inverseOf(config_.wheel_noise.information()) : odometryEdgeCovariance(rec);
+    const Matrix6d cov = wheel ? inverseOf(config_.wheel_noise.information()) : registrationEdgeCovariance(rec);
     step_covariance_.push_back(cov);
     unverified_step_covariance_.push_back(rec.icp_used ? Matrix6d::Zero() : cov);
     guess_step_covariance_.push_back(rec.icp_used ? Matrix6d(rec.guess_covariance + config_.label_only_sigma *
                                                                 config_.label_only_sigma * rec.label_only_directions)
                                                   : cov);
     result_.graph.addEdge(static_cast<int>(rec.index - 1), static_cast<int>(rec.index), rec.T_prev_curr,
-                          wheel ? config_.wheel_noise.information() : inverseOf(cov), EdgeKind::Odometry);
+                          wheel ? config_.wheel_noise.information() : inverseOf(odometryEdgeCovariance(rec)),
+                          EdgeKind::Odometry);
   }
 
   /// Issue 19 (odometry.reestimate_lost_frames): once a frame is verified again the tracker
@@ -298,13 +331,14 @@ class SlamRun {
       rec.icp_used = f.status != FrameStatus::Fallback;
       rec.fallback_reason = f.reason;
       const bool wheel = !rec.icp_used || (rec.stalled && config_.stalled_edges_use_wheel_noise);
-      const Matrix6d cov = wheel ? inverseOf(config_.wheel_noise.information()) : odometryEdgeCovariance(rec);
+      rec.edge_doubt.clear();
+      const Matrix6d cov = wheel ? inverseOf(config_.wheel_noise.information()) : registrationEdgeCovariance(rec);
       step_covariance_[k] = cov;
       unverified_step_covariance_[k] = rec.icp_used ? Matrix6d::Zero() : cov;
       for (PoseGraphEdge& e : result_.graph.edges)
         if (e.kind == EdgeKind::Odometry && e.from == static_cast<int>(k - 1) && e.to == static_cast<int>(k)) {
           e.T_from_to = rec.T_prev_curr;
-          e.information = wheel ? config_.wheel_noise.information() : inverseOf(cov);
+          e.information = wheel ? config_.wheel_noise.information() : inverseOf(odometryEdgeCovariance(rec));
         }
       first = std::min(first, k);
     }
@@ -314,8 +348,62 @@ class SlamRun {
     }
   }
 
-  /// scale · floored Σ_ICP + (weight · departure from constant velocity)² (SlamConfig).
-  Matrix6d odometryEdgeCovariance(const FrameRecord& rec) const {
+  /// The odometry edge's covariance: the honest model (SlamConfig::honest_odometry_edges) when
+  /// tracking is frame to map, else the registration's (below). Sets rec.edge_doubt.
+  Matrix6d odometryEdgeCovariance(FrameRecord& rec) const {
+    if (!config_.honest_odometry_edges || config_.odometry.mode != OdometryMode::FrameToMap)
+      return registrationEdgeCovariance(rec);
+    Matrix6d cov = config_.odometry_covariance_scale * positivePart(rec.covariance);
+    const double t2 = config_.odometry_floor_translation * config_.odometry_floor_translation;
+    const double r2 = config_.odometry_floor_rotation * config_.odometry_floor_rotation;
+    cov.diagonal() += (Vector6d() << t2, t2, t2, r2, r2, r2).finished();
+    const double turn = std::abs(se3Log(rec.T_prev_curr)(5));
+    const double tt = config_.odometry_turn_translation * turn, tr = config_.odometry_turn_rotation * turn;
+    cov.diagonal() += (Vector6d() << tt * tt, tt * tt, 0.0, 0.0, 0.0, tr * tr).finished();
+    cov += config_.label_only_sigma * config_.label_only_sigma * rec.label_only_directions;
+    addWrongBasinTerms(rec, cov);
+    return cov;
+  }
+
+  /// SlamConfig::honest_odometry_edges: a motion prior that contradicts the increment beyond the
+  /// χ²(3) bound (x, y, yaw; the wheels see nothing else) means the increment may be wrong by as
+  /// much as the disagreement δ: δδᵀ is added (and the wheels' nominal noise, since either may be
+  /// the one that is right). Wheels first, then constant velocity against the updated covariance.
+  void addWrongBasinTerms(FrameRecord& rec, Matrix6d& cov) const {
+    rec.edge_doubt.clear();
+    const double bound = chiSquare3Quantile(config_.odometry_gate_probability);
+    const Vector6d step = se3Log(rec.T_prev_curr);
+    const auto contradicts = [&](const Eigen::Vector3d& d, const Eigen::Matrix3d& prior) {
+      const Eigen::Matrix3d s = planarBlock(cov) + prior;
+      return d.dot(s.ldlt().solve(d)) > bound;
+    };
+    const auto note = [&](const char* why) { rec.edge_doubt += (rec.edge_doubt.empty() ? "" : "+") + std::string(why); };
+    if (rec.wheel_increment) {
+      const double forward = config_.wheel_gate_forward_fraction * step.head<2>().norm() + config_.wheel_gate_forward_sigma;
+      const double yaw = config_.wheel_gate_yaw_sigma + config_.wheel_gate_turn_fraction * std::abs(step(5));
+      const Eigen::Matrix3d W = Eigen::Vector3d(forward * forward, config_.wheel_gate_lateral_sigma * config_.wheel_gate_lateral_sigma,
+                                                yaw * yaw).asDiagonal();
+      const Eigen::Vector3d d = planarPart(se3Log(*rec.wheel_increment * rec.T_prev_curr.inverse()));
+      if (contradicts(d, W)) {
+        cov += embedPlanar(W + d * d.transpose());
+        note("wheel");
+      }
+    }
+    if (rec.index >= 2) {
+      const double t = config_.velocity_gate_translation_sigma, r = config_.velocity_gate_rotation_sigma;
+      const Eigen::Matrix3d V = Eigen::Vector3d(t * t, t * t, r * r).asDiagonal();
+      const Eigen::Vector3d d =
+          planarPart(se3Log(result_.frames[rec.index - 1].T_prev_curr * rec.T_prev_curr.inverse()));
+      if (contradicts(d, V)) {
+        cov += embedPlanar(d * d.transpose());
+        note("velocity");
+      }
+    }
+  }
+
+  /// scale · floored Σ_ICP + (weight · departure from constant velocity)² (SlamConfig): the
+  /// registration's covariance, which the loop gate's chain and the map anchors use.
+  Matrix6d registrationEdgeCovariance(const FrameRecord& rec) const {
     Matrix6d cov = config_.odometry_covariance_scale * floored(rec.covariance);
     cov += config_.label_only_sigma * config_.label_only_sigma * rec.label_only_directions;
     if (config_.motion_disagreement_weight > 0.0 && rec.index >= 2) {
@@ -419,7 +507,7 @@ class SlamRun {
   }
 
   Matrix6d anchorCovariance(std::size_t frame) const {
-    Matrix6d cov = odometryEdgeCovariance(result_.frames[frame]);
+    Matrix6d cov = registrationEdgeCovariance(result_.frames[frame]);
     const double t2 = config_.anchor_sigma_translation * config_.anchor_sigma_translation;
     const double r2 = config_.anchor_sigma_rotation * config_.anchor_sigma_rotation;
     cov.diagonal() += (Vector6d() << t2, t2, t2, r2, r2, r2).finished();

@@ -45,6 +45,27 @@ const ConfigFields<SlamConfig>& slamSectionFields() {
                   "Calibration: odometry-edge covariance = this × the floored ICP covariance (fitted by NEES)")
           .number("motion_disagreement_weight", &C::motion_disagreement_weight, nonNegative(),
                   "Calibration: adds (weight × the increment's departure from constant velocity)² to its variance")
+          .flag("honest_odometry_edges", &C::honest_odometry_edges,
+                "Frame-to-map odometry edges: additive floor + a wrong-basin term when the wheels or constant velocity contradict the increment")
+          .number("odometry_floor_translation", &C::odometry_floor_translation, nonNegative(),
+                  "m; honest_odometry_edges: added to the increment's covariance in every direction")
+          .number("odometry_floor_rotation", &C::odometry_floor_rotation, nonNegative(), "rad; likewise")
+          .number("odometry_turn_translation", &C::odometry_turn_translation, nonNegative(),
+                  "m per rad of the frame's turn; honest_odometry_edges: σ added to x and y")
+          .number("odometry_turn_rotation", &C::odometry_turn_rotation, nonNegative(),
+                  "rad per rad of the frame's turn; honest_odometry_edges: σ added to yaw")
+          .number("odometry_gate_probability", &C::odometry_gate_probability, Range{0.0, 1.0, true, true},
+                  "honest_odometry_edges: χ²(3) quantile (x, y, yaw) beyond which a motion prior contradicts the increment")
+          .number("wheel_gate_forward_fraction", &C::wheel_gate_forward_fraction, nonNegative(),
+                  "Nominal wheel noise of the gate: forward σ = this × step + wheel_gate_forward_sigma")
+          .number("wheel_gate_forward_sigma", &C::wheel_gate_forward_sigma, positive(), "m")
+          .number("wheel_gate_lateral_sigma", &C::wheel_gate_lateral_sigma, positive(), "m; lateral σ")
+          .number("wheel_gate_yaw_sigma", &C::wheel_gate_yaw_sigma, positive(),
+                  "rad; yaw σ = this + wheel_gate_turn_fraction × |turn|")
+          .number("wheel_gate_turn_fraction", &C::wheel_gate_turn_fraction, nonNegative(), "Yaw skid per rad of turn")
+          .number("velocity_gate_translation_sigma", &C::velocity_gate_translation_sigma, positive(),
+                  "m; how far an increment may differ from the previous one (x, y) without doubt")
+          .number("velocity_gate_rotation_sigma", &C::velocity_gate_rotation_sigma, positive(), "rad; likewise in yaw")
           .number("anchor_radius", &C::anchor_radius, nonNegative(),
                   "m; frame-to-map: edge from each keyframe to the nearest older keyframe within this (0 = off)")
           .number("anchor_sigma_translation", &C::anchor_sigma_translation, positive(),

@@ -73,6 +73,38 @@ struct SlamConfig {
   /// wrong basin after a wheel slip is a jump the motion model does not believe.
   double odometry_covariance_scale = 1.0;
   double motion_disagreement_weight = 0.0;
+  /// Honest odometry edges (frame-to-map tracking; issue 14, docs/pose_graph.md 2026-12-02): a
+  /// model of each increment's error fitted by NEES on odd seeds and checked on even ones. The
+  /// registration's covariance gets an additive floor (every direction, so no combination of axes
+  /// claims less: tanks' degenerate frames claimed 0.1 mrad in a yaw-with-translation direction
+  /// and were 5-25 mrad off) instead of the diagonal floor above, and a frame whose increment a
+  /// motion prior contradicts beyond a χ²(3) bound on x, y, yaw (odometry_gate_probability) is a
+  /// possible wrong basin: its covariance also carries that disagreement δ (δδᵀ) and, for the
+  /// wheels, their nominal noise. Two priors: the wheel increment (catches ICP in a wrong basin
+  /// while the wheels were right: corridor frames 30-50 cm off along the axis, the frame after a
+  /// slip that snaps back) and constant velocity, the previous increment (catches ICP that
+  /// followed a slipped wheel guess: both agree and are 40 cm off). Tracking is untouched; the
+  /// loop gate's chain and the map anchors keep the registration covariance (slam.min_*_sigma).
+  bool honest_odometry_edges = true;
+  double odometry_floor_translation = 0.002;  ///< m, added in every direction
+  double odometry_floor_rotation = 0.0002;    ///< rad, likewise
+  /// σ growing with the frame's turn (m and rad per rad of yaw increment), added to x, y and to
+  /// yaw: a scan deskewed with the wheels' yaw rate (their skid is a share of the turn) is bent
+  /// in proportion to the turn, and so is where ICP places it (the tanks' 0.25 rad turning
+  /// frames were 5-25 mrad and 3-10 cm off while claiming 0.1-0.5 mrad and 2-5 mm).
+  double odometry_turn_translation = 0.2;
+  double odometry_turn_rotation = 0.05;
+  double odometry_gate_probability = 0.99;    ///< χ²(3) quantile beyond which a prior contradicts the increment
+  /// The wheel slip model's nominal part (the encoders without a slip; sim/odometry_noise.hpp's
+  /// specification): σ_forward = fraction × step + sigma, lateral σ, σ_yaw = sigma + fraction × |turn|.
+  double wheel_gate_forward_fraction = 0.05;
+  double wheel_gate_forward_sigma = 0.01;  ///< m
+  double wheel_gate_lateral_sigma = 0.03;  ///< m
+  double wheel_gate_yaw_sigma = 0.0044;    ///< rad (0.25 deg)
+  double wheel_gate_turn_fraction = 0.05;
+  /// Constant velocity: how much an increment may differ from the previous one without doubt.
+  double velocity_gate_translation_sigma = 0.05;  ///< m
+  double velocity_gate_rotation_sigma = 0.02;     ///< rad
   /// Gate verified loops by the calibrated χ² innovation test against the covariance the graph
   /// itself gives the keyframes' relative pose (loop/consistency.hpp); false = the drift model.
   bool innovation_gate = true;
@@ -205,6 +237,11 @@ struct FrameRecord {
   /// Σ u uᵀ over the registration's label-only directions u, in the increment's frame
   /// (SlamConfig::label_only_sigma scales it); zero when there are none.
   Matrix6d label_only_directions = Matrix6d::Zero();
+  /// The wheel-odometry increment of this frame (its guess), when the recording has one.
+  std::optional<Eigen::Isometry3d> wheel_increment;
+  /// SlamConfig::honest_odometry_edges: which motion prior contradicted the increment beyond the
+  /// χ² bound ("wheel", "velocity", both joined by '+'; empty = none): its edge carries the doubt.
+  std::string edge_doubt;
 };
 
 struct LoopRecord {
