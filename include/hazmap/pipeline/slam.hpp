@@ -85,7 +85,10 @@ struct SlamConfig {
   /// slip that snaps back) and constant velocity, the previous increment (catches ICP that
   /// followed a slipped wheel guess: both agree and are 40 cm off). Tracking is untouched; the
   /// loop gate's chain and the map anchors keep the registration covariance (slam.min_*_sigma).
-  bool honest_odometry_edges = true;
+  /// Off by default: honest per edge, the edges made the graph worse (naraha property-icp+pgo
+  /// mean, corridor 3, tanks 1 and 2; docs/pose_graph.md): a doubtful edge modelled as one wide
+  /// Gaussian becomes the hinge where loops and priors bend a chain that was right there.
+  bool honest_odometry_edges = false;
   double odometry_floor_translation = 0.002;  ///< m, added in every direction
   double odometry_floor_rotation = 0.0002;    ///< rad, likewise
   /// σ growing with the frame's turn (m and rad per rad of yaw increment), added to x, y and to
