@@ -566,6 +566,85 @@ TEST(ViewFusion, EachSurfaceVoxelIsSampledInItsMostFrontalViewNearby) {
   EXPECT_TRUE(std::isnan(labels[1].channels[0][index_of(1, 2.525f)]));
 }
 
+TEST(ViewFusion, AnotherScansViewIsNotSampledWhereAHotObjectHidesThePoint) {
+  // A hot box face (x = 4, 0 <= y <= 1.02) in front of a wall (x = 8), seen by a forward camera
+  // from x = 0 (scan 0) and x = 2 (scan 1). From x = 2 the box hides the wall up to y = 3.06, from
+  // x = 0 up to y = 2.04. The wall point at y = 3.025 lies in the 10 cm voxel y 3.0-3.1 whose
+  // points beyond 3.06 scan 1 saw more frontally than scan 0 did, so that voxel's best view is
+  // scan 1's — where the point itself is behind the box, and its pixel shows the box (90 °C).
+  // The background point beside the hot silhouette must not take the box's heat: scan 1's depth
+  // buffer has the box's points in front of it there, so scan 0's own (cold) view is used.
+  CameraCalibration cam;
+  CameraIntrinsics k;
+  k.width = 301;
+  k.height = 201;
+  k.fx = k.fy = 100;
+  k.cx = 150;
+  k.cy = 100;
+  cam.model = CameraModel(k);
+  cam.channel = defaultChannel("temperature");
+  cam.T_camera_lidar.linear() << 0, -1, 0, 0, 0, -1, 1, 0, 0;  // looks along the LiDAR's x axis
+  auto images = std::make_shared<MemoryImages>();
+  for (int s = 0; s < 2; ++s) {
+    PropertyImage img;
+    img.width = k.width;
+    img.height = k.height;
+    img.stamp = 10.0 * s;
+    for (int v = 0; v < k.height; ++v)
+      for (int u = 0; u < k.width; ++u) {  // the ray through (u, v) at the box's plane x = 4
+        const double t = 4.0 - 2.0 * s, y = -t * (u - 150) / 100.0, z = -t * (v - 100) / 100.0;
+        img.values.push_back(y >= 0 && y <= 1.02 && std::abs(z) <= 0.5 ? 90.0f : 20.0f);
+      }
+    images->add(img);
+  }
+  LabelerConfig config;
+  config.footprints = true;
+  const PropertyLabeler labeler({{cam, images}}, PropertyRules::defaults({"temperature"}, ClassTable::defaults()), config);
+  Trajectory poses;
+  for (int s = 0; s < 2; ++s) poses.push_back(10.0 * s, Eigen::Isometry3d(Eigen::Translation3d(2.0 * s, 0, 0)));
+  std::vector<LabeledCloud> scans(2);
+  std::size_t probe = 0;  // scan 0's wall point (8, 3.025, 0.025)
+  for (int s = 0; s < 2; ++s) {
+    const float x0 = 2.0f * s, hidden_to = s == 0 ? 2.04f : 3.06f;
+    for (int iy = 0; iy <= 20; ++iy)
+      for (int iz = -10; iz <= 9; ++iz) scans[s].push_back({4.0f - x0, 0.025f + 0.05f * iy * 0.99f, 0.025f + 0.05f * iz});
+    for (int iy = -20; iy <= 100; ++iy)
+      for (int iz = -10; iz <= 9; ++iz) {
+        const float y = 0.025f + 0.05f * iy;
+        if (y > 0 && y < hidden_to) continue;  // the LiDAR does not see the wall behind the box
+        if (s == 0 && iy == 60 && iz == 0) probe = scans[s].size();
+        scans[s].push_back({8.0f - x0, y, 0.025f + 0.05f * iz});
+      }
+  }
+  ASSERT_FLOAT_EQ(scans[0].points[probe].y(), 3.025f);
+  const auto fused = [&](int margin) {
+    ViewFusionConfig fusion_config;
+    fusion_config.odometry_drift = 0;  // the most frontal view wins outright
+    fusion_config.occlusion_margin_cells = margin;
+    ViewFusion fusion(labeler, fusion_config);
+    std::vector<ScanLabels> labels(2);
+    for (int s = 0; s < 2; ++s) {
+      labels[s] = labeler.observe(scans[s], 10.0 * s);
+      fusion.add(s, scans[s], poses.poses[s], 2.0 * s, labels[s]);
+    }
+    EXPECT_FLOAT_EQ(labels[0].channels[0][probe], 20.0f);  // its own view: the wall, cold
+    fusion.fuse(0, scans[0], fusion.bestFrames(0, scans[0]), labels[0]);
+    labeler.classify(scans[0], poses.poses[0], labels[0]);
+    return labels[0];
+  };
+  const ScanLabels without = fused(-1);  // main's fusion: no depth test in the other view
+  EXPECT_EQ(without.channels[0][probe], 90.0f);
+  EXPECT_EQ(without.classes[probe], 1);
+  const ScanLabels with = fused(ViewFusionConfig{}.occlusion_margin_cells);
+  EXPECT_FLOAT_EQ(with.channels[0][probe], 20.0f);
+  EXPECT_EQ(with.classes[probe], 0);
+  // The box itself stays hot, and wall points scan 1 does see still take its view.
+  EXPECT_EQ(with.classes[0], 1);
+  std::size_t wall_heat = 0;
+  for (std::size_t i = 0; i < scans[0].size(); ++i) wall_heat += scans[0].points[i].x() > 6 && with.classes[i] == 1;
+  EXPECT_EQ(wall_heat, 0u);
+}
+
 }  // namespace
 }  // namespace hazmap
 
