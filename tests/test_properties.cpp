@@ -577,7 +577,8 @@ TEST(ViewFusion, AnotherScansViewIsNotSampledWhereAHotObjectHidesThePoint) {
   // than scan 0 does — so main took scan 1's view for the whole voxel, where the point at 2.925
   // is behind the box and its pixel shows the box (90 °C): a background point beside a hot
   // silhouette got the heat. Scan 1's depth buffer has the box's points in front of it there,
-  // so now scan 0's own (cold) view is used.
+  // so that view is refused: the point gets no value (not observed), or, when the next views
+  // may be tried, scan 0's own (cold) one.
   CameraCalibration cam;
   CameraIntrinsics k;
   k.width = 301;
@@ -623,10 +624,11 @@ TEST(ViewFusion, AnotherScansViewIsNotSampledWhereAHotObjectHidesThePoint) {
       }
   }
   ASSERT_FLOAT_EQ(scans[0].points[probe].y(), 2.925f);
-  const auto fused = [&](int margin) {
+  const auto fused = [&](int margin, int views = ViewFusionConfig{}.max_views_tried) {
     ViewFusionConfig fusion_config;
     fusion_config.odometry_drift = 0;  // the most frontal view wins outright
     fusion_config.occlusion_margin_cells = margin;
+    fusion_config.max_views_tried = views;
     ViewFusion fusion(labeler, fusion_config);
     std::vector<ScanLabels> labels(2);
     for (int s = 0; s < 2; ++s) {
@@ -642,8 +644,11 @@ TEST(ViewFusion, AnotherScansViewIsNotSampledWhereAHotObjectHidesThePoint) {
   EXPECT_EQ(without.channels[0][probe], 90.0f);
   EXPECT_EQ(without.classes[probe], 1);
   const ScanLabels with = fused(ViewFusionConfig{}.occlusion_margin_cells);
-  EXPECT_FLOAT_EQ(with.channels[0][probe], 20.0f);
+  EXPECT_TRUE(std::isnan(with.channels[0][probe]));
   EXPECT_EQ(with.classes[probe], 0);
+  const ScanLabels next = fused(ViewFusionConfig{}.occlusion_margin_cells, 8);
+  EXPECT_FLOAT_EQ(next.channels[0][probe], 20.0f);
+  EXPECT_EQ(next.classes[probe], 0);
   // The box itself stays hot, and no wall point on the box's far side takes its heat.
   EXPECT_EQ(with.classes[0], 1);
   std::size_t wall_heat = 0;
