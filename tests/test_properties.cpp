@@ -535,9 +535,9 @@ TEST(ViewFusion, EachSurfaceVoxelIsSampledInItsMostFrontalViewNearby) {
     return static_cast<std::size_t>(std::lround((world_x - 0.525f) / 0.05f)) * 21 + 10;
   };
   ViewFusionConfig fusion_config;
-  // The depth test's margin is in cells: this camera's 1-px cells are 6° wide, and 2 of them
-  // would hide the grazing wall's far points behind its near ones.
-  fusion_config.occlusion_margin_cells = 0;
+  // (With the depth test in other views, occlusion_margin_cells, its margin is in cells: this
+  // camera's 1-px cells are 6° wide, and 2 of them would hide the grazing wall's far points
+  // behind its near ones; 0 passes this test.)
   ViewFusion fusion(labeler, fusion_config);
   std::vector<ScanLabels> labels(2);
   for (int k = 0; k < 2; ++k) {
@@ -624,7 +624,7 @@ TEST(ViewFusion, AnotherScansViewIsNotSampledWhereAHotObjectHidesThePoint) {
       }
   }
   ASSERT_FLOAT_EQ(scans[0].points[probe].y(), 2.925f);
-  const auto fused = [&](int margin, int views = ViewFusionConfig{}.max_views_tried) {
+  const auto fused = [&](int margin, int views) {
     ViewFusionConfig fusion_config;
     fusion_config.odometry_drift = 0;  // the most frontal view wins outright
     fusion_config.occlusion_margin_cells = margin;
@@ -640,13 +640,14 @@ TEST(ViewFusion, AnotherScansViewIsNotSampledWhereAHotObjectHidesThePoint) {
     labeler.classify(scans[0], poses.poses[0], labels[0]);
     return labels[0];
   };
-  const ScanLabels without = fused(-1);  // main's fusion: no depth test in the other view
+  EXPECT_EQ(ViewFusionConfig{}.occlusion_margin_cells, -1);  // off by default (docs/properties.md)
+  const ScanLabels without = fused(-1, 8);  // no depth test in the other view (main's fusion)
   EXPECT_EQ(without.channels[0][probe], 90.0f);
   EXPECT_EQ(without.classes[probe], 1);
-  const ScanLabels with = fused(ViewFusionConfig{}.occlusion_margin_cells);
+  const ScanLabels with = fused(2, 1);
   EXPECT_TRUE(std::isnan(with.channels[0][probe]));
   EXPECT_EQ(with.classes[probe], 0);
-  const ScanLabels next = fused(ViewFusionConfig{}.occlusion_margin_cells, 8);
+  const ScanLabels next = fused(2, 8);
   EXPECT_FLOAT_EQ(next.channels[0][probe], 20.0f);
   EXPECT_EQ(next.classes[probe], 0);
   // The box itself stays hot, and no wall point on the box's far side takes its heat.

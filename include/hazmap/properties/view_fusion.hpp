@@ -36,16 +36,17 @@ struct ViewFusionConfig {
   /// between the scan and the view (the poses that carry the point into the other image drift).
   double calibration_uncertainty_deg = 1.0;
   double odometry_drift = 0.05;  ///< m per m travelled
-  /// Depth test in the other scan's view (-1 = off: the sample is taken wherever it lands).
-  /// A view of another scan is taken only where that scan saw no nearer surface within its
-  /// depth-test splat + this many cells around the point: the point may be behind a hot
-  /// object there (a background point beside a hot silhouette), and the odometry that carries
-  /// it into that view is off by a few centimetres, which at a silhouette is the object's pixel.
-  int occlusion_margin_cells = 2;
-  /// Views tried per point and channel, cheapest first, before the point stays unobserved
-  /// (NaN). 1: a point whose best view fails the depth test gets no value — trying the next
-  /// views (8) kept more values but cost precision with a 1° calibration error (0.840 < 0.85).
-  int max_views_tried = 1;
+  /// Depth test in the other scan's view (-1 = off, the default: the sample is taken wherever
+  /// it lands). A view of another scan is taken only where that scan saw no nearer surface
+  /// within its depth-test splat + this many cells around the point: the point may be behind a
+  /// hot object there (a background point beside a hot silhouette), and the odometry that
+  /// carries it into that view is off by a few centimetres, which at a silhouette is the
+  /// object's pixel. Off by default: on simulated naraha, 2 removed a sixth of the wrong heat
+  /// labels but cost precision with a 1° calibration error (0.841 < 0.85) and moved the maps
+  /// by less than their spread (docs/properties.md, 2026-12-02).
+  int occlusion_margin_cells = -1;
+  /// Views tried per point and channel, cheapest first, before the point stays unobserved (NaN).
+  int max_views_tried = 8;
   NormalConfig normals{20, 1.0};  ///< the labeler's
   void validate(const std::string& where) const;
 };
