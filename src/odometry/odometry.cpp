@@ -238,6 +238,36 @@ void labelledOrFlagged(OdometryFrame& f, const RegistrationResult& r, Estimate& 
   if (f.status == FrameStatus::Degenerate && !label_doubt.empty()) f.reason += "; " + label_doubt;
 }
 
+// With relocalise_suspect: the previous frame was flagged, so its pose is not known along its
+// weakest horizontal axis, and this frame's increment starts there. An answer farther from the
+// guess along that axis than flag_correction_after_flagged is that pose's error put right (or a
+// slip of the encoders): the data cannot tell which, so the increment is not known either
+// (corridor worst day, seed 1: frame 35 beside the south heat panel put right frame 34, flagged
+// 0.40 m off, and was `tracked` 0.49 m off in its increment). A lost frame (fallback) that is
+// re-estimated later is left to reestimateLostFrames, which flags the frame after it when it stays lost.
+void flagAfterFlagged(OdometryFrame& f, const OdometryFrame& previous, const Eigen::Isometry3d& answer,
+                      const Eigen::Isometry3d& guess, const Eigen::Isometry3d& W, const OdometryConfig& config) {
+  if (!config.relocalise_suspect || !(config.flag_correction_after_flagged > 0.0) || !isFlagged(previous.status)) return;
+  if (f.status != FrameStatus::Tracked && f.status != FrameStatus::Relocalised) return;
+  const bool to_map = config.mode == OdometryMode::FrameToMap;
+  const bool lost_reestimated = previous.status == FrameStatus::Fallback && to_map && config.reestimate_lost_frames &&
+                                !config.map_skips_fallback;
+  if (lost_reestimated) return;
+  Eigen::Vector3d delta = W.linear() * (answer.translation() - guess.translation());  // world
+  delta.z() = 0.0;
+  double along = delta.norm();
+  // Frame to map the previous registration's space is the world's: measure along its weakest axis.
+  if (to_map && previous.status == FrameStatus::Degenerate)
+    if (const auto axis = weakHorizontalAxis(previous.registration, 1.0)) along = std::abs(axis->dot(delta));
+  if (along <= config.flag_correction_after_flagged) return;
+  char buf[200];
+  std::snprintf(buf, sizeof buf,
+                "%.2f m from the guess along the flagged frame %zu's weakest axis: its pose's error or a slip, "
+                "the increment is not known (flagged)", along, previous.index);
+  f.reason += (f.reason.empty() ? "" : "; ") + std::string(buf);
+  f.status = FrameStatus::Degenerate;
+}
+
 }  // namespace
 
 // The paper's Fig. 1 for one scan: preprocess, register against the previous scan or the local
@@ -350,6 +380,7 @@ void Odometry::track(OdometryFrame& f, const LabeledCloud& source, std::optional
                                 weakHorizontalAxis(r, config_.suspect_weak_axis_ratio));
   if (f.status == FrameStatus::Tracked || f.status == FrameStatus::Relocalised)
     labelledOrFlagged(f, r, estimate, config_, impl_->label_note, impl_->label_precise, impl_->label_doubt);
+  flagAfterFlagged(f, frames_.back(), estimate.pose, reg_guess, W, config_);
   f.increment = normalized(prev_pose.inverse() * W * estimate.pose);
   // W-frame perturbation → previous-frame perturbation of the increment
   const Matrix6d Ad = adjoint(prev_pose.inverse() * W);

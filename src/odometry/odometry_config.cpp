@@ -52,6 +52,9 @@ static ConfigFields<OdometryConfig>& addWholeMapFields(ConfigFields<OdometryConf
                 "(degenerate), not tracked")
           .number("flag_weak_axis_ratio", &C::flag_weak_axis_ratio, closed(0, 1),
                   "With flag_weak_axis: the weak-axis ratio (as suspect_weak_axis_ratio) below which a frame is flagged")
+          .number("flag_correction_after_flagged", &C::flag_correction_after_flagged, nonNegative(),
+                  "m; with relocalise_suspect: a frame after a flagged one whose answer lies farther than this from "
+                  "the guess along that frame's weakest horizontal axis is flagged (0 = off)")
           .flag("label_axis_search", &C::label_axis_search,
                 "With relocalise_suspect and property ICP: along a horizontal axis the geometry cannot observe, the "
                 "scan's labelled points decide the position (else the frame is flagged)")

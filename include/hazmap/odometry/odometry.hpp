@@ -155,6 +155,13 @@ struct OdometryConfig {
   /// since flagging keeps ICP's answer. The corridor's frames sit at 0.15-0.25 and, at 0.15, some
   /// stayed `tracked` 1 m wrong depending on the map's content.
   double flag_weak_axis_ratio = 0.25;
+  /// With relocalise_suspect: a frame after a flagged one (degenerate; a fallback when lost frames
+  /// are not re-estimated) starts its increment from a pose not known along that frame's weakest
+  /// horizontal axis. When its answer lies more than this (m) from the guess along that axis, the
+  /// previous pose's error or a slip moved it, which nothing tells apart: flagged, not `tracked`
+  /// (corridor worst day: a frame beside a heat panel put right a previous frame 0.4 m off and
+  /// was 0.49 m off in its increment; 0 = off).
+  double flag_correction_after_flagged = 0.15;
   /// With relocalise_suspect and property ICP: along a horizontal axis the geometry cannot observe
   /// (weaker than flag_weak_axis_ratio, or another position along it fits as well), the scan's
   /// labelled points decide. They are slid ±label_axis_range along the axis and scored against the
