@@ -111,7 +111,10 @@ struct VerificationConfig {
   std::size_t probe_source_points = 0;
   /// Online cost (issue 14): the full verification ICP starts where the coarse check converged
   /// (its 1000-point answer) instead of at the candidate's guess again, so it only refines.
-  /// false = from the guess (the coarse check's answer is thrown away).
+  /// false = from the guess (the coarse check's answer is thrown away). Keep it off: from a guess
+  /// metres off, the 1000-point answer can sit in another basin and the full run then refines that
+  /// one (LoopVerify.DetectorClosesTheRouteLoopUnderDrift accepted a wrong loop, 3→60, with it on),
+  /// and it saved nothing measurable (docs/pose_graph.md, "Online cost").
   bool full_from_coarse = false;
   /// Online cost (issue 14): the basin probes and the reverse cross-check run a coarse stage of
   /// this many source points (RegistrationConfig::coarse_source_points: the far-moving first steps
