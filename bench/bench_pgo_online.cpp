@@ -16,6 +16,9 @@
 //   BM_Naraha_PropertyIcpPgo_Every2nd       slam.loop_search_every = 2: half the loop searches
 //                                           (same naraha mean map error over seeds 1–8, but not
 //                                           on every seed or scene: docs/measurements.md)
+//   BM_Naraha_PropertyIcpPgo_CheapVerify    verification.full_from_coarse, probe_coarse_points
+//                                           1000, probe_tolerance_scale 10 (opt-in)
+//   BM_Naraha_PropertyIcpPgo_CheapProbes    the last two only
 #include <benchmark/benchmark.h>
 
 #include "bench_main.hpp"
@@ -101,10 +104,27 @@ void BM_Naraha_PropertyIcpPgo_Every2nd(benchmark::State& state) {
   c.loop_search_every = 2;
   runConfig(state, c, false);
 }
+// The cheaper verification (issue 14, opt-in: docs/pose_graph.md "Online cost").
+void BM_Naraha_PropertyIcpPgo_CheapVerify(benchmark::State& state) {
+  SlamConfig c = SlamConfig::forMethod(SlamMethod::PropertyIcpPgo);
+  c.loop_closure.verification.full_from_coarse = true;
+  c.loop_closure.verification.probe_coarse_points = 1000;
+  c.loop_closure.verification.probe_tolerance_scale = 10.0;
+  runConfig(state, c, false);
+}
+// Only the two probe knobs (the heavy-drift detector test passes with them; not with full_from_coarse).
+void BM_Naraha_PropertyIcpPgo_CheapProbes(benchmark::State& state) {
+  SlamConfig c = SlamConfig::forMethod(SlamMethod::PropertyIcpPgo);
+  c.loop_closure.verification.probe_coarse_points = 1000;
+  c.loop_closure.verification.probe_tolerance_scale = 10.0;
+  runConfig(state, c, false);
+}
 BENCHMARK(BM_Naraha_PropertyIcp)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
 BENCHMARK(BM_Naraha_PropertyIcpPgo)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
 BENCHMARK(BM_Naraha_PropertyIcpPgo_Sequential)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
 BENCHMARK(BM_Naraha_PropertyIcpPgo_Every2nd)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
+BENCHMARK(BM_Naraha_PropertyIcpPgo_CheapVerify)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
+BENCHMARK(BM_Naraha_PropertyIcpPgo_CheapProbes)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
 
 }  // namespace
 

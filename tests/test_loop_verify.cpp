@@ -83,6 +83,36 @@ TEST(LoopVerify, PropertyIcpRefinesAConstellationGuessAndGivesInformation) {
   EXPECT_GT(v.closure.information.diagonal().minCoeff(), 0.0);
 }
 
+// Issue 14's online cost: the full run refining the coarse check's answer, the probes' coarse
+// stage and looser stop accept the same loop, within millimetres of the single-stage verification.
+TEST(LoopVerify, CheaperVerificationAcceptsTheSameLoop) {
+  const LabeledCloud world = hallWorld();
+  const ClassTable table = ClassTable::defaults();
+  std::mt19937 rng(5);
+  const Eigen::Isometry3d Ta = fromXyzRpy(1.0, 0.5, 0.5, 0, 0, 0.3);
+  const Eigen::Isometry3d Tb = fromXyzRpy(2.5, -0.5, 0.5, 0, 0, 1.0);
+  const LabeledCloud a = keyframeCloud(test::observe(world, Ta, 15.0, 0.02, 0.5, rng));
+  const LabeledCloud b = keyframeCloud(test::observe(world, Tb, 15.0, 0.02, 0.5, rng));
+  LoopCandidate cand;
+  cand.query = 30;
+  cand.match = 2;
+  cand.initial_guess = (Ta.inverse() * Tb) * fromXyYaw(0.4, -0.3, 0.05);
+  const VerificationConfig single;  // the defaults: single stage
+  VerificationConfig cheap;
+  cheap.full_from_coarse = true;
+  cheap.probe_coarse_points = 1000;
+  cheap.probe_tolerance_scale = 10.0;
+  const VerificationResult v1 = verifyCandidate(cand, b, a, table, single);
+  const VerificationResult v2 = verifyCandidate(cand, b, a, table, cheap);
+  ASSERT_TRUE(v1.accepted) << v1.reason;
+  ASSERT_TRUE(v2.accepted) << v2.reason;
+  const Eigen::Isometry3d d = v1.closure.T_from_to.inverse() * v2.closure.T_from_to;
+  EXPECT_LT(translationNorm(d), 0.003);
+  EXPECT_LT(rotationAngle(d), 0.0005);
+  // The probes' spread joins both covariances alike (within the floors' scale).
+  EXPECT_LT((v1.closure.covariance - v2.closure.covariance).norm(), 1e-4);
+}
+
 TEST(LoopVerify, RejectsAWrongCandidate) {
   const LabeledCloud world = hallWorld();
   const ClassTable table = ClassTable::defaults();

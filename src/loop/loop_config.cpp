@@ -111,6 +111,12 @@ const ConfigFields<VerificationConfig>& configFields(ConfigTag<VerificationConfi
                   "The coarse check rejects below min_fitness − this")
           .integer("probe_source_points", &C::probe_source_points, atLeast(0),
                    "Basin probes register at most this many source points (0 = as the verification)")
+          .flag("full_from_coarse", &C::full_from_coarse,
+                "The full verification ICP starts where the coarse check converged (false: from the candidate's guess)")
+          .integer("probe_coarse_points", &C::probe_coarse_points, atLeast(0),
+                   "Basin probes and the reverse cross-check start with a coarse stage on this many source points, then refine on all (0 = single stage)")
+          .number("probe_tolerance_scale", &C::probe_tolerance_scale, atLeast(1.0),
+                  "Basin probes stop at the registration's tolerances times this (1 = the verification's)")
           .section("registration", &C::registration, "The verification ICP (α and class radii: property_icp)");
   return fields;
 }

@@ -249,7 +249,9 @@ double LoopDetector::crossCheckDistance(const LoopCandidate& cand, const PoseLis
   const LabeledCloud& match = submaps ? match_target->cloud() : *match_scan;
   if (query.empty() || match.empty()) return std::numeric_limits<double>::quiet_NaN();
   const RegistrationTarget target(query, classes_, c.registration);
-  const RegistrationResult rev = registerClouds(match, target, cand.initial_guess.inverse(), classes_, c.registration);
+  RegistrationConfig reverse = c.registration;
+  if (c.probe_coarse_points > 0) reverse.coarse_source_points = c.probe_coarse_points;
+  const RegistrationResult rev = registerClouds(match, target, cand.initial_guess.inverse(), classes_, reverse);
   if (!rev.converged || !isFinite(rev.transform)) return std::numeric_limits<double>::quiet_NaN();
   const Vector6d d = se3Log(rev.transform.inverse() * T_from_to.inverse());
   Matrix6d sigma = 2.0 * c.covariance_scale * 0.5 * (forward_covariance + forward_covariance.transpose());

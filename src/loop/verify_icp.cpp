@@ -24,6 +24,9 @@ void widenByBasinProbes(VerificationResult& v, const LabeledCloud& query_cloud, 
   if (c.probe_source_points > 0)
     probe.max_source_points = probe.max_source_points > 0 ? std::min(probe.max_source_points, c.probe_source_points)
                                                           : c.probe_source_points;
+  if (c.probe_coarse_points > 0) probe.coarse_source_points = c.probe_coarse_points;
+  probe.translation_tolerance *= c.probe_tolerance_scale;
+  probe.rotation_tolerance *= c.probe_tolerance_scale;
   // Two probes at a time (each ICP is deterministic whatever its threads), the ±x pair first;
   // their shifts are added in the fixed order −x, +x, −y, +y. Each probe only adds to the spread's
   // trace, so when the ±x pair alone already puts it beyond max_probe_spread the loop is rejected
@@ -67,6 +70,7 @@ VerificationResult coarseCheck(const LoopCandidate& cand, const LabeledCloud& qu
   v.closure.T_from_to = reg.transform;
   v.closure.source = cand.source;
   v.closure.fitness = reg.fitness;
+  v.registration = reg;
   const double floor = c.min_fitness - c.coarse_fitness_margin;
   if (reg.fitness < floor) {
     v.rejection = LoopRejection::LowFitness;
@@ -100,11 +104,16 @@ VerificationResult verifyCandidate(const LoopCandidate& cand, const LabeledCloud
                                    const RegistrationTarget& target, const ClassTable& classes,
                                    const VerificationConfig& c) {
   if (query_cloud.empty()) return emptyCloudRejection(cand);
+  Eigen::Isometry3d start = cand.initial_guess;
   if (c.coarse_source_points > 0 && query_cloud.size() > c.coarse_source_points) {
     VerificationResult coarse = coarseCheck(cand, query_cloud, target, classes, c);
     if (coarse.rejection == LoopRejection::LowFitness) return coarse;
+    // The coarse check converged on a strided subset of the same source: the full run refines it.
+    const RegistrationResult& cr = coarse.registration;
+    if (c.full_from_coarse && (cr.converged || cr.termination == Termination::MaxIterations) && isFinite(cr.transform))
+      start = cr.transform;
   }
-  const RegistrationResult reg = registerClouds(query_cloud, target, cand.initial_guess, classes, c.registration);
+  const RegistrationResult reg = registerClouds(query_cloud, target, start, classes, c.registration);
   VerificationResult v = evaluateRegistration(cand, reg, c);
   if (v.accepted && c.probe_distance > 0.0) widenByBasinProbes(v, query_cloud, target, classes, c);
   return v;

@@ -109,6 +109,23 @@ struct VerificationConfig {
   /// basin they land in, not refine it. 0 = as many as the verification (default: 1500 points
   /// was measured to judge basins worse, naraha seed 1 frame-to-map 0.012 → 0.018 m).
   std::size_t probe_source_points = 0;
+  /// Online cost (issue 14): the full verification ICP starts where the coarse check converged
+  /// (its 1000-point answer) instead of at the candidate's guess again, so it only refines.
+  /// false = from the guess (the coarse check's answer is thrown away). Keep it off: from a guess
+  /// metres off, the 1000-point answer can sit in another basin and the full run then refines that
+  /// one (LoopVerify.DetectorClosesTheRouteLoopUnderDrift accepted a wrong loop, 3→60, with it on),
+  /// and it saved nothing measurable (docs/pose_graph.md, "Online cost").
+  bool full_from_coarse = false;
+  /// Online cost (issue 14): the basin probes and the reverse cross-check run a coarse stage of
+  /// this many source points (RegistrationConfig::coarse_source_points: the far-moving first steps
+  /// on a strided subset, tolerances 10× looser) before the full source refines where it ended;
+  /// unlike probe_source_points the probe's answer is still the full source's. 0 = single stage.
+  std::size_t probe_coarse_points = 0;
+  /// Online cost (issue 14): the basin probes stop at the registration's translation and rotation
+  /// tolerances times this. A probe only tells which basin it lands in; its last creeping steps
+  /// (sub-millimetre, against a 5 cm spread limit and a 1 cm floor on the loop's σ) are most of
+  /// its iterations. 1 = the verification's tolerances.
+  double probe_tolerance_scale = 1.0;
 };
 
 /// An accepted loop: an edge from the past keyframe `from` to the current keyframe `to`.
