@@ -22,15 +22,8 @@ nlohmann::json statsJson(const DistanceStats& s) {
           {"max", s.max}, {"rmse", s.rmse}};
 }
 
-nlohmann::json runJson(const SlamResult& r, const SlamConfig& config, const RunSummary& summary) {
-  nlohmann::json j;
-  j["sequence"] = r.source;
-  j["method"] = toString(r.method);
-  j["frames"] = r.frames.size();
-  j["frames_per_s"] = r.framesPerSecond();
-  j["timings_s"] = {{"tracking", r.timings.tracking_s}, {"loop_closure", r.timings.loop_s},
-                    {"pose_graph", r.timings.graph_s}, {"slam_total", r.timings.total_s},
-                    {"outputs", summary.output_seconds}};
+// run.json "tracking": per-frame statuses, fallbacks, stalled and doubtful edges.
+nlohmann::json trackingJson(const SlamResult& r) {
   std::size_t fallbacks = 0;
   nlohmann::json fallback_frames = nlohmann::json::array();
   nlohmann::json relocalised_frames = nlohmann::json::array();
@@ -51,12 +44,16 @@ nlohmann::json runJson(const SlamResult& r, const SlamConfig& config, const RunS
     }
   }
   const TrackingCounts counts = countTracking(r.frames);
-  j["tracking"] = {{"mean_ms_per_frame", r.frames.empty() ? 0.0 : ms_sum / r.frames.size()},
+  return {{"mean_ms_per_frame", r.frames.empty() ? 0.0 : ms_sum / r.frames.size()},
                    {"odometry_fallbacks", fallbacks}, {"fallback_frames", fallback_frames},
                    {"tracked", counts.tracked}, {"relocalised", counts.relocalised},
                    {"flagged", counts.fallback}, {"relocalised_frames", relocalised_frames},
                    {"frame_status", status}, {"stalled_frames", stalled},
                    {"doubtful_edges", doubtful}};
+}
+
+// run.json "loop_closure": accepted loops and rejected candidates with their reasons.
+nlohmann::json loopClosureJson(const SlamResult& r, const SlamConfig& config) {
   nlohmann::json loops = nlohmann::json::array();
   for (const auto& l : r.loops)
     loops.push_back({{"from", l.from_frame}, {"to", l.to_frame}, {"source", l.source},
@@ -64,7 +61,7 @@ nlohmann::json runJson(const SlamResult& r, const SlamConfig& config, const RunS
   nlohmann::json rejected = nlohmann::json::array();
   for (const auto& l : r.rejected_loops)
     rejected.push_back({{"from", l.from_frame}, {"to", l.to_frame}, {"reason", toString(l.reason)}, {"detail", l.detail}});
-  j["loop_closure"] = {{"enabled", usesPoseGraph(r.method)},
+  return {{"enabled", usesPoseGraph(r.method)},
                        {"candidate_method", toString(config.loop_closure.method)},
                        {"keyframes", r.keyframes}, {"keyframes_searched", r.keyframes_searched},
                        {"candidates", r.loop_candidates},
@@ -72,6 +69,19 @@ nlohmann::json runJson(const SlamResult& r, const SlamConfig& config, const RunS
                        {"accepted", r.loops.size()},
                        {"loops", loops},
                        {"rejected", rejected}};
+}
+
+nlohmann::json runJson(const SlamResult& r, const SlamConfig& config, const RunSummary& summary) {
+  nlohmann::json j;
+  j["sequence"] = r.source;
+  j["method"] = toString(r.method);
+  j["frames"] = r.frames.size();
+  j["frames_per_s"] = r.framesPerSecond();
+  j["timings_s"] = {{"tracking", r.timings.tracking_s}, {"loop_closure", r.timings.loop_s},
+                    {"pose_graph", r.timings.graph_s}, {"slam_total", r.timings.total_s},
+                    {"outputs", summary.output_seconds}};
+  j["tracking"] = trackingJson(r);
+  j["loop_closure"] = loopClosureJson(r, config);
   nlohmann::json opt = nlohmann::json::array();
   for (std::size_t k = 0; k < r.optimisations.size(); ++k) {
     const auto& o = r.optimisations[k];
