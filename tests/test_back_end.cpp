@@ -265,7 +265,7 @@ TEST(GuardedOptimisation, AWrongLoopAgainstStiffOdometryStaysBeyondTheGate) {
   g.addEdge(0, 5, pose(5.05, 0, 0), isotropic(0.02, 0.002).inverse(), EdgeKind::Loop);  // agrees
   std::string failure;
   optimizePoseGraphOrKeep(g, PoseGraphConfig{}, failure);
-  const double gate = chiSquare6Quantile(0.999);
+  const double gate = chiSquareQuantile(6, 0.999);
   EXPECT_TRUE(edgesBeyond(g, EdgeKind::Loop, gate).empty());
   g.addEdge(0, 5, pose(6.0, 0.0, 0), isotropic(0.02, 0.002).inverse(), EdgeKind::Loop);  // 1 m off
   optimizePoseGraphOrKeep(g, PoseGraphConfig{}, failure);

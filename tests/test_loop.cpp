@@ -375,9 +375,12 @@ LoopClosure loopBetween(const PoseList& truth, std::size_t from, std::size_t to,
 }
 
 TEST(LoopConsistency, ChiSquareQuantile) {
-  EXPECT_NEAR(chiSquare6Quantile(0.999), 22.458, 1e-3);
-  EXPECT_NEAR(chiSquare6Quantile(0.95), 12.592, 1e-3);
-  EXPECT_THROW(chiSquare6Quantile(1.0), Error);
+  EXPECT_NEAR(chiSquareQuantile(6, 0.999), 22.458, 1e-3);
+  EXPECT_NEAR(chiSquareQuantile(6, 0.95), 12.592, 1e-3);
+  EXPECT_THROW(chiSquareQuantile(6, 1.0), Error);
+  EXPECT_NEAR(chiSquareQuantile(3, 0.95), 7.815, 1e-3);
+  EXPECT_NEAR(chiSquareQuantile(3, 0.99), 11.345, 1e-3);
+  EXPECT_THROW(chiSquareQuantile(4, 0.95), Error);
 }
 
 TEST(LoopConsistency, DriftGateScalesWithPathLength) {

@@ -28,12 +28,16 @@ Matrix6d driftCovariance(double L, const ConsistencyConfig& c) {
   return d.asDiagonal();
 }
 
-double chiSquare6Quantile(double p) {
-  if (!(p > 0.0 && p < 1.0)) fail("chiSquare6Quantile", "probability must be in (0, 1)");
-  // CDF of χ² with 6 dof: 1 − e^{−x/2} (1 + x/2 + x²/8).
-  auto cdf = [](double x) { return 1.0 - std::exp(-x / 2) * (1 + x / 2 + x * x / 8); };
+double chiSquareQuantile(int dof, double p) {
+  if (!(p > 0.0 && p < 1.0)) fail("chiSquareQuantile", "probability must be in (0, 1)");
+  if (dof != 3 && dof != 6) fail("chiSquareQuantile", "degrees of freedom must be 3 or 6");
+  // Closed-form CDFs: 3 dof P(3/2, x/2) = erf(√(x/2)) − √(2x/π) e^(−x/2); 6 dof 1 − e^(−x/2) (1 + x/2 + x²/8).
+  const auto cdf = [dof](double x) {
+    return dof == 3 ? std::erf(std::sqrt(0.5 * x)) - std::sqrt(2.0 * x / M_PI) * std::exp(-0.5 * x)
+                    : 1.0 - std::exp(-x / 2) * (1 + x / 2 + x * x / 8);
+  };
   double lo = 0.0, hi = 1.0;
-  while (cdf(hi) < p) hi *= 2;
+  while (cdf(hi) < p && hi < 1e6) hi *= 2;
   for (int i = 0; i < 100; ++i) {
     const double mid = 0.5 * (lo + hi);
     (cdf(mid) < p ? lo : hi) = mid;
@@ -56,7 +60,7 @@ GateResult driftGate(const LoopClosure& loop, const PoseList& poses, const Consi
     fail("driftGate", "loop keyframe index out of range of the pose estimate");
   GateResult g;
   g.path_length = pathLength(poses, loop.from, loop.to);
-  g.threshold = chiSquare6Quantile(c.gate_probability);
+  g.threshold = chiSquareQuantile(6, c.gate_probability);
   const Eigen::Isometry3d predicted = poses[loop.from].inverse() * poses[loop.to];
   // Left-perturbation error in the `from` frame, the convention of the loop covariance.
   const Vector6d e = se3Log(loop.T_from_to * predicted.inverse());
@@ -72,7 +76,7 @@ GateResult innovationGate(const LoopClosure& loop, const PoseList& poses, const 
   if (!relative_covariance.allFinite()) fail("innovationGate", "non-finite relative covariance");
   GateResult g;
   g.path_length = pathLength(poses, loop.from, loop.to);
-  g.threshold = chiSquare6Quantile(probability);
+  g.threshold = chiSquareQuantile(6, probability);
   const Eigen::Isometry3d predicted = poses[loop.from].inverse() * poses[loop.to];
   const Vector6d e = se3Log(loop.T_from_to * predicted.inverse());
   g.mahalanobis2 = mahalanobis2(e, loop.covariance + relative_covariance);
@@ -104,7 +108,7 @@ std::vector<std::size_t> consistentSubset(const std::vector<LoopClosure>& loops,
     for (std::size_t i = 0; i < n; ++i) all[i] = i;
     return all;
   }
-  const double threshold = chiSquare6Quantile(c.gate_probability);
+  const double threshold = chiSquareQuantile(6, c.gate_probability);
   std::vector<double> cost(n);
   for (std::size_t i = 0; i < n; ++i) cost[i] = driftGate(loops[i], poses, c).mahalanobis2;
   std::vector<std::vector<char>> adj(n, std::vector<char>(n, 0));

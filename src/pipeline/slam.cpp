@@ -45,18 +45,6 @@ Matrix6d positivePart(const Matrix6d& m) {
   return eig.eigenvectors() * values.asDiagonal() * eig.eigenvectors().transpose();
 }
 
-// The χ²(3) quantile of probability p (bisection on the CDF P(3/2, x/2) = erf(√(x/2)) − √(2x/π) e^(−x/2)).
-double chiSquare3Quantile(double p) {
-  const auto cdf = [](double x) { return std::erf(std::sqrt(0.5 * x)) - std::sqrt(2.0 * x / M_PI) * std::exp(-0.5 * x); };
-  double lo = 0.0, hi = 1.0;
-  while (cdf(hi) < p && hi < 1e6) hi *= 2.0;
-  for (int i = 0; i < 100; ++i) {
-    const double mid = 0.5 * (lo + hi);
-    (cdf(mid) < p ? lo : hi) = mid;
-  }
-  return 0.5 * (lo + hi);
-}
-
 // The planar components of an se(3) vector (translation first): x, y, yaw.
 constexpr int kPlanar[3] = {0, 1, 5};
 
@@ -297,16 +285,15 @@ class SlamRun {
       guess_step_covariance_.push_back(Matrix6d::Zero());
       return;
     }
-    const bool wheel = !rec.icp_used || (rec.stalled && config_.stalled_edges_use_wheel_noise);
-    const Matrix6d cov = wheel ? inverseOf(config_.wheel_noise.information()) : registrationEdgeCovariance(rec);
+    const EdgeNoise noise = odometryEdgeNoise(rec);
+    const Matrix6d& cov = noise.covariance;
     step_covariance_.push_back(cov);
     unverified_step_covariance_.push_back(rec.icp_used ? Matrix6d::Zero() : cov);
     guess_step_covariance_.push_back(rec.icp_used ? Matrix6d(rec.guess_covariance + config_.label_only_sigma *
                                                                 config_.label_only_sigma * rec.label_only_directions)
                                                   : cov);
     result_.graph.addEdge(static_cast<int>(rec.index - 1), static_cast<int>(rec.index), rec.T_prev_curr,
-                          wheel ? config_.wheel_noise.information() : inverseOf(odometryEdgeCovariance(rec)),
-                          EdgeKind::Odometry);
+                          noise.information, EdgeKind::Odometry);
   }
 
   /// Issue 19 (odometry.reestimate_lost_frames): once a frame is verified again the tracker
@@ -330,15 +317,13 @@ class SlamRun {
       rec.status = f.status;
       rec.icp_used = f.status != FrameStatus::Fallback;
       rec.fallback_reason = f.reason;
-      const bool wheel = !rec.icp_used || (rec.stalled && config_.stalled_edges_use_wheel_noise);
-      rec.edge_doubt.clear();
-      const Matrix6d cov = wheel ? inverseOf(config_.wheel_noise.information()) : registrationEdgeCovariance(rec);
-      step_covariance_[k] = cov;
-      unverified_step_covariance_[k] = rec.icp_used ? Matrix6d::Zero() : cov;
+      const EdgeNoise noise = odometryEdgeNoise(rec);
+      step_covariance_[k] = noise.covariance;
+      unverified_step_covariance_[k] = rec.icp_used ? Matrix6d::Zero() : noise.covariance;
       for (PoseGraphEdge& e : result_.graph.edges)
         if (e.kind == EdgeKind::Odometry && e.from == static_cast<int>(k - 1) && e.to == static_cast<int>(k)) {
           e.T_from_to = rec.T_prev_curr;
-          e.information = wheel ? config_.wheel_noise.information() : inverseOf(odometryEdgeCovariance(rec));
+          e.information = noise.information;
         }
       first = std::min(first, k);
     }
@@ -348,11 +333,24 @@ class SlamRun {
     }
   }
 
-  /// The odometry edge's covariance: the honest model (SlamConfig::honest_odometry_edges) when
-  /// tracking is frame to map, else the registration's (below). Sets rec.edge_doubt.
-  Matrix6d odometryEdgeCovariance(FrameRecord& rec) const {
-    if (!config_.honest_odometry_edges || config_.odometry.mode != OdometryMode::FrameToMap)
-      return registrationEdgeCovariance(rec);
+  /// An odometry edge's noise: the covariance the loop gate chains (the registration's, below, or
+  /// the wheels' when the tracker fell back to the encoders) and the information the graph gets —
+  /// its inverse, or the honest model's (SlamConfig::honest_odometry_edges, frame to map). Sets
+  /// rec.edge_doubt.
+  struct EdgeNoise {
+    Matrix6d covariance, information;
+  };
+  EdgeNoise odometryEdgeNoise(FrameRecord& rec) const {
+    rec.edge_doubt.clear();
+    if (!rec.icp_used || (rec.stalled && config_.stalled_edges_use_wheel_noise))
+      return {inverseOf(config_.wheel_noise.information()), config_.wheel_noise.information()};
+    const Matrix6d cov = registrationEdgeCovariance(rec);
+    const bool honest = config_.honest_odometry_edges && config_.odometry.mode == OdometryMode::FrameToMap;
+    return {cov, inverseOf(honest ? honestEdgeCovariance(rec) : cov)};
+  }
+
+  /// SlamConfig::honest_odometry_edges: the increment's error model (floor, turn, wrong basin).
+  Matrix6d honestEdgeCovariance(FrameRecord& rec) const {
     Matrix6d cov = config_.odometry_covariance_scale * positivePart(rec.covariance);
     const double t2 = config_.odometry_floor_translation * config_.odometry_floor_translation;
     const double r2 = config_.odometry_floor_rotation * config_.odometry_floor_rotation;
@@ -371,7 +369,7 @@ class SlamRun {
   /// the one that is right). Wheels first, then constant velocity against the updated covariance.
   void addWrongBasinTerms(FrameRecord& rec, Matrix6d& cov) const {
     rec.edge_doubt.clear();
-    const double bound = chiSquare3Quantile(config_.odometry_gate_probability);
+    const double bound = chiSquareQuantile(3, config_.odometry_gate_probability);
     const Vector6d step = se3Log(rec.T_prev_curr);
     const auto contradicts = [&](const Eigen::Vector3d& d, const Eigen::Matrix3d& prior) {
       const Eigen::Matrix3d s = planarBlock(cov) + prior;
@@ -649,7 +647,7 @@ class SlamRun {
   }
 
   std::vector<LoopClosure> loopsTheSolutionRejects(const std::vector<LoopClosure>& loops) const {
-    const double threshold = chiSquare6Quantile(config_.loop_closure.consistency.gate_probability);
+    const double threshold = chiSquareQuantile(6, config_.loop_closure.consistency.gate_probability);
     std::vector<LoopClosure> out;
     for (std::size_t i : edgesBeyond(result_.graph, EdgeKind::Loop, threshold)) {
       const PoseGraphEdge& e = result_.graph.edges[i];

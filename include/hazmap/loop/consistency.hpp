@@ -47,8 +47,8 @@ double pathLength(const PoseList& poses, std::size_t a, std::size_t b);
 /// Drift covariance (translation-first, diagonal) for a path of the given length.
 Matrix6d driftCovariance(double path_length, const ConsistencyConfig& config);
 
-/// χ² quantile for 6 degrees of freedom at probability p in (0, 1) (closed-form CDF, bisection).
-double chiSquare6Quantile(double p);
+/// χ² quantile for 3 or 6 degrees of freedom at probability p in (0, 1) (closed-form CDF, bisection).
+double chiSquareQuantile(int dof, double p);
 
 /// Gate 1: the loop against the current estimate `poses` (world ← keyframe).
 GateResult driftGate(const LoopClosure& loop, const PoseList& poses, const ConsistencyConfig& config = {});
