@@ -531,12 +531,6 @@ TEST(WorstDay, DISABLED_CorridorObservabilityTable) {
   const OdometryConfig config = OdometryConfig::defaults();
   RegistrationConfig plain = config.registration;
   plain.use_classes = false;
-  RangeCropConfig crop;
-  crop.min_range = config.min_range;
-  crop.max_range = config.max_range;
-  VoxelDownsampleConfig vd;
-  vd.voxel_size = config.voxel_size;
-  vd.vote = ClassVote::PreferProperty;
   // The corridor's axis in the frame of the first scan (poses.txt's frame).
   const Eigen::Vector3d axis = sim.worldFromFirst().linear().transpose() * Eigen::Vector3d::UnitX();
   LocalMap map(config.map);
@@ -547,7 +541,7 @@ TEST(WorstDay, DISABLED_CorridorObservabilityTable) {
   std::size_t counts[3] = {0, 0, 0};
   for (std::size_t i = 0; i < sim.frames(); ++i) {
     const LabeledCloud scan = sim.scan(i);
-    const LabeledCloud prepared = cropAndDownsample(scan, crop, vd, classes);
+    const LabeledCloud prepared = preprocessForTracking(scan, config, classes);
     labels.push_back(labelledPointsOf(scan, config, classes));
     const Eigen::Isometry3d& truth = sim.groundTruth()[i];
     if (i > 0) {

@@ -72,27 +72,31 @@ struct PreparedScan {
   const LabeledCloud& source() const { return separate_source ? coarse : frame; }
 };
 
-PreparedScan prepareScan(const LabeledCloud& scan, const OdometryConfig& config, const ClassTable& classes) {
-  RangeCropConfig crop;
-  crop.min_range = config.min_range;
-  crop.max_range = config.max_range;
+VoxelDownsampleConfig trackingVoxels(double voxel_size) {
   VoxelDownsampleConfig vd;
-  vd.voxel_size = config.voxel_size;
+  vd.voxel_size = voxel_size;
   vd.vote = ClassVote::PreferProperty;
+  return vd;
+}
+
+PreparedScan prepareScan(const LabeledCloud& scan, const OdometryConfig& config, const ClassTable& classes) {
   PreparedScan out;
   out.separate_source = config.source_voxel_size > config.voxel_size;
   const auto t = Clock::now();
-  out.frame = cropAndDownsample(scan, crop, vd, classes);
-  if (out.separate_source) {
-    VoxelDownsampleConfig vs = vd;
-    vs.voxel_size = config.source_voxel_size;
-    out.coarse = voxelDownsample(out.frame, vs, classes);
-  }
+  out.frame = preprocessForTracking(scan, config, classes);
+  if (out.separate_source) out.coarse = voxelDownsample(out.frame, trackingVoxels(config.source_voxel_size), classes);
   out.ms = msSince(t);
   return out;
 }
 
 }  // namespace
+
+LabeledCloud preprocessForTracking(const LabeledCloud& scan, const OdometryConfig& config, const ClassTable& classes) {
+  RangeCropConfig crop;
+  crop.min_range = config.min_range;
+  crop.max_range = config.max_range;
+  return cropAndDownsample(scan, crop, trackingVoxels(config.voxel_size), classes);
+}
 
 // How far ICP moved the sensor from where it started, in the sensor's own frame. Measured as a
 // left perturbation in the world frame, a small turn of a sensor far from the world origin read

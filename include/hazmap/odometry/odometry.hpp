@@ -253,6 +253,10 @@ struct OdometryFrame {
   double preprocess_ms = 0.0, registration_ms = 0.0, total_ms = 0.0;
 };
 
+/// A scan as tracking enters it into the local map (and registers it, unless source_voxel_size
+/// is coarser): cropped to [min_range, max_range], downsampled to voxel_size keeping property classes.
+LabeledCloud preprocessForTracking(const LabeledCloud& scan, const OdometryConfig& config, const ClassTable& classes);
+
 class Odometry {
  public:
   Odometry(const ClassTable& classes, const OdometryConfig& config = OdometryConfig::defaults(),
