@@ -1,9 +1,12 @@
 // Properties stage speed: projecting a 120k-point scan (SemanticKITTI scan 0, a dense HDL-64
 // sweep) into a 640×512 thermal image with the depth test, on one core (target ≤ 3 ms), beside
 // the same projection without the depth test (splat 0, one-pixel cells) to show what the test
-// costs, and the whole labeler step (image nearest in time, projection, rules).
+// costs, and the whole labeler step (image nearest in time, projection, rules). View fusion's
+// best-view search (hazmap label's second pass) with three cameras over ten scans 0.3 m apart,
+// without and with the depth test in the other views.
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 
@@ -11,6 +14,7 @@
 #include "hazmap/io/kitti.hpp"
 #include "hazmap/properties/labeler.hpp"
 #include "hazmap/properties/projection.hpp"
+#include "hazmap/properties/view_fusion.hpp"
 
 using namespace hazmap;
 
@@ -76,6 +80,40 @@ void project(benchmark::State& state, const ProjectionConfig& config) {
   state.counters["occluded"] = static_cast<double>(stats.occluded);
 }
 
+/// ViewFusion::bestFrames for the middle of ten 120k-point scans 0.3 m apart, three forward
+/// cameras (temperature, NIR, dose rate), each scan's own images; depth test margin as given.
+void bestFrames(benchmark::State& state, int occlusion_margin_cells) {
+  const LabeledCloud& scan = scan120k();
+  std::vector<CameraInput> cameras;
+  for (const char* channel : {"temperature", "nir_reflectance", "dose_rate"}) {
+    CameraCalibration cam = thermal640();
+    cam.channel = defaultChannel(channel);
+    auto images = std::make_shared<MemoryImages>();
+    for (int k = 0; k < 10; ++k) {
+      PropertyImage img = image640();
+      img.stamp = k;
+      images->add(img);
+    }
+    cameras.push_back({cam, images});
+  }
+  LabelerConfig config;
+  config.footprints = true;
+  const PropertyLabeler labeler(cameras, PropertyRules::defaults({"temperature"}, ClassTable::defaults()), config);
+  ViewFusionConfig fusion_config;
+  fusion_config.occlusion_margin_cells = occlusion_margin_cells;
+  ViewFusion fusion(labeler, fusion_config);
+  for (int k = 0; k < 10; ++k)
+    fusion.add(k, scan, Eigen::Isometry3d(Eigen::Translation3d(0.3 * k, 0, 0)), 0.3 * k, labeler.observe(scan, k));
+  std::size_t fused = 0;
+  for (auto _ : state) {
+    const std::vector<std::int32_t> best = fusion.bestFrames(5, scan);
+    fused = static_cast<std::size_t>(std::count_if(best.begin(), best.end(), [](std::int32_t f) { return f >= 0; }));
+    benchmark::DoNotOptimize(best.data());
+  }
+  state.counters["views"] = static_cast<double>(fusion.observations());
+  state.counters["fused"] = static_cast<double>(fused);
+}
+
 }  // namespace
 
 static void BM_Project120kDepthTest(benchmark::State& state) { project(state, ProjectionConfig{}); }
@@ -101,5 +139,11 @@ static void BM_Label120kOneCamera(benchmark::State& state) {
   }
 }
 BENCHMARK(BM_Label120kOneCamera)->Unit(benchmark::kMillisecond);
+
+static void BM_FusionBestFrames3Cameras(benchmark::State& state) { bestFrames(state, -1); }
+BENCHMARK(BM_FusionBestFrames3Cameras)->Unit(benchmark::kMillisecond);
+
+static void BM_FusionBestFrames3CamerasDepthTest(benchmark::State& state) { bestFrames(state, 2); }
+BENCHMARK(BM_FusionBestFrames3CamerasDepthTest)->Unit(benchmark::kMillisecond);
 
 HAZMAP_BENCHMARK_MAIN();
