@@ -66,6 +66,10 @@ const ConfigFields<SlamConfig>& slamSectionFields() {
           .number("velocity_gate_translation_sigma", &C::velocity_gate_translation_sigma, positive(),
                   "m; how far an increment may differ from the previous one (x, y) without doubt")
           .number("velocity_gate_rotation_sigma", &C::velocity_gate_rotation_sigma, positive(), "rad; likewise in yaw")
+          .flag("odometry_edge_mixture", &C::odometry_edge_mixture,
+                "honest_odometry_edges: a doubtful edge is a max-mixture of its tight Gaussian and the wide wrong-basin one")
+          .number("odometry_mixture_weight", &C::odometry_mixture_weight, Range{0.0, 1.0, true, true},
+                  "Prior probability of a doubtful edge's wrong-basin component")
           .number("anchor_radius", &C::anchor_radius, nonNegative(),
                   "m; frame-to-map: edge from each keyframe to the nearest older keyframe within this (0 = off)")
           .number("anchor_sigma_translation", &C::anchor_sigma_translation, positive(),
