@@ -636,18 +636,20 @@ struct DoubtfulChain {
     Matrix6d wide = tight;
     wide(0, 0) += 0.09;
     Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    std::vector<Eigen::Isometry3d> steps(10, Eigen::Isometry3d::Identity());
+    for (int i = 0; i < 10; ++i) steps[i].translation().x() = 1.0 + (i == kDoubtful ? doubtful_error : 0.0);
     for (int i = 0; i <= 10; ++i) {
       graph.addNode(T);
-      if (i == 10) break;
-      Eigen::Isometry3d step = Eigen::Isometry3d::Identity();
-      step.translation().x() = 1.0 + (i == kDoubtful ? doubtful_error : 0.0);
+      if (i < 10) T = T * steps[i];
+    }
+    for (int i = 0; i < 10; ++i) {
+      const Eigen::Isometry3d& step = steps[i];
       const int e = graph.addEdge(i, i + 1, step, tight.inverse());
       if (i == kDoubtful) {
         graph.edges[e].alt_information = alt_weight > 0.0 ? Matrix6d(wide.inverse()) : Matrix6d::Zero();
         graph.edges[e].alt_weight = alt_weight;
         if (alt_weight == 0.0) graph.edges[e].information = wide.inverse();  // one wide Gaussian
       }
-      T = T * step;
     }
     Eigen::Isometry3d loop = Eigen::Isometry3d::Identity();
     loop.translation().x() = 10.0 + loop_error;
