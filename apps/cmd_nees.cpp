@@ -3,6 +3,7 @@
 #include <filesystem>
 #include <iostream>
 #include <memory>
+#include <vector>
 #include <nlohmann/json.hpp>
 
 #include "command.hpp"
@@ -24,6 +25,7 @@ struct NeesOptions {
   std::string gt;     ///< true poses, one per node (KITTI or TUM)
   bool json = false;
   bool edges = false;
+  std::vector<int> spans;  ///< odometry-chain spans (frames) whose NEES to report as well
 };
 
 // The ground truth of a run folder: --gt, else poses.txt of the sequence run.json names.
@@ -53,11 +55,18 @@ void run(const NeesOptions& o) {
   const Trajectory truth = readTrajectoryAuto(gt_path);
   checkTrajectory(truth, gt_path.string());
   const EdgeNeesReport report = computeEdgeNees(graph, truth.poses, graph_path.string() + " vs " + gt_path.string());
-  if (o.json)
-    std::cout << toJson(report, o.edges) << "\n";
-  else
-    std::cout << graph_path.string() << ": " << graph.numEdges() << " edges, truth " << gt_path.string() << "\n"
-              << toText(report);
+  if (o.json) {
+    nlohmann::json j = nlohmann::json::parse(toJson(report, o.edges));
+    for (int k : o.spans) j["odometry_span"][std::to_string(k)] = nlohmann::json::parse(toJson(odometrySpanNees(graph, truth.poses, k)));
+    std::cout << j.dump(2) << "\n";
+    return;
+  }
+  std::cout << graph_path.string() << ": " << graph.numEdges() << " edges, truth " << gt_path.string() << "\n"
+            << toText(report);
+  for (int k : o.spans) {
+    const NeesStats s = odometrySpanNees(graph, truth.poses, k);
+    std::cout << "odometry spans of " << k << " frames: " << s.count << ", NEES mean " << s.mean << ", median " << s.median << "\n";
+  }
 }
 
 const RegisterCommand kRegister{{
@@ -71,6 +80,8 @@ const RegisterCommand kRegister{{
       app.add_option("--gt", o->gt, "True poses, one per graph node (KITTI or TUM)")->check(CLI::ExistingFile);
       app.add_flag("--json", o->json, "Print JSON (summaries per edge type)");
       app.add_flag("--edges", o->edges, "With --json: also every edge's error vector and NEES");
+      app.add_option("--span", o->spans, "Also the NEES of the odometry chain over spans of K frames (repeatable)")
+          ->check(CLI::PositiveNumber);
       app.callback([o] { run(*o); });
     },
 }};

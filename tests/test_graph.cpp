@@ -622,5 +622,80 @@ TEST(G2oIndefiniteInformation, ChordalUsesDiagonalBlocksGeodesicProjects) {
             std::string::npos) << s.output;
 }
 
+
+// Max-mixture odometry edges (PoseGraphEdge::alt_weight, slam.odometry_edge_mixture;
+// docs/pose_graph.md 2026-12-02 `mm14`): a chain of ten 1 m increments (σ 2 mm, 0.2 mrad) and a
+// loop from the first node to the last (σ 1 cm). Increment 5 is doubtful: a prior disagreed with
+// it by δ = 0.3 m along x, so its wide component is the tight one + δδᵀ.
+struct DoubtfulChain {
+  PoseGraph graph;
+  static constexpr int kDoubtful = 5;
+  DoubtfulChain(double doubtful_error, double loop_error, double alt_weight) {
+    Matrix6d tight = Matrix6d::Zero();
+    tight.diagonal() << 4e-6, 4e-6, 4e-6, 4e-8, 4e-8, 4e-8;
+    Matrix6d wide = tight;
+    wide(0, 0) += 0.09;
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    std::vector<Eigen::Isometry3d> steps(10, Eigen::Isometry3d::Identity());
+    for (int i = 0; i < 10; ++i) steps[i].translation().x() = 1.0 + (i == kDoubtful ? doubtful_error : 0.0);
+    for (int i = 0; i <= 10; ++i) {
+      graph.addNode(T);
+      if (i < 10) T = T * steps[i];
+    }
+    for (int i = 0; i < 10; ++i) {
+      const Eigen::Isometry3d& step = steps[i];
+      const int e = graph.addEdge(i, i + 1, step, tight.inverse());
+      if (i == kDoubtful) {
+        graph.edges[e].alt_information = alt_weight > 0.0 ? Matrix6d(wide.inverse()) : Matrix6d::Zero();
+        graph.edges[e].alt_weight = alt_weight;
+        if (alt_weight == 0.0) graph.edges[e].information = wide.inverse();  // one wide Gaussian
+      }
+    }
+    Eigen::Isometry3d loop = Eigen::Isometry3d::Identity();
+    loop.translation().x() = 10.0 + loop_error;
+    Matrix6d loop_cov = Matrix6d::Zero();
+    loop_cov.diagonal() << 1e-4, 1e-4, 1e-4, 1e-6, 1e-6, 1e-6;
+    graph.addEdge(0, 10, loop, loop_cov.inverse(), EdgeKind::Loop);
+    optimizePoseGraph(graph);
+  }
+  /// How far the optimiser moved increment k along x from its measurement.
+  double correction(int k) const {
+    const double solved = (graph.poses[k].inverse() * graph.poses[k + 1]).translation().x();
+    return std::abs(solved - graph.edges[k].T_from_to.translation().x());
+  }
+};
+
+TEST(MaxMixtureEdges, FlaggedButRightIncrementKeepsItsStiffness) {
+  // The increment is right; the loop is 8 mm off (its own error). One wide Gaussian (main's honest
+  // model) lets the loop's whole error collect in that edge: a hinge.
+  const DoubtfulChain single(0.0, 0.008, 0.0);
+  EXPECT_GT(single.correction(DoubtfulChain::kDoubtful), 0.005);
+  const DoubtfulChain mixture(0.0, 0.008, 0.1);
+  EXPECT_EQ(mixture.graph.edges[DoubtfulChain::kDoubtful].selected, 0);
+  EXPECT_LT(mixture.correction(DoubtfulChain::kDoubtful), 0.001);  // spread along the chain instead
+  EXPECT_NEAR(mixture.correction(DoubtfulChain::kDoubtful), mixture.correction(2), 1e-4);
+}
+
+TEST(MaxMixtureEdges, WrongBasinIncrementYieldsToTheLoop) {
+  // The increment is 0.3 m wrong (ICP in a wrong basin); the loop is right. The edge selects its
+  // wide component and takes the correction; the right increments keep theirs.
+  const DoubtfulChain mixture(0.3, 0.0, 0.1);
+  EXPECT_EQ(mixture.graph.edges[DoubtfulChain::kDoubtful].selected, 1);
+  EXPECT_NEAR(mixture.correction(DoubtfulChain::kDoubtful), 0.3, 0.01);
+  for (int k : {0, 4, 6, 9}) EXPECT_LT(mixture.correction(k), 0.001) << k;
+  EXPECT_NEAR(mixture.graph.poses[10].translation().x(), 10.0, 0.01);
+}
+
+TEST(MaxMixtureEdges, CostIsTheSelectedComponentWithItsOffset) {
+  DoubtfulChain chain(0.3, 0.0, 0.1);
+  const PoseGraphEdge& e = chain.graph.edges[DoubtfulChain::kDoubtful];
+  const MixtureOffsets g = mixtureOffsets(e);
+  EXPECT_DOUBLE_EQ(g.tight, 0.0);  // the tight component is the likelier at e = 0
+  EXPECT_GT(g.alternative, 0.0);
+  const Vector6d err = geodesicError(chain.graph, e);
+  const double wide = err.dot(informationLeftToRight(e.T_from_to, e.alt_information) * err) + g.alternative;
+  EXPECT_NEAR(geodesicEdgeCost(chain.graph, e), wide, 1e-9);
+}
+
 }  // namespace
 }  // namespace hazmap

@@ -246,5 +246,51 @@ TEST(HonestOdometryEdges, ShortCorridorRouteHasOdometryNeesWithinThreeToTwelve) 
   std::filesystem::remove_all(seq);
 }
 
+
+// A max-mixture edge's NEES (eval/edge_nees.hpp): against the component the solution selected and
+// against the moment-matched covariance (1 − w) Σ_tight + w Σ_wide; a plain edge keeps one value.
+TEST(MixtureEdgeNees, SelectedAndMomentMatched) {
+  PoseGraph g;
+  g.addNode(Eigen::Isometry3d::Identity());
+  g.addNode(Eigen::Isometry3d::Identity());
+  Matrix6d tight = Matrix6d::Identity() * 1e-4, wide = tight;
+  wide(0, 0) += 0.09;
+  g.addEdge(0, 1, Eigen::Isometry3d::Identity(), tight.inverse());
+  g.edges[0].alt_information = wide.inverse();
+  g.edges[0].alt_weight = 0.25;
+  g.edges[0].selected = 1;
+  Eigen::Isometry3d truth1 = Eigen::Isometry3d::Identity();
+  truth1.translation().x() = 0.3;
+  const std::vector<Eigen::Isometry3d> truth{Eigen::Isometry3d::Identity(), truth1};
+  const EdgeNeesReport r = computeEdgeNees(g, truth);
+  EXPECT_EQ(r.mixture_edges, 1u);
+  EXPECT_NEAR(r.edges[0].nees, 0.09 / 1e-4, 1e-6);
+  EXPECT_NEAR(r.edges[0].nees_selected, 0.09 / (1e-4 + 0.09), 1e-9);
+  EXPECT_NEAR(r.edges[0].nees_moment_matched, 0.09 / (1e-4 + 0.25 * 0.09), 1e-9);
+  EXPECT_NEAR(r.odometry_moment_matched.mean, r.edges[0].nees_moment_matched, 1e-12);
+}
+
+// Span NEES (odometrySpanNees): increments chained as independent. Ten unit steps along x whose
+// errors are all +1 cm (fully correlated) against a per-step σ of 1 cm: each edge has NEES 1, a
+// span of 10 has error 10 cm against σ √10 cm, NEES 10.
+TEST(SpanNees, CorrelatedIncrementErrorsGrowWithTheSpan) {
+  PoseGraph g;
+  std::vector<Eigen::Isometry3d> truth;
+  Matrix6d cov = Matrix6d::Identity() * 1e-4;
+  for (int i = 0; i <= 10; ++i) {
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.translation().x() = 1.01 * i;
+    truth.push_back(T);
+    g.addNode(Eigen::Isometry3d::Identity());
+  }
+  Eigen::Isometry3d step = Eigen::Isometry3d::Identity();
+  step.translation().x() = 1.0;
+  for (int i = 0; i < 10; ++i) g.addEdge(i, i + 1, step, cov.inverse());
+  EXPECT_NEAR(odometrySpanNees(g, truth, 1).mean, 1.0, 1e-6);
+  const NeesStats ten = odometrySpanNees(g, truth, 10);
+  EXPECT_EQ(ten.count, 1u);
+  EXPECT_NEAR(ten.mean, 10.0, 1e-6);
+}
+
 }  // namespace
 }  // namespace hazmap

@@ -7,6 +7,7 @@
 #include <cmath>
 
 #include "hazmap/core/error.hpp"
+#include "hazmap/graph/costs.hpp"
 
 namespace hazmap {
 
@@ -45,7 +46,27 @@ EdgeNees neesOf(const PoseGraphEdge& edge, const Eigen::Isometry3d& T_true_ij, i
   n.nees = n.error.dot(edge.information * n.error);
   const Matrix6d cov = edge.information.inverse();
   for (int k = 0; k < 6; ++k) n.axis_nees[k] = n.error(k) * n.error(k) / cov(k, k);
+  n.nees_selected = n.nees_moment_matched = n.nees;
+  if (isMixtureEdge(edge, dimension)) {
+    n.mixture = true;
+    if (edge.selected == 1) n.nees_selected = n.error.dot(edge.alt_information * n.error);
+    const Matrix6d matched = (1.0 - edge.alt_weight) * cov + edge.alt_weight * edge.alt_information.inverse();
+    n.nees_moment_matched = n.error.dot(matched.ldlt().solve(n.error));
+  }
   return n;
+}
+
+/// Summary of the odometry edges with each mixture edge's NEES replaced by `value` of it.
+NeesStats mixtureSummary(const std::vector<const EdgeNees*>& odometry, int dof, double EdgeNees::*value) {
+  std::vector<EdgeNees> copies;
+  copies.reserve(odometry.size());
+  for (const EdgeNees* e : odometry) {
+    copies.push_back(*e);
+    copies.back().nees = e->*value;
+  }
+  std::vector<const EdgeNees*> ptrs;
+  for (const EdgeNees& e : copies) ptrs.push_back(&e);
+  return summariseNees(ptrs, dof);
 }
 
 nlohmann::json statsJson(const NeesStats& s) {
@@ -85,6 +106,11 @@ EdgeNeesReport computeEdgeNees(const PoseGraph& graph, std::span<const Eigen::Is
     all.push_back(&e);
   }
   report.odometry = summariseNees(odometry, dof);
+  for (const EdgeNees* e : odometry) report.mixture_edges += e->mixture ? 1 : 0;
+  if (report.mixture_edges > 0) {
+    report.odometry_selected = mixtureSummary(odometry, dof, &EdgeNees::nees_selected);
+    report.odometry_moment_matched = mixtureSummary(odometry, dof, &EdgeNees::nees_moment_matched);
+  }
   report.loop = summariseNees(loop, dof);
   report.map_anchor = summariseNees(anchor, dof);
   report.all = summariseNees(all, dof);
@@ -117,12 +143,50 @@ NeesStats summariseNees(const std::vector<const EdgeNees*>& edges, int dof) {
   return s;
 }
 
+NeesStats odometrySpanNees(const PoseGraph& graph, std::span<const Eigen::Isometry3d> truth, int span) {
+  const int dof = graph.dimension == 2 ? 3 : 6;
+  if (span < 1 || truth.size() != graph.poses.size()) fail("span NEES", "needs span >= 1 and one true pose per node");
+  std::vector<const PoseGraphEdge*> into(graph.poses.size(), nullptr);  // odometry edge k−1 → k
+  for (const PoseGraphEdge& e : graph.edges)
+    if (e.kind == EdgeKind::Odometry && e.to == e.from + 1) into[static_cast<std::size_t>(e.to)] = &e;
+  std::vector<EdgeNees> spans;
+  for (std::size_t i = 0; i + static_cast<std::size_t>(span) < graph.poses.size(); i += static_cast<std::size_t>(span)) {
+    PoseGraphEdge chained;
+    chained.from = static_cast<int>(i);
+    chained.to = static_cast<int>(i) + span;
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    Matrix6d cov = Matrix6d::Zero();
+    bool complete = true;
+    for (std::size_t k = i + 1; k <= i + static_cast<std::size_t>(span) && complete; ++k) {
+      complete = into[k] != nullptr;
+      if (!complete) break;
+      const Matrix6d Ad = adjoint(T);
+      cov += Ad * into[k]->information.inverse() * Ad.transpose();
+      T = T * into[k]->T_from_to;
+    }
+    if (!complete) continue;
+    chained.T_from_to = T;
+    chained.information = cov.inverse();
+    spans.push_back(neesOf(chained, truth[i].inverse() * truth[i + static_cast<std::size_t>(span)], graph.dimension));
+  }
+  std::vector<const EdgeNees*> ptrs;
+  for (const EdgeNees& e : spans) ptrs.push_back(&e);
+  return summariseNees(ptrs, dof);
+}
+
+std::string toJson(const NeesStats& stats) { return statsJson(stats).dump(); }
+
 std::string toJson(const EdgeNeesReport& report, bool per_edge) {
   nlohmann::json j = {{"convention", "e = se3Log(T_true_ij * T_measured_ij^-1), NEES = e^T Omega e (left perturbation, translation first)"},
                       {"odometry", statsJson(report.odometry)},
                       {"loop", statsJson(report.loop)},
                       {"map_anchor", statsJson(report.map_anchor)},
                       {"all", statsJson(report.all)}};
+  if (report.mixture_edges > 0) {
+    j["mixture_edges"] = report.mixture_edges;
+    j["odometry_selected"] = statsJson(report.odometry_selected);
+    j["odometry_moment_matched"] = statsJson(report.odometry_moment_matched);
+  }
   if (per_edge) {
     nlohmann::json edges = nlohmann::json::array();
     for (const EdgeNees& e : report.edges)

@@ -1,6 +1,8 @@
 #include "hazmap/graph/costs.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <utility>
 
 #include "hazmap/core/error.hpp"
 
@@ -45,8 +47,42 @@ Vector6d geodesicError(const PoseGraph& graph, const PoseGraphEdge& edge) {
   return e;
 }
 
+bool isMixtureEdge(const PoseGraphEdge& edge, int dimension) {
+  return edge.alt_weight > 0.0 && edge.alt_weight < 1.0 && dimension == 3;
+}
+
+MixtureOffsets mixtureOffsets(const PoseGraphEdge& edge) {
+  // det Ω is the same for left and right perturbation (det Ad = 1).
+  const double g_t = -std::log(edge.information.determinant()) - 2.0 * std::log(1.0 - edge.alt_weight);
+  const double g_a = -std::log(edge.alt_information.determinant()) - 2.0 * std::log(edge.alt_weight);
+  const double low = std::min(g_t, g_a);
+  return {g_t - low, g_a - low};
+}
+
+namespace {
+
+/// The two components' costs eᵀΩ_k e + γ_k of a mixture edge at error e (measurement frame).
+std::pair<double, double> mixtureCosts(const PoseGraphEdge& edge, const Vector6d& e) {
+  const MixtureOffsets g = mixtureOffsets(edge);
+  const Matrix6d tight = informationLeftToRight(edge.T_from_to, edge.information);
+  const Matrix6d wide = informationLeftToRight(edge.T_from_to, edge.alt_information);
+  return {e.dot(tight * e) + g.tight, e.dot(wide * e) + g.alternative};
+}
+
+}  // namespace
+
+int mixtureSelection(const PoseGraph& graph, const PoseGraphEdge& edge) {
+  if (!isMixtureEdge(edge, graph.dimension)) return 0;
+  const auto [tight, wide] = mixtureCosts(edge, geodesicError(graph, edge));
+  return wide < tight ? 1 : 0;
+}
+
 double geodesicEdgeCost(const PoseGraph& graph, const PoseGraphEdge& edge) {
   const Vector6d e = geodesicError(graph, edge);
+  if (isMixtureEdge(edge, graph.dimension)) {
+    const auto [tight, wide] = mixtureCosts(edge, e);
+    return std::min(tight, wide);
+  }
   const Matrix6d info = informationLeftToRight(edge.T_from_to, edge.information);
   if (graph.dimension == 2) {
     double c = 0.0;

@@ -88,6 +88,7 @@ struct Solved {
   int iterations = 0;
   bool converged = false;
   std::string message;
+  double cost = 0.0;  ///< Ceres' final cost (robust losses included)
 };
 
 /// One parameter block per node: x, y, yaw (2D) or translation + 3×3 rotation, column-major (3D).
@@ -111,9 +112,14 @@ std::vector<double> packPoses(const PoseGraph& graph, int block) {
 }
 
 /// The residual of one edge for the configured cost (owned by the problem it is added to).
-ceres::CostFunction* edgeCost(const PoseGraphEdge& e, int dimension, const PoseGraphConfig& config) {
+/// How a max-mixture edge enters one solve: both components (max-mixture) or its wide one only.
+enum class MixtureMode { Mixture, WideOnly };
+
+ceres::CostFunction* edgeCost(const PoseGraphEdge& e, int dimension, const PoseGraphConfig& config,
+                              MixtureMode mode = MixtureMode::Mixture) {
   const bool planar = dimension == 2;
-  const Matrix6d info = informationLeftToRight(e.T_from_to, e.information);
+  const bool wide_only = mode == MixtureMode::WideOnly && isMixtureEdge(e, dimension);
+  const Matrix6d info = informationLeftToRight(e.T_from_to, wide_only ? e.alt_information : e.information);
   if (config.cost == PoseGraphCost::Chordal) {
     const ChordalWeights w = chordalWeights(e, dimension);
     if (planar)
@@ -127,6 +133,12 @@ ceres::CostFunction* edgeCost(const PoseGraphEdge& e, int dimension, const PoseG
       for (int c = 0; c < 3; ++c) info3(r, c) = info(kPlanarIndex[r], kPlanarIndex[c]);
     return new GeodesicCost2(e.T_from_to.translation().x(), e.T_from_to.translation().y(),
                              yawOf(e.T_from_to), sqrtInformation(info3));
+  }
+  if (isMixtureEdge(e, dimension) && !wide_only) {
+    const MixtureOffsets g = mixtureOffsets(e);
+    return new MaxMixtureCost3(e.T_from_to.linear(), e.T_from_to.translation(), sqrtInformation(info),
+                               sqrtInformation(informationLeftToRight(e.T_from_to, e.alt_information)), g.tight,
+                               g.alternative);
   }
   return new GeodesicCost3(e.T_from_to.linear(), e.T_from_to.translation(), sqrtInformation(info));
 }
@@ -164,7 +176,7 @@ void unpackPoses(const std::vector<double>& params, int block, PoseGraph& graph)
   }
 }
 
-Solved solve(PoseGraph& graph, const PoseGraphConfig& config) {
+Solved solve(PoseGraph& graph, const PoseGraphConfig& config, MixtureMode mode = MixtureMode::Mixture) {
   const bool planar = graph.dimension == 2;
   const int block = planar ? 3 : 12;
   std::vector<double> params = packPoses(graph, block);
@@ -178,7 +190,7 @@ Solved solve(PoseGraph& graph, const PoseGraphConfig& config) {
   for (int i = 0; i < graph.numNodes(); ++i)
     problem.AddParameterBlock(blockOf(i), block, planar ? nullptr : &manifold);
   for (const auto& e : graph.edges)
-    problem.AddResidualBlock(edgeCost(e, graph.dimension, config), makeLoss(config, e.kind), blockOf(e.from),
+    problem.AddResidualBlock(edgeCost(e, graph.dimension, config, mode), makeLoss(config, e.kind), blockOf(e.from),
                              blockOf(e.to));
   problem.SetParameterBlockConstant(blockOf(graph.fixed_node));
   ceres::SphereManifold<3> sphere;  // world down: 2 degrees of freedom (not owned)
@@ -198,9 +210,34 @@ Solved solve(PoseGraph& graph, const PoseGraphConfig& config) {
   s.iterations = summary.num_successful_steps + summary.num_unsuccessful_steps;
   s.converged = summary.termination_type == ceres::CONVERGENCE;
   s.message = summary.message;
+  s.cost = summary.final_cost;
   if (summary.termination_type == ceres::FAILURE)
     fail("pose graph optimisation", "Ceres failed: " + summary.message);
   return s;
+}
+
+/// A graph with max-mixture edges (PoseGraphEdge::alt_weight): the max-mixture objective is
+/// multi-modal and Levenberg–Marquardt only finds the mode nearest its start. Started from the
+/// chain, a wrong-basin edge never reaches the point where its wide component wins (a loop's
+/// robust loss pulls too weakly on a tight chain); started from the wide-only solution (every
+/// doubtful edge soft, the single-Gaussian model), a right edge the loops bent a few mm selects its
+/// tight component again and straightens. Both are solved; the lower max-mixture cost is kept.
+Solved solveWithMixtures(PoseGraph& graph, const PoseGraphConfig& config) {
+  bool any = false;
+  for (const auto& e : graph.edges) any = any || isMixtureEdge(e, graph.dimension);
+  if (!any) return solve(graph, config);
+  PoseGraph from_wide = graph;
+  Solved tight_start = solve(graph, config);
+  const Solved wide = solve(from_wide, config, MixtureMode::WideOnly);
+  Solved wide_start = solve(from_wide, config);
+  wide_start.iterations += wide.iterations + tight_start.iterations;
+  if (!(wide_start.cost < tight_start.cost)) {  // the same objective (robust losses included)
+    tight_start.iterations = wide_start.iterations;
+    return tight_start;
+  }
+  graph.poses = std::move(from_wide.poses);
+  graph.gravity_world = from_wide.gravity_world;
+  return wide_start;
 }
 
 }  // namespace
@@ -226,7 +263,7 @@ PoseGraphReport optimizePoseGraph(PoseGraph& graph, const PoseGraphConfig& confi
   report.initial_chordal = chordalCost(graph) + gravityPriorCost(graph);
   const auto solve_start = Clock::now();
   if (!graph.edges.empty() && graph.numNodes() > 1) {
-    const Solved s = solve(graph, config);
+    const Solved s = solveWithMixtures(graph, config);
     report.iterations = s.iterations;
     report.converged = s.converged;
     report.message = s.message;
@@ -235,6 +272,7 @@ PoseGraphReport optimizePoseGraph(PoseGraph& graph, const PoseGraphConfig& confi
     report.message = "nothing to optimise";
   }
   report.solve_seconds = secondsSince(solve_start);
+  for (PoseGraphEdge& e : graph.edges) e.selected = mixtureSelection(graph, e);
   report.final_geodesic = geodesicCost(graph) + gravityPriorCost(graph);
   report.final_chordal = chordalCost(graph) + gravityPriorCost(graph);
   report.total_seconds = secondsSince(start);

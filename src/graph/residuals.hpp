@@ -98,6 +98,45 @@ class GeodesicCost3 final : public ceres::SizedCostFunction<6, 12, 12> {
   Matrix6d L_;
 };
 
+/// Max-mixture edge (Olson & Agarwal 2013; PoseGraphEdge::alt_weight): the geodesic error of
+/// the component with the larger likelihood at the current poses, whitened by its own L_k, and a
+/// 7th residual √γ_k carrying that component's weight and normaliser (graph/costs.hpp
+/// MixtureOffsets), so ½‖r‖² is the selected component's −log likelihood up to a constant. The
+/// selection changes only the Gauss–Newton model between iterations, never within one.
+class MaxMixtureCost3 final : public ceres::SizedCostFunction<7, 12, 12> {
+ public:
+  MaxMixtureCost3(const Mat3& R_meas, const Vec3& t_meas, const Matrix6d& sqrt_tight, const Matrix6d& sqrt_wide,
+                  double offset_tight, double offset_wide)
+      : tight_(R_meas, t_meas, sqrt_tight), wide_(R_meas, t_meas, sqrt_wide),
+        offset_{offset_tight, offset_wide} {}
+
+  bool Evaluate(double const* const* p, double* residuals, double** jacobians) const override {
+    Vector6d r_tight, r_wide;
+    tight_.Evaluate(p, r_tight.data(), nullptr);
+    wide_.Evaluate(p, r_wide.data(), nullptr);
+    const int k = r_wide.squaredNorm() + offset_[1] < r_tight.squaredNorm() + offset_[0] ? 1 : 0;
+    const GeodesicCost3& chosen = k == 1 ? wide_ : tight_;
+    Eigen::Map<Vector6d>{residuals} = k == 1 ? r_wide : r_tight;
+    residuals[6] = std::sqrt(offset_[k]);
+    if (!jacobians) return true;
+    Eigen::Matrix<double, 6, 12, Eigen::RowMajor> Ji, Jj;
+    double* parts[2] = {jacobians[0] ? Ji.data() : nullptr, jacobians[1] ? Jj.data() : nullptr};
+    Vector6d unused;
+    chosen.Evaluate(p, unused.data(), parts);
+    for (int b = 0; b < 2; ++b) {
+      if (!jacobians[b]) continue;
+      Eigen::Map<Eigen::Matrix<double, 7, 12, Eigen::RowMajor>> J(jacobians[b]);
+      J.topRows<6>() = b == 0 ? Ji : Jj;
+      J.row(6).setZero();
+    }
+    return true;
+  }
+
+ private:
+  GeodesicCost3 tight_, wide_;
+  double offset_[2];
+};
+
 /// SE-Sync's chordal cost κ‖R_j − R_i R̃‖_F² + τ‖t_j − t_i − R_i t̃‖² as 6 residuals:
 /// ‖R_j − R_i R̃‖_F² = 2(3 − tr E) = 8 sin²(θ_E/2) = 8‖q_v(E)‖² with E = R̃ᵀ R_iᵀ R_j and q(E) the
 /// unit quaternion with q_w ≥ 0, so r = [√(8κ) q_v(E); √τ (t_j − t_i − R_i t̃)] gives exactly the

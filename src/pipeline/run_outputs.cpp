@@ -22,6 +22,24 @@ nlohmann::json statsJson(const DistanceStats& s) {
           {"max", s.max}, {"rmse", s.rmse}};
 }
 
+// A doubtful odometry edge (slam.honest_odometry_edges); a max-mixture one (slam.odometry_edge_mixture)
+// also with the component the final solution selects (0 tight, 1 wide), its weight and both
+// covariances (left perturbation, translation first, row-major) for the NEES of docs/pose_graph.md.
+nlohmann::json doubtfulEdgeJson(const PoseGraph& graph, const FrameRecord& f) {
+  nlohmann::json j = {{"frame", f.index}, {"contradicted_by", f.edge_doubt}};
+  for (const PoseGraphEdge& e : graph.edges) {
+    if (e.kind != EdgeKind::Odometry || e.to != static_cast<int>(f.index) || e.from + 1 != e.to || !(e.alt_weight > 0.0))
+      continue;
+    const Matrix6d tight = e.information.inverse(), wide = e.alt_information.inverse();
+    std::vector<double> t(tight.data(), tight.data() + 36), w(wide.data(), wide.data() + 36);  // symmetric
+    j["selected"] = e.selected;
+    j["alt_weight"] = e.alt_weight;
+    j["tight_covariance"] = t;
+    j["wide_covariance"] = w;
+  }
+  return j;
+}
+
 // run.json "tracking": per-frame statuses, fallbacks, stalled and doubtful edges.
 nlohmann::json trackingJson(const SlamResult& r) {
   std::size_t fallbacks = 0;
@@ -34,7 +52,7 @@ nlohmann::json trackingJson(const SlamResult& r) {
   for (const auto& f : r.frames) {
     ms_sum += f.milliseconds;
     if (f.stalled) stalled.push_back(f.index);
-    if (!f.edge_doubt.empty()) doubtful.push_back({{"frame", f.index}, {"contradicted_by", f.edge_doubt}});
+    if (!f.edge_doubt.empty()) doubtful.push_back(doubtfulEdgeJson(r.graph, f));
     status.push_back(toString(f.status));
     if (f.status == FrameStatus::Relocalised)
       relocalised_frames.push_back({{"frame", f.index}, {"reason", f.fallback_reason}});

@@ -292,8 +292,10 @@ class SlamRun {
     guess_step_covariance_.push_back(rec.icp_used ? Matrix6d(rec.guess_covariance + config_.label_only_sigma *
                                                                 config_.label_only_sigma * rec.label_only_directions)
                                                   : cov);
-    result_.graph.addEdge(static_cast<int>(rec.index - 1), static_cast<int>(rec.index), rec.T_prev_curr,
-                          noise.information, EdgeKind::Odometry);
+    const int e = result_.graph.addEdge(static_cast<int>(rec.index - 1), static_cast<int>(rec.index), rec.T_prev_curr,
+                                        noise.information, EdgeKind::Odometry);
+    result_.graph.edges[static_cast<std::size_t>(e)].alt_information = noise.alt_information;
+    result_.graph.edges[static_cast<std::size_t>(e)].alt_weight = noise.alt_weight;
   }
 
   /// Issue 19 (odometry.reestimate_lost_frames): once a frame is verified again the tracker
@@ -324,6 +326,8 @@ class SlamRun {
         if (e.kind == EdgeKind::Odometry && e.from == static_cast<int>(k - 1) && e.to == static_cast<int>(k)) {
           e.T_from_to = rec.T_prev_curr;
           e.information = noise.information;
+          e.alt_information = noise.alt_information;
+          e.alt_weight = noise.alt_weight;
         }
       first = std::min(first, k);
     }
@@ -339,6 +343,8 @@ class SlamRun {
   /// rec.edge_doubt.
   struct EdgeNoise {
     Matrix6d covariance, information;
+    Matrix6d alt_information = Matrix6d::Zero();  ///< SlamConfig::odometry_edge_mixture: the wide component
+    double alt_weight = 0.0;                      ///< its prior probability (0 = one Gaussian)
   };
   EdgeNoise odometryEdgeNoise(FrameRecord& rec) const {
     rec.edge_doubt.clear();
@@ -346,11 +352,18 @@ class SlamRun {
       return {inverseOf(config_.wheel_noise.information()), config_.wheel_noise.information()};
     const Matrix6d cov = registrationEdgeCovariance(rec);
     const bool honest = config_.honest_odometry_edges && config_.odometry.mode == OdometryMode::FrameToMap;
-    return {cov, inverseOf(honest ? honestEdgeCovariance(rec) : cov)};
+    if (!honest) return {cov, inverseOf(cov)};
+    const Matrix6d tight = honestTightCovariance(rec);
+    Matrix6d wide = tight;
+    addWrongBasinTerms(rec, wide);
+    if (!config_.odometry_edge_mixture || rec.edge_doubt.empty()) return {cov, inverseOf(wide)};
+    // A doubtful increment is right (tight) or in a wrong basin (wide), not anything between.
+    return {cov, inverseOf(tight), inverseOf(wide), config_.odometry_mixture_weight};
   }
 
-  /// SlamConfig::honest_odometry_edges: the increment's error model (floor, turn, wrong basin).
-  Matrix6d honestEdgeCovariance(FrameRecord& rec) const {
+  /// SlamConfig::honest_odometry_edges: the increment's error model without the wrong-basin terms
+  /// (floor, turn, label-only directions).
+  Matrix6d honestTightCovariance(const FrameRecord& rec) const {
     Matrix6d cov = config_.odometry_covariance_scale * positivePart(rec.covariance);
     const double t2 = config_.odometry_floor_translation * config_.odometry_floor_translation;
     const double r2 = config_.odometry_floor_rotation * config_.odometry_floor_rotation;
@@ -359,7 +372,6 @@ class SlamRun {
     const double tt = config_.odometry_turn_translation * turn, tr = config_.odometry_turn_rotation * turn;
     cov.diagonal() += (Vector6d() << tt * tt, tt * tt, 0.0, 0.0, 0.0, tr * tr).finished();
     cov += config_.label_only_sigma * config_.label_only_sigma * rec.label_only_directions;
-    addWrongBasinTerms(rec, cov);
     return cov;
   }
 

@@ -19,33 +19,10 @@ const ConfigFields<WheelOdometryNoise>& configFields(ConfigTag<WheelOdometryNois
 
 namespace {
 
-// The `slam:` section: settings of SlamConfig itself, grouped under one key.
-const ConfigFields<SlamConfig>& slamSectionFields() {
+// SlamConfig::honest_odometry_edges and its model's keys (issue 14, docs/pose_graph.md).
+ConfigFields<SlamConfig>& honestEdgeFields(ConfigFields<SlamConfig>& f) {
   using C = SlamConfig;
-  static const ConfigFields<C> fields =
-      ConfigFields<C>("Keyframes and the pose graph's odometry edges.")
-          .number("keyframe_distance", &C::keyframe_distance, positive(),
-                  "m of travel after which a frame becomes a loop-closure keyframe")
-          .number("keyframe_angle", &C::keyframe_angle, positive(), "rad of turn, likewise")
-          .flag("optimise_online", &C::optimise_online, "Re-optimise the graph whenever a loop is accepted")
-          .integer("loop_search_every", &C::loop_search_every, atLeast(1),
-                   "Search loops on every n-th keyframe (online cost; 1 = every keyframe)")
-          .integer("loop_pause_after_accept", &C::loop_pause_after_accept, nonNegative(),
-                   "Keyframes not searched for loops after one whose search accepted a loop")
-          .flag("loops_beside_tracking", &C::loops_beside_tracking,
-                "Run a keyframe's loop stage while the next scan is tracked (same results; not with reanchor_map)")
-          .number("min_translation_sigma", &C::min_translation_sigma, positive(),
-                  "m; floor on an ICP increment's standard deviation before inverting it")
-          .number("min_rotation_sigma", &C::min_rotation_sigma, positive(), "rad")
-          .flag("additive_floor", &C::additive_floor,
-                "Floors added to the increment's covariance (every direction) instead of raising its diagonal")
-          .number("label_only_sigma", &C::label_only_sigma, nonNegative(),
-                  "m; added to an odometry edge along the directions only labelled patches fixed (0 = off)")
-          .number("odometry_covariance_scale", &C::odometry_covariance_scale, positive(),
-                  "Calibration: odometry-edge covariance = this × the floored ICP covariance (fitted by NEES)")
-          .number("motion_disagreement_weight", &C::motion_disagreement_weight, nonNegative(),
-                  "Calibration: adds (weight × the increment's departure from constant velocity)² to its variance")
-          .flag("honest_odometry_edges", &C::honest_odometry_edges,
+  return f.flag("honest_odometry_edges", &C::honest_odometry_edges,
                 "Frame-to-map odometry edges: additive floor + a wrong-basin term when the wheels or constant velocity contradict the increment")
           .number("odometry_floor_translation", &C::odometry_floor_translation, nonNegative(),
                   "m; honest_odometry_edges: added to the increment's covariance in every direction")
@@ -66,6 +43,38 @@ const ConfigFields<SlamConfig>& slamSectionFields() {
           .number("velocity_gate_translation_sigma", &C::velocity_gate_translation_sigma, positive(),
                   "m; how far an increment may differ from the previous one (x, y) without doubt")
           .number("velocity_gate_rotation_sigma", &C::velocity_gate_rotation_sigma, positive(), "rad; likewise in yaw")
+          .flag("odometry_edge_mixture", &C::odometry_edge_mixture,
+                "honest_odometry_edges: a doubtful edge is a max-mixture of its tight Gaussian and the wide wrong-basin one")
+          .number("odometry_mixture_weight", &C::odometry_mixture_weight, Range{0.0, 1.0, true, true},
+                  "Prior probability of a doubtful edge's wrong-basin component");
+}
+
+// The `slam:` section: settings of SlamConfig itself, grouped under one key.
+const ConfigFields<SlamConfig>& slamSectionFields() {
+  using C = SlamConfig;
+  static const ConfigFields<C> fields =
+      honestEdgeFields(ConfigFields<C>("Keyframes and the pose graph's odometry edges.")
+          .number("keyframe_distance", &C::keyframe_distance, positive(),
+                  "m of travel after which a frame becomes a loop-closure keyframe")
+          .number("keyframe_angle", &C::keyframe_angle, positive(), "rad of turn, likewise")
+          .flag("optimise_online", &C::optimise_online, "Re-optimise the graph whenever a loop is accepted")
+          .integer("loop_search_every", &C::loop_search_every, atLeast(1),
+                   "Search loops on every n-th keyframe (online cost; 1 = every keyframe)")
+          .integer("loop_pause_after_accept", &C::loop_pause_after_accept, nonNegative(),
+                   "Keyframes not searched for loops after one whose search accepted a loop")
+          .flag("loops_beside_tracking", &C::loops_beside_tracking,
+                "Run a keyframe's loop stage while the next scan is tracked (same results; not with reanchor_map)")
+          .number("min_translation_sigma", &C::min_translation_sigma, positive(),
+                  "m; floor on an ICP increment's standard deviation before inverting it")
+          .number("min_rotation_sigma", &C::min_rotation_sigma, positive(), "rad")
+          .flag("additive_floor", &C::additive_floor,
+                "Floors added to the increment's covariance (every direction) instead of raising its diagonal")
+          .number("label_only_sigma", &C::label_only_sigma, nonNegative(),
+                  "m; added to an odometry edge along the directions only labelled patches fixed (0 = off)")
+          .number("odometry_covariance_scale", &C::odometry_covariance_scale, positive(),
+                  "Calibration: odometry-edge covariance = this × the floored ICP covariance (fitted by NEES)")
+          .number("motion_disagreement_weight", &C::motion_disagreement_weight, nonNegative(),
+                  "Calibration: adds (weight × the increment's departure from constant velocity)² to its variance"))
           .number("anchor_radius", &C::anchor_radius, nonNegative(),
                   "m; frame-to-map: edge from each keyframe to the nearest older keyframe within this (0 = off)")
           .number("anchor_sigma_translation", &C::anchor_sigma_translation, positive(),

@@ -27,6 +27,12 @@ struct EdgeNees {
   Vector6d error = Vector6d::Zero();  ///< ξ, translation first (m, rad)
   double nees = 0.0;                  ///< ξᵀ Ω ξ
   std::array<double, 6> axis_nees{};  ///< ξ_k² / (Ω⁻¹)_kk (2-D: 0 outside [x y rz])
+  /// A max-mixture edge (PoseGraphEdge::alt_weight > 0): ξᵀ Ω_k ξ with the component k the
+  /// graph's solution selects (PoseGraphEdge::selected), and against the moment-matched
+  /// covariance (1 − w) Ω⁻¹ + w Ω_alt⁻¹ (both components share the mean). Others: = nees.
+  double nees_selected = 0.0;
+  double nees_moment_matched = 0.0;
+  bool mixture = false;
 };
 
 struct NeesStats {
@@ -47,6 +53,10 @@ struct EdgeNeesReport {
   /// Map-anchor edges (frame to map: tracking's relative pose of a revisit), apart from the
   /// odometry increments since their error is tracking's drift, not one registration's.
   NeesStats map_anchor;
+  /// Odometry edges with each max-mixture edge's NEES taken against its selected component and
+  /// against its moment-matched covariance (only when the graph has mixture edges: mixture_edges > 0).
+  NeesStats odometry_selected, odometry_moment_matched;
+  std::size_t mixture_edges = 0;
 };
 
 /// NEES of every edge of `graph` against the true node poses `truth` (T_world_node for every
@@ -61,9 +71,19 @@ Vector6d edgeError(const Eigen::Isometry3d& T_measured, const Eigen::Isometry3d&
 /// Summary of NEES values (dof = 6 for 3-D graphs, 3 for 2-D).
 NeesStats summariseNees(const std::vector<const EdgeNees*>& edges, int dof);
 
+/// NEES of the odometry chain over spans of `span` consecutive increments (nodes i → i + span,
+/// i = 0, span, 2·span, …, only where every increment has an odometry edge): the measured
+/// increments composed, their covariances (each edge's information⁻¹) chained as independent
+/// (Σ = Σ_k Ad(T̃_i,k−1) Σ_k Ad(T̃_i,k−1)ᵀ, first order), against the true relative pose. Span 1 is
+/// the odometry edges' own NEES; a chain whose increment errors are correlated (frame-to-map
+/// tracking's slowly varying map drift) is honest per edge and over-confident over long spans.
+NeesStats odometrySpanNees(const PoseGraph& graph, std::span<const Eigen::Isometry3d> truth, int span);
+
 /// JSON of the report's three summaries ({"odometry": {...}, "loop": {...}, "all": {...}}), and
 /// with `per_edge` also the edges (from, to, kind, nees, error).
 std::string toJson(const EdgeNeesReport& report, bool per_edge = false);
+/// JSON of one summary (count, dof, mean, median, p95, max, within_95, axis_mean).
+std::string toJson(const NeesStats& stats);
 /// A few lines for a person.
 std::string toText(const EdgeNeesReport& report);
 

@@ -33,6 +33,16 @@ struct PoseGraphEdge {
   Eigen::Isometry3d T_from_to = Eigen::Isometry3d::Identity();  ///< measured relative pose
   Matrix6d information = Matrix6d::Identity();  ///< translation first, left perturbation
   EdgeKind kind = EdgeKind::Odometry;
+  /// Max-mixture edge (Olson & Agarwal 2013) when alt_weight > 0: the error ξ follows
+  /// N(0, information⁻¹) with probability 1 − alt_weight (the registration's answer, tight) or
+  /// N(0, alt_information⁻¹) with probability alt_weight (a wrong basin, wide), and the optimiser
+  /// uses, at every evaluation, the component of larger likelihood. A right increment stays stiff
+  /// until the rest of the graph disagrees with it by more than its tight component explains.
+  /// Only the geodesic 3-D cost knows the alternative; g2o files keep `information`.
+  Matrix6d alt_information = Matrix6d::Zero();
+  double alt_weight = 0.0;
+  /// Set by optimizePoseGraph for a mixture edge: 1 when the solution selects the alternative.
+  int selected = 0;
 };
 
 /// A unary prior on a node's roll and pitch: the direction of gravity ("down", a unit vector)

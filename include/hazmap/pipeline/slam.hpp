@@ -108,6 +108,16 @@ struct SlamConfig {
   /// Constant velocity: how much an increment may differ from the previous one without doubt.
   double velocity_gate_translation_sigma = 0.05;  ///< m
   double velocity_gate_rotation_sigma = 0.02;     ///< rad
+  /// honest_odometry_edges: a doubtful edge as a max-mixture (graph/pose_graph.hpp,
+  /// PoseGraphEdge::alt_weight; Olson & Agarwal 2013) of the tight Gaussian (floor and turn terms)
+  /// and the wide wrong-basin one (with δδᵀ), instead of the wide one alone: a right increment that
+  /// a prior flagged (naraha: the starts and ends of turns) stays stiff unless the loops disagree
+  /// with it by more than its tight component explains (docs/pose_graph.md 2026-12-02, `mm14`).
+  bool odometry_edge_mixture = false;
+  /// Prior probability of the wrong-basin component of a doubtful edge, fitted on seeds 1, 3, 5, 7
+  /// of the three scenes: the share of doubtful increments whose NEES against the tight component
+  /// exceeds 20 (naraha 0.02, corridor 0.62, tanks 0.57; pooled 0.37).
+  double odometry_mixture_weight = 0.37;
   /// Gate verified loops by the calibrated χ² innovation test against the covariance the graph
   /// itself gives the keyframes' relative pose (loop/consistency.hpp); false = the drift model.
   bool innovation_gate = true;
