@@ -219,6 +219,7 @@ LoopDetection LoopDetector::detect(std::size_t query, const PoseList& estimate) 
   det.verifications.insert(det.verifications.end(), delayed.verifications.begin(), delayed.verifications.end());
   det.gates.insert(det.gates.end(), delayed.gates.begin(), delayed.gates.end());
   det.accepted.insert(det.accepted.end(), delayed.accepted.begin(), delayed.accepted.end());
+  det.near_duplicates += delayed.near_duplicates;
   return det;
 }
 
@@ -272,8 +273,14 @@ void LoopDetector::crossCheck(const LoopCandidate& cand, const PoseList& estimat
 
 void LoopDetector::verifyInto(const std::vector<LoopCandidate>& candidates, const PoseList& estimate, LoopDetection& det) {
   const bool gate = config_.consistency.use_drift_gate;
+  std::size_t covered = 0;  // near-duplicates of accepted loops: they count as this query's loops
   for (const auto& cand : candidates) {
-    if (det.accepted.size() >= config_.max_loops_per_keyframe) break;
+    if (det.accepted.size() + covered >= config_.max_loops_per_keyframe) break;
+    if (nearDuplicate(cand)) {
+      ++covered;
+      ++det.near_duplicates;
+      continue;
+    }
     if (relative_covariance_ && gate && !candidatePlausible(cand, estimate, det)) continue;
     const auto target = submapTarget(cand.match, cand.query, estimate);
     VerificationResult v = verifyCandidate(cand, *cloud(cand.query), *target, classes_, config_.verification);
@@ -327,6 +334,15 @@ bool LoopDetector::candidatePlausible(const LoopCandidate& cand, const PoseList&
   v.reason = "candidate guess, innovation gate: d² = " + std::to_string(g.mahalanobis2) + " > " + std::to_string(g.threshold);
   det.verifications.push_back(std::move(v));
   return false;
+}
+
+bool LoopDetector::nearDuplicate(const LoopCandidate& cand) const {
+  const std::size_t r = config_.near_duplicate_keyframes;
+  if (r == 0) return false;
+  const auto near = [r](std::size_t a, std::size_t b) { return (a > b ? a - b : b - a) <= r; };
+  return std::any_of(loops_.begin(), loops_.end(), [&](const LoopClosure& l) {
+    return near(l.from, cand.match) && near(l.to, cand.query);
+  });
 }
 
 void LoopDetector::dropLoop(std::size_t from, std::size_t to) {
