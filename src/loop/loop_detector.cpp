@@ -83,11 +83,17 @@ std::shared_ptr<const RegistrationTarget> LoopDetector::submapTarget(std::size_t
     if (estimate.size() < size()) fail("loop closure", "a submap needs a pose estimate for every keyframe");
     for (std::size_t j = key.first; j <= key.last; ++j) key.placement.push_back(estimate[k].inverse() * estimate[j]);
   }
-  // The same keyframes placed identically give the same target, bit for bit.
+  // The same keyframes placed identically give the same target, bit for bit; with
+  // submap_reuse_tolerance also placed within that of where the cached target put them.
+  const double tol = config_.submap_reuse_tolerance;
+  const auto same = [tol](const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
+    if (tol <= 0.0) return a.matrix() == b.matrix();
+    const Eigen::Isometry3d d = a.inverse() * b;
+    return translationNorm(d) + kSubmapReuseLever * rotationAngle(d) <= tol;
+  };
   for (const auto& c : submaps_)
     if (c.k == key.k && c.first == key.first && c.last == key.last &&
-        std::equal(c.placement.begin(), c.placement.end(), key.placement.begin(), key.placement.end(),
-                   [](const auto& a, const auto& b) { return a.matrix() == b.matrix(); }))
+        std::equal(c.placement.begin(), c.placement.end(), key.placement.begin(), key.placement.end(), same))
       return c.target;
   key.target = std::make_shared<const RegistrationTarget>(submap(k, query, estimate), classes_,
                                                           config_.verification.registration);

@@ -112,6 +112,12 @@ struct LoopClosureConfig {
   /// cross-check. Such a near-duplicate counts against max_loops_per_keyframe (the query is
   /// covered: its lower-ranked candidates are not tried either). 0 = off (every candidate verified).
   std::size_t near_duplicate_keyframes = 0;
+  /// Online cost (issue 14): a cached verification target (LoopDetector::submapTarget) is reused
+  /// while every keyframe of its submap sits within this of where the target placed it (m: the
+  /// placement's translation change plus its rotation change times 10 m, the submap's reach);
+  /// beyond it, an optimisation moved the submap and the target is rebuilt. 0 = reused only when
+  /// placed bit for bit identically (every optimisation rebuilds the targets).
+  double submap_reuse_tolerance = 0.0;
   LandmarkConfig landmarks;
   CandidateSearchConfig candidates;
   VerificationConfig verification;
@@ -246,6 +252,7 @@ class LoopDetector {
     std::shared_ptr<const RegistrationTarget> target;
   };
   static constexpr std::size_t kSubmapCache = 16;
+  static constexpr double kSubmapReuseLever = 10.0;  ///< m, submap_reuse_tolerance's rotation lever
   mutable std::deque<CachedSubmap> submaps_;
   mutable std::size_t submap_targets_built_ = 0;
   std::vector<std::vector<PropertyLandmark>> landmarks_;
