@@ -254,3 +254,31 @@ TEST(LoopVerify, NearDuplicateCandidatesAreNotVerified) {
 }
 
 }  // namespace
+
+namespace {
+
+// Online cost (loop_closure.submap_reuse_tolerance): a cached verification target is reused while
+// its keyframes sit within the tolerance of where it placed them (an optimisation moved them by a
+// millimetre), and rebuilt once one moved farther; with 0 every change of placement rebuilds it.
+TEST(LoopVerify, SubmapTargetReusedWithinTheTolerance) {
+  const LabeledCloud world = keyframeCloud(hallWorld(0.4));
+  PoseList estimate;
+  for (int i = 0; i < 8; ++i) estimate.push_back(fromXyYaw(1.0 * i, 0.0, 0.0));
+  PoseList nudged = estimate, moved = estimate;
+  nudged[5].translation().x() += 0.001;  // 1 mm: within 5 mm
+  moved[5].translation().x() += 0.05;    // 5 cm: beyond
+  const auto targets = [&](double tolerance) {
+    LoopClosureConfig cfg;
+    cfg.submap_reuse_tolerance = tolerance;
+    LoopDetector det(ClassTable::defaults(), cfg);
+    for (int i = 0; i < 8; ++i) det.addKeyframe(world);
+    const auto a = det.submapTarget(3, 30, estimate);
+    const auto b = det.submapTarget(3, 30, nudged);
+    const auto c = det.submapTarget(3, 30, moved);
+    return std::make_tuple(a == b, b == c, det.submapTargetsBuilt());
+  };
+  EXPECT_EQ(targets(0.005), std::make_tuple(true, false, std::size_t{2}));
+  EXPECT_EQ(targets(0.0), std::make_tuple(false, false, std::size_t{3}));
+}
+
+}  // namespace
