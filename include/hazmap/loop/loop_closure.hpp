@@ -116,8 +116,10 @@ struct LoopClosureConfig {
   /// while every keyframe of its submap sits within this of where the target placed it (m: the
   /// placement's translation change plus its rotation change times 10 m, the submap's reach);
   /// beyond it, an optimisation moved the submap and the target is rebuilt. 0 = reused only when
-  /// placed bit for bit identically (every optimisation rebuilds the targets).
-  double submap_reuse_tolerance = 0.0;
+  /// placed bit for bit identically (every optimisation rebuilds the targets). 5 mm (half the
+  /// loop's σ floor): naraha 1 loop stage ≈ −20 % CPU, every accuracy rule kept on naraha,
+  /// corridor and tanks (docs/pose_graph.md, "Online cost, second pass").
+  double submap_reuse_tolerance = 0.005;
   LandmarkConfig landmarks;
   CandidateSearchConfig candidates;
   VerificationConfig verification;
