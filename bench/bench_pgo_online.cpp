@@ -16,9 +16,16 @@
 //   BM_Naraha_PropertyIcpPgo_Every2nd       slam.loop_search_every = 2: half the loop searches
 //                                           (same naraha mean map error over seeds 1–8, but not
 //                                           on every seed or scene: docs/measurements.md)
-//   BM_Naraha_PropertyIcpPgo_CheapVerify    verification.full_from_coarse, probe_coarse_points
-//                                           1000, probe_tolerance_scale 10 (opt-in)
-//   BM_Naraha_PropertyIcpPgo_CheapProbes    the last two only
+//   BM_Naraha_PropertyIcpPgo_CheapVerify    verification.full_from_coarse on (opt-in; the probe
+//                                           knobs below are the defaults since 2026-12-02)
+//   BM_Naraha_PropertyIcpPgo_SingleStageProbes  probe_coarse_points 0, probe_tolerance_scale 1
+//                                           (the defaults before 2026-12-02)
+//   BM_Naraha_PropertyIcpPgo_NearDuplicates loop_closure.near_duplicate_keyframes = 2 (opt-in):
+//                                           candidates an accepted loop already covers are not
+//                                           verified
+//   BM_Naraha_PropertyIcpPgo_ExactSubmaps   loop_closure.submap_reuse_tolerance = 0: verification
+//                                           targets rebuilt after every optimisation (the
+//                                           behaviour before 2026-12-02; default 5 mm)
 #include <benchmark/benchmark.h>
 
 #include "bench_main.hpp"
@@ -112,11 +119,23 @@ void BM_Naraha_PropertyIcpPgo_CheapVerify(benchmark::State& state) {
   c.loop_closure.verification.probe_tolerance_scale = 10.0;
   runConfig(state, c, false);
 }
-// Only the two probe knobs (the heavy-drift detector test passes with them; not with full_from_coarse).
-void BM_Naraha_PropertyIcpPgo_CheapProbes(benchmark::State& state) {
+// The basin probes single-stage at the verification's tolerances (the defaults before 2026-12-02).
+void BM_Naraha_PropertyIcpPgo_SingleStageProbes(benchmark::State& state) {
   SlamConfig c = SlamConfig::forMethod(SlamMethod::PropertyIcpPgo);
-  c.loop_closure.verification.probe_coarse_points = 1000;
-  c.loop_closure.verification.probe_tolerance_scale = 10.0;
+  c.loop_closure.verification.probe_coarse_points = 0;
+  c.loop_closure.verification.probe_tolerance_scale = 1.0;
+  runConfig(state, c, false);
+}
+// Near-duplicate candidates of accepted loops not verified (opt-in: docs/pose_graph.md "Online cost").
+void BM_Naraha_PropertyIcpPgo_NearDuplicates(benchmark::State& state) {
+  SlamConfig c = SlamConfig::forMethod(SlamMethod::PropertyIcpPgo);
+  c.loop_closure.near_duplicate_keyframes = 2;
+  runConfig(state, c, false);
+}
+// Verification targets rebuilt whenever an optimisation moved their keyframes at all (before 2026-12-02).
+void BM_Naraha_PropertyIcpPgo_ExactSubmaps(benchmark::State& state) {
+  SlamConfig c = SlamConfig::forMethod(SlamMethod::PropertyIcpPgo);
+  c.loop_closure.submap_reuse_tolerance = 0.0;
   runConfig(state, c, false);
 }
 BENCHMARK(BM_Naraha_PropertyIcp)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
@@ -124,7 +143,9 @@ BENCHMARK(BM_Naraha_PropertyIcpPgo)->Unit(benchmark::kSecond)->Iterations(1)->Us
 BENCHMARK(BM_Naraha_PropertyIcpPgo_Sequential)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
 BENCHMARK(BM_Naraha_PropertyIcpPgo_Every2nd)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
 BENCHMARK(BM_Naraha_PropertyIcpPgo_CheapVerify)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
-BENCHMARK(BM_Naraha_PropertyIcpPgo_CheapProbes)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
+BENCHMARK(BM_Naraha_PropertyIcpPgo_SingleStageProbes)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
+BENCHMARK(BM_Naraha_PropertyIcpPgo_NearDuplicates)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
+BENCHMARK(BM_Naraha_PropertyIcpPgo_ExactSubmaps)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
 
 }  // namespace
 

@@ -1,6 +1,7 @@
 // Loop verification by property-aware ICP on synthetic keyframe pairs, and the LoopDetector end
 // to end (landmarks → candidates → ICP → gates) on a synthetic route with drift.
 #include <gtest/gtest.h>
+#include <algorithm>
 
 #include "hazmap/core/error.hpp"
 #include "hazmap/loop/loop_closure.hpp"
@@ -97,7 +98,9 @@ TEST(LoopVerify, CheaperVerificationAcceptsTheSameLoop) {
   cand.query = 30;
   cand.match = 2;
   cand.initial_guess = (Ta.inverse() * Tb) * fromXyYaw(0.4, -0.3, 0.05);
-  const VerificationConfig single;  // the defaults: single stage
+  VerificationConfig single;  // single stage throughout (the defaults before 2026-12-02)
+  single.probe_coarse_points = 0;
+  single.probe_tolerance_scale = 1.0;
   VerificationConfig cheap;
   cheap.full_from_coarse = true;
   cheap.probe_coarse_points = 1000;
@@ -193,6 +196,89 @@ TEST(LoopVerify, DetectorClosesTheRouteLoopUnderDrift) {
     EXPECT_EQ(bounded.acceptedLoops()[k].from, accepted[k].from);
     EXPECT_TRUE(bounded.acceptedLoops()[k].T_from_to.isApprox(accepted[k].T_from_to, 1e-9));
   }
+}
+
+}  // namespace
+
+namespace {
+
+// Online cost (loop_closure.near_duplicate_keyframes): along the revisit each keyframe would close
+// its own loop to the same old place; with the rule on, a candidate within 2 keyframes of an
+// accepted loop's two keyframes is not verified and covers its query. The loops still verified are
+// exactly the ones found without the rule (same ICP, same target), and no two of them are near
+// duplicates of each other.
+TEST(LoopVerify, NearDuplicateCandidatesAreNotVerified) {
+  const LabeledCloud world = hallWorld(0.2);
+  const ClassTable table = ClassTable::defaults();
+  const PoseList truth = test::rectangleRoute();
+  const PoseList estimate = test::driftedRoute(truth, 0.02, 0.1 * M_PI / 180.0);
+  std::mt19937 rng(9);
+  std::vector<LabeledCloud> raw;
+  for (std::size_t i = 0; i < truth.size(); ++i) raw.push_back(test::observe(world, truth[i], 12.0, 0.02, 0.6, rng));
+  const auto run = [&](std::size_t window, std::size_t& verified, std::size_t& skipped) {
+    LoopClosureConfig cfg;
+    cfg.method = CandidateMethod::Constellation;
+    cfg.near_duplicate_keyframes = window;
+    LoopDetector det(table, cfg);
+    verified = skipped = 0;
+    for (std::size_t i = 0; i < truth.size(); ++i) {
+      det.addKeyframe(raw[i]);
+      if (i + 6 < truth.size()) continue;
+      const LoopDetection d = det.detect(i, estimate);
+      verified += d.verifications.size();
+      skipped += d.near_duplicates;
+    }
+    return det.acceptedLoops();
+  };
+  std::size_t verified_all = 0, skipped_all = 0, verified = 0, skipped = 0;
+  const std::vector<LoopClosure> all = run(0, verified_all, skipped_all);
+  const std::vector<LoopClosure> kept = run(2, verified, skipped);
+  ASSERT_GE(all.size(), 3u);
+  EXPECT_EQ(skipped_all, 0u);
+  EXPECT_GT(skipped, 0u);
+  EXPECT_LT(verified, verified_all);
+  ASSERT_GE(kept.size(), 1u);
+  EXPECT_LT(kept.size(), all.size());
+  for (std::size_t a = 0; a < kept.size(); ++a) {
+    EXPECT_TRUE(isTrueLoop(kept[a], truth, 0.1, 0.01)) << kept[a].from << "→" << kept[a].to;
+    const auto same = std::find_if(all.begin(), all.end(), [&](const LoopClosure& l) {
+      return l.from == kept[a].from && l.to == kept[a].to;
+    });
+    ASSERT_NE(same, all.end()) << kept[a].from << "→" << kept[a].to;
+    EXPECT_EQ(same->T_from_to.matrix(), kept[a].T_from_to.matrix());
+    for (std::size_t b = 0; b < a; ++b) {
+      const auto gap = [](std::size_t x, std::size_t y) { return x > y ? x - y : y - x; };
+      EXPECT_FALSE(gap(kept[a].from, kept[b].from) <= 2 && gap(kept[a].to, kept[b].to) <= 2);
+    }
+  }
+}
+
+}  // namespace
+
+namespace {
+
+// Online cost (loop_closure.submap_reuse_tolerance): a cached verification target is reused while
+// its keyframes sit within the tolerance of where it placed them (an optimisation moved them by a
+// millimetre), and rebuilt once one moved farther; with 0 every change of placement rebuilds it.
+TEST(LoopVerify, SubmapTargetReusedWithinTheTolerance) {
+  const LabeledCloud world = keyframeCloud(hallWorld(0.4));
+  PoseList estimate;
+  for (int i = 0; i < 8; ++i) estimate.push_back(fromXyYaw(1.0 * i, 0.0, 0.0));
+  PoseList nudged = estimate, moved = estimate;
+  nudged[5].translation().x() += 0.001;  // 1 mm: within 5 mm
+  moved[5].translation().x() += 0.05;    // 5 cm: beyond
+  const auto targets = [&](double tolerance) {
+    LoopClosureConfig cfg;
+    cfg.submap_reuse_tolerance = tolerance;
+    LoopDetector det(ClassTable::defaults(), cfg);
+    for (int i = 0; i < 8; ++i) det.addKeyframe(world);
+    const auto a = det.submapTarget(3, 30, estimate);
+    const auto b = det.submapTarget(3, 30, nudged);
+    const auto c = det.submapTarget(3, 30, moved);
+    return std::make_tuple(a == b, b == c, det.submapTargetsBuilt());
+  };
+  EXPECT_EQ(targets(0.005), std::make_tuple(true, false, std::size_t{2}));
+  EXPECT_EQ(targets(0.0), std::make_tuple(false, false, std::size_t{3}));
 }
 
 }  // namespace

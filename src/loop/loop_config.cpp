@@ -162,6 +162,10 @@ const ConfigFields<LoopClosureConfig>& configFields(ConfigTag<LoopClosureConfig>
                    "Loops are verified against the matched keyframe and this many neighbours on each side (0 = its scan alone)")
           .integer("cross_check_query_keyframes", &C::cross_check_query_keyframes, atLeast(0),
                    "The reverse cross-check registers the match submap onto the query keyframe and this many keyframes before it (0 = the two scans alone)")
+          .integer("near_duplicate_keyframes", &C::near_duplicate_keyframes, atLeast(0),
+                   "A candidate within this many keyframes of an accepted loop's two keyframes is not verified and covers its query (online cost; 0 = off)")
+          .number("submap_reuse_tolerance", &C::submap_reuse_tolerance, nonNegative(),
+                  "m; a cached verification submap is reused while its keyframes moved less than this (translation + 10 m × rotation; 0 = only when placed identically)")
           .section("landmarks", &C::landmarks, "")
           .section("candidates", &C::candidates, "")
           .section("verification", &C::verification, "")

@@ -83,11 +83,17 @@ std::shared_ptr<const RegistrationTarget> LoopDetector::submapTarget(std::size_t
     if (estimate.size() < size()) fail("loop closure", "a submap needs a pose estimate for every keyframe");
     for (std::size_t j = key.first; j <= key.last; ++j) key.placement.push_back(estimate[k].inverse() * estimate[j]);
   }
-  // The same keyframes placed identically give the same target, bit for bit.
+  // The same keyframes placed identically give the same target, bit for bit; with
+  // submap_reuse_tolerance also placed within that of where the cached target put them.
+  const double tol = config_.submap_reuse_tolerance;
+  const auto same = [tol](const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
+    if (tol <= 0.0) return a.matrix() == b.matrix();
+    const Eigen::Isometry3d d = a.inverse() * b;
+    return translationNorm(d) + kSubmapReuseLever * rotationAngle(d) <= tol;
+  };
   for (const auto& c : submaps_)
     if (c.k == key.k && c.first == key.first && c.last == key.last &&
-        std::equal(c.placement.begin(), c.placement.end(), key.placement.begin(), key.placement.end(),
-                   [](const auto& a, const auto& b) { return a.matrix() == b.matrix(); }))
+        std::equal(c.placement.begin(), c.placement.end(), key.placement.begin(), key.placement.end(), same))
       return c.target;
   key.target = std::make_shared<const RegistrationTarget>(submap(k, query, estimate), classes_,
                                                           config_.verification.registration);
@@ -219,6 +225,7 @@ LoopDetection LoopDetector::detect(std::size_t query, const PoseList& estimate) 
   det.verifications.insert(det.verifications.end(), delayed.verifications.begin(), delayed.verifications.end());
   det.gates.insert(det.gates.end(), delayed.gates.begin(), delayed.gates.end());
   det.accepted.insert(det.accepted.end(), delayed.accepted.begin(), delayed.accepted.end());
+  det.near_duplicates += delayed.near_duplicates;
   return det;
 }
 
@@ -272,8 +279,14 @@ void LoopDetector::crossCheck(const LoopCandidate& cand, const PoseList& estimat
 
 void LoopDetector::verifyInto(const std::vector<LoopCandidate>& candidates, const PoseList& estimate, LoopDetection& det) {
   const bool gate = config_.consistency.use_drift_gate;
+  std::size_t covered = 0;  // near-duplicates of accepted loops: they count as this query's loops
   for (const auto& cand : candidates) {
-    if (det.accepted.size() >= config_.max_loops_per_keyframe) break;
+    if (det.accepted.size() + covered >= config_.max_loops_per_keyframe) break;
+    if (nearDuplicate(cand)) {
+      ++covered;
+      ++det.near_duplicates;
+      continue;
+    }
     if (relative_covariance_ && gate && !candidatePlausible(cand, estimate, det)) continue;
     const auto target = submapTarget(cand.match, cand.query, estimate);
     VerificationResult v = verifyCandidate(cand, *cloud(cand.query), *target, classes_, config_.verification);
@@ -327,6 +340,15 @@ bool LoopDetector::candidatePlausible(const LoopCandidate& cand, const PoseList&
   v.reason = "candidate guess, innovation gate: d² = " + std::to_string(g.mahalanobis2) + " > " + std::to_string(g.threshold);
   det.verifications.push_back(std::move(v));
   return false;
+}
+
+bool LoopDetector::nearDuplicate(const LoopCandidate& cand) const {
+  const std::size_t r = config_.near_duplicate_keyframes;
+  if (r == 0) return false;
+  const auto near = [r](std::size_t a, std::size_t b) { return (a > b ? a - b : b - a) <= r; };
+  return std::any_of(loops_.begin(), loops_.end(), [&](const LoopClosure& l) {
+    return near(l.from, cand.match) && near(l.to, cand.query);
+  });
 }
 
 void LoopDetector::dropLoop(std::size_t from, std::size_t to) {

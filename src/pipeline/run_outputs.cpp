@@ -79,14 +79,18 @@ nlohmann::json loopClosureJson(const SlamResult& r, const SlamConfig& config) {
   nlohmann::json rejected = nlohmann::json::array();
   for (const auto& l : r.rejected_loops)
     rejected.push_back({{"from", l.from_frame}, {"to", l.to_frame}, {"reason", toString(l.reason)}, {"detail", l.detail}});
-  return {{"enabled", usesPoseGraph(r.method)},
-                       {"candidate_method", toString(config.loop_closure.method)},
-                       {"keyframes", r.keyframes}, {"keyframes_searched", r.keyframes_searched},
-                       {"candidates", r.loop_candidates},
-                       {"verified", r.loops_verified},
-                       {"accepted", r.loops.size()},
-                       {"loops", loops},
-                       {"rejected", rejected}};
+  nlohmann::json out = {{"enabled", usesPoseGraph(r.method)},
+                        {"candidate_method", toString(config.loop_closure.method)},
+                        {"keyframes", r.keyframes}, {"keyframes_searched", r.keyframes_searched},
+                        {"candidates", r.loop_candidates},
+                        {"verified", r.loops_verified},
+                        {"accepted", r.loops.size()},
+                        {"loops", loops},
+                        {"rejected", rejected}};
+  // Only with the rule on, so that run.json stays as it was without it.
+  if (config.loop_closure.near_duplicate_keyframes > 0) out["near_duplicates"] = r.loop_near_duplicates;
+  if (usesPoseGraph(r.method)) out["submap_targets_built"] = r.submap_targets_built;
+  return out;
 }
 
 nlohmann::json runJson(const SlamResult& r, const SlamConfig& config, const RunSummary& summary) {

@@ -501,6 +501,8 @@ class SlamRun {
     const LoopDetection detection = loops_->detect(k, keyframeEstimate());
     if (!detection.accepted.empty()) schedule_.accepted(k);
     result_.loop_candidates += detection.candidates.size();
+    result_.loop_near_duplicates += detection.near_duplicates;
+    result_.submap_targets_built = loops_->submapTargetsBuilt();
     for (const auto& v : detection.verifications) {
       result_.loops_verified += v.accepted ? 1 : 0;
       if (!v.accepted) reject(v.closure, v.rejection, v.reason);

@@ -104,6 +104,22 @@ struct LoopClosureConfig {
   /// current estimate in the query's frame: submap against submap, from scans the forward loop
   /// did not use on the query side. 0 = the match keyframe's scan onto the query's scan alone.
   std::size_t cross_check_query_keyframes = 6;
+  /// Online cost (issue 14): a candidate whose match lies within this many keyframes of an
+  /// accepted loop's old keyframe, and whose query within this many keyframes after that loop's
+  /// query, is not verified: the graph has just tied the two passes together there, and along a
+  /// revisited stretch every keyframe otherwise closes its own loop to the same old place (naraha
+  /// seed 1: 0→138, 0→139, …, 0→142), each costing a full ICP, four basin probes and the reverse
+  /// cross-check. Such a near-duplicate counts against max_loops_per_keyframe (the query is
+  /// covered: its lower-ranked candidates are not tried either). 0 = off (every candidate verified).
+  std::size_t near_duplicate_keyframes = 0;
+  /// Online cost (issue 14): a cached verification target (LoopDetector::submapTarget) is reused
+  /// while every keyframe of its submap sits within this of where the target placed it (m: the
+  /// placement's translation change plus its rotation change times 10 m, the submap's reach);
+  /// beyond it, an optimisation moved the submap and the target is rebuilt. 0 = reused only when
+  /// placed bit for bit identically (every optimisation rebuilds the targets). 5 mm (half the
+  /// loop's σ floor): naraha 1 loop stage ≈ −20 % CPU, every accuracy rule kept on naraha,
+  /// corridor and tanks (docs/pose_graph.md, "Online cost, second pass").
+  double submap_reuse_tolerance = 0.005;
   LandmarkConfig landmarks;
   CandidateSearchConfig candidates;
   VerificationConfig verification;
@@ -133,6 +149,9 @@ struct LoopDetection {
   std::vector<VerificationResult> verifications;  ///< one per candidate tried
   std::vector<GateResult> gates;                  ///< one per verified candidate (drift gate)
   std::vector<LoopClosure> accepted;              ///< passed verification and the drift gate
+  /// Candidates not verified as near-duplicates of an accepted loop
+  /// (LoopClosureConfig::near_duplicate_keyframes).
+  std::size_t near_duplicates = 0;
 };
 
 /// Keeps the keyframes (clouds in their sensor frames and their landmarks) and closes loops.
@@ -213,6 +232,8 @@ class LoopDetector {
   LoopClosureConfig config_;
   LabeledCloud prepare(LabeledCloud cloud) const;  ///< keyframe_voxel downsampling
   bool candidatePlausible(const LoopCandidate& cand, const PoseList& estimate, LoopDetection& det) const;
+  /// Whether an accepted loop already ties cand's two places (near_duplicate_keyframes).
+  bool nearDuplicate(const LoopCandidate& cand) const;
   /// Constellation candidates of `query` with neighbourhoods reaching at most keyframe `newest`.
   std::vector<LoopCandidate> constellationCandidates(std::size_t query, std::size_t newest, const PoseList& estimate) const;
   /// Neighbourhood candidates moved to the keyframe of the matched stretch nearest the query.
@@ -233,6 +254,7 @@ class LoopDetector {
     std::shared_ptr<const RegistrationTarget> target;
   };
   static constexpr std::size_t kSubmapCache = 16;
+  static constexpr double kSubmapReuseLever = 10.0;  ///< m, submap_reuse_tolerance's rotation lever
   mutable std::deque<CachedSubmap> submaps_;
   mutable std::size_t submap_targets_built_ = 0;
   std::vector<std::vector<PropertyLandmark>> landmarks_;

@@ -120,12 +120,14 @@ struct VerificationConfig {
   /// this many source points (RegistrationConfig::coarse_source_points: the far-moving first steps
   /// on a strided subset, tolerances 10× looser) before the full source refines where it ended;
   /// unlike probe_source_points the probe's answer is still the full source's. 0 = single stage.
-  std::size_t probe_coarse_points = 0;
+  /// Default since 2026-12-02 with probe_tolerance_scale 10: every accuracy rule held on naraha,
+  /// corridor and tanks (seeds 1–8) and in the paper's set-up (docs/pose_graph.md, "Online cost").
+  std::size_t probe_coarse_points = 1000;
   /// Online cost (issue 14): the basin probes stop at the registration's translation and rotation
   /// tolerances times this. A probe only tells which basin it lands in; its last creeping steps
   /// (sub-millimetre, against a 5 cm spread limit and a 1 cm floor on the loop's σ) are most of
   /// its iterations. 1 = the verification's tolerances.
-  double probe_tolerance_scale = 1.0;
+  double probe_tolerance_scale = 10.0;
 };
 
 /// An accepted loop: an edge from the past keyframe `from` to the current keyframe `to`.
