@@ -138,6 +138,18 @@ void accumulate(const ScanLabels& labels, const std::vector<ClassId>& truth, con
   }
 }
 
+bool observedByAnyChannel(const ScanLabels& labels, std::size_t k) {
+  for (const auto& ch : labels.channels)
+    if (std::isfinite(ch[k])) return true;
+  return false;
+}
+
+/// Oracle labels: the input's classes where a camera observed the point, `none` elsewhere.
+void replaceByOracle(const std::vector<ClassId>& input, ScanLabels& labels) {
+  for (std::size_t k = 0; k < labels.classes.size(); ++k)
+    labels.classes[k] = observedByAnyChannel(labels, k) ? input[k] : ClassId{0};
+}
+
 void copyIfExists(const fs::path& from, const fs::path& to) {
   if (fs::exists(from)) fs::copy_file(from, to, fs::copy_options::overwrite_existing);
 }
@@ -153,8 +165,10 @@ struct FrameSink {
   const fs::path& dir;
   SequenceWriter& writer;
   LabelReport& report;
+  bool oracle = false;
 
-  void operator()(std::size_t i, LabeledCloud& scan, const ScanLabels& l) const {
+  void operator()(std::size_t i, LabeledCloud& scan, ScanLabels& l) const {
+    if (oracle) replaceByOracle(scan.classes, l);
     if (!report.truth_source.empty())
       accumulate(l, truthOf(seq, i, scan, report.truth_source), labeler.rules(), seq.classTable(), report);
     for (std::size_t c = 1; c < l.channels.size(); ++c) {
@@ -166,12 +180,7 @@ struct FrameSink {
         o.write(reinterpret_cast<const char*>(l.channels[c].data()), static_cast<std::streamsize>(l.channels[c].size() * 4));
       });
     }
-    for (std::size_t k = 0; k < scan.size(); ++k)
-      for (const auto& ch : l.channels)
-        if (std::isfinite(ch[k])) {
-          ++report.valued;
-          break;
-        }
+    for (std::size_t k = 0; k < scan.size(); ++k) report.valued += observedByAnyChannel(l, k);
     PropertyLabeler::apply(l, scan);
     writer.addFrame(scan);
     report.points += scan.size();
@@ -268,7 +277,7 @@ LabelReport labelSequence(const fs::path& sequence_dir, const fs::path& out_arg,
   SequenceWriter writer(tmp.path, cameraClassTable(seq.classTable()), seq.sensorYaml());
   writer.setPropertyChannel(labeler.channels().front());
   writer.setChannels(labeler.channels());
-  const FrameSink sink{seq, labeler, tmp.path, writer, report};
+  const FrameSink sink{seq, labeler, tmp.path, writer, report, options.oracle_labels};
   report.fused = options.fuse_views && poses.size() == seq.size();
   if (report.fused)
     labelWithFusion(seq, times, labeler, pose_at, poses, options.fusion, sink);
