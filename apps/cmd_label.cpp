@@ -23,7 +23,7 @@ struct LabelCliOptions {
   bool no_motion_compensation = false;
   bool no_view_fusion = false;
   ViewFusionConfig fusion;
-  bool overwrite = false, json = false;
+  bool overwrite = false, json = false, oracle_labels = false, oracle_per_channel = false;
   long overlay = -1;
 };
 
@@ -58,6 +58,8 @@ void label(const LabelCliOptions& o) {
   options.fuse_views = !o.no_view_fusion;
   options.fusion = o.fusion;
   options.overwrite = o.overwrite;
+  options.oracle_labels = o.oracle_labels;
+  options.oracle_per_channel = o.oracle_per_channel;
   const LabelReport r = labelSequence(sequence, o.out, options);
   if (o.overlay >= 0)
     writeLabelOverlays(o.out, options.cameras, static_cast<std::size_t>(o.overlay), options.labeler);
@@ -111,6 +113,11 @@ const RegisterCommand registration{{
                      "View fusion: views tried per point, cheapest first, before it stays unobserved");
       app.add_option("--overlay", o->overlay,
                      "Also draw frame N's points on each camera's image: OUT/overlays/<camera>_NNNNNN.png");
+      app.add_flag("--oracle-labels", o->oracle_labels,
+                   "Keep the input's own classes (labels/) on the points the cameras observed, 'none' elsewhere: "
+                   "the best any labeler behind these cameras could do (docs/properties.md)");
+      app.add_flag("--oracle-per-channel", o->oracle_per_channel,
+                   "With --oracle-labels: keep a class only where a camera whose channel its rules read observed the point");
       app.add_flag("--overwrite", o->overwrite, "Replace --out if it is a previous sequence");
       app.add_flag("--json", o->json, "Print the report as JSON (labels.<class>.precision, .recall, .observed_fraction)");
       app.callback([o] { label(*o); });

@@ -161,5 +161,52 @@ TEST(PropertiesLoops, CameraLabelCandidatesAreVerifiedAtTheKeyframesNearestTheQu
   EXPECT_LE(farthest, 4.0);
 }
 
+struct SourceCount {
+  std::size_t constellation = 0, distance = 0, queries_with_distance = 0;
+  std::vector<std::pair<std::size_t, std::size_t>> pairs;  ///< (query, match) of every candidate
+};
+
+// Candidates by source over the whole retrace, every pose a keyframe placed with the truth.
+SourceCount countSources(bool camera, std::size_t below_landmarks) {
+  const PoseList truth = retracingRoute();
+  const LabeledCloud world = test::samplePatches(sparsePatches(), 0.05);
+  LoopClosureConfig config;
+  config.submap_keyframes = 0;
+  config.partial_distance_below_landmarks = below_landmarks;
+  LoopDetector detector(camera ? cameraTable() : ClassTable::defaults(), config);
+  std::mt19937 rng(7);
+  SourceCount n;
+  for (std::size_t k = 0; k < truth.size(); ++k) {
+    detector.addKeyframe(scan(world, truth[k], camera, rng));
+    if (k < kRetraceBegin) continue;
+    const PoseList estimate(truth.begin(), truth.begin() + static_cast<long>(k) + 1);
+    bool distance = false;
+    for (const LoopCandidate& c : detector.candidates(k, estimate)) {
+      n.pairs.emplace_back(c.query, c.match);
+      const bool d = c.source == CandidateSource::Distance;
+      n.distance += d;
+      n.constellation += !d;
+      distance = distance || d;
+    }
+    n.queries_with_distance += distance;
+  }
+  return n;
+}
+
+// Camera labels leave retraced keyframes with too few landmarks for a constellation (the heat
+// source beside the last side lies behind them); loop_closure.partial_distance_below_landmarks
+// gives those keyframes distance candidates from the estimate, and only those: keyframes with a
+// constellation keep theirs alone, and ground-truth labels (no partial class) are untouched.
+TEST(PropertiesLoops, SparseCameraLabelKeyframesTakeDistanceCandidates) {
+  const SourceCount off = countSources(/*camera=*/true, 0), on = countSources(/*camera=*/true, 3);
+  EXPECT_EQ(off.distance, 0u);
+  EXPECT_GE(on.queries_with_distance, 3u) << "sparse keyframes must get distance candidates";
+  EXPECT_EQ(on.constellation, off.constellation) << "constellation candidates stay as they were";
+  EXPECT_LT(on.queries_with_distance, retracingRoute().size() - kRetraceBegin) << "keyframes with a constellation take none";
+  const SourceCount truth_off = countSources(/*camera=*/false, 0), truth_on = countSources(/*camera=*/false, 3);
+  EXPECT_EQ(truth_on.pairs, truth_off.pairs);
+  EXPECT_EQ(truth_on.distance, 0u);
+}
+
 }  // namespace
 }  // namespace hazmap

@@ -4,6 +4,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <cmath>
 #include <fstream>
 
 #include "hazmap/io/atomic_file.hpp"
@@ -221,6 +222,44 @@ TEST(PropertiesSim, CamerasFromTheSimulatorConfig) {
       EXPECT_NE(r.output.find("bad.yaml"), std::string::npos) << r.output;
     EXPECT_FALSE(fs::exists(dir / "bad"));
   }
+}
+
+// The bound of any labeler behind these cameras (docs/properties.md, 2026-12-02): --oracle-labels
+// keeps labels/'s own classes on exactly the points the camera labels observed, `none` and no
+// value elsewhere, with the camera run's values and class table.
+TEST(PropertiesSim, OracleLabelsAreTheInputClassesOnTheObservedPoints) {
+  const fs::path dir = test::scratchDir();
+  const auto sim = test::runCli("simulate --frames 6 --cameras thermal --out " + (dir / "seq").string());
+  ASSERT_EQ(sim.exit_code, 0) << sim.output;
+  labelJson(dir / "seq", dir / "camera");
+  const auto j = labelJson(dir / "seq", dir / "oracle", "--oracle-labels");
+  EXPECT_TRUE(j["view_fusion"].get<bool>());
+  labelJson(dir / "seq", dir / "per_channel", "--oracle-labels --oracle-per-channel");
+  const Sequence in = Sequence::open(dir / "seq"), camera = Sequence::open(dir / "camera"),
+                 oracle = Sequence::open(dir / "oracle"), per_channel = Sequence::open(dir / "per_channel");
+  ASSERT_EQ(oracle.size(), 6u);
+  EXPECT_FALSE(oracle.classTable().at(1).whole_extent);
+  std::size_t kept = 0, dropped = 0, differs = 0, water_kept = 0;
+  for (std::size_t f = 0; f < in.size(); ++f) {
+    const LabeledCloud a = in.frame(f), c = camera.frame(f), o = oracle.frame(f), p = per_channel.frame(f);
+    ASSERT_EQ(o.size(), a.size());
+    for (std::size_t i = 0; i < o.size(); ++i) {
+      const bool observed = std::isfinite(c.property[i]);  // one camera: its channel is the property
+      ASSERT_EQ(std::isfinite(o.property[i]), observed);
+      if (observed) EXPECT_EQ(o.property[i], c.property[i]);
+      EXPECT_EQ(o.classes[i], observed ? a.classes[i] : ClassId{0});
+      // Per channel: only heat (the thermal camera's rule); water needs the NIR camera.
+      EXPECT_EQ(p.classes[i], observed && a.classes[i] == 1 ? ClassId{1} : ClassId{0});
+      water_kept += o.classes[i] == 2;
+      kept += observed && a.classes[i] != 0;
+      dropped += !observed && a.classes[i] != 0;
+      differs += o.classes[i] != c.classes[i];
+    }
+  }
+  EXPECT_GT(kept, 100u);
+  EXPECT_GT(dropped, 100u);  // labelled regions the camera never saw
+  EXPECT_GT(differs, 0u);
+  EXPECT_GT(water_kept, 0u) << "the scene must have water the thermal camera observed";
 }
 
 }  // namespace

@@ -158,6 +158,8 @@ const ConfigFields<LoopClosureConfig>& configFields(ConfigTag<LoopClosureConfig>
                    "Classes labelled only in part (camera labels) take their landmarks from this many keyframes on each side (0 = as the others)")
           .flag("partial_nearest_keyframe", &C::partial_nearest_keyframe,
                 "Candidates from such neighbourhoods are verified at the matched stretch's keyframes nearest the query (false: the keyframe the constellation named)")
+          .integer("partial_distance_below_landmarks", &C::partial_distance_below_landmarks, atLeast(0),
+                   "With camera labels, a keyframe whose constellation holds fewer landmarks than this also takes distance candidates from the estimate (0 = off)")
           .integer("submap_keyframes", &C::submap_keyframes, atLeast(0),
                    "Loops are verified against the matched keyframe and this many neighbours on each side (0 = its scan alone)")
           .integer("cross_check_query_keyframes", &C::cross_check_query_keyframes, atLeast(0),

@@ -154,11 +154,20 @@ std::vector<LoopCandidate> LoopDetector::nearestInStretch(std::vector<LoopCandid
   return out;
 }
 
+// Camera labels leave many keyframes with too few landmarks for a constellation (a forward
+// camera labels a source only while it lies ahead); there the labels cannot propose a loop, so
+// the estimate does (partial_distance_below_landmarks).
+bool LoopDetector::wantsDistanceCandidates(std::size_t query, const PoseList& estimate) const {
+  if (config_.method != CandidateMethod::Constellation) return true;
+  const std::size_t below = config_.partial_distance_below_landmarks;
+  return neighbourhood_ && below > 0 && placeLandmarks(query, query, estimate).size() < below;
+}
+
 std::vector<LoopCandidate> LoopDetector::candidates(std::size_t query, const PoseList& estimate) const {
   if (query >= size()) fail("loop closure", "query keyframe " + std::to_string(query) + " does not exist");
   std::vector<LoopCandidate> out;
   if (config_.method != CandidateMethod::Distance) out = constellationCandidates(query, query, estimate);
-  if (config_.method != CandidateMethod::Constellation) {
+  if (wantsDistanceCandidates(query, estimate)) {
     if (estimate.size() <= query)
       fail("loop closure", "the distance search needs a pose estimate for keyframe " + std::to_string(query));
     auto d = findDistanceCandidates(query, estimate, config_.candidates);

@@ -138,6 +138,39 @@ void accumulate(const ScanLabels& labels, const std::vector<ClassId>& truth, con
   }
 }
 
+bool observedByAnyChannel(const ScanLabels& labels, std::size_t k) {
+  for (const auto& ch : labels.channels)
+    if (std::isfinite(ch[k])) return true;
+  return false;
+}
+
+/// Per class, the channels its rules read (normal_z aside): only they can give the class.
+std::map<ClassId, std::vector<std::size_t>> channelsOfClasses(const PropertyLabeler& labeler) {
+  std::map<ClassId, std::vector<std::size_t>> out;
+  const auto& channels = labeler.channels();
+  for (const ClassRule& r : labeler.rules().rules())
+    for (const std::string& v : r.expression.variables()) {
+      const auto at = std::find(channels.begin(), channels.end(), v);
+      if (at != channels.end()) out[r.class_id].push_back(static_cast<std::size_t>(at - channels.begin()));
+    }
+  return out;
+}
+
+/// Oracle labels: the input's classes where a camera observed the point (per_class: a camera
+/// whose channel the class's rules read), `none` elsewhere.
+void replaceByOracle(const std::vector<ClassId>& input, const std::map<ClassId, std::vector<std::size_t>>* per_class,
+                     ScanLabels& labels) {
+  for (std::size_t k = 0; k < labels.classes.size(); ++k) {
+    bool seen = false;
+    if (!per_class) {
+      seen = observedByAnyChannel(labels, k);
+    } else if (const auto it = per_class->find(input[k]); it != per_class->end()) {
+      for (std::size_t c : it->second) seen = seen || std::isfinite(labels.channels[c][k]);
+    }
+    labels.classes[k] = seen ? input[k] : ClassId{0};
+  }
+}
+
 void copyIfExists(const fs::path& from, const fs::path& to) {
   if (fs::exists(from)) fs::copy_file(from, to, fs::copy_options::overwrite_existing);
 }
@@ -153,8 +186,11 @@ struct FrameSink {
   const fs::path& dir;
   SequenceWriter& writer;
   LabelReport& report;
+  bool oracle = false;
+  const std::map<ClassId, std::vector<std::size_t>>* oracle_per_class = nullptr;
 
-  void operator()(std::size_t i, LabeledCloud& scan, const ScanLabels& l) const {
+  void operator()(std::size_t i, LabeledCloud& scan, ScanLabels& l) const {
+    if (oracle) replaceByOracle(scan.classes, oracle_per_class, l);
     if (!report.truth_source.empty())
       accumulate(l, truthOf(seq, i, scan, report.truth_source), labeler.rules(), seq.classTable(), report);
     for (std::size_t c = 1; c < l.channels.size(); ++c) {
@@ -166,12 +202,7 @@ struct FrameSink {
         o.write(reinterpret_cast<const char*>(l.channels[c].data()), static_cast<std::streamsize>(l.channels[c].size() * 4));
       });
     }
-    for (std::size_t k = 0; k < scan.size(); ++k)
-      for (const auto& ch : l.channels)
-        if (std::isfinite(ch[k])) {
-          ++report.valued;
-          break;
-        }
+    for (std::size_t k = 0; k < scan.size(); ++k) report.valued += observedByAnyChannel(l, k);
     PropertyLabeler::apply(l, scan);
     writer.addFrame(scan);
     report.points += scan.size();
@@ -268,7 +299,9 @@ LabelReport labelSequence(const fs::path& sequence_dir, const fs::path& out_arg,
   SequenceWriter writer(tmp.path, cameraClassTable(seq.classTable()), seq.sensorYaml());
   writer.setPropertyChannel(labeler.channels().front());
   writer.setChannels(labeler.channels());
-  const FrameSink sink{seq, labeler, tmp.path, writer, report};
+  const auto per_class = channelsOfClasses(labeler);
+  const FrameSink sink{seq, labeler, tmp.path, writer, report, options.oracle_labels,
+                       options.oracle_per_channel ? &per_class : nullptr};
   report.fused = options.fuse_views && poses.size() == seq.size();
   if (report.fused)
     labelWithFusion(seq, times, labeler, pose_at, poses, options.fusion, sink);

@@ -37,6 +37,7 @@ const char* toString(CandidateMethod method);
 ///     landmark_merge_distance: 1.0
 ///     partial_landmark_window: 10
 ///     partial_nearest_keyframe: true
+///     partial_distance_below_landmarks: 0
 ///     submap_keyframes: 3
 ///     cross_check_query_keyframes: 6
 ///     landmarks:    {cluster_tolerance: 0.7, min_points: 8, max_range: 15, min_purity: 0.2}
@@ -94,6 +95,12 @@ struct LoopClosureConfig {
   /// biased (naraha camera labels, frame to local map: 2.5–6 cm too high, PGO worse than
   /// tracking); docs/properties.md. No effect on a table without partial classes.
   bool partial_nearest_keyframe = true;
+  /// With partial classes (camera labels): a query keyframe whose constellation (its
+  /// neighbourhood's landmarks, placeLandmarks) holds fewer than this many landmarks also takes
+  /// distance candidates from the estimate (candidates.search_radius, as icp+pgo's), verified
+  /// by the same property ICP. A forward camera leaves many keyframes with no landmark at all,
+  /// where labels cannot propose a loop. 0 = off. No effect on a table without partial classes.
+  std::size_t partial_distance_below_landmarks = 0;
   /// Verification target: the matched keyframe's scan together with this many keyframes on each
   /// side of it, placed with the current estimate in its frame and downsampled to keyframe_voxel
   /// (a dense *submap*, as dense as the map the tracker registers to). 0 = the matched scan alone.
@@ -238,6 +245,8 @@ class LoopDetector {
   std::vector<LoopCandidate> constellationCandidates(std::size_t query, std::size_t newest, const PoseList& estimate) const;
   /// Neighbourhood candidates moved to the keyframe of the matched stretch nearest the query.
   std::vector<LoopCandidate> nearestInStretch(std::vector<LoopCandidate> candidates, const PoseList& estimate) const;
+  /// Distance candidates too: method distance/both, or a sparse camera-label keyframe.
+  bool wantsDistanceCandidates(std::size_t query, const PoseList& estimate) const;
   /// Verifies and gates the candidates into `det` (at most max_loops_per_keyframe accepted).
   void verifyInto(const std::vector<LoopCandidate>& candidates, const PoseList& estimate, LoopDetection& det);
   void crossCheck(const LoopCandidate& cand, const PoseList& estimate, VerificationResult& v) const;

@@ -25,6 +25,15 @@ struct LabelOptions {
   bool fuse_views = true;
   ViewFusionConfig fusion;
   bool overwrite = false;
+  /// Oracle camera labels: every point the cameras observed (some channel has a value, view
+  /// fusion included) keeps the input's own class (labels/, what a ground-truth run uses), every
+  /// other point is `none` with no value, exactly as the camera labels leave it. Values and the
+  /// class table are the camera run's. The bound of any labeler behind these cameras.
+  bool oracle_labels = false;
+  /// With oracle_labels: a class is kept only where a channel its rules read observed the point
+  /// (heat where the thermal camera saw it, water where the NIR camera did) — what a labeler
+  /// could know at all; without, where any camera did.
+  bool oracle_per_channel = false;
 };
 
 /// Per property class, counted over all frames. "In view" = inside some camera's image.
