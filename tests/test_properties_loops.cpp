@@ -78,6 +78,7 @@ CandidateCount countCandidates(bool camera, std::size_t partial_window) {
   LoopClosureConfig config;
   config.partial_landmark_window = partial_window;
   config.submap_keyframes = 0;
+  config.partial_distance_below_landmarks = 0;  // constellation candidates only
   LoopDetector detector(camera ? cameraTable() : ClassTable::defaults(), config);
   std::mt19937 rng(7);
   CandidateCount n;
@@ -129,6 +130,7 @@ std::vector<double> candidateBaselines(bool camera) {
   const LabeledCloud world = test::samplePatches(sparsePatches(), 0.05);
   LoopClosureConfig config;
   config.submap_keyframes = 0;
+  config.partial_distance_below_landmarks = 0;  // constellation candidates only
   LoopDetector detector(camera ? cameraTable() : ClassTable::defaults(), config);
   std::mt19937 rng(7);
   std::vector<double> baselines;
