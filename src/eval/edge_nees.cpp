@@ -56,6 +56,14 @@ EdgeNees neesOf(const PoseGraphEdge& edge, const Eigen::Isometry3d& T_true_ij, i
   return n;
 }
 
+/// summariseNees over edges held by value (span chains, mixture copies).
+NeesStats summariseOwned(const std::vector<EdgeNees>& edges, int dof) {
+  std::vector<const EdgeNees*> ptrs;
+  ptrs.reserve(edges.size());
+  for (const EdgeNees& e : edges) ptrs.push_back(&e);
+  return summariseNees(ptrs, dof);
+}
+
 /// Summary of the odometry edges with each mixture edge's NEES replaced by `value` of it.
 NeesStats mixtureSummary(const std::vector<const EdgeNees*>& odometry, int dof, double EdgeNees::*value) {
   std::vector<EdgeNees> copies;
@@ -64,9 +72,7 @@ NeesStats mixtureSummary(const std::vector<const EdgeNees*>& odometry, int dof, 
     copies.push_back(*e);
     copies.back().nees = e->*value;
   }
-  std::vector<const EdgeNees*> ptrs;
-  for (const EdgeNees& e : copies) ptrs.push_back(&e);
-  return summariseNees(ptrs, dof);
+  return summariseOwned(copies, dof);
 }
 
 nlohmann::json statsJson(const NeesStats& s) {
@@ -169,9 +175,7 @@ NeesStats odometrySpanNees(const PoseGraph& graph, std::span<const Eigen::Isomet
     chained.information = cov.inverse();
     spans.push_back(neesOf(chained, truth[i].inverse() * truth[i + static_cast<std::size_t>(span)], graph.dimension));
   }
-  std::vector<const EdgeNees*> ptrs;
-  for (const EdgeNees& e : spans) ptrs.push_back(&e);
-  return summariseNees(ptrs, dof);
+  return summariseOwned(spans, dof);
 }
 
 std::string toJson(const NeesStats& stats) { return statsJson(stats).dump(); }

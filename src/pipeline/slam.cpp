@@ -294,8 +294,7 @@ class SlamRun {
                                                   : cov);
     const int e = result_.graph.addEdge(static_cast<int>(rec.index - 1), static_cast<int>(rec.index), rec.T_prev_curr,
                                         noise.information, EdgeKind::Odometry);
-    result_.graph.edges[static_cast<std::size_t>(e)].alt_information = noise.alt_information;
-    result_.graph.edges[static_cast<std::size_t>(e)].alt_weight = noise.alt_weight;
+    noise.applyTo(result_.graph.edges[static_cast<std::size_t>(e)]);
   }
 
   /// Issue 19 (odometry.reestimate_lost_frames): once a frame is verified again the tracker
@@ -325,9 +324,7 @@ class SlamRun {
       for (PoseGraphEdge& e : result_.graph.edges)
         if (e.kind == EdgeKind::Odometry && e.from == static_cast<int>(k - 1) && e.to == static_cast<int>(k)) {
           e.T_from_to = rec.T_prev_curr;
-          e.information = noise.information;
-          e.alt_information = noise.alt_information;
-          e.alt_weight = noise.alt_weight;
+          noise.applyTo(e);
         }
       first = std::min(first, k);
     }
@@ -345,6 +342,13 @@ class SlamRun {
     Matrix6d covariance, information;
     Matrix6d alt_information = Matrix6d::Zero();  ///< SlamConfig::odometry_edge_mixture: the wide component
     double alt_weight = 0.0;                      ///< its prior probability (0 = one Gaussian)
+    /// The edge's information and, for a mixture, its wide component: one place for both sites
+    /// that write an odometry edge (addOdometryEdge, takeReestimatedLostFrames).
+    void applyTo(PoseGraphEdge& edge) const {
+      edge.information = information;
+      edge.alt_information = alt_information;
+      edge.alt_weight = alt_weight;
+    }
   };
   EdgeNoise odometryEdgeNoise(FrameRecord& rec) const {
     rec.edge_doubt.clear();
