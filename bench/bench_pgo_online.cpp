@@ -23,6 +23,9 @@
 //   BM_Naraha_PropertyIcpPgo_NearDuplicates loop_closure.near_duplicate_keyframes = 2 (opt-in):
 //                                           candidates an accepted loop already covers are not
 //                                           verified
+//   BM_Naraha_PropertyIcpPgo_LightDuplicates loop_closure.light_duplicate_keyframes = 2: loops
+//                                           next to a fully checked loop that agree with it take
+//                                           over its reverse cross-check's verdict
 //   BM_Naraha_PropertyIcpPgo_ExactSubmaps   loop_closure.submap_reuse_tolerance = 0: verification
 //                                           targets rebuilt after every optimisation (the
 //                                           behaviour before 2026-12-02; default 5 mm)
@@ -88,6 +91,7 @@ void runConfig(benchmark::State& state, const SlamConfig& config, bool is_peer) 
   state.counters["loop_s"] = r.timings.loop_s;
   state.counters["graph_s"] = r.timings.graph_s;
   state.counters["loops"] = static_cast<double>(r.loops.size());
+  state.counters["light"] = static_cast<double>(r.loop_light_verifications);
   state.counters["searched_kf"] = static_cast<double>(r.keyframes_searched);
   if (peer.wall_s > 0.0) {
     state.counters["x_tracking_wall"] = t.wall_s / peer.wall_s;
@@ -138,6 +142,12 @@ void BM_Naraha_PropertyIcpPgo_ExactSubmaps(benchmark::State& state) {
   c.loop_closure.submap_reuse_tolerance = 0.0;
   runConfig(state, c, false);
 }
+// Light verification of near-duplicates (docs/pose_graph.md "Online cost, third pass").
+void BM_Naraha_PropertyIcpPgo_LightDuplicates(benchmark::State& state) {
+  SlamConfig c = SlamConfig::forMethod(SlamMethod::PropertyIcpPgo);
+  c.loop_closure.light_duplicate_keyframes = 2;
+  runConfig(state, c, false);
+}
 BENCHMARK(BM_Naraha_PropertyIcp)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
 BENCHMARK(BM_Naraha_PropertyIcpPgo)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
 BENCHMARK(BM_Naraha_PropertyIcpPgo_Sequential)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
@@ -146,6 +156,7 @@ BENCHMARK(BM_Naraha_PropertyIcpPgo_CheapVerify)->Unit(benchmark::kSecond)->Itera
 BENCHMARK(BM_Naraha_PropertyIcpPgo_SingleStageProbes)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
 BENCHMARK(BM_Naraha_PropertyIcpPgo_NearDuplicates)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
 BENCHMARK(BM_Naraha_PropertyIcpPgo_ExactSubmaps)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
+BENCHMARK(BM_Naraha_PropertyIcpPgo_LightDuplicates)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
 
 }  // namespace
 

@@ -282,3 +282,50 @@ TEST(LoopVerify, SubmapTargetReusedWithinTheTolerance) {
 }
 
 }  // namespace
+
+namespace {
+
+// Online cost (loop_closure.light_duplicate_keyframes): along the revisit each keyframe closes its
+// own loop to the same old place. With the rule on, a candidate within 2 keyframes of a fully
+// checked loop is verified by the same ICP and basin probes but, agreeing with that loop, takes
+// over its reverse cross-check's verdict. Every loop is still found (unlike
+// near_duplicate_keyframes), each at the very same pose; only some are light, and those never
+// serve as the reference.
+TEST(LoopVerify, LightDuplicatesKeepEveryLoopAtTheSamePose) {
+  const LabeledCloud world = hallWorld(0.2);
+  const ClassTable table = ClassTable::defaults();
+  const PoseList truth = test::rectangleRoute();
+  const PoseList estimate = test::driftedRoute(truth, 0.02, 0.1 * M_PI / 180.0);
+  std::mt19937 rng(9);
+  std::vector<LabeledCloud> raw;
+  for (std::size_t i = 0; i < truth.size(); ++i) raw.push_back(test::observe(world, truth[i], 12.0, 0.02, 0.6, rng));
+  const auto run = [&](std::size_t window, std::size_t& light) {
+    LoopClosureConfig cfg;
+    cfg.method = CandidateMethod::Constellation;
+    cfg.light_duplicate_keyframes = window;
+    LoopDetector det(table, cfg);
+    light = 0;
+    for (std::size_t i = 0; i < truth.size(); ++i) {
+      det.addKeyframe(raw[i]);
+      if (i + 6 < truth.size()) continue;
+      light += det.detect(i, estimate).light_verifications;
+    }
+    return det.acceptedLoops();
+  };
+  std::size_t light_off = 0, light_on = 0;
+  const std::vector<LoopClosure> full = run(0, light_off);
+  const std::vector<LoopClosure> light = run(2, light_on);
+  ASSERT_GE(full.size(), 3u);
+  EXPECT_EQ(light_off, 0u);
+  EXPECT_GT(light_on, 0u);
+  EXPECT_LT(light_on, light.size());  // the first loop to a place is always fully checked
+  ASSERT_EQ(light.size(), full.size());
+  for (std::size_t a = 0; a < full.size(); ++a) {
+    EXPECT_EQ(light[a].from, full[a].from);
+    EXPECT_EQ(light[a].to, full[a].to);
+    EXPECT_EQ(light[a].T_from_to.matrix(), full[a].T_from_to.matrix());
+    EXPECT_TRUE(isTrueLoop(light[a], truth, 0.1, 0.01)) << light[a].from << "→" << light[a].to;
+  }
+}
+
+}  // namespace

@@ -168,6 +168,8 @@ const ConfigFields<LoopClosureConfig>& configFields(ConfigTag<LoopClosureConfig>
                    "A candidate within this many keyframes of an accepted loop's two keyframes is not verified and covers its query (online cost; 0 = off)")
           .number("submap_reuse_tolerance", &C::submap_reuse_tolerance, nonNegative(),
                   "m; a cached verification submap is reused while its keyframes moved less than this (translation + 10 m × rotation; 0 = only when placed identically)")
+          .integer("light_duplicate_keyframes", &C::light_duplicate_keyframes, atLeast(0),
+                   "A verified candidate within this many keyframes (both ends) of a fully checked loop whose answer agrees with it skips the reverse cross-check and takes over that loop's verdict (online cost; 0 = off)")
           .section("landmarks", &C::landmarks, "")
           .section("candidates", &C::candidates, "")
           .section("verification", &C::verification, "")

@@ -235,6 +235,7 @@ LoopDetection LoopDetector::detect(std::size_t query, const PoseList& estimate) 
   det.gates.insert(det.gates.end(), delayed.gates.begin(), delayed.gates.end());
   det.accepted.insert(det.accepted.end(), delayed.accepted.begin(), delayed.accepted.end());
   det.near_duplicates += delayed.near_duplicates;
+  det.light_verifications += delayed.light_verifications;
   return det;
 }
 
@@ -275,15 +276,76 @@ double LoopDetector::crossCheckDistance(const LoopCandidate& cand, const PoseLis
   return d.dot(sigma.llt().solve(d));
 }
 
-void LoopDetector::crossCheck(const LoopCandidate& cand, const PoseList& estimate, VerificationResult& v) const {
+bool LoopDetector::crossCheck(const LoopCandidate& cand, const PoseList& estimate, VerificationResult& v) const {
   const VerificationConfig& c = config_.verification;
-  if (!(c.cross_check_chi2 > 0.0) || !(c.misfit_scale > 0.0)) return;
+  if (!(c.cross_check_chi2 > 0.0) || !(c.misfit_scale > 0.0)) return false;
   // Along a label-only direction both answers sit where the same labelled patches put them, so
   // their agreement is no evidence there (corridor 4: 46→78, 90 cm off, agreed to d² = 0.15).
-  if (!v.registration.label_only_directions.empty()) return;
+  if (!v.registration.label_only_directions.empty()) return false;
   const double d2 = crossCheckDistance(cand, estimate, v.closure.T_from_to, v.registration.covariance);
-  if (!(d2 <= c.cross_check_chi2)) return;
+  if (!(d2 <= c.cross_check_chi2)) return false;
   setLoopCovariance(v.closure, v.closure.covariance - misfitTerm(v.registration, c));
+  return true;
+}
+
+const LoopDetector::CheckedLoop* LoopDetector::checkedNeighbour(const LoopCandidate& cand) const {
+  const std::size_t r = config_.light_duplicate_keyframes;
+  if (r == 0) return nullptr;
+  const auto gap = [](std::size_t a, std::size_t b) { return a > b ? a - b : b - a; };
+  const CheckedLoop* best = nullptr;
+  std::size_t best_gap = r + 1;
+  for (const CheckedLoop& l : checked_) {
+    const std::size_t g = std::max(gap(l.from, cand.match), gap(l.to, cand.query));
+    if (g < best_gap) best = &l, best_gap = g;
+  }
+  return best;
+}
+
+Matrix6d LoopDetector::shortPathCovariance(std::size_t a, std::size_t b, const PoseList& estimate) const {
+  if (a == b) return Matrix6d::Zero();
+  if (relative_covariance_) return relative_covariance_(a, b);
+  return driftCovariance(pathLength(estimate, a, b), config_.consistency);
+}
+
+// The candidate's loop against the reference's: from ← ref.from (estimate), the reference loop,
+// ref.to ← to (estimate); all three covariances carried into `from`'s frame (left perturbations).
+double LoopDetector::duplicateDistance2(const LoopClosure& loop, const LoopClosure& ref, const PoseList& estimate) const {
+  const Eigen::Isometry3d A = estimate[loop.from].inverse() * estimate[ref.from];
+  const Eigen::Isometry3d C = estimate[ref.to].inverse() * estimate[loop.to];
+  const Eigen::Isometry3d AB = A * ref.T_from_to;
+  const Vector6d e = se3Log(loop.T_from_to * (AB * C).inverse());
+  const Matrix6d AdA = adjoint(A), AdAB = adjoint(AB);
+  const Matrix6d sigma = loop.covariance + shortPathCovariance(loop.from, ref.from, estimate) +
+                         AdA * ref.covariance * AdA.transpose() +
+                         AdAB * shortPathCovariance(ref.to, loop.to, estimate) * AdAB.transpose();
+  return e.dot((0.5 * (sigma + sigma.transpose())).llt().solve(e));
+}
+
+// Full checks: the verification ICP, the basin probes, the reverse cross-check. Light
+// (light_duplicate_keyframes): when a fully checked loop ties the same two places and this answer
+// agrees with it, the reverse cross-check is not run again and its verdict is taken over. The
+// probes always run: along a revisit some near-duplicates of a sound loop are ambiguous
+// themselves (naraha 2: 12→152 next to 12→151; tanks: every probe rejection made by the ±y pair).
+VerificationResult LoopDetector::verifyOne(const LoopCandidate& cand, const PoseList& estimate, bool& light,
+                                           CheckedLoop& checked) {
+  const auto target = submapTarget(cand.match, cand.query, estimate);
+  VerificationResult v = verifyCandidate(cand, *cloud(cand.query), *target, classes_, config_.verification);
+  light = false;
+  if (!v.accepted) return v;
+  if (const CheckedLoop* ref = checkedNeighbour(cand)) {
+    const auto same = std::find_if(loops_.begin(), loops_.end(), [&](const LoopClosure& l) { return l.from == ref->from && l.to == ref->to; });
+    const double threshold = chiSquareQuantile(6, config_.consistency.gate_probability);
+    if (same != loops_.end() && duplicateDistance2(v.closure, *same, estimate) <= threshold) {
+      if (ref->cross_check_agreed && v.registration.label_only_directions.empty())
+        setLoopCovariance(v.closure, v.closure.covariance - misfitTerm(v.registration, config_.verification));
+      light = true;
+      return v;
+    }
+  }
+  checked.from = cand.match;
+  checked.to = cand.query;
+  checked.cross_check_agreed = crossCheck(cand, estimate, v);
+  return v;
 }
 
 void LoopDetector::verifyInto(const std::vector<LoopCandidate>& candidates, const PoseList& estimate, LoopDetection& det) {
@@ -297,9 +359,9 @@ void LoopDetector::verifyInto(const std::vector<LoopCandidate>& candidates, cons
       continue;
     }
     if (relative_covariance_ && gate && !candidatePlausible(cand, estimate, det)) continue;
-    const auto target = submapTarget(cand.match, cand.query, estimate);
-    VerificationResult v = verifyCandidate(cand, *cloud(cand.query), *target, classes_, config_.verification);
-    if (v.accepted) crossCheck(cand, estimate, v);
+    bool light = false;
+    CheckedLoop checked;
+    VerificationResult v = verifyOne(cand, estimate, light, checked);
     det.verifications.push_back(v);
     if (!v.accepted) continue;
     if (gate) {
@@ -318,6 +380,8 @@ void LoopDetector::verifyInto(const std::vector<LoopCandidate>& candidates, cons
     }
     det.accepted.push_back(v.closure);
     loops_.push_back(v.closure);
+    if (light) ++det.light_verifications;
+    else checked_.push_back(checked);
   }
 }
 
@@ -362,6 +426,7 @@ bool LoopDetector::nearDuplicate(const LoopCandidate& cand) const {
 
 void LoopDetector::dropLoop(std::size_t from, std::size_t to) {
   std::erase_if(loops_, [&](const LoopClosure& l) { return l.from == from && l.to == to; });
+  std::erase_if(checked_, [&](const CheckedLoop& l) { return l.from == from && l.to == to; });
 }
 
 bool isTrueLoop(const LoopClosure& loop, const PoseList& truth, double max_t, double max_r) {

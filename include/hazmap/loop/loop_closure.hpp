@@ -129,6 +129,16 @@ struct LoopClosureConfig {
   /// loop's σ floor): naraha 1 loop stage ≈ −20 % CPU, every accuracy rule kept on naraha,
   /// corridor and tanks (docs/pose_graph.md, "Online cost, second pass").
   double submap_reuse_tolerance = 0.005;
+  /// Online cost (issue 14): light verification of near-duplicate candidates. A candidate whose
+  /// match and query both lie within this many keyframes of a loop accepted with the full checks
+  /// is verified by the same ICP, acceptance rules and basin probes, but when its answer agrees
+  /// with that loop composed with the estimate's short paths at both ends (χ²₆ at
+  /// consistency.gate_probability, against both loops' covariances and the graph's covariance of
+  /// the two short paths) the reverse cross-check is not run again: the loop takes over that
+  /// loop's verdict (the misfit term dropped or kept). A candidate that disagrees is cross-checked
+  /// itself. Light loops never serve as the reference. The probes are not skipped: some
+  /// near-duplicates of a sound loop are ambiguous themselves (docs/pose_graph.md, third pass). 0 = off.
+  std::size_t light_duplicate_keyframes = 0;
   LandmarkConfig landmarks;
   CandidateSearchConfig candidates;
   VerificationConfig verification;
@@ -161,6 +171,9 @@ struct LoopDetection {
   /// Candidates not verified as near-duplicates of an accepted loop
   /// (LoopClosureConfig::near_duplicate_keyframes).
   std::size_t near_duplicates = 0;
+  /// Loops accepted without their own reverse cross-check, as agreeing near-duplicates of a fully
+  /// checked loop (LoopClosureConfig::light_duplicate_keyframes).
+  std::size_t light_verifications = 0;
 };
 
 /// Keeps the keyframes (clouds in their sensor frames and their landmarks) and closes loops.
@@ -251,7 +264,24 @@ class LoopDetector {
   bool wantsDistanceCandidates(std::size_t query, const PoseList& estimate) const;
   /// Verifies and gates the candidates into `det` (at most max_loops_per_keyframe accepted).
   void verifyInto(const std::vector<LoopCandidate>& candidates, const PoseList& estimate, LoopDetection& det);
-  void crossCheck(const LoopCandidate& cand, const PoseList& estimate, VerificationResult& v) const;
+  /// Returns whether the reverse cross-check agreed (the misfit term was dropped).
+  bool crossCheck(const LoopCandidate& cand, const PoseList& estimate, VerificationResult& v) const;
+  /// A loop accepted with the full checks: what its reverse cross-check concluded.
+  struct CheckedLoop {
+    std::size_t from = 0, to = 0;
+    bool cross_check_agreed = false;
+  };
+  /// One candidate's verification: light (light_duplicate_keyframes) or full. `checked` is set
+  /// when the full checks ran (the loop may serve as a light verification's reference).
+  VerificationResult verifyOne(const LoopCandidate& cand, const PoseList& estimate, bool& light, CheckedLoop& checked);
+  /// The fully checked accepted loop nearest cand at both ends within light_duplicate_keyframes.
+  const CheckedLoop* checkedNeighbour(const LoopCandidate& cand) const;
+  /// χ² (6 dof) of `loop` against `ref` composed with the estimate's short paths at both ends.
+  double duplicateDistance2(const LoopClosure& loop, const LoopClosure& ref, const PoseList& estimate) const;
+  /// Covariance of estimate[a]⁻¹ · estimate[b] (left perturbation in a): the graph's when set,
+  /// else the drift model's.
+  Matrix6d shortPathCovariance(std::size_t a, std::size_t b, const PoseList& estimate) const;
+  std::vector<CheckedLoop> checked_;
   bool neighbourhood_ = false;
   std::vector<std::vector<PropertyLandmark>> whole_landmarks_, partial_landmarks_;  ///< landmarks_ split by class kind
   std::vector<std::shared_ptr<const LabeledCloud>> clouds_;  ///< null = evicted
