@@ -23,9 +23,11 @@
 //   BM_Naraha_PropertyIcpPgo_NearDuplicates loop_closure.near_duplicate_keyframes = 2 (opt-in):
 //                                           candidates an accepted loop already covers are not
 //                                           verified
-//   BM_Naraha_PropertyIcpPgo_LightDuplicates loop_closure.light_duplicate_keyframes = 2: loops
-//                                           next to a fully checked loop that agree with it take
-//                                           over its reverse cross-check's verdict
+//   BM_Naraha_PropertyIcpPgo_FullCrossChecks loop_closure.light_duplicate_keyframes = 0: every
+//                                           accepted loop runs its own reverse cross-check (the
+//                                           behaviour before 2026-12-03; default 2: near-duplicates
+//                                           of a fully checked loop that agree with it take over
+//                                           its verdict)
 //   BM_Naraha_PropertyIcpPgo_ExactSubmaps   loop_closure.submap_reuse_tolerance = 0: verification
 //                                           targets rebuilt after every optimisation (the
 //                                           behaviour before 2026-12-02; default 5 mm)
@@ -142,10 +144,10 @@ void BM_Naraha_PropertyIcpPgo_ExactSubmaps(benchmark::State& state) {
   c.loop_closure.submap_reuse_tolerance = 0.0;
   runConfig(state, c, false);
 }
-// Light verification of near-duplicates (docs/pose_graph.md "Online cost, third pass").
-void BM_Naraha_PropertyIcpPgo_LightDuplicates(benchmark::State& state) {
+// Every accepted loop cross-checked itself (before 2026-12-03; docs/pose_graph.md "Online cost, third pass").
+void BM_Naraha_PropertyIcpPgo_FullCrossChecks(benchmark::State& state) {
   SlamConfig c = SlamConfig::forMethod(SlamMethod::PropertyIcpPgo);
-  c.loop_closure.light_duplicate_keyframes = 2;
+  c.loop_closure.light_duplicate_keyframes = 0;
   runConfig(state, c, false);
 }
 BENCHMARK(BM_Naraha_PropertyIcp)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
@@ -156,7 +158,7 @@ BENCHMARK(BM_Naraha_PropertyIcpPgo_CheapVerify)->Unit(benchmark::kSecond)->Itera
 BENCHMARK(BM_Naraha_PropertyIcpPgo_SingleStageProbes)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
 BENCHMARK(BM_Naraha_PropertyIcpPgo_NearDuplicates)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
 BENCHMARK(BM_Naraha_PropertyIcpPgo_ExactSubmaps)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
-BENCHMARK(BM_Naraha_PropertyIcpPgo_LightDuplicates)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
+BENCHMARK(BM_Naraha_PropertyIcpPgo_FullCrossChecks)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
 
 }  // namespace
 
