@@ -325,7 +325,7 @@ double LoopDetector::duplicateDistance2(const LoopClosure& loop, const LoopClosu
 // (light_duplicate_keyframes): when a fully checked loop ties the same two places and this answer
 // agrees with it, the reverse cross-check is not run again and its verdict is taken over. The
 // probes always run: along a revisit some near-duplicates of a sound loop are ambiguous
-// themselves (naraha 2: 12→152 next to 12→151; tanks: every probe rejection made by the ±y pair).
+// themselves (naraha 2: 12→152 next to 12→151; tanks: each rejection only the ±y pair made).
 VerificationResult LoopDetector::verifyOne(const LoopCandidate& cand, const PoseList& estimate, bool& light,
                                            CheckedLoop& checked) {
   const auto target = submapTarget(cand.match, cand.query, estimate);
