@@ -105,8 +105,9 @@ const ConfigFields<OdometryConfig>& configFields(ConfigTag<OdometryConfig>) {
                 "the guess along them there, not in ICP's space about the world origin (a turn far from the "
                 "origin reads as travel there)")
           .number("slip_guess_translation", &C::slip_guess_translation, nonNegative(),
-                  "m; along degenerate directions keep constant velocity's increment instead of the encoders' when "
-                  "they report more travel than it by more than this and agree in yaw (a track slip; 0 = off)")
+                  "m; start ICP from (and keep along degenerate directions) constant velocity's increment instead of "
+                  "the encoders' when they report more travel than it by more than this and agree in yaw (a track "
+                  "slip; 0 = off)")
           .number("slip_guess_yaw", &C::slip_guess_yaw, positive(),
                   "rad; the encoders and constant velocity agree in yaw within this for slip_guess_translation")
           .number("fallback_sigma_translation", &C::fallback_sigma_translation, positive(),
