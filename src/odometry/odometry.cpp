@@ -456,6 +456,7 @@ void Odometry::track(OdometryFrame& f, const LabeledCloud& source, std::optional
   impl_->velocity = level_velocity ? levelled(f.increment) : f.increment;
   impl_->has_velocity = true;
   impl_->velocity_verified = f.status != FrameStatus::Fallback;
+  impl_->slip_guess_used = slip_guess;
   impl_->fallback_streak = f.status == FrameStatus::Fallback ? impl_->fallback_streak + 1 : 0;
   if (f.status == FrameStatus::Tracked || f.status == FrameStatus::Degenerate)
     impl_->typical_rmse = impl_->typical_rmse > 0.0 ? 0.9 * impl_->typical_rmse + 0.1 * f.registration.inlier_rmse
@@ -477,9 +478,12 @@ std::vector<Vector6d> Odometry::degenerateBasis(const RegistrationResult& r) con
 // taken for a slip: ICP starts from constant velocity's increment (f.guess becomes it), which is
 // also what a degenerate frame keeps along its degenerate directions. ICP from the encoders' guess
 // stays in its basin even along directions it constrains (tanks 7 frame 31: 41 cm off, tracked).
+// Never two frames in a row: constant velocity after a slip frame is that frame's own short
+// increment, and taken again it held tanks 3 (property ICP) 30 cm short for four frames.
 Eigen::Isometry3d Odometry::keptGuess(OdometryFrame& f, const Eigen::Isometry3d& reg_guess, const Eigen::Isometry3d& W,
                                       const Eigen::Isometry3d& prev_pose) const {
-  if (!(config_.slip_guess_translation > 0.0) || !f.wheel_guess || !impl_->has_velocity || !impl_->velocity_verified)
+  if (!(config_.slip_guess_translation > 0.0) || !f.wheel_guess || !impl_->has_velocity || !impl_->velocity_verified ||
+      impl_->slip_guess_used)
     return reg_guess;
   const Eigen::Isometry3d& cv = impl_->velocity;
   const double extra = f.guess.translation().norm() - cv.translation().norm();
