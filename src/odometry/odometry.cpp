@@ -262,6 +262,17 @@ Estimate keepGuessAlongInSensorFrame(const std::vector<Vector6d>& basis, const R
   return {pose, to_world * C * to_world.transpose()};
 }
 
+// Whether keptGuess started the frame from constant velocity for a slip (f.guess is not the
+// encoders' increment); if so the reason says so.
+bool noteSlipGuess(OdometryFrame& f, const std::optional<Eigen::Isometry3d>& wheel_increment) {
+  if (!wheel_increment || f.guess.isApprox(*wheel_increment)) return false;
+  char buf[160];
+  std::snprintf(buf, sizeof buf, "the encoders reported %.2f m more than constant velocity (a slip): ICP started from "
+                "constant velocity", wheel_increment->translation().norm() - f.guess.translation().norm());
+  f.reason += (f.reason.empty() ? "" : "; ") + std::string(buf);
+  return true;
+}
+
 // With relocalise_suspect: along a weakly constrained horizontal axis ICP cannot know the motion
 // (a corridor: "no motion" fits as well as the true step), so such a frame is flagged, ICP's
 // answer kept, with the fallback covariance along the axis.
@@ -386,7 +397,6 @@ void Odometry::track(OdometryFrame& f, const LabeledCloud& source, std::optional
   const bool to_map = config_.mode == OdometryMode::FrameToMap;
   const Eigen::Isometry3d W = to_map ? Eigen::Isometry3d::Identity() : impl_->previous_pose;
   const Eigen::Isometry3d reg_guess = keptGuess(f, W.inverse() * prev_pose * f.guess, W, prev_pose);
-  const bool slip_guess = wheel_increment && !f.guess.isApprox(*wheel_increment);
   const RegistrationTarget* target = to_map ? &*map_target : impl_->previous.get();
   RegistrationResult r;
   if (target) {
@@ -436,12 +446,6 @@ void Odometry::track(OdometryFrame& f, const LabeledCloud& source, std::optional
   if (f.status == FrameStatus::Tracked || f.status == FrameStatus::Relocalised)
     labelledOrFlagged(f, r, estimate, config_, impl_->label_note, impl_->label_precise, impl_->label_doubt);
   flagAfterFlagged(f, frames_.back(), estimate.pose, reg_guess, W, config_);
-  if (slip_guess) {
-    char buf[160];
-    std::snprintf(buf, sizeof buf, "the encoders reported %.2f m more than constant velocity (a slip): ICP started from "
-                  "constant velocity", wheel_increment->translation().norm() - f.guess.translation().norm());
-    f.reason += (f.reason.empty() ? "" : "; ") + std::string(buf);
-  }
   f.increment = normalized(prev_pose.inverse() * W * estimate.pose);
   // W-frame perturbation → previous-frame perturbation of the increment
   const Matrix6d Ad = adjoint(prev_pose.inverse() * W);
@@ -456,7 +460,7 @@ void Odometry::track(OdometryFrame& f, const LabeledCloud& source, std::optional
   impl_->velocity = level_velocity ? levelled(f.increment) : f.increment;
   impl_->has_velocity = true;
   impl_->velocity_verified = f.status != FrameStatus::Fallback;
-  impl_->slip_guess_used = slip_guess;
+  impl_->slip_guess_used = noteSlipGuess(f, wheel_increment);
   impl_->fallback_streak = f.status == FrameStatus::Fallback ? impl_->fallback_streak + 1 : 0;
   if (f.status == FrameStatus::Tracked || f.status == FrameStatus::Degenerate)
     impl_->typical_rmse = impl_->typical_rmse > 0.0 ? 0.9 * impl_->typical_rmse + 0.1 * f.registration.inlier_rmse

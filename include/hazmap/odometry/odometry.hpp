@@ -318,8 +318,8 @@ class Odometry {
   void remember(OdometryFrame& f, const LabeledCloud& frame);
   /// The directions along which a tracked frame keeps its guess (see degenerate_in_sensor_frame).
   std::vector<Vector6d> degenerateBasis(const RegistrationResult& r) const;
-  /// The guess kept along degenerate directions (W space): the frame's, or constant velocity's
-  /// when the encoders report a slip (slip_guess_translation; noted in f.reason).
+  /// The guess ICP starts from and a degenerate frame keeps (W space): the frame's, or constant
+  /// velocity's when the encoders report a slip (slip_guess_translation; f.guess becomes it).
   Eigen::Isometry3d keptGuess(OdometryFrame& f, const Eigen::Isometry3d& reg_guess, const Eigen::Isometry3d& W,
                               const Eigen::Isometry3d& prev_pose) const;
   /// Steps 3–4 of track(): recovery when a trigger fires; returns the failure left (empty = use
