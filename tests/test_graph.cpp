@@ -746,6 +746,28 @@ TEST(LoopBias, CorrelatedLoopsPullOnceThroughABiasNode) {
   EXPECT_NEAR(biased.graph.biases[0].value(1), SharedErrorLoops::kShared - biased.endY(), 5e-4);
 }
 
+TEST(LoopBias, TailComponentOfABiasedLoopTakesAWrongOne) {
+  // A sixth loop of the group 10 cm off along y, as a max-mixture with a 5 cm tail component
+  // (slam.loop_tail_weight): it selects the tail and leaves the solution where the five put it.
+  SharedErrorLoops g(true);
+  const double before = g.endY();
+  Eigen::Isometry3d wrong = Eigen::Isometry3d::Identity();
+  wrong.translation() << 10.0, 0.1, 0.0;
+  const int e = g.graph.addEdge(0, 10, wrong, SharedErrorLoops::information(SharedErrorLoops::kSigmaOwn), EdgeKind::Loop);
+  g.graph.attachBias(e, 0, Matrix6d::Identity());
+  g.graph.edges[e].alt_information = SharedErrorLoops::information(0.05);
+  g.graph.edges[e].alt_weight = 0.1;
+  PoseGraphConfig config;
+  config.loop_loss = LoopLoss::None;
+  optimizePoseGraph(g.graph, config);
+  EXPECT_EQ(g.graph.edges[e].selected, 1);
+  EXPECT_NEAR(g.endY(), before, 2e-3);
+  const Vector6d own = geodesicError(g.graph, g.graph.edges[e]) - biasOffset(g.graph, g.graph.edges[e]);
+  const MixtureOffsets off = mixtureOffsets(g.graph.edges[e]);
+  const double tail = own.dot(informationLeftToRight(wrong, g.graph.edges[e].alt_information) * own) + off.alternative;
+  EXPECT_NEAR(geodesicEdgeCost(g.graph, g.graph.edges[e]), tail, 1e-9);
+}
+
 TEST(LoopBias, MarginalInformationCostsAndG2oOfABiasedEdge) {
   const SharedErrorLoops biased(true);
   const PoseGraphEdge& e = biased.graph.edges.back();

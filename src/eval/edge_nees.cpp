@@ -33,6 +33,7 @@ EdgeNees neesOfGraphEdge(const PoseGraph& graph, const PoseGraphEdge& edge, cons
   if (edge.bias < 0 || graph.dimension != 3) return neesOf(edge, T_true_ij, graph.dimension);
   PoseGraphEdge marginal = edge;
   marginal.information = marginalInformation(graph, edge);
+  if (isMixtureEdge(edge, graph.dimension)) marginal.alt_information = marginalInformation(graph, edge, edge.alt_information);
   EdgeNees n = neesOf(marginal, T_true_ij, graph.dimension);
   n.biased = true;
   n.nees_own = n.error.dot(edge.information * n.error);
@@ -135,6 +136,8 @@ EdgeNeesReport computeEdgeNees(const PoseGraph& graph, std::span<const Eigen::Is
   report.loop = summariseNees(loop, dof);
   for (const EdgeNees* e : loop) report.biased_edges += e->biased ? 1 : 0;
   if (report.biased_edges > 0) report.loop_own = mixtureSummary(loop, dof, &EdgeNees::nees_own);
+  for (const EdgeNees* e : loop) report.loop_mixture_edges += e->mixture ? 1 : 0;
+  if (report.loop_mixture_edges > 0) report.loop_moment_matched = mixtureSummary(loop, dof, &EdgeNees::nees_moment_matched);
   report.map_anchor = summariseNees(anchor, dof);
   report.all = summariseNees(all, dof);
   return report;
@@ -211,6 +214,10 @@ std::string toJson(const EdgeNeesReport& report, bool per_edge) {
   if (report.biased_edges > 0) {
     j["loop_biased_edges"] = report.biased_edges;
     j["loop_own"] = statsJson(report.loop_own);
+  }
+  if (report.loop_mixture_edges > 0) {
+    j["loop_mixture_edges"] = report.loop_mixture_edges;
+    j["loop_moment_matched"] = statsJson(report.loop_moment_matched);
   }
   if (per_edge) {
     nlohmann::json edges = nlohmann::json::array();

@@ -73,7 +73,7 @@ std::pair<double, double> mixtureCosts(const PoseGraphEdge& edge, const Vector6d
 
 int mixtureSelection(const PoseGraph& graph, const PoseGraphEdge& edge) {
   if (!isMixtureEdge(edge, graph.dimension)) return 0;
-  const auto [tight, wide] = mixtureCosts(edge, geodesicError(graph, edge));
+  const auto [tight, wide] = mixtureCosts(edge, geodesicError(graph, edge) - biasOffset(graph, edge));
   return wide < tight ? 1 : 0;
 }
 

@@ -147,13 +147,19 @@ ceres::CostFunction* edgeCost(const PoseGraphEdge& e, int dimension, const PoseG
 /// graphs and edges that are not max-mixtures; elsewhere the bias is ignored (the edge's own part).
 bool usesBias(const PoseGraph& graph, const PoseGraphConfig& config, const PoseGraphEdge& e) {
   return graph.dimension == 3 && config.cost == PoseGraphCost::Geodesic && e.bias >= 0 &&
-         e.bias < static_cast<int>(graph.biases.size()) && !isMixtureEdge(e, graph.dimension);
+         e.bias < static_cast<int>(graph.biases.size());
 }
 
-ceres::CostFunction* biasedEdgeCost(const PoseGraphEdge& e) {
-  const Matrix6d info = informationLeftToRight(e.T_from_to, e.information);
-  return new BiasedGeodesicCost3(e.T_from_to.linear(), e.T_from_to.translation(), sqrtInformation(info),
-                                 adjoint(e.T_from_to.inverse()) * e.bias_map);
+/// An edge through its bias node: one Gaussian, or a max-mixture (both components share the bias).
+ceres::CostFunction* biasedEdgeCost(const PoseGraphEdge& e, MixtureMode mode) {
+  const bool mixture = isMixtureEdge(e, 3);
+  const Matrix6d B = adjoint(e.T_from_to.inverse()) * e.bias_map;
+  const Matrix6d tight = sqrtInformation(informationLeftToRight(e.T_from_to, e.information));
+  if (!mixture) return new BiasedGeodesicCost3(e.T_from_to.linear(), e.T_from_to.translation(), tight, B);
+  const Matrix6d wide = sqrtInformation(informationLeftToRight(e.T_from_to, e.alt_information));
+  if (mode == MixtureMode::WideOnly) return new BiasedGeodesicCost3(e.T_from_to.linear(), e.T_from_to.translation(), wide, B);
+  const MixtureOffsets g = mixtureOffsets(e);
+  return new BiasedMaxMixtureCost3(e.T_from_to.linear(), e.T_from_to.translation(), tight, wide, B, g.tight, g.alternative);
 }
 
 /// One 6-double block per bias node, started at its current value, with its prior.
@@ -216,7 +222,7 @@ Solved solve(PoseGraph& graph, const PoseGraphConfig& config, MixtureMode mode =
   std::vector<Vector6d> biases = addBiases(graph, config, problem);
   for (const auto& e : graph.edges) {
     if (usesBias(graph, config, e))
-      problem.AddResidualBlock(biasedEdgeCost(e), makeLoss(config, e.kind), blockOf(e.from), blockOf(e.to),
+      problem.AddResidualBlock(biasedEdgeCost(e, mode), makeLoss(config, e.kind), blockOf(e.from), blockOf(e.to),
                                biases[static_cast<std::size_t>(e.bias)].data());
     else
       problem.AddResidualBlock(edgeCost(e, graph.dimension, config, mode), makeLoss(config, e.kind), blockOf(e.from),

@@ -80,9 +80,13 @@ void PoseGraph::attachBias(int edge, int bias, const Matrix6d& bias_map) {
 }
 
 Matrix6d marginalInformation(const PoseGraph& graph, const PoseGraphEdge& edge) {
-  if (edge.bias < 0 || edge.bias >= static_cast<int>(graph.biases.size())) return edge.information;
+  return marginalInformation(graph, edge, edge.information);
+}
+
+Matrix6d marginalInformation(const PoseGraph& graph, const PoseGraphEdge& edge, const Matrix6d& information) {
+  if (edge.bias < 0 || edge.bias >= static_cast<int>(graph.biases.size())) return information;
   const Matrix6d shared = graph.biases[static_cast<std::size_t>(edge.bias)].information.inverse();
-  const Matrix6d cov = edge.information.inverse() + edge.bias_map * shared * edge.bias_map.transpose();
+  const Matrix6d cov = information.inverse() + edge.bias_map * shared * edge.bias_map.transpose();
   const Matrix6d info = cov.inverse();
   return 0.5 * (info + info.transpose());
 }

@@ -158,6 +158,38 @@ class BiasedGeodesicCost3 final : public ceres::SizedCostFunction<6, 12, 12, 6> 
   Matrix6d LB_;
 };
 
+/// A max-mixture edge through a bias node: MaxMixtureCost3 on the error less the bias' part
+/// (BiasedGeodesicCost3 per component).
+class BiasedMaxMixtureCost3 final : public ceres::SizedCostFunction<7, 12, 12, 6> {
+ public:
+  BiasedMaxMixtureCost3(const Mat3& R_meas, const Vec3& t_meas, const Matrix6d& sqrt_tight, const Matrix6d& sqrt_wide,
+                        const Matrix6d& B, double offset_tight, double offset_wide)
+      : tight_(R_meas, t_meas, sqrt_tight, B), wide_(R_meas, t_meas, sqrt_wide, B), offset_{offset_tight, offset_wide} {}
+
+  bool Evaluate(double const* const* p, double* residuals, double** jacobians) const override {
+    Vector6d r_tight, r_wide;
+    tight_.Evaluate(p, r_tight.data(), nullptr);
+    wide_.Evaluate(p, r_wide.data(), nullptr);
+    const int k = r_wide.squaredNorm() + offset_[1] < r_tight.squaredNorm() + offset_[0] ? 1 : 0;
+    Eigen::Map<Vector6d>{residuals} = k == 1 ? r_wide : r_tight;
+    residuals[6] = std::sqrt(offset_[k]);
+    if (!jacobians) return true;
+    Eigen::Matrix<double, 6, 12, Eigen::RowMajor> Ji, Jj;
+    Eigen::Matrix<double, 6, 6, Eigen::RowMajor> Jb;
+    double* parts[3] = {Ji.data(), Jj.data(), Jb.data()};
+    Vector6d unused;
+    (k == 1 ? wide_ : tight_).Evaluate(p, unused.data(), parts);
+    if (jacobians[0]) Eigen::Map<Eigen::Matrix<double, 7, 12, Eigen::RowMajor>>{jacobians[0]} << Ji, Eigen::Matrix<double, 1, 12>::Zero();
+    if (jacobians[1]) Eigen::Map<Eigen::Matrix<double, 7, 12, Eigen::RowMajor>>{jacobians[1]} << Jj, Eigen::Matrix<double, 1, 12>::Zero();
+    if (jacobians[2]) Eigen::Map<Eigen::Matrix<double, 7, 6, Eigen::RowMajor>>{jacobians[2]} << Jb, Eigen::Matrix<double, 1, 6>::Zero();
+    return true;
+  }
+
+ private:
+  BiasedGeodesicCost3 tight_, wide_;
+  double offset_[2];
+};
+
 /// A bias node's prior N(0, Ω_b⁻¹): r = U b with Ω_b = UᵀU.
 class BiasPriorCost final : public ceres::SizedCostFunction<6, 6> {
  public:

@@ -698,21 +698,32 @@ class SlamRun {
     std::erase_if(graph.edges, [](const PoseGraphEdge& e) { return e.kind == EdgeKind::Loop; });
     graph.biases.clear();
     const int first = graph.numEdges();
-    for (const auto& l : consistent)
-      graph.addEdge(static_cast<int>(keyframe_frames_[l.from]), static_cast<int>(keyframe_frames_[l.to]),
-                    l.T_from_to, loopEdgeInformation(l), EdgeKind::Loop);
+    for (const auto& l : consistent) {
+      if (!config_.loop_bias) {
+        graph.addEdge(static_cast<int>(keyframe_frames_[l.from]), static_cast<int>(keyframe_frames_[l.to]), l.T_from_to,
+                      l.information, EdgeKind::Loop);
+        continue;
+      }
+      const Matrix6d own = loopOwnCovariance(l);
+      PoseGraphEdge& e = graph.edges[static_cast<std::size_t>(graph.addEdge(
+          static_cast<int>(keyframe_frames_[l.from]), static_cast<int>(keyframe_frames_[l.to]), l.T_from_to, inverseOf(own),
+          EdgeKind::Loop))];
+      if (!(config_.loop_tail_weight > 0.0)) continue;
+      const double t2 = config_.loop_tail_sigma_translation * config_.loop_tail_sigma_translation;
+      const double r2 = config_.loop_tail_sigma_rotation * config_.loop_tail_sigma_rotation;
+      e.alt_information = inverseOf(own + Matrix6d((Vector6d() << t2, t2, t2, r2, r2, r2).finished().asDiagonal()));
+      e.alt_weight = config_.loop_tail_weight;
+    }
     if (config_.loop_bias) attachLoopBiases(consistent, first);
   }
 
-  /// A loop edge's information: the verification's, or with loop_bias its own part — the
-  /// verification covariance with loop_own_sigma_* in place of the verification floor.
-  Matrix6d loopEdgeInformation(const LoopClosure& l) const {
-    if (!config_.loop_bias) return l.information;
+  /// SlamConfig::loop_bias: a loop edge's own part — the verification covariance with
+  /// loop_own_sigma_* in place of the verification floor.
+  Matrix6d loopOwnCovariance(const LoopClosure& l) const {
     const auto sq = [](double s) { return s * s; };
     const double t2 = sq(config_.loop_own_sigma_translation), r2 = sq(config_.loop_own_sigma_rotation);
-    const Matrix6d own = positivePart(l.covariance - Matrix6d(floorVariances(config_.loop_closure.verification).asDiagonal())) +
-                         Matrix6d((Vector6d() << t2, t2, t2, r2, r2, r2).finished().asDiagonal());
-    return inverseOf(own);
+    return positivePart(l.covariance - Matrix6d(floorVariances(config_.loop_closure.verification).asDiagonal())) +
+           Matrix6d((Vector6d() << t2, t2, t2, r2, r2, r2).finished().asDiagonal());
   }
 
   /// SlamConfig::loop_bias: groups of loops within loop_bias_window keyframes of the group's first

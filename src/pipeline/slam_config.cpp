@@ -106,6 +106,11 @@ const ConfigFields<SlamConfig>& slamSectionFields() {
           .number("loop_shared_sigma_translation", &C::loop_shared_sigma_translation, positive(),
                   "m; loop_bias: prior σ of a group's shared error")
           .number("loop_shared_sigma_rotation", &C::loop_shared_sigma_rotation, positive(), "rad; likewise")
+          .number("loop_tail_weight", &C::loop_tail_weight, Range{0.0, 1.0, false, true},
+                  "loop_bias: prior weight of a loop's tail component (a max-mixture edge; 0 = one Gaussian)")
+          .number("loop_tail_sigma_translation", &C::loop_tail_sigma_translation, positive(),
+                  "m; loop_bias: σ the tail component adds to the loop's own covariance")
+          .number("loop_tail_sigma_rotation", &C::loop_tail_sigma_rotation, positive(), "rad; likewise")
           .flag("innovation_gate", &C::innovation_gate,
                 "Gate loops by the χ² test against the graph's own relative-pose covariance (else the drift model)")
           .flag("submaps_only_frame_to_map", &C::submaps_only_frame_to_map,

@@ -65,6 +65,10 @@ struct EdgeNeesReport {
   /// covariances; loop_own against their own parts alone (only when biased_edges > 0).
   NeesStats loop_own;
   std::size_t biased_edges = 0;
+  /// Loop edges that are max-mixtures (slam.loop_tail_weight): `loop` is against their tight
+  /// component, loop_moment_matched against (1 − w) Σ_tight + w Σ_tail (marginal with a bias).
+  NeesStats loop_moment_matched;
+  std::size_t loop_mixture_edges = 0;
 };
 
 /// NEES of every edge of `graph` against the true node poses `truth` (T_world_node for every

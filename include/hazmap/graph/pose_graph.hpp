@@ -124,7 +124,9 @@ Matrix6d informationRightToLeft(const Eigen::Isometry3d& T_from_to, const Matrix
 
 /// An edge's marginal information, its own part and its bias' prior together (left perturbation):
 /// (information⁻¹ + M Σ_b Mᵀ)⁻¹, M = bias_map. The edge's information when it has no bias.
+/// `information` is the edge's own (default) or another of its components (a mixture's alternative).
 Matrix6d marginalInformation(const PoseGraph& graph, const PoseGraphEdge& edge);
+Matrix6d marginalInformation(const PoseGraph& graph, const PoseGraphEdge& edge, const Matrix6d& information);
 
 /// Indices of the 2-D [x y rz] block inside a 6×6 translation-first matrix.
 inline constexpr int kPlanarIndex[3] = {0, 1, 5};
