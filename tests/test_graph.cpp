@@ -743,7 +743,8 @@ TEST(LoopBias, CorrelatedLoopsPullOnceThroughABiasNode) {
   EXPECT_NEAR(biased.endY(), SharedErrorLoops::exact(), 2e-4);  // 9.3 mm: the shared error once
   // Counted five times, the same loops pull the chain most of the way to their common error.
   EXPECT_GT(independent.endY(), 0.015);
-  EXPECT_NEAR(biased.graph.biases[0].value(1), SharedErrorLoops::kShared - biased.endY(), 5e-4);
+  // The bias holds the rest of the loops' error, as a left perturbation (true = exp(ξ)·measured).
+  EXPECT_NEAR(biased.graph.biases[0].value(1), biased.endY() - SharedErrorLoops::kShared, 5e-4);
 }
 
 TEST(LoopBias, TailComponentOfABiasedLoopTakesAWrongOne) {
