@@ -666,8 +666,8 @@ class SlamRun {
   }
 
   /// Loops whose residual in the solution exceeds the gate's χ² quantile. With loop_bias the test
-  /// is the verification's (the loop's whole residual against the covariance verification gave
-  /// it), so that the bias model changes the edges' weights, not which loops the stage keeps.
+  /// is the loop's whole residual (bias included) against its marginal covariance, the one it
+  /// claims (marginalInformation).
   std::vector<LoopClosure> loopsTheSolutionRejects(const std::vector<LoopClosure>& loops) const {
     const double threshold = chiSquareQuantile(6, config_.loop_closure.consistency.gate_probability);
     std::vector<LoopClosure> out;
@@ -686,7 +686,8 @@ class SlamRun {
       const LoopClosure* l = e.kind == EdgeKind::Loop ? closureOf(e) : nullptr;
       if (!l) continue;
       const Vector6d r = geodesicError(result_.graph, e);
-      if (!(r.dot(informationLeftToRight(e.T_from_to, l->information) * r) <= threshold)) out.push_back(*l);
+      const Matrix6d info = informationLeftToRight(e.T_from_to, marginalInformation(result_.graph, e));
+      if (!(r.dot(info * r) <= threshold)) out.push_back(*l);
     }
     return out;
   }
