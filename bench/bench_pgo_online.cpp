@@ -25,7 +25,7 @@
 //                                           verified
 //   BM_Naraha_PropertyIcpPgo_FullCrossChecks loop_closure.light_duplicate_keyframes = 0: every
 //                                           accepted loop runs its own reverse cross-check (the
-//                                           behaviour before 2026-12-03; default 2: near-duplicates
+//                                           behaviour before 2026-12-02; default 2: near-duplicates
 //                                           of a fully checked loop that agree with it take over
 //                                           its verdict)
 //   BM_Naraha_PropertyIcpPgo_ExactSubmaps   loop_closure.submap_reuse_tolerance = 0: verification
@@ -144,7 +144,7 @@ void BM_Naraha_PropertyIcpPgo_ExactSubmaps(benchmark::State& state) {
   c.loop_closure.submap_reuse_tolerance = 0.0;
   runConfig(state, c, false);
 }
-// Every accepted loop cross-checked itself (before 2026-12-03; docs/pose_graph.md "Online cost, third pass").
+// Every accepted loop cross-checked itself (before 2026-12-02; docs/pose_graph.md "Online cost, third pass").
 void BM_Naraha_PropertyIcpPgo_FullCrossChecks(benchmark::State& state) {
   SlamConfig c = SlamConfig::forMethod(SlamMethod::PropertyIcpPgo);
   c.loop_closure.light_duplicate_keyframes = 0;

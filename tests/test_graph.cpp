@@ -697,5 +697,100 @@ TEST(MaxMixtureEdges, CostIsTheSelectedComponentWithItsOffset) {
   EXPECT_NEAR(geodesicEdgeCost(chain.graph, e), wide, 1e-9);
 }
 
+
+// Loops that share an error (PoseGraph::biases, slam.loop_bias; docs/pose_graph.md 2026-12-02
+// `loopcov15`): a chain of ten 1 m steps (σ 3 mm in translation, rotations nearly exact) and five
+// loops from the first node to the last that all carry the same 2 cm error along y (a shared part,
+// σ_s = 1 cm) besides their own (σ_o = 3 mm). Exact answer (linear in y): the five loops together
+// know y₁₀ to σ_s² + σ_o²/5, so y₁₀ = 0.02 · σ_c² / (σ_c² + σ_s² + σ_o²/5) with σ_c² = 10 · (3 mm)².
+struct SharedErrorLoops {
+  PoseGraph graph;
+  static constexpr double kShared = 0.02, kSigmaOwn = 0.003, kSigmaShared = 0.01, kSigmaStep = 0.003;
+  static Matrix6d information(double sigma_t) {
+    Matrix6d cov = Matrix6d::Zero();
+    cov.diagonal() << sigma_t * sigma_t, sigma_t * sigma_t, sigma_t * sigma_t, 1e-12, 1e-12, 1e-12;
+    return cov.inverse();
+  }
+  /// with_bias: one bias node (prior σ_s) for the five loops, each with its own σ_o; without: each
+  /// loop an independent edge with the same marginal covariance σ_o² + σ_s² (what it claims alone).
+  explicit SharedErrorLoops(bool with_bias) {
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    for (int i = 0; i <= 10; ++i, T.translation().x() += 1.0) graph.addNode(T);
+    Eigen::Isometry3d step = Eigen::Isometry3d::Identity();
+    step.translation().x() = 1.0;
+    for (int i = 0; i < 10; ++i) graph.addEdge(i, i + 1, step, information(kSigmaStep));
+    Eigen::Isometry3d loop = Eigen::Isometry3d::Identity();
+    loop.translation() << 10.0, kShared, 0.0;
+    const double marginal = std::sqrt(kSigmaOwn * kSigmaOwn + kSigmaShared * kSigmaShared);
+    const int bias = with_bias ? graph.addBias(information(kSigmaShared)) : -1;
+    for (int k = 0; k < 5; ++k) {
+      const int e = graph.addEdge(0, 10, loop, information(with_bias ? kSigmaOwn : marginal), EdgeKind::Loop);
+      if (with_bias) graph.attachBias(e, bias, Matrix6d::Identity());
+    }
+    PoseGraphConfig config;
+    config.loop_loss = LoopLoss::None;  // the linear answer, no robust down-weighting
+    optimizePoseGraph(graph, config);
+  }
+  double endY() const { return graph.poses[10].translation().y(); }
+  static double exact() {
+    const double chain = 10.0 * kSigmaStep * kSigmaStep;
+    return kShared * chain / (chain + kSigmaShared * kSigmaShared + kSigmaOwn * kSigmaOwn / 5.0);
+  }
+};
+
+TEST(LoopBias, CorrelatedLoopsPullOnceThroughABiasNode) {
+  const SharedErrorLoops biased(true), independent(false);
+  EXPECT_NEAR(biased.endY(), SharedErrorLoops::exact(), 2e-4);  // 9.3 mm: the shared error once
+  // Counted five times, the same loops pull the chain most of the way to their common error.
+  EXPECT_GT(independent.endY(), 0.015);
+  // The bias holds the rest of the loops' error, as a left perturbation (true = exp(ξ)·measured).
+  EXPECT_NEAR(biased.graph.biases[0].value(1), biased.endY() - SharedErrorLoops::kShared, 5e-4);
+}
+
+TEST(LoopBias, TailComponentOfABiasedLoopTakesAWrongOne) {
+  // A sixth loop of the group 10 cm off along y, as a max-mixture with a 5 cm tail component
+  // (slam.loop_tail_weight): it selects the tail and leaves the solution where the five put it.
+  SharedErrorLoops g(true);
+  const double before = g.endY();
+  Eigen::Isometry3d wrong = Eigen::Isometry3d::Identity();
+  wrong.translation() << 10.0, 0.1, 0.0;
+  const int e = g.graph.addEdge(0, 10, wrong, SharedErrorLoops::information(SharedErrorLoops::kSigmaOwn), EdgeKind::Loop);
+  g.graph.attachBias(e, 0, Matrix6d::Identity());
+  g.graph.edges[e].alt_information = SharedErrorLoops::information(0.05);
+  g.graph.edges[e].alt_weight = 0.1;
+  PoseGraphConfig config;
+  config.loop_loss = LoopLoss::None;
+  optimizePoseGraph(g.graph, config);
+  EXPECT_EQ(g.graph.edges[e].selected, 1);
+  EXPECT_NEAR(g.endY(), before, 2e-3);
+  const Vector6d own = geodesicError(g.graph, g.graph.edges[e]) - biasOffset(g.graph, g.graph.edges[e]);
+  const MixtureOffsets off = mixtureOffsets(g.graph.edges[e]);
+  const double tail = own.dot(informationLeftToRight(wrong, g.graph.edges[e].alt_information) * own) + off.alternative;
+  EXPECT_NEAR(geodesicEdgeCost(g.graph, g.graph.edges[e]), tail, 1e-9);
+}
+
+TEST(LoopBias, MarginalInformationCostsAndG2oOfABiasedEdge) {
+  const SharedErrorLoops biased(true);
+  const PoseGraphEdge& e = biased.graph.edges.back();
+  const Matrix6d expected =
+      (e.information.inverse() + biased.graph.biases[0].information.inverse()).inverse();
+  EXPECT_TRUE(marginalInformation(biased.graph, e).isApprox(expected, 1e-9));
+  // The edge's cost is its own part (the bias explains the rest); the total has the bias prior.
+  const Vector6d own = geodesicError(biased.graph, e) - biasOffset(biased.graph, e);
+  EXPECT_NEAR(geodesicEdgeCost(biased.graph, e), own.dot(informationLeftToRight(e.T_from_to, e.information) * own), 1e-9);
+  double sum = 0.0;
+  for (const auto& edge : biased.graph.edges) sum += geodesicEdgeCost(biased.graph, edge);
+  EXPECT_NEAR(geodesicCost(biased.graph), sum + biasPriorCost(biased.graph), 1e-9);
+  EXPECT_GT(biasPriorCost(biased.graph), 0.0);
+  // A g2o file cannot hold the bias node: the loop edges carry their marginal information.
+  const PoseGraph read = parseG2o(formatG2o(biased.graph), "biased.g2o");
+  EXPECT_TRUE(read.edges.back().information.isApprox(expected, 1e-6));
+  PoseGraph planar;
+  planar.dimension = 2;
+  EXPECT_THROW(planar.addBias(Matrix6d::Identity()), Error);
+  PoseGraph g = biased.graph;
+  EXPECT_THROW(g.attachBias(0, 3, Matrix6d::Identity()), Error);
+}
+
 }  // namespace
 }  // namespace hazmap

@@ -270,6 +270,37 @@ TEST(MixtureEdgeNees, SelectedAndMomentMatched) {
   EXPECT_NEAR(r.odometry_moment_matched.mean, r.edges[0].nees_moment_matched, 1e-12);
 }
 
+
+// Loops through bias nodes (PoseGraph::biases, slam.loop_bias): groups of five loops share one
+// sampled error b ~ N(0, Σ_s) besides their own ξ ~ N(0, Σ_o). Each loop's NEES against its
+// marginal covariance Σ_o + Σ_s is χ²(6); against its own part alone it is far above.
+TEST(LoopBiasNees, LoopNeesIsAgainstTheMarginalCovariance) {
+  const auto truth = windingPath(1000);
+  PoseGraph g;
+  for (const auto& T : truth) g.addNode(T);
+  std::mt19937_64 rng(5);
+  std::normal_distribution<double> normal;
+  const auto sample = [&](const Matrix6d& cov) {
+    Vector6d z;
+    for (int k = 0; k < 6; ++k) z(k) = normal(rng);
+    return Vector6d(cov.llt().matrixL() * z);
+  };
+  const Matrix6d own = 0.25 * knownCovariance(), shared = knownCovariance();
+  Vector6d b = Vector6d::Zero();
+  int bias = -1;
+  for (int i = 0; i + 7 < static_cast<int>(truth.size()); ++i) {
+    if (i % 5 == 0) b = sample(shared), bias = g.addBias(shared.inverse());
+    const Vector6d xi = sample(own) + b;
+    const int e = g.addEdge(i, i + 7, se3Exp(-xi) * (truth[i].inverse() * truth[i + 7]), own.inverse(), EdgeKind::Loop);
+    g.attachBias(e, bias, Matrix6d::Identity());
+  }
+  const EdgeNeesReport r = computeEdgeNees(g, truth);
+  EXPECT_EQ(r.biased_edges, r.loop.count);
+  EXPECT_NEAR(r.loop.mean, 6.0, 0.6);
+  EXPECT_GT(r.loop_own.mean, 15.0);  // (Σ_o + Σ_s) against Σ_o: about 5 × 6
+  EXPECT_NE(toJson(r).find("loop_own"), std::string::npos);
+}
+
 // Span NEES (odometrySpanNees): increments chained as independent. Ten unit steps along x whose
 // errors are all +1 cm (fully correlated) against a per-step σ of 1 cm: each edge has NEES 1, a
 // span of 10 has error 10 cm against σ √10 cm, NEES 10.

@@ -73,12 +73,24 @@ std::pair<double, double> mixtureCosts(const PoseGraphEdge& edge, const Vector6d
 
 int mixtureSelection(const PoseGraph& graph, const PoseGraphEdge& edge) {
   if (!isMixtureEdge(edge, graph.dimension)) return 0;
-  const auto [tight, wide] = mixtureCosts(edge, geodesicError(graph, edge));
+  const auto [tight, wide] = mixtureCosts(edge, geodesicError(graph, edge) - biasOffset(graph, edge));
   return wide < tight ? 1 : 0;
 }
 
+Vector6d biasOffset(const PoseGraph& graph, const PoseGraphEdge& edge) {
+  if (graph.dimension != 3 || edge.bias < 0 || edge.bias >= static_cast<int>(graph.biases.size()))
+    return Vector6d::Zero();
+  return adjoint(edge.T_from_to.inverse()) * edge.bias_map * graph.biases[static_cast<std::size_t>(edge.bias)].value;
+}
+
+double biasPriorCost(const PoseGraph& graph) {
+  double sum = 0.0;
+  for (const EdgeBias& b : graph.biases) sum += b.value.dot(b.information * b.value);
+  return sum;
+}
+
 double geodesicEdgeCost(const PoseGraph& graph, const PoseGraphEdge& edge) {
-  const Vector6d e = geodesicError(graph, edge);
+  const Vector6d e = geodesicError(graph, edge) - biasOffset(graph, edge);
   if (isMixtureEdge(edge, graph.dimension)) {
     const auto [tight, wide] = mixtureCosts(edge, e);
     return std::min(tight, wide);
@@ -109,7 +121,7 @@ double chordalEdgeCost(const PoseGraph& graph, const PoseGraphEdge& edge) {
 double geodesicCost(const PoseGraph& graph) {
   double sum = 0.0;
   for (const auto& e : graph.edges) sum += geodesicEdgeCost(graph, e);
-  return sum;
+  return sum + biasPriorCost(graph);
 }
 
 double chordalCost(const PoseGraph& graph) {

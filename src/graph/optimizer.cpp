@@ -143,6 +143,36 @@ ceres::CostFunction* edgeCost(const PoseGraphEdge& e, int dimension, const PoseG
   return new GeodesicCost3(e.T_from_to.linear(), e.T_from_to.translation(), sqrtInformation(info));
 }
 
+/// Whether an edge enters the solve through its bias node (PoseGraphEdge::bias): 3-D geodesic
+/// graphs and edges that are not max-mixtures; elsewhere the bias is ignored (the edge's own part).
+bool usesBias(const PoseGraph& graph, const PoseGraphConfig& config, const PoseGraphEdge& e) {
+  return graph.dimension == 3 && config.cost == PoseGraphCost::Geodesic && e.bias >= 0 &&
+         e.bias < static_cast<int>(graph.biases.size());
+}
+
+/// An edge through its bias node: one Gaussian, or a max-mixture (both components share the bias).
+ceres::CostFunction* biasedEdgeCost(const PoseGraphEdge& e, MixtureMode mode) {
+  const bool mixture = isMixtureEdge(e, 3);
+  const Matrix6d B = adjoint(e.T_from_to.inverse()) * e.bias_map;
+  const Matrix6d tight = sqrtInformation(informationLeftToRight(e.T_from_to, e.information));
+  if (!mixture) return new BiasedGeodesicCost3(e.T_from_to.linear(), e.T_from_to.translation(), tight, B);
+  const Matrix6d wide = sqrtInformation(informationLeftToRight(e.T_from_to, e.alt_information));
+  if (mode == MixtureMode::WideOnly) return new BiasedGeodesicCost3(e.T_from_to.linear(), e.T_from_to.translation(), wide, B);
+  const MixtureOffsets g = mixtureOffsets(e);
+  return new BiasedMaxMixtureCost3(e.T_from_to.linear(), e.T_from_to.translation(), tight, wide, B, g.tight, g.alternative);
+}
+
+/// One 6-double block per bias node, started at its current value, with its prior.
+std::vector<Vector6d> addBiases(const PoseGraph& graph, const PoseGraphConfig& config, ceres::Problem& problem) {
+  std::vector<Vector6d> values;
+  if (graph.dimension != 3 || config.cost != PoseGraphCost::Geodesic) return values;
+  values.reserve(graph.biases.size());
+  for (const EdgeBias& b : graph.biases) values.push_back(b.value);
+  for (std::size_t b = 0; b < values.size(); ++b)
+    problem.AddResidualBlock(new BiasPriorCost(sqrtInformation(graph.biases[b].information)), nullptr, values[b].data());
+  return values;
+}
+
 ceres::Solver::Options solverOptions(const PoseGraphConfig& config) {
   ceres::Solver::Options options;
   options.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
@@ -189,9 +219,15 @@ Solved solve(PoseGraph& graph, const PoseGraphConfig& config, MixtureMode mode =
   PoseManifold3 manifold;   // outlives the problem's use of it (not owned)
   for (int i = 0; i < graph.numNodes(); ++i)
     problem.AddParameterBlock(blockOf(i), block, planar ? nullptr : &manifold);
-  for (const auto& e : graph.edges)
-    problem.AddResidualBlock(edgeCost(e, graph.dimension, config, mode), makeLoss(config, e.kind), blockOf(e.from),
-                             blockOf(e.to));
+  std::vector<Vector6d> biases = addBiases(graph, config, problem);
+  for (const auto& e : graph.edges) {
+    if (usesBias(graph, config, e))
+      problem.AddResidualBlock(biasedEdgeCost(e, mode), makeLoss(config, e.kind), blockOf(e.from), blockOf(e.to),
+                               biases[static_cast<std::size_t>(e.bias)].data());
+    else
+      problem.AddResidualBlock(edgeCost(e, graph.dimension, config, mode), makeLoss(config, e.kind), blockOf(e.from),
+                               blockOf(e.to));
+  }
   problem.SetParameterBlockConstant(blockOf(graph.fixed_node));
   ceres::SphereManifold<3> sphere;  // world down: 2 degrees of freedom (not owned)
   Vec3 gravity_world = graph.gravity_world;
@@ -205,6 +241,7 @@ Solved solve(PoseGraph& graph, const PoseGraphConfig& config, MixtureMode mode =
   ceres::Solve(solverOptions(config), &problem, &summary);
   if (config.verbose) std::fprintf(stderr, "%s\n", summary.FullReport().c_str());
   unpackPoses(params, block, graph);
+  for (std::size_t b = 0; b < biases.size(); ++b) graph.biases[b].value = biases[b];
   graph.gravity_world = gravity_world.normalized();
   Solved s;
   s.iterations = summary.num_successful_steps + summary.num_unsuccessful_steps;
@@ -236,6 +273,7 @@ Solved solveWithMixtures(PoseGraph& graph, const PoseGraphConfig& config) {
     return tight_start;
   }
   graph.poses = std::move(from_wide.poses);
+  graph.biases = std::move(from_wide.biases);
   graph.gravity_world = from_wide.gravity_world;
   return wide_start;
 }

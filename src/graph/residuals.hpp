@@ -137,6 +137,73 @@ class MaxMixtureCost3 final : public ceres::SizedCostFunction<7, 12, 12> {
   double offset_[2];
 };
 
+/// An edge through a bias node (PoseGraphEdge::bias): the geodesic error less the part the bias
+/// b explains, L (e − B b), B = Ad(T̃⁻¹) · bias_map (graph/costs.hpp biasOffset). The bias enters
+/// linearly, so its Jacobian is −L B and the poses' are GeodesicCost3's.
+class BiasedGeodesicCost3 final : public ceres::SizedCostFunction<6, 12, 12, 6> {
+ public:
+  BiasedGeodesicCost3(const Mat3& R_meas, const Vec3& t_meas, const Matrix6d& sqrt_information, const Matrix6d& B)
+      : plain_(R_meas, t_meas, sqrt_information), LB_(sqrt_information * B) {}
+
+  bool Evaluate(double const* const* p, double* residuals, double** jacobians) const override {
+    double* pose_jacobians[2] = {jacobians ? jacobians[0] : nullptr, jacobians ? jacobians[1] : nullptr};
+    plain_.Evaluate(p, residuals, jacobians ? pose_jacobians : nullptr);
+    Eigen::Map<Vector6d>{residuals} -= LB_ * Eigen::Map<const Vector6d>(p[2]);
+    if (jacobians && jacobians[2]) Eigen::Map<Eigen::Matrix<double, 6, 6, Eigen::RowMajor>>{jacobians[2]} = -LB_;
+    return true;
+  }
+
+ private:
+  GeodesicCost3 plain_;
+  Matrix6d LB_;
+};
+
+/// A max-mixture edge through a bias node: MaxMixtureCost3 on the error less the bias' part
+/// (BiasedGeodesicCost3 per component).
+class BiasedMaxMixtureCost3 final : public ceres::SizedCostFunction<7, 12, 12, 6> {
+ public:
+  BiasedMaxMixtureCost3(const Mat3& R_meas, const Vec3& t_meas, const Matrix6d& sqrt_tight, const Matrix6d& sqrt_wide,
+                        const Matrix6d& B, double offset_tight, double offset_wide)
+      : tight_(R_meas, t_meas, sqrt_tight, B), wide_(R_meas, t_meas, sqrt_wide, B), offset_{offset_tight, offset_wide} {}
+
+  bool Evaluate(double const* const* p, double* residuals, double** jacobians) const override {
+    Vector6d r_tight, r_wide;
+    tight_.Evaluate(p, r_tight.data(), nullptr);
+    wide_.Evaluate(p, r_wide.data(), nullptr);
+    const int k = r_wide.squaredNorm() + offset_[1] < r_tight.squaredNorm() + offset_[0] ? 1 : 0;
+    Eigen::Map<Vector6d>{residuals} = k == 1 ? r_wide : r_tight;
+    residuals[6] = std::sqrt(offset_[k]);
+    if (!jacobians) return true;
+    Eigen::Matrix<double, 6, 12, Eigen::RowMajor> Ji, Jj;
+    Eigen::Matrix<double, 6, 6, Eigen::RowMajor> Jb;
+    double* parts[3] = {Ji.data(), Jj.data(), Jb.data()};
+    Vector6d unused;
+    (k == 1 ? wide_ : tight_).Evaluate(p, unused.data(), parts);
+    if (jacobians[0]) Eigen::Map<Eigen::Matrix<double, 7, 12, Eigen::RowMajor>>{jacobians[0]} << Ji, Eigen::Matrix<double, 1, 12>::Zero();
+    if (jacobians[1]) Eigen::Map<Eigen::Matrix<double, 7, 12, Eigen::RowMajor>>{jacobians[1]} << Jj, Eigen::Matrix<double, 1, 12>::Zero();
+    if (jacobians[2]) Eigen::Map<Eigen::Matrix<double, 7, 6, Eigen::RowMajor>>{jacobians[2]} << Jb, Eigen::Matrix<double, 1, 6>::Zero();
+    return true;
+  }
+
+ private:
+  BiasedGeodesicCost3 tight_, wide_;
+  double offset_[2];
+};
+
+/// A bias node's prior N(0, Ω_b⁻¹): r = U b with Ω_b = UᵀU.
+class BiasPriorCost final : public ceres::SizedCostFunction<6, 6> {
+ public:
+  explicit BiasPriorCost(const Matrix6d& sqrt_information) : U_(sqrt_information) {}
+  bool Evaluate(double const* const* p, double* residuals, double** jacobians) const override {
+    Eigen::Map<Vector6d>{residuals} = U_ * Eigen::Map<const Vector6d>(p[0]);
+    if (jacobians && jacobians[0]) Eigen::Map<Eigen::Matrix<double, 6, 6, Eigen::RowMajor>>{jacobians[0]} = U_;
+    return true;
+  }
+
+ private:
+  Matrix6d U_;
+};
+
 /// SE-Sync's chordal cost κ‖R_j − R_i R̃‖_F² + τ‖t_j − t_i − R_i t̃‖² as 6 residuals:
 /// ‖R_j − R_i R̃‖_F² = 2(3 − tr E) = 8 sin²(θ_E/2) = 8‖q_v(E)‖² with E = R̃ᵀ R_iᵀ R_j and q(E) the
 /// unit quaternion with q_w ≥ 0, so r = [√(8κ) q_v(E); √τ (t_j − t_i − R_i t̃)] gives exactly the

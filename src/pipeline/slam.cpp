@@ -4,6 +4,7 @@
 #include <tbb/parallel_invoke.h>
 #include <Eigen/Eigenvalues>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <map>
@@ -665,25 +666,94 @@ class SlamRun {
     reject(l, why, detail);
   }
 
+  /// Loops whose residual in the solution exceeds the gate's χ² quantile. With loop_bias the test
+  /// is the loop's whole residual (bias included) against its marginal covariance, the one it
+  /// claims (marginalInformation).
   std::vector<LoopClosure> loopsTheSolutionRejects(const std::vector<LoopClosure>& loops) const {
     const double threshold = chiSquareQuantile(6, config_.loop_closure.consistency.gate_probability);
     std::vector<LoopClosure> out;
-    for (std::size_t i : edgesBeyond(result_.graph, EdgeKind::Loop, threshold)) {
-      const PoseGraphEdge& e = result_.graph.edges[i];
+    const auto closureOf = [&](const PoseGraphEdge& e) -> const LoopClosure* {
       for (const auto& l : loops)
         if (keyframe_frames_[l.from] == static_cast<std::size_t>(e.from) && keyframe_frames_[l.to] == static_cast<std::size_t>(e.to))
-          out.push_back(l);
+          return &l;
+      return nullptr;
+    };
+    if (!config_.loop_bias) {
+      for (std::size_t i : edgesBeyond(result_.graph, EdgeKind::Loop, threshold))
+        if (const LoopClosure* l = closureOf(result_.graph.edges[i])) out.push_back(*l);
+      return out;
+    }
+    for (const PoseGraphEdge& e : result_.graph.edges) {
+      const LoopClosure* l = e.kind == EdgeKind::Loop ? closureOf(e) : nullptr;
+      if (!l) continue;
+      const Vector6d r = geodesicError(result_.graph, e);
+      const Matrix6d info = informationLeftToRight(e.T_from_to, marginalInformation(result_.graph, e));
+      if (!(r.dot(info * r) <= threshold)) out.push_back(*l);
     }
     return out;
   }
 
-  /// Replaces the graph's loop edges by the pairwise-consistent set.
+  /// Replaces the graph's loop edges by the pairwise-consistent set (and, with loop_bias, their
+  /// bias nodes).
   void setLoopEdges(const std::vector<LoopClosure>& consistent) {
     PoseGraph& graph = result_.graph;
     std::erase_if(graph.edges, [](const PoseGraphEdge& e) { return e.kind == EdgeKind::Loop; });
-    for (const auto& l : consistent)
-      graph.addEdge(static_cast<int>(keyframe_frames_[l.from]), static_cast<int>(keyframe_frames_[l.to]),
-                    l.T_from_to, l.information, EdgeKind::Loop);
+    graph.biases.clear();
+    const int first = graph.numEdges();
+    for (const auto& l : consistent) {
+      if (!config_.loop_bias) {
+        graph.addEdge(static_cast<int>(keyframe_frames_[l.from]), static_cast<int>(keyframe_frames_[l.to]), l.T_from_to,
+                      l.information, EdgeKind::Loop);
+        continue;
+      }
+      const Matrix6d own = loopOwnCovariance(l);
+      PoseGraphEdge& e = graph.edges[static_cast<std::size_t>(graph.addEdge(
+          static_cast<int>(keyframe_frames_[l.from]), static_cast<int>(keyframe_frames_[l.to]), l.T_from_to, inverseOf(own),
+          EdgeKind::Loop))];
+      if (!(config_.loop_tail_weight > 0.0)) continue;
+      const double t2 = config_.loop_tail_sigma_translation * config_.loop_tail_sigma_translation;
+      const double r2 = config_.loop_tail_sigma_rotation * config_.loop_tail_sigma_rotation;
+      e.alt_information = inverseOf(own + Matrix6d((Vector6d() << t2, t2, t2, r2, r2, r2).finished().asDiagonal()));
+      e.alt_weight = config_.loop_tail_weight;
+    }
+    if (config_.loop_bias) attachLoopBiases(consistent, first);
+  }
+
+  /// SlamConfig::loop_bias: a loop edge's own part — the verification covariance with
+  /// loop_own_sigma_* in place of the verification floor.
+  Matrix6d loopOwnCovariance(const LoopClosure& l) const {
+    const auto sq = [](double s) { return s * s; };
+    const double t2 = sq(config_.loop_own_sigma_translation), r2 = sq(config_.loop_own_sigma_rotation);
+    return positivePart(l.covariance - Matrix6d(floorVariances(config_.loop_closure.verification).asDiagonal())) +
+           Matrix6d((Vector6d() << t2, t2, t2, r2, r2, r2).finished().asDiagonal());
+  }
+
+  /// SlamConfig::loop_bias: groups of loops within loop_bias_window keyframes of the group's first
+  /// loop at both ends (taken in the order of their query keyframes), one bias node per group with
+  /// prior σ loop_shared_sigma_*; the bias is a left perturbation in the first loop's old keyframe,
+  /// moved into each loop's old keyframe with the current poses. Loop edges from `first` on.
+  void attachLoopBiases(const std::vector<LoopClosure>& loops, int first) {
+    PoseGraph& graph = result_.graph;
+    std::vector<std::size_t> order(loops.size());
+    for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+    std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+      return std::pair(loops[a].to, loops[a].from) < std::pair(loops[b].to, loops[b].from);
+    });
+    const auto near = [w = config_.loop_bias_window](std::size_t a, std::size_t b) { return (a > b ? a - b : b - a) <= w; };
+    const auto sq = [](double s) { return 1.0 / (s * s); };
+    const double it = sq(config_.loop_shared_sigma_translation), ir = sq(config_.loop_shared_sigma_rotation);
+    const Matrix6d prior = (Vector6d() << it, it, it, ir, ir, ir).finished().asDiagonal();
+    std::vector<std::pair<std::size_t, int>> groups;  // (first loop, bias node)
+    for (std::size_t i : order) {
+      const LoopClosure& l = loops[i];
+      auto g = std::find_if(groups.begin(), groups.end(), [&](const auto& grp) {
+        return near(loops[grp.first].from, l.from) && near(loops[grp.first].to, l.to);
+      });
+      if (g == groups.end()) g = groups.insert(groups.end(), {i, graph.addBias(prior)});
+      const Eigen::Isometry3d& T_ref = graph.poses[keyframe_frames_[loops[g->first].from]];
+      const Eigen::Isometry3d& T_old = graph.poses[keyframe_frames_[l.from]];
+      graph.attachBias(first + static_cast<int>(i), g->second, adjoint(T_old.inverse() * T_ref));
+    }
   }
 
   PoseList keyframeEstimate() const {

@@ -96,6 +96,21 @@ const ConfigFields<SlamConfig>& slamSectionFields() {
                 "Frame-to-map: after each applied optimisation the tracker's local map follows the optimised poses")
           .number("reanchor_min_shift", &C::reanchor_min_shift, nonNegative(),
                   "m; re-anchor only when the optimisation moved some frame by more than this")
+          .flag("loop_bias", &C::loop_bias,
+                "Loops within loop_bias_window keyframes at both ends share one bias node (their common error counted once)")
+          .integer("loop_bias_window", &C::loop_bias_window, nonNegative(),
+                   "keyframes; loop_bias: a loop joins a group whose first loop is this close at both ends")
+          .number("loop_own_sigma_translation", &C::loop_own_sigma_translation, positive(),
+                  "m; loop_bias: added to each loop's own covariance instead of the verification floor")
+          .number("loop_own_sigma_rotation", &C::loop_own_sigma_rotation, positive(), "rad; likewise")
+          .number("loop_shared_sigma_translation", &C::loop_shared_sigma_translation, positive(),
+                  "m; loop_bias: prior σ of a group's shared error")
+          .number("loop_shared_sigma_rotation", &C::loop_shared_sigma_rotation, positive(), "rad; likewise")
+          .number("loop_tail_weight", &C::loop_tail_weight, Range{0.0, 1.0, false, true},
+                  "loop_bias: prior weight of a loop's tail component (a max-mixture edge; 0 = one Gaussian)")
+          .number("loop_tail_sigma_translation", &C::loop_tail_sigma_translation, positive(),
+                  "m; loop_bias: σ the tail component adds to the loop's own covariance")
+          .number("loop_tail_sigma_rotation", &C::loop_tail_sigma_rotation, positive(), "rad; likewise")
           .flag("innovation_gate", &C::innovation_gate,
                 "Gate loops by the χ² test against the graph's own relative-pose covariance (else the drift model)")
           .flag("submaps_only_frame_to_map", &C::submaps_only_frame_to_map,

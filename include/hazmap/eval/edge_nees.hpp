@@ -33,6 +33,10 @@ struct EdgeNees {
   double nees_selected = 0.0;
   double nees_moment_matched = 0.0;
   bool mixture = false;
+  /// An edge through a bias node (PoseGraphEdge::bias): `nees` is against its marginal
+  /// covariance (own part + the shared one, marginalInformation), nees_own against its own part.
+  bool biased = false;
+  double nees_own = 0.0;
 };
 
 struct NeesStats {
@@ -57,6 +61,14 @@ struct EdgeNeesReport {
   /// against its moment-matched covariance (only when the graph has mixture edges: mixture_edges > 0).
   NeesStats odometry_selected, odometry_moment_matched;
   std::size_t mixture_edges = 0;
+  /// Loop edges through bias nodes (PoseGraph::biases): `loop` is against their marginal
+  /// covariances; loop_own against their own parts alone (only when biased_edges > 0).
+  NeesStats loop_own;
+  std::size_t biased_edges = 0;
+  /// Loop edges that are max-mixtures (slam.loop_tail_weight): `loop` is against their tight
+  /// component, loop_moment_matched against (1 − w) Σ_tight + w Σ_tail (marginal with a bias).
+  NeesStats loop_moment_matched;
+  std::size_t loop_mixture_edges = 0;
 };
 
 /// NEES of every edge of `graph` against the true node poses `truth` (T_world_node for every

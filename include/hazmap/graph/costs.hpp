@@ -44,12 +44,19 @@ MixtureOffsets mixtureOffsets(const PoseGraphEdge& edge);
 /// Which component the current poses select: 0 = information, 1 = alt_information.
 int mixtureSelection(const PoseGraph& graph, const PoseGraphEdge& edge);
 
+/// The part of an edge's error its bias node explains (PoseGraphEdge::bias, 3-D), in the
+/// measurement frame: Ad(T̃⁻¹) · bias_map · b (a left perturbation moved to the right); zero
+/// without a bias.
+Vector6d biasOffset(const PoseGraph& graph, const PoseGraphEdge& edge);
+/// The bias nodes' prior cost Σ bᵀ Ω_b b.
+double biasPriorCost(const PoseGraph& graph);
+
 /// Cost of one edge under each model (no ½, no robust loss; a mixture edge's selected component
-/// with its offset, geodesic only).
+/// with its offset, geodesic only; an edge with a bias node: its own part, e − biasOffset).
 double geodesicEdgeCost(const PoseGraph& graph, const PoseGraphEdge& edge);
 double chordalEdgeCost(const PoseGraph& graph, const PoseGraphEdge& edge);
 
-/// Total costs over all edges (no ½, no robust loss).
+/// Total costs over all edges (no ½, no robust loss); the geodesic one with the bias priors.
 double geodesicCost(const PoseGraph& graph);
 double chordalCost(const PoseGraph& graph);
 double poseGraphCost(const PoseGraph& graph, PoseGraphCost cost);

@@ -138,7 +138,7 @@ struct LoopClosureConfig {
   /// loop's verdict (the misfit term dropped or kept). A candidate that disagrees is cross-checked
   /// itself. Light loops never serve as the reference. The probes are not skipped: some
   /// near-duplicates of a sound loop are ambiguous themselves (docs/pose_graph.md, third pass). 0 = off.
-  /// Default 2 since 2026-12-03: every accuracy rule held on naraha, corridor and tanks (seeds 1–8)
+  /// Default 2 since 2026-12-02: every accuracy rule held on naraha, corridor and tanks (seeds 1–8)
   /// and in the paper's set-up; naraha 1 skips 12 of 24 cross-checks.
   std::size_t light_duplicate_keyframes = 2;
   LandmarkConfig landmarks;

@@ -50,12 +50,12 @@ struct OdometryConfig {
   /// rather than in ICP's space, whose rotations turn about the world origin: there a turn of a
   /// sensor 20 m from the origin reads as metres of travel, so the test mixed the sensor's yaw
   /// into weak translations and the kept guess carried the encoders' yaw error (tanks: turning
-  /// frames 10-45 mrad off, as the wheels were; docs/registration.md, 2026-12-03).
+  /// frames 10-45 mrad off, as the wheels were; docs/registration.md, 2026-12-02).
   bool degenerate_in_sensor_frame = false;
   /// Along degenerate directions keep constant velocity's increment instead of the encoders'
   /// when the encoders report more travel than constant velocity by more than this (m; 0 = off)
   /// while the two agree in yaw (slip_guess_yaw): a track slip, which ICP cannot see along a
-  /// degenerate direction (tanks: 20-48 cm slips taken whole; docs/registration.md, 2026-12-03).
+  /// degenerate direction (tanks: 20-48 cm slips taken whole; docs/registration.md, 2026-12-02).
   double slip_guess_translation = 0.0;
   double slip_guess_yaw = 0.05;  ///< rad; the two guesses agree in yaw within this (not a turn's start or end)
   /// Frame to map: a fallback frame's points stay out of the local map (its pose is a guess), so
