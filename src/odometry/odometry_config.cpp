@@ -76,10 +76,28 @@ static ConfigFields<OdometryConfig>& addWholeMapFields(ConfigFields<OdometryConf
                   "m; the halves of the labelled points place the frame this close, or it stays flagged");
 }
 
+// Degenerate directions and slips: what the frame keeps from its guess (docs/registration.md).
+static ConfigFields<OdometryConfig>& addDegeneracyFields(ConfigFields<OdometryConfig>& fields) {
+  using C = OdometryConfig;
+  return fields
+          .flag("keep_guess_along_degenerate", &C::keep_guess_along_degenerate,
+                "Replace ICP's degenerate directions by the guess")
+          .flag("degenerate_in_sensor_frame", &C::degenerate_in_sensor_frame,
+                "Test ICP's Hessian for degenerate directions in the sensor's frame (right perturbation) and keep "
+                "the guess along them there, not in ICP's space about the world origin (a turn far from the "
+                "origin reads as travel there)")
+          .number("slip_guess_translation", &C::slip_guess_translation, nonNegative(),
+                  "m; start ICP from (and keep along degenerate directions) constant velocity's increment instead of "
+                  "the encoders' when they report more travel than it by more than this and agree in yaw (a track "
+                  "slip; 0 = off)")
+          .number("slip_guess_yaw", &C::slip_guess_yaw, positive(),
+                  "rad; the encoders and constant velocity agree in yaw within this for slip_guess_translation");
+}
+
 const ConfigFields<OdometryConfig>& configFields(ConfigTag<OdometryConfig>) {
   using C = OdometryConfig;
   static const ConfigFields<C> fields =
-      addWholeMapFields(ConfigFields<C>("Tracking: preprocessing, (property-)ICP against the previous scan or the local "
+      addWholeMapFields(addDegeneracyFields(ConfigFields<C>("Tracking: preprocessing, (property-)ICP against the previous scan or the local "
                       "map, failure detection.")
           .choice("mode", &C::mode, {{"map", OdometryMode::FrameToMap}, {"frame", OdometryMode::FrameToFrame}},
                   "map: scan to local map; frame: scan to previous scan (the paper)")
@@ -98,18 +116,7 @@ const ConfigFields<OdometryConfig>& configFields(ConfigTag<OdometryConfig>) {
           .number("max_correction_rotation", &C::max_correction_rotation, positive(), "rad")
           .flag("map_skips_fallback", &C::map_skips_fallback,
                 "Frame to map: a fallback frame's points stay out of the local map (its pose is an unverified guess)")
-          .flag("keep_guess_along_degenerate", &C::keep_guess_along_degenerate,
-                "Replace ICP's degenerate directions by the guess")
-          .flag("degenerate_in_sensor_frame", &C::degenerate_in_sensor_frame,
-                "Test ICP's Hessian for degenerate directions in the sensor's frame (right perturbation) and keep "
-                "the guess along them there, not in ICP's space about the world origin (a turn far from the "
-                "origin reads as travel there)")
-          .number("slip_guess_translation", &C::slip_guess_translation, nonNegative(),
-                  "m; start ICP from (and keep along degenerate directions) constant velocity's increment instead of "
-                  "the encoders' when they report more travel than it by more than this and agree in yaw (a track "
-                  "slip; 0 = off)")
-          .number("slip_guess_yaw", &C::slip_guess_yaw, positive(),
-                  "rad; the encoders and constant velocity agree in yaw within this for slip_guess_translation")
+          )
           .number("fallback_sigma_translation", &C::fallback_sigma_translation, positive(),
                   "m; covariance of a fallback increment (and along degenerate directions)")
           .number("fallback_sigma_rotation", &C::fallback_sigma_rotation, positive(), "rad")
