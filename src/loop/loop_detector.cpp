@@ -276,6 +276,16 @@ double LoopDetector::crossCheckDistance(const LoopCandidate& cand, const PoseLis
   return d.dot(sigma.llt().solve(d));
 }
 
+namespace {
+// How many keyframes apart a and b are (near-duplicate and light-verification neighbourhoods).
+std::size_t keyframeGap(std::size_t a, std::size_t b) { return a > b ? a - b : b - a; }
+// A loop whose reverse cross-check agreed (its own, or a checked neighbour's for a light loop)
+// no longer carries the misfit term (verification.hpp misfitTerm).
+void dropMisfitTerm(VerificationResult& v, const VerificationConfig& c) {
+  setLoopCovariance(v.closure, v.closure.covariance - misfitTerm(v.registration, c));
+}
+}  // namespace
+
 bool LoopDetector::crossCheck(const LoopCandidate& cand, const PoseList& estimate, VerificationResult& v) const {
   const VerificationConfig& c = config_.verification;
   if (!(c.cross_check_chi2 > 0.0) || !(c.misfit_scale > 0.0)) return false;
@@ -284,18 +294,17 @@ bool LoopDetector::crossCheck(const LoopCandidate& cand, const PoseList& estimat
   if (!v.registration.label_only_directions.empty()) return false;
   const double d2 = crossCheckDistance(cand, estimate, v.closure.T_from_to, v.registration.covariance);
   if (!(d2 <= c.cross_check_chi2)) return false;
-  setLoopCovariance(v.closure, v.closure.covariance - misfitTerm(v.registration, c));
+  dropMisfitTerm(v, c);
   return true;
 }
 
 const LoopDetector::CheckedLoop* LoopDetector::checkedNeighbour(const LoopCandidate& cand) const {
   const std::size_t r = config_.light_duplicate_keyframes;
   if (r == 0) return nullptr;
-  const auto gap = [](std::size_t a, std::size_t b) { return a > b ? a - b : b - a; };
   const CheckedLoop* best = nullptr;
   std::size_t best_gap = r + 1;
   for (const CheckedLoop& l : checked_) {
-    const std::size_t g = std::max(gap(l.from, cand.match), gap(l.to, cand.query));
+    const std::size_t g = std::max(keyframeGap(l.from, cand.match), keyframeGap(l.to, cand.query));
     if (g < best_gap) best = &l, best_gap = g;
   }
   return best;
@@ -337,7 +346,7 @@ VerificationResult LoopDetector::verifyOne(const LoopCandidate& cand, const Pose
     const double threshold = chiSquareQuantile(6, config_.consistency.gate_probability);
     if (same != loops_.end() && duplicateDistance2(v.closure, *same, estimate) <= threshold) {
       if (ref->cross_check_agreed && v.registration.label_only_directions.empty())
-        setLoopCovariance(v.closure, v.closure.covariance - misfitTerm(v.registration, config_.verification));
+        dropMisfitTerm(v, config_.verification);
       light = true;
       return v;
     }
@@ -418,9 +427,8 @@ bool LoopDetector::candidatePlausible(const LoopCandidate& cand, const PoseList&
 bool LoopDetector::nearDuplicate(const LoopCandidate& cand) const {
   const std::size_t r = config_.near_duplicate_keyframes;
   if (r == 0) return false;
-  const auto near = [r](std::size_t a, std::size_t b) { return (a > b ? a - b : b - a) <= r; };
   return std::any_of(loops_.begin(), loops_.end(), [&](const LoopClosure& l) {
-    return near(l.from, cand.match) && near(l.to, cand.query);
+    return keyframeGap(l.from, cand.match) <= r && keyframeGap(l.to, cand.query) <= r;
   });
 }
 

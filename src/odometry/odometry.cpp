@@ -196,20 +196,31 @@ struct Estimate {
   Matrix6d covariance;
 };
 
-// ICP's answer where it is constrained, the guess along the degenerate directions `basis`, with
-// the fallback covariance there.
-Estimate keepGuessAlong(const std::vector<Vector6d>& basis, const RegistrationResult& r,
-                        const Eigen::Isometry3d& guess, const OdometryConfig& config) {
-  Vector6d delta = se3Log(r.transform * guess.inverse());
+// Removes delta's components along the orthonormal `basis`; returns the projector onto the rest.
+Matrix6d projectOut(const std::vector<Vector6d>& basis, Vector6d& delta) {
   Matrix6d P = Matrix6d::Identity();
   for (const auto& b : basis) {
     delta -= b.dot(delta) * b;
     P -= b * b.transpose();
   }
+  return P;
+}
+
+// Along each degenerate direction the frame claims only the fallback covariance.
+void addFallbackAlong(const std::vector<Vector6d>& basis, const OdometryConfig& config, Matrix6d& covariance) {
+  const Matrix6d fb = fallbackCovariance(config);
+  for (const auto& b : basis) covariance += (b.transpose() * fb * b)(0, 0) * b * b.transpose();
+}
+
+// ICP's answer where it is constrained, the guess along the degenerate directions `basis`, with
+// the fallback covariance there.
+Estimate keepGuessAlong(const std::vector<Vector6d>& basis, const RegistrationResult& r,
+                        const Eigen::Isometry3d& guess, const OdometryConfig& config) {
+  Vector6d delta = se3Log(r.transform * guess.inverse());
+  const Matrix6d P = projectOut(basis, delta);
   Estimate e{normalized(se3Exp(delta) * guess), r.covariance};
   e.covariance = P * e.covariance * P.transpose();  // (assigned as the tested results were computed)
-  const Matrix6d fb = fallbackCovariance(config);
-  for (const auto& b : basis) e.covariance += (b.transpose() * fb * b)(0, 0) * b * b.transpose();
+  addFallbackAlong(basis, config, e.covariance);
   return e;
 }
 
@@ -248,16 +259,11 @@ std::vector<Vector6d> sensorFrameDegenerate(const RegistrationResult& r, const R
 Estimate keepGuessAlongInSensorFrame(const std::vector<Vector6d>& basis, const RegistrationResult& r,
                                      const Eigen::Isometry3d& guess, const OdometryConfig& config) {
   Vector6d delta = se3Log(guess.inverse() * r.transform);
-  Matrix6d P = Matrix6d::Identity();
-  for (const auto& b : basis) {
-    delta -= b.dot(delta) * b;
-    P -= b * b.transpose();
-  }
+  const Matrix6d P = projectOut(basis, delta);
   const Eigen::Isometry3d pose = normalized(guess * se3Exp(delta));
   const Matrix6d to_sensor = adjoint(r.transform.inverse());
   Matrix6d C = P * to_sensor * r.covariance * to_sensor.transpose() * P.transpose();
-  const Matrix6d fb = fallbackCovariance(config);
-  for (const auto& b : basis) C += (b.transpose() * fb * b)(0, 0) * b * b.transpose();
+  addFallbackAlong(basis, config, C);
   const Matrix6d to_world = adjoint(pose);
   return {pose, to_world * C * to_world.transpose()};
 }
