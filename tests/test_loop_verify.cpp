@@ -136,6 +136,41 @@ TEST(LoopVerify, RejectsAWrongCandidate) {
   EXPECT_FALSE(verifyCandidate(cand, LabeledCloud{}, a, table, {}).accepted);
 }
 
+// Issue 14's online cost: the overlap check at the guess (guess_check_points) rejects a candidate
+// whose scans barely overlap where the guess puts them, without the coarse ICP, and leaves a true
+// loop's verification exactly as it was.
+TEST(LoopVerify, GuessCheckRejectsOnlyHopelessCandidates) {
+  const LabeledCloud world = hallWorld();
+  const ClassTable table = ClassTable::defaults();
+  std::mt19937 rng(7);
+  const Eigen::Isometry3d Ta = fromXyzRpy(1.0, 0.5, 0.5, 0, 0, 0.3);
+  const Eigen::Isometry3d Tb = fromXyzRpy(2.5, -0.5, 0.5, 0, 0, 1.0);
+  const LabeledCloud a = keyframeCloud(test::observe(world, Ta, 15.0, 0.02, 0.5, rng));
+  const LabeledCloud b = keyframeCloud(test::observe(world, Tb, 15.0, 0.02, 0.5, rng));
+  VerificationConfig off;
+  off.guess_check_points = 0;
+  VerificationConfig on;
+  on.guess_check_points = 300;
+  LoopCandidate cand;
+  cand.query = 30;
+  cand.match = 2;
+  cand.initial_guess = (Ta.inverse() * Tb) * fromXyYaw(0.4, -0.3, 0.05);
+  const VerificationResult v_off = verifyCandidate(cand, b, a, table, off);
+  const VerificationResult v_on = verifyCandidate(cand, b, a, table, on);
+  ASSERT_TRUE(v_off.accepted) << v_off.reason;
+  ASSERT_TRUE(v_on.accepted) << v_on.reason;
+  EXPECT_TRUE(v_on.closure.T_from_to.matrix() == v_off.closure.T_from_to.matrix());
+  EXPECT_TRUE(v_on.closure.covariance == v_off.closure.covariance);
+  // The guess puts the query scan 12 m along and 2.5 m up, turned half round: little overlap.
+  cand.initial_guess = (Ta.inverse() * Tb) * fromXyzRpy(12.0, 3.0, 2.5, 0, 0, M_PI);
+  const VerificationResult hopeless = verifyCandidate(cand, b, a, table, on);
+  EXPECT_FALSE(hopeless.accepted);
+  EXPECT_EQ(hopeless.rejection, LoopRejection::LowFitness);
+  EXPECT_NE(hopeless.reason.find("overlap at the guess"), std::string::npos) << hopeless.reason;
+  // Without the check the same candidate still fails, later (the coarse check or the full run).
+  EXPECT_FALSE(verifyCandidate(cand, b, a, table, off).accepted);
+}
+
 TEST(LoopVerify, DetectorClosesTheRouteLoopUnderDrift) {
   const LabeledCloud world = hallWorld(0.2);
   const ClassTable table = ClassTable::defaults();

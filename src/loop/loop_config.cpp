@@ -109,6 +109,10 @@ const ConfigFields<VerificationConfig>& configFields(ConfigTag<VerificationConfi
                    "Coarse check first with this many source points; rejects candidates far below min_fitness cheaply (0 = off)")
           .number("coarse_fitness_margin", &C::coarse_fitness_margin, nonNegative(),
                   "The coarse check rejects below min_fitness − this")
+          .integer("guess_check_points", &C::guess_check_points, atLeast(0),
+                   "Fitness of this many source points at the guess (one search, no ICP) before the coarse check (0 = off)")
+          .number("guess_fitness_margin", &C::guess_fitness_margin, nonNegative(),
+                  "The guess check rejects below min_fitness − coarse_fitness_margin − this")
           .integer("probe_source_points", &C::probe_source_points, atLeast(0),
                    "Basin probes register at most this many source points (0 = as the verification)")
           .flag("full_from_coarse", &C::full_from_coarse,

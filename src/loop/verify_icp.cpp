@@ -4,6 +4,7 @@
 
 #include <array>
 #include <cmath>
+#include <optional>
 #include <string>
 
 #include <tbb/parallel_for.h>
@@ -31,6 +32,14 @@ void widenByBasinProbes(VerificationResult& v, const LabeledCloud& query_cloud, 
   // their shifts are added in the fixed order −x, +x, −y, +y. Each probe only adds to the spread's
   // trace, so when the ±x pair alone already puts it beyond max_probe_spread the loop is rejected
   // without the ±y pair — the same decision for less work.
+  // A probe on a subset (probe_source_points) is measured from where that same subset settles
+  // when started at the result: the subset's own answer sits a few mm from the full source's, an
+  // offset every probe would share and the spread must not count as a second basin.
+  Eigen::Isometry3d centre = result;
+  if (c.probe_source_points > 0) {
+    const RegistrationResult ref = registerClouds(query_cloud, target, result, classes, probe);
+    if ((ref.converged || ref.termination == Termination::MaxIterations) && isFinite(ref.transform)) centre = ref.transform;
+  }
   constexpr int runs = 4;
   std::array<Vector6d, runs> shift;
   Matrix6d spread = Matrix6d::Zero();
@@ -40,7 +49,7 @@ void widenByBasinProbes(VerificationResult& v, const LabeledCloud& query_cloud, 
       guess.translation()[run / 2] += (run % 2 == 0 ? -1.0 : 1.0) * c.probe_distance;
       const RegistrationResult r = registerClouds(query_cloud, target, guess, classes, probe);
       // A probe that fails or stops far away is a basin of its own: count the shift it kept.
-      shift[run] = r.converged || r.termination == Termination::MaxIterations ? se3Log(r.transform * result.inverse())
+      shift[run] = r.converged || r.termination == Termination::MaxIterations ? se3Log(r.transform * centre.inverse())
                                                                                 : se3Log(guess * result.inverse());
     });
     for (int run = first; run < first + 2; ++run) spread += shift[run] * shift[run].transpose();
@@ -57,10 +66,38 @@ void widenByBasinProbes(VerificationResult& v, const LabeledCloud& query_cloud, 
   setLoopCovariance(v.closure, v.closure.covariance + spread);
 }
 
+// The overlap at the guess (guess_check_points): one correspondence search of a small strided
+// subset, no ICP. Over its iterations ICP raises a candidate's fitness by at most ≈ 0.2 from there
+// (naraha, corridor, tanks seed 1), so a candidate this far below the coarse floor cannot reach it.
+std::optional<VerificationResult> overlapAtGuess(const LoopCandidate& cand, const LabeledCloud& query_cloud,
+                                                 const RegistrationTarget& target, const ClassTable& classes,
+                                                 const VerificationConfig& c) {
+  if (c.guess_check_points == 0 || query_cloud.size() <= c.guess_check_points) return std::nullopt;
+  RegistrationConfig one = c.registration;
+  one.max_source_points = c.guess_check_points;
+  one.coarse_source_points = 0;
+  one.max_iterations = 1;
+  const RegistrationResult reg = registerClouds(query_cloud, target, cand.initial_guess, classes, one);
+  const double floor = c.min_fitness - c.coarse_fitness_margin - c.guess_fitness_margin;
+  if (!(reg.fitness < floor)) return std::nullopt;
+  VerificationResult v;
+  v.closure.from = cand.match;
+  v.closure.to = cand.query;
+  v.closure.T_from_to = cand.initial_guess;
+  v.closure.source = cand.source;
+  v.closure.fitness = reg.fitness;
+  v.registration = reg;
+  v.rejection = LoopRejection::LowFitness;
+  v.reason = "overlap at the guess (" + std::to_string(c.guess_check_points) + " points): fitness " +
+             std::to_string(reg.fitness) + " < " + std::to_string(floor);
+  return v;
+}
+
 // The coarse check: the verification ICP on a strided subset; only its fitness is judged
 // (rejection = LowFitness when it stays below min_fitness − coarse_fitness_margin).
 VerificationResult coarseCheck(const LoopCandidate& cand, const LabeledCloud& query_cloud, const RegistrationTarget& target,
                                const ClassTable& classes, const VerificationConfig& c) {
+  if (auto hopeless = overlapAtGuess(cand, query_cloud, target, classes, c)) return *hopeless;
   RegistrationConfig coarse = c.registration;
   coarse.max_source_points = c.coarse_source_points;
   const RegistrationResult reg = registerClouds(query_cloud, target, cand.initial_guess, classes, coarse);

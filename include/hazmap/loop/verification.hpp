@@ -104,7 +104,19 @@ struct VerificationConfig {
   /// is rejected (low fitness) without the full run. Most candidates are wrong places with
   /// fitness 0.3–0.7, and the full ICP is the loop stage's main cost. 0 = off.
   std::size_t coarse_source_points = 1000;
-  double coarse_fitness_margin = 0.1;
+  /// The coarse fitness (1000 of ≈ 5500 points) predicted the full run's within ±0.02 on naraha 1
+  /// (60 pairs, σ of a 1000-point fraction ≈ 0.013); 0.04 is 3σ. It was 0.1 before 2026-12-02:
+  /// candidates at 0.70–0.76 then ran the full ICP to fail min_fitness (0.8) there. Since
+  /// 2026-12-02 every frame-to-map and frame-to-frame run of the sweep gives the same trajectory
+  /// bit for bit (docs/pose_graph.md, "Online cost, fourth pass").
+  double coarse_fitness_margin = 0.04;
+  /// Before the coarse check (online cost, issue 14): the fitness of this many source points at
+  /// the candidate's guess, one correspondence search and no ICP; a candidate below the coarse
+  /// floor (min_fitness − coarse_fitness_margin) minus guess_fitness_margin is rejected (low
+  /// fitness) without the coarse ICP. ICP raised the fitness by at most 0.18 from the guess on
+  /// naraha, corridor and tanks (seed 1, 233 candidates). 0 = off.
+  std::size_t guess_check_points = 300;
+  double guess_fitness_margin = 0.25;
   /// The basin probes register at most this many source points: they only have to tell which
   /// basin they land in, not refine it. 0 = as many as the verification (default: 1500 points
   /// was measured to judge basins worse, naraha seed 1 frame-to-map 0.012 → 0.018 m).
