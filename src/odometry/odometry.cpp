@@ -13,6 +13,7 @@
 #include "hazmap/core/error.hpp"
 #include "hazmap/preprocess/crop.hpp"
 #include "hazmap/preprocess/voxel_downsample.hpp"
+#include "hazmap/registration/covariance.hpp"
 #include "hazmap/registration/registration_target.hpp"
 #include "odometry/odometry_checks.hpp"
 
@@ -236,22 +237,8 @@ std::vector<Vector6d> sensorFrameDegenerate(const RegistrationResult& r, const R
   const Matrix6d Hs = Ad.transpose() * r.hessian * Ad;
   const double per_pair = rc.metric == IcpMetric::PointToPlane ? 1.0 : 3.0;
   const double pairs = r.hessian.topLeftCorner<3, 3>().trace() / per_pair;
-  const double L = rc.degeneracy_length > 0.0 ? rc.degeneracy_length : 1.0;
-  Vector6d d;
-  d << 1, 1, 1, 1.0 / L, 1.0 / L, 1.0 / L;
-  const Matrix6d Hb = d.asDiagonal() * Hs * d.asDiagonal();
-  const Eigen::SelfAdjointEigenSolver<Matrix6d> es(0.5 * (Hb + Hb.transpose()));
-  std::vector<Vector6d> directions;
-  if (!(pairs > 0.0) || !Hb.allFinite()) return directions;
-  for (int i = 0; i < 6; ++i) {
-    if (!(es.eigenvalues()(i) < rc.degeneracy_threshold * pairs)) continue;
-    Vector6d v = (d.asDiagonal() * es.eigenvectors().col(i)).normalized();
-    Eigen::Index k;
-    v.cwiseAbs().maxCoeff(&k);
-    if (v(k) < 0) v = -v;
-    directions.push_back(v);
-  }
-  return orthonormalBasis(directions);
+  if (!(pairs > 0.0) || !Hs.allFinite()) return {};
+  return orthonormalBasis(degenerateDirections(Hs, pairs, rc.degeneracy_length, rc.degeneracy_threshold));
 }
 
 // keepGuessAlong in the sensor's frame: the guess's right perturbation along the (sensor-frame)

@@ -6,6 +6,27 @@
 
 namespace hazmap {
 
+std::vector<Vector6d> degenerateDirections(const Matrix6d& H, double pairs_weight, double length_scale,
+                                           double degeneracy_threshold) {
+  // Unit-balanced: a rotation of θ counts like a translation of θ·L.
+  const double L = length_scale > 0.0 ? length_scale : 1.0;
+  Vector6d d;
+  d << 1, 1, 1, 1.0 / L, 1.0 / L, 1.0 / L;
+  const Matrix6d Hs = d.asDiagonal() * H * d.asDiagonal();
+  const Eigen::SelfAdjointEigenSolver<Matrix6d> ess(0.5 * (Hs + Hs.transpose()));
+  std::vector<Vector6d> directions;
+  for (int i = 0; i < 6; ++i) {
+    if (!(ess.eigenvalues()(i) < degeneracy_threshold * pairs_weight)) continue;
+    Vector6d v = d.asDiagonal() * ess.eigenvectors().col(i);
+    v.normalize();
+    Eigen::Index k;
+    v.cwiseAbs().maxCoeff(&k);
+    if (v(k) < 0) v = -v;  // canonical sign
+    directions.push_back(v);
+  }
+  return directions;
+}
+
 PoseCovariance poseCovariance(const Matrix6d& H, const Matrix6d& bread, const Matrix6d& meat,
                               double wr2, double components, double pairs_weight,
                               double length_scale, double degeneracy_threshold) {
@@ -28,21 +49,7 @@ PoseCovariance poseCovariance(const Matrix6d& H, const Matrix6d& bread, const Ma
   out.covariance = Ainv * meat * Ainv;
   out.covariance = 0.5 * (out.covariance + out.covariance.transpose());
 
-  // Degeneracy on the unit-balanced Hessian.
-  const double L = length_scale > 0.0 ? length_scale : 1.0;
-  Vector6d d;
-  d << 1, 1, 1, 1.0 / L, 1.0 / L, 1.0 / L;
-  const Matrix6d Hs = d.asDiagonal() * H * d.asDiagonal();
-  const Eigen::SelfAdjointEigenSolver<Matrix6d> ess(0.5 * (Hs + Hs.transpose()));
-  for (int i = 0; i < 6; ++i) {
-    if (!(ess.eigenvalues()(i) < degeneracy_threshold * pairs_weight)) continue;
-    Vector6d v = d.asDiagonal() * ess.eigenvectors().col(i);
-    v.normalize();
-    Eigen::Index k;
-    v.cwiseAbs().maxCoeff(&k);
-    if (v(k) < 0) v = -v;  // canonical sign
-    out.degenerate_directions.push_back(v);
-  }
+  out.degenerate_directions = degenerateDirections(H, pairs_weight, length_scale, degeneracy_threshold);
   return out;
 }
 
