@@ -28,6 +28,8 @@
 //                                           behaviour before 2026-12-02; default 2: near-duplicates
 //                                           of a fully checked loop that agree with it take over
 //                                           its verdict)
+//   BM_Naraha_PropertyIcpPgo_NoGuessCheck   guess_check_points 0, coarse_fitness_margin 0.1 (the
+//                                           defaults before the fourth pass; same results)
 //   BM_Naraha_PropertyIcpPgo_ExactSubmaps   loop_closure.submap_reuse_tolerance = 0: verification
 //                                           targets rebuilt after every optimisation (the
 //                                           behaviour before 2026-12-02; default 5 mm)
@@ -150,6 +152,14 @@ void BM_Naraha_PropertyIcpPgo_FullCrossChecks(benchmark::State& state) {
   c.loop_closure.light_duplicate_keyframes = 0;
   runConfig(state, c, false);
 }
+// No overlap check at the guess and the coarse check's old 0.1 margin (before 2026-12-02, fourth
+// pass): the same loops and trajectory bit for bit, more coarse and full ICP runs.
+void BM_Naraha_PropertyIcpPgo_NoGuessCheck(benchmark::State& state) {
+  SlamConfig c = SlamConfig::forMethod(SlamMethod::PropertyIcpPgo);
+  c.loop_closure.verification.guess_check_points = 0;
+  c.loop_closure.verification.coarse_fitness_margin = 0.1;
+  runConfig(state, c, false);
+}
 BENCHMARK(BM_Naraha_PropertyIcp)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
 BENCHMARK(BM_Naraha_PropertyIcpPgo)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
 BENCHMARK(BM_Naraha_PropertyIcpPgo_Sequential)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
@@ -159,6 +169,7 @@ BENCHMARK(BM_Naraha_PropertyIcpPgo_SingleStageProbes)->Unit(benchmark::kSecond)-
 BENCHMARK(BM_Naraha_PropertyIcpPgo_NearDuplicates)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
 BENCHMARK(BM_Naraha_PropertyIcpPgo_ExactSubmaps)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
 BENCHMARK(BM_Naraha_PropertyIcpPgo_FullCrossChecks)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
+BENCHMARK(BM_Naraha_PropertyIcpPgo_NoGuessCheck)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
 
 }  // namespace
 

@@ -171,6 +171,65 @@ TEST(LoopVerify, GuessCheckRejectsOnlyHopelessCandidates) {
   EXPECT_FALSE(verifyCandidate(cand, b, a, table, off).accepted);
 }
 
+// A featureless corridor (40 m × 3 m × 3 m): nothing constrains a loop along its axis.
+LabeledCloud corridorWorld(double step = 0.12) {
+  LabeledCloud w;
+  auto plane = [&](const Eigen::Vector3d& o, const Eigen::Vector3d& u, const Eigen::Vector3d& v) {
+    const int nu = static_cast<int>(u.norm() / step), nv = static_cast<int>(v.norm() / step);
+    for (int i = 0; i <= nu; ++i)
+      for (int j = 0; j <= nv; ++j) w.push_back((o + u * (double(i) / nu) + v * (double(j) / nv)).cast<float>(), 0);
+  };
+  const Eigen::Vector3d ex(40, 0, 0), ey(0, 3, 0), ez(0, 0, 3);
+  plane({-20, -1.5, 0}, ex, ey);  // floor
+  plane({-20, -1.5, 3}, ex, ey);  // ceiling
+  plane({-20, -1.5, 0}, ex, ez);  // walls
+  plane({-20, 1.5, 0}, ex, ez);
+  return w;
+}
+
+// Online cost: coarse_rejects_degenerate rejects a corridor loop at the coarse check; without the
+// key the full run rejects it too (one ICP run instead of two, the same verdict).
+TEST(LoopVerify, CoarseCheckRejectsADegenerateCorridorLoop) {
+  const LabeledCloud world = corridorWorld();
+  const ClassTable table = ClassTable::defaults();
+  std::mt19937 rng(8);
+  const Eigen::Isometry3d Ta = fromXyzRpy(-2.0, 0.2, 1.0, 0, 0, 0.05);
+  const Eigen::Isometry3d Tb = fromXyzRpy(1.5, -0.3, 1.0, 0, 0, -0.1);
+  const LabeledCloud a = keyframeCloud(test::observe(world, Ta, 15.0, 0.02, 0.3, rng));
+  const LabeledCloud b = keyframeCloud(test::observe(world, Tb, 15.0, 0.02, 0.3, rng));
+  LoopCandidate cand;
+  cand.query = 30;
+  cand.match = 2;
+  cand.initial_guess = (Ta.inverse() * Tb) * fromXyYaw(0.3, 0.1, 0.03);
+  VerificationConfig full;
+  full.coarse_rejects_degenerate = false;
+  VerificationConfig early;
+  early.coarse_rejects_degenerate = true;
+  ASSERT_GT(b.size(), early.coarse_source_points);  // the coarse check runs
+  const VerificationResult v_full = verifyCandidate(cand, b, a, table, full);
+  const VerificationResult v_early = verifyCandidate(cand, b, a, table, early);
+  // The full run slides along the free axis: it stops degenerate, or creeps to max_iterations.
+  EXPECT_FALSE(v_full.accepted);
+  EXPECT_TRUE(v_full.rejection == LoopRejection::Degenerate || v_full.rejection == LoopRejection::NotConverged)
+      << v_full.reason;
+  EXPECT_EQ(v_full.reason.find("coarse check"), std::string::npos) << v_full.reason;
+  EXPECT_FALSE(v_early.accepted);
+  EXPECT_EQ(v_early.rejection, LoopRejection::Degenerate) << v_early.reason;
+  EXPECT_NE(v_early.reason.find("coarse check"), std::string::npos) << v_early.reason;
+  // A loop the geometry does constrain is verified exactly as without the key.
+  const LabeledCloud hall = hallWorld();
+  const Eigen::Isometry3d Tc = fromXyzRpy(1.0, 0.5, 0.5, 0, 0, 0.3);
+  const Eigen::Isometry3d Td = fromXyzRpy(2.5, -0.5, 0.5, 0, 0, 1.0);
+  const LabeledCloud c = keyframeCloud(test::observe(hall, Tc, 15.0, 0.02, 0.5, rng));
+  const LabeledCloud d = keyframeCloud(test::observe(hall, Td, 15.0, 0.02, 0.5, rng));
+  cand.initial_guess = (Tc.inverse() * Td) * fromXyYaw(0.4, -0.3, 0.05);
+  const VerificationResult h_full = verifyCandidate(cand, d, c, table, full);
+  const VerificationResult h_early = verifyCandidate(cand, d, c, table, early);
+  ASSERT_TRUE(h_full.accepted) << h_full.reason;
+  ASSERT_TRUE(h_early.accepted) << h_early.reason;
+  EXPECT_TRUE(h_full.closure.T_from_to.matrix() == h_early.closure.T_from_to.matrix());
+}
+
 TEST(LoopVerify, DetectorClosesTheRouteLoopUnderDrift) {
   const LabeledCloud world = hallWorld(0.2);
   const ClassTable table = ClassTable::defaults();

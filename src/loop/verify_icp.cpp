@@ -117,6 +117,18 @@ VerificationResult coarseCheck(const LoopCandidate& cand, const LabeledCloud& qu
   return v;
 }
 
+// A corridor leaves the loop unconstrained along its axis whatever the source's size: when the
+// coarse check already finds a direction degenerate (reject_degenerate), the full run would too
+// (the test is normalised by the pairs' weight), so the candidate is rejected here.
+bool degenerateAtCoarse(VerificationResult& coarse, const VerificationConfig& c) {
+  const RegistrationResult& r = coarse.registration;
+  if (!c.coarse_rejects_degenerate || !c.reject_degenerate || !r.converged || r.degenerate_directions.empty()) return false;
+  coarse.rejection = LoopRejection::Degenerate;
+  coarse.reason = "coarse check (" + std::to_string(c.coarse_source_points) + " points): degenerate registration (" +
+                  std::to_string(r.degenerate_directions.size()) + " unconstrained directions)";
+  return true;
+}
+
 VerificationResult emptyCloudRejection(const LoopCandidate& cand) {
   VerificationResult out;
   out.rejection = LoopRejection::EmptyCloud;
@@ -145,6 +157,7 @@ VerificationResult verifyCandidate(const LoopCandidate& cand, const LabeledCloud
   if (c.coarse_source_points > 0 && query_cloud.size() > c.coarse_source_points) {
     VerificationResult coarse = coarseCheck(cand, query_cloud, target, classes, c);
     if (coarse.rejection == LoopRejection::LowFitness) return coarse;
+    if (degenerateAtCoarse(coarse, c)) return coarse;
     // The coarse check converged on a strided subset of the same source: the full run refines it.
     const RegistrationResult& cr = coarse.registration;
     if (c.full_from_coarse && (cr.converged || cr.termination == Termination::MaxIterations) && isFinite(cr.transform))
