@@ -187,7 +187,7 @@ LabeledCloud corridorWorld(double step = 0.12) {
   return w;
 }
 
-// Online cost: coarse_rejects_degenerate rejects a corridor loop at the coarse check; without the
+// Online cost: coarse_degeneracy_scale rejects a corridor loop at the coarse check; without the
 // key the full run rejects it too (one ICP run instead of two, the same verdict).
 TEST(LoopVerify, CoarseCheckRejectsADegenerateCorridorLoop) {
   const LabeledCloud world = corridorWorld();
@@ -202,9 +202,9 @@ TEST(LoopVerify, CoarseCheckRejectsADegenerateCorridorLoop) {
   cand.match = 2;
   cand.initial_guess = (Ta.inverse() * Tb) * fromXyYaw(0.3, 0.1, 0.03);
   VerificationConfig full;
-  full.coarse_rejects_degenerate = false;
+  full.coarse_degeneracy_scale = 0.0;
   VerificationConfig early;
-  early.coarse_rejects_degenerate = true;
+  early.coarse_degeneracy_scale = 1.0;
   ASSERT_GT(b.size(), early.coarse_source_points);  // the coarse check runs
   const VerificationResult v_full = verifyCandidate(cand, b, a, table, full);
   const VerificationResult v_early = verifyCandidate(cand, b, a, table, early);

@@ -113,8 +113,8 @@ const ConfigFields<VerificationConfig>& configFields(ConfigTag<VerificationConfi
                    "Fitness of this many source points at the guess (one search, no ICP) before the coarse check (0 = off)")
           .number("guess_fitness_margin", &C::guess_fitness_margin, nonNegative(),
                   "The guess check rejects below min_fitness − coarse_fitness_margin − this")
-          .flag("coarse_rejects_degenerate", &C::coarse_rejects_degenerate,
-                   "A coarse check that converged degenerate rejects the candidate without the full run (with reject_degenerate)")
+          .number("coarse_degeneracy_scale", &C::coarse_degeneracy_scale, closed(0, 1),
+                  "A coarse check degenerate below registration.degeneracy_threshold × this rejects the candidate without the full run (with reject_degenerate; 0 = off)")
           .integer("probe_source_points", &C::probe_source_points, atLeast(0),
                    "Basin probes register at most this many source points (0 = as the verification)")
           .flag("full_from_coarse", &C::full_from_coarse,

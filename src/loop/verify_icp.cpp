@@ -10,6 +10,7 @@
 #include <tbb/parallel_for.h>
 
 #include "hazmap/core/se3.hpp"
+#include "hazmap/registration/covariance.hpp"
 #include "hazmap/registration/registration_target.hpp"
 
 namespace hazmap {
@@ -117,15 +118,19 @@ VerificationResult coarseCheck(const LoopCandidate& cand, const LabeledCloud& qu
   return v;
 }
 
-// A corridor leaves the loop unconstrained along its axis whatever the source's size: when the
-// coarse check already finds a direction degenerate (reject_degenerate), the full run would too
-// (the test is normalised by the pairs' weight), so the candidate is rejected here.
+// A corridor leaves the loop unconstrained along its axis whatever the source's size: a coarse
+// check far below the degeneracy test (coarse_degeneracy_scale) rejects the candidate here.
 bool degenerateAtCoarse(VerificationResult& coarse, const VerificationConfig& c) {
   const RegistrationResult& r = coarse.registration;
-  if (!c.coarse_rejects_degenerate || !c.reject_degenerate || !r.converged || r.degenerate_directions.empty()) return false;
+  if (!(c.coarse_degeneracy_scale > 0.0) || !c.reject_degenerate || !r.converged || r.degenerate_directions.empty())
+    return false;
+  const RegistrationConfig& rc = c.registration;
+  const auto weak = degenerateDirections(r.hessian, r.pairs_weight, rc.degeneracy_length,
+                                         rc.degeneracy_threshold * c.coarse_degeneracy_scale);
+  if (weak.empty()) return false;
   coarse.rejection = LoopRejection::Degenerate;
   coarse.reason = "coarse check (" + std::to_string(c.coarse_source_points) + " points): degenerate registration (" +
-                  std::to_string(r.degenerate_directions.size()) + " unconstrained directions)";
+                  std::to_string(weak.size()) + " unconstrained directions)";
   return true;
 }
 

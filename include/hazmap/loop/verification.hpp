@@ -117,10 +117,12 @@ struct VerificationConfig {
   /// naraha, corridor and tanks (seed 1, 233 candidates). 0 = off.
   std::size_t guess_check_points = 300;
   double guess_fitness_margin = 0.25;
-  /// A coarse check that converged along a degenerate direction rejects the candidate
-  /// (reject_degenerate) without the full run: the degeneracy test is normalised by the pairs'
-  /// weight, so 1000 points find a corridor's free axis as 6000 do (online cost, issue 14).
-  bool coarse_rejects_degenerate = false;
+  /// A coarse check that converged with a direction this much weaker than the degeneracy test asks
+  /// (eigenvalue below registration.degeneracy_threshold × this × the pairs' weight) rejects the
+  /// candidate as degenerate (reject_degenerate) without the full run: a corridor leaves its axis
+  /// free whatever the source's size (online cost, issue 14). 1 = the full run's own test, which
+  /// 1000 points fail on some tanks loops 6000 points constrain; 0 = off.
+  double coarse_degeneracy_scale = 0.0;
   /// The basin probes register at most this many source points: they only have to tell which
   /// basin they land in, not refine it. 0 = as many as the verification (default: 1500 points
   /// was measured to judge basins worse, naraha seed 1 frame-to-map 0.012 → 0.018 m).
