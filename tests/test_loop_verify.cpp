@@ -55,6 +55,26 @@ LabeledCloud keyframeCloud(const LabeledCloud& c) {
   return voxelDownsample(c, v, ClassTable::defaults());
 }
 
+// Two keyframes of the hall 1.8 m and 0.7 rad apart and the loop candidate between them, its guess
+// 0.5 m / 0.05 rad off the truth (the verification tests' standard true loop).
+struct HallLoop {
+  LabeledCloud match, query;
+  LoopCandidate cand;
+  Eigen::Isometry3d truth;  ///< match ← query
+};
+HallLoop hallLoop(const LabeledCloud& world, std::mt19937& rng) {
+  const Eigen::Isometry3d Ta = fromXyzRpy(1.0, 0.5, 0.5, 0, 0, 0.3);
+  const Eigen::Isometry3d Tb = fromXyzRpy(2.5, -0.5, 0.5, 0, 0, 1.0);
+  HallLoop h;
+  h.match = keyframeCloud(test::observe(world, Ta, 15.0, 0.02, 0.5, rng));
+  h.query = keyframeCloud(test::observe(world, Tb, 15.0, 0.02, 0.5, rng));
+  h.cand.query = 30;
+  h.cand.match = 2;
+  h.truth = Ta.inverse() * Tb;
+  h.cand.initial_guess = h.truth * fromXyYaw(0.4, -0.3, 0.05);
+  return h;
+}
+
 TEST(LoopVerify, PropertyIcpRefinesAConstellationGuessAndGivesInformation) {
   const LabeledCloud world = hallWorld();
   const ClassTable table = ClassTable::defaults();
@@ -87,17 +107,9 @@ TEST(LoopVerify, PropertyIcpRefinesAConstellationGuessAndGivesInformation) {
 // Issue 14's online cost: the full run refining the coarse check's answer, the probes' coarse
 // stage and looser stop accept the same loop, within millimetres of the single-stage verification.
 TEST(LoopVerify, CheaperVerificationAcceptsTheSameLoop) {
-  const LabeledCloud world = hallWorld();
   const ClassTable table = ClassTable::defaults();
   std::mt19937 rng(5);
-  const Eigen::Isometry3d Ta = fromXyzRpy(1.0, 0.5, 0.5, 0, 0, 0.3);
-  const Eigen::Isometry3d Tb = fromXyzRpy(2.5, -0.5, 0.5, 0, 0, 1.0);
-  const LabeledCloud a = keyframeCloud(test::observe(world, Ta, 15.0, 0.02, 0.5, rng));
-  const LabeledCloud b = keyframeCloud(test::observe(world, Tb, 15.0, 0.02, 0.5, rng));
-  LoopCandidate cand;
-  cand.query = 30;
-  cand.match = 2;
-  cand.initial_guess = (Ta.inverse() * Tb) * fromXyYaw(0.4, -0.3, 0.05);
+  const auto [a, b, cand, truth] = hallLoop(hallWorld(), rng);
   VerificationConfig single;  // single stage throughout (the defaults before 2026-12-02)
   single.probe_coarse_points = 0;
   single.probe_tolerance_scale = 1.0;
@@ -140,21 +152,13 @@ TEST(LoopVerify, RejectsAWrongCandidate) {
 // whose scans barely overlap where the guess puts them, without the coarse ICP, and leaves a true
 // loop's verification exactly as it was.
 TEST(LoopVerify, GuessCheckRejectsOnlyHopelessCandidates) {
-  const LabeledCloud world = hallWorld();
   const ClassTable table = ClassTable::defaults();
   std::mt19937 rng(7);
-  const Eigen::Isometry3d Ta = fromXyzRpy(1.0, 0.5, 0.5, 0, 0, 0.3);
-  const Eigen::Isometry3d Tb = fromXyzRpy(2.5, -0.5, 0.5, 0, 0, 1.0);
-  const LabeledCloud a = keyframeCloud(test::observe(world, Ta, 15.0, 0.02, 0.5, rng));
-  const LabeledCloud b = keyframeCloud(test::observe(world, Tb, 15.0, 0.02, 0.5, rng));
+  auto [a, b, cand, truth] = hallLoop(hallWorld(), rng);
   VerificationConfig off;
   off.guess_check_points = 0;
   VerificationConfig on;
   on.guess_check_points = 300;
-  LoopCandidate cand;
-  cand.query = 30;
-  cand.match = 2;
-  cand.initial_guess = (Ta.inverse() * Tb) * fromXyYaw(0.4, -0.3, 0.05);
   const VerificationResult v_off = verifyCandidate(cand, b, a, table, off);
   const VerificationResult v_on = verifyCandidate(cand, b, a, table, on);
   ASSERT_TRUE(v_off.accepted) << v_off.reason;
@@ -162,7 +166,7 @@ TEST(LoopVerify, GuessCheckRejectsOnlyHopelessCandidates) {
   EXPECT_TRUE(v_on.closure.T_from_to.matrix() == v_off.closure.T_from_to.matrix());
   EXPECT_TRUE(v_on.closure.covariance == v_off.closure.covariance);
   // The guess puts the query scan 12 m along and 2.5 m up, turned half round: little overlap.
-  cand.initial_guess = (Ta.inverse() * Tb) * fromXyzRpy(12.0, 3.0, 2.5, 0, 0, M_PI);
+  cand.initial_guess = truth * fromXyzRpy(12.0, 3.0, 2.5, 0, 0, M_PI);
   const VerificationResult hopeless = verifyCandidate(cand, b, a, table, on);
   EXPECT_FALSE(hopeless.accepted);
   EXPECT_EQ(hopeless.rejection, LoopRejection::LowFitness);
@@ -217,14 +221,9 @@ TEST(LoopVerify, CoarseCheckRejectsADegenerateCorridorLoop) {
   EXPECT_EQ(v_early.rejection, LoopRejection::Degenerate) << v_early.reason;
   EXPECT_NE(v_early.reason.find("coarse check"), std::string::npos) << v_early.reason;
   // A loop the geometry does constrain is verified exactly as without the key.
-  const LabeledCloud hall = hallWorld();
-  const Eigen::Isometry3d Tc = fromXyzRpy(1.0, 0.5, 0.5, 0, 0, 0.3);
-  const Eigen::Isometry3d Td = fromXyzRpy(2.5, -0.5, 0.5, 0, 0, 1.0);
-  const LabeledCloud c = keyframeCloud(test::observe(hall, Tc, 15.0, 0.02, 0.5, rng));
-  const LabeledCloud d = keyframeCloud(test::observe(hall, Td, 15.0, 0.02, 0.5, rng));
-  cand.initial_guess = (Tc.inverse() * Td) * fromXyYaw(0.4, -0.3, 0.05);
-  const VerificationResult h_full = verifyCandidate(cand, d, c, table, full);
-  const VerificationResult h_early = verifyCandidate(cand, d, c, table, early);
+  const HallLoop hall = hallLoop(hallWorld(), rng);
+  const VerificationResult h_full = verifyCandidate(hall.cand, hall.query, hall.match, table, full);
+  const VerificationResult h_early = verifyCandidate(hall.cand, hall.query, hall.match, table, early);
   ASSERT_TRUE(h_full.accepted) << h_full.reason;
   ASSERT_TRUE(h_early.accepted) << h_early.reason;
   EXPECT_TRUE(h_full.closure.T_from_to.matrix() == h_early.closure.T_from_to.matrix());

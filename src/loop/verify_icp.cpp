@@ -29,10 +29,6 @@ void widenByBasinProbes(VerificationResult& v, const LabeledCloud& query_cloud, 
   if (c.probe_coarse_points > 0) probe.coarse_source_points = c.probe_coarse_points;
   probe.translation_tolerance *= c.probe_tolerance_scale;
   probe.rotation_tolerance *= c.probe_tolerance_scale;
-  // Two probes at a time (each ICP is deterministic whatever its threads), the ±x pair first;
-  // their shifts are added in the fixed order −x, +x, −y, +y. Each probe only adds to the spread's
-  // trace, so when the ±x pair alone already puts it beyond max_probe_spread the loop is rejected
-  // without the ±y pair — the same decision for less work.
   // A probe on a subset (probe_source_points) is measured from where that same subset settles
   // when started at the result: the subset's own answer sits a few mm from the full source's, an
   // offset every probe would share and the spread must not count as a second basin.
@@ -41,6 +37,10 @@ void widenByBasinProbes(VerificationResult& v, const LabeledCloud& query_cloud, 
     const RegistrationResult ref = registerClouds(query_cloud, target, result, classes, probe);
     if ((ref.converged || ref.termination == Termination::MaxIterations) && isFinite(ref.transform)) centre = ref.transform;
   }
+  // Two probes at a time (each ICP is deterministic whatever its threads), the ±x pair first;
+  // their shifts are added in the fixed order −x, +x, −y, +y. Each probe only adds to the spread's
+  // trace, so when the ±x pair alone already puts it beyond max_probe_spread the loop is rejected
+  // without the ±y pair — the same decision for less work.
   constexpr int runs = 4;
   std::array<Vector6d, runs> shift;
   Matrix6d spread = Matrix6d::Zero();
@@ -67,6 +67,21 @@ void widenByBasinProbes(VerificationResult& v, const LabeledCloud& query_cloud, 
   setLoopCovariance(v.closure, v.closure.covariance + spread);
 }
 
+// The candidate's closure as a check before the verification left it (not yet accepted).
+VerificationResult checkedAt(const LoopCandidate& cand, const RegistrationResult& reg) {
+  VerificationResult v;
+  v.closure.from = cand.match;
+  v.closure.to = cand.query;
+  v.closure.T_from_to = reg.transform;
+  v.closure.source = cand.source;
+  v.closure.fitness = reg.fitness;
+  v.registration = reg;
+  return v;
+}
+
+// The coarse check rejects below this fitness; the guess check below it less its own margin.
+double coarseFloor(const VerificationConfig& c) { return c.min_fitness - c.coarse_fitness_margin; }
+
 // The overlap at the guess (guess_check_points): one correspondence search of a small strided
 // subset, no ICP. Over its iterations ICP raises a candidate's fitness by at most ≈ 0.2 from there
 // (naraha, corridor, tanks seed 1), so a candidate this far below the coarse floor cannot reach it.
@@ -79,15 +94,10 @@ std::optional<VerificationResult> overlapAtGuess(const LoopCandidate& cand, cons
   one.coarse_source_points = 0;
   one.max_iterations = 1;
   const RegistrationResult reg = registerClouds(query_cloud, target, cand.initial_guess, classes, one);
-  const double floor = c.min_fitness - c.coarse_fitness_margin - c.guess_fitness_margin;
+  const double floor = coarseFloor(c) - c.guess_fitness_margin;
   if (!(reg.fitness < floor)) return std::nullopt;
-  VerificationResult v;
-  v.closure.from = cand.match;
-  v.closure.to = cand.query;
-  v.closure.T_from_to = cand.initial_guess;
-  v.closure.source = cand.source;
-  v.closure.fitness = reg.fitness;
-  v.registration = reg;
+  VerificationResult v = checkedAt(cand, reg);
+  v.closure.T_from_to = cand.initial_guess;  // one search moves nothing: the guess is the pose
   v.rejection = LoopRejection::LowFitness;
   v.reason = "overlap at the guess (" + std::to_string(c.guess_check_points) + " points): fitness " +
              std::to_string(reg.fitness) + " < " + std::to_string(floor);
@@ -102,14 +112,8 @@ VerificationResult coarseCheck(const LoopCandidate& cand, const LabeledCloud& qu
   RegistrationConfig coarse = c.registration;
   coarse.max_source_points = c.coarse_source_points;
   const RegistrationResult reg = registerClouds(query_cloud, target, cand.initial_guess, classes, coarse);
-  VerificationResult v;
-  v.closure.from = cand.match;
-  v.closure.to = cand.query;
-  v.closure.T_from_to = reg.transform;
-  v.closure.source = cand.source;
-  v.closure.fitness = reg.fitness;
-  v.registration = reg;
-  const double floor = c.min_fitness - c.coarse_fitness_margin;
+  VerificationResult v = checkedAt(cand, reg);
+  const double floor = coarseFloor(c);
   if (reg.fitness < floor) {
     v.rejection = LoopRejection::LowFitness;
     v.reason = "coarse check (" + std::to_string(c.coarse_source_points) + " points): fitness " +

@@ -21,6 +21,12 @@ struct PoseCovariance {
   std::vector<Vector6d> degenerate_directions;
 };
 
+/// The degeneracy test alone (poseCovariance's below, and the odometry's in the sensor frame): unit
+/// tangent directions (canonical sign) whose eigenvalue of the unit-balanced `H` is below
+/// `degeneracy_threshold`·`pairs_weight`.
+std::vector<Vector6d> degenerateDirections(const Matrix6d& H, double pairs_weight, double length_scale,
+                                           double degeneracy_threshold);
+
 /// `H` = Σ w JᵀJ (used for degeneracy), `bread` = A, `meat` = M, `wr2` = Σ w‖r‖²,
 /// `components` = Σ w·(components per residual), `pairs_weight` = Σ w over pairs.
 /// Degeneracy: H is scaled to diag(1,1,1,L,L,L)⁻¹·H·diag(…)⁻¹ (L = `length_scale`, m: a rotation
@@ -29,12 +35,6 @@ struct PoseCovariance {
 /// a well-constrained translation direction has an eigenvalue of the order of pairs_weight/3, a
 /// direction that nothing constrains (a corridor's axis) close to zero. A⁻¹ is regularised (eigenvalues floored at 1e-9·λ_max of H), so the
 /// covariance along a degenerate direction is huge but finite.
-/// The degeneracy test alone (poseCovariance's, and the odometry's in the sensor frame): unit
-/// tangent directions (canonical sign) whose eigenvalue of the unit-balanced `H` is below
-/// `degeneracy_threshold`·`pairs_weight`.
-std::vector<Vector6d> degenerateDirections(const Matrix6d& H, double pairs_weight, double length_scale,
-                                           double degeneracy_threshold);
-
 PoseCovariance poseCovariance(const Matrix6d& H, const Matrix6d& bread, const Matrix6d& meat,
                               double wr2, double components, double pairs_weight,
                               double length_scale, double degeneracy_threshold);
