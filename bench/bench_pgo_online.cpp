@@ -119,10 +119,11 @@ void BM_Naraha_PropertyIcpPgo_Every2nd(benchmark::State& state) {
   c.loop_search_every = 2;
   runConfig(state, c, false);
 }
-// The cheaper verification (issue 14, opt-in: docs/pose_graph.md "Online cost").
+// The cheaper verification of the first pass (docs/pose_graph.md "Online cost"): the full run
+// refines every coarse answer, however far it moved from the guess (wrong loops under heavy drift).
 void BM_Naraha_PropertyIcpPgo_CheapVerify(benchmark::State& state) {
   SlamConfig c = SlamConfig::forMethod(SlamMethod::PropertyIcpPgo);
-  c.loop_closure.verification.full_from_coarse = true;
+  c.loop_closure.verification.full_from_coarse_within = 1e9;
   c.loop_closure.verification.probe_coarse_points = 1000;
   c.loop_closure.verification.probe_tolerance_scale = 10.0;
   runConfig(state, c, false);
@@ -160,6 +161,12 @@ void BM_Naraha_PropertyIcpPgo_NoGuessCheck(benchmark::State& state) {
   c.loop_closure.verification.coarse_fitness_margin = 0.1;
   runConfig(state, c, false);
 }
+// The full verification always from the candidate's guess (before 2026-12-03, fifth pass).
+void BM_Naraha_PropertyIcpPgo_FullFromGuess(benchmark::State& state) {
+  SlamConfig c = SlamConfig::forMethod(SlamMethod::PropertyIcpPgo);
+  c.loop_closure.verification.full_from_coarse_within = 0.0;
+  runConfig(state, c, false);
+}
 BENCHMARK(BM_Naraha_PropertyIcp)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
 BENCHMARK(BM_Naraha_PropertyIcpPgo)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
 BENCHMARK(BM_Naraha_PropertyIcpPgo_Sequential)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
@@ -169,6 +176,7 @@ BENCHMARK(BM_Naraha_PropertyIcpPgo_SingleStageProbes)->Unit(benchmark::kSecond)-
 BENCHMARK(BM_Naraha_PropertyIcpPgo_NearDuplicates)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
 BENCHMARK(BM_Naraha_PropertyIcpPgo_ExactSubmaps)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
 BENCHMARK(BM_Naraha_PropertyIcpPgo_FullCrossChecks)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
+BENCHMARK(BM_Naraha_PropertyIcpPgo_FullFromGuess)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
 BENCHMARK(BM_Naraha_PropertyIcpPgo_NoGuessCheck)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
 
 }  // namespace

@@ -114,7 +114,7 @@ TEST(LoopVerify, CheaperVerificationAcceptsTheSameLoop) {
   single.probe_coarse_points = 0;
   single.probe_tolerance_scale = 1.0;
   VerificationConfig cheap;
-  cheap.full_from_coarse = true;
+  cheap.full_from_coarse_within = 2.0;
   cheap.probe_coarse_points = 1000;
   cheap.probe_tolerance_scale = 10.0;
   const VerificationResult v1 = verifyCandidate(cand, b, a, table, single);
@@ -126,6 +126,32 @@ TEST(LoopVerify, CheaperVerificationAcceptsTheSameLoop) {
   EXPECT_LT(rotationAngle(d), 0.0005);
   // The probes' spread joins both covariances alike (within the floors' scale).
   EXPECT_LT((v1.closure.covariance - v2.closure.covariance).norm(), 1e-4);
+}
+
+// full_from_coarse_within: a coarse answer near the guess is refined, not recomputed (fewer full
+// searches, the same loop); one that moved farther than the radius leaves the full run at the guess.
+TEST(LoopVerify, FullRunRefinesOnlyACoarseAnswerNearTheGuess) {
+  const ClassTable table = ClassTable::defaults();
+  std::mt19937 rng(5);
+  const auto [a, b, cand, truth] = hallLoop(hallWorld(), rng);
+  VerificationConfig from_guess;
+  from_guess.probe_distance = 0.0;  // the full run alone
+  VerificationConfig refine = from_guess;
+  refine.full_from_coarse_within = 2.0;  // the guess is 0.5 m and 0.05 rad off: 1.0 in its measure
+  const VerificationResult v0 = verifyCandidate(cand, b, a, table, from_guess);
+  const VerificationResult v1 = verifyCandidate(cand, b, a, table, refine);
+  ASSERT_TRUE(v0.accepted) << v0.reason;
+  ASSERT_TRUE(v1.accepted) << v1.reason;
+  EXPECT_LT(v1.registration.iterations, v0.registration.iterations);
+  const Eigen::Isometry3d d = v0.closure.T_from_to.inverse() * v1.closure.T_from_to;
+  EXPECT_LT(translationNorm(d), 0.002);
+  EXPECT_LT(rotationAngle(d), 0.0003);
+  // Below that move the full run starts at the guess: the same run bit for bit.
+  VerificationConfig tight = from_guess;
+  tight.full_from_coarse_within = 0.5;
+  const VerificationResult v2 = verifyCandidate(cand, b, a, table, tight);
+  EXPECT_EQ(v2.registration.iterations, v0.registration.iterations);
+  EXPECT_TRUE(v2.closure.T_from_to.isApprox(v0.closure.T_from_to, 0.0));
 }
 
 TEST(LoopVerify, RejectsAWrongCandidate) {

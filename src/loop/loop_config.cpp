@@ -117,8 +117,8 @@ const ConfigFields<VerificationConfig>& configFields(ConfigTag<VerificationConfi
                   "A coarse check degenerate below registration.degeneracy_threshold × this rejects the candidate without the full run (with reject_degenerate; 0 = off)")
           .integer("probe_source_points", &C::probe_source_points, atLeast(0),
                    "Basin probes register at most this many source points (0 = as the verification)")
-          .flag("full_from_coarse", &C::full_from_coarse,
-                "The full verification ICP starts where the coarse check converged (false: from the candidate's guess)")
+          .number("full_from_coarse_within", &C::full_from_coarse_within, nonNegative(),
+                  "m (translation + 10 m × rotation); the full verification ICP starts where the coarse check converged when that lies within this of the guess (0 = always from the guess)")
           .integer("probe_coarse_points", &C::probe_coarse_points, atLeast(0),
                    "Basin probes and the reverse cross-check start with a coarse stage on this many source points, then refine on all (0 = single stage)")
           .number("probe_tolerance_scale", &C::probe_tolerance_scale, atLeast(1.0),

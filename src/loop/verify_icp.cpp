@@ -138,6 +138,17 @@ bool degenerateAtCoarse(VerificationResult& coarse, const VerificationConfig& c)
   return true;
 }
 
+// The coarse check converged on a strided subset of the same source near the guess: the full run
+// only refines it (full_from_coarse_within). Farther moves keep the guess as the full run's start.
+bool refinesCoarse(const RegistrationResult& coarse, const Eigen::Isometry3d& guess, const VerificationConfig& c) {
+  if (!(c.full_from_coarse_within > 0.0) || !isFinite(coarse.transform)) return false;
+  if (!coarse.converged && coarse.termination != Termination::MaxIterations) return false;
+  const Eigen::Isometry3d move = guess.inverse() * coarse.transform;
+  constexpr double lever = 10.0;  // m, as submap_reuse_tolerance
+  const double size = move.translation().norm() + lever * Eigen::AngleAxisd(move.rotation()).angle();
+  return size <= c.full_from_coarse_within;
+}
+
 VerificationResult emptyCloudRejection(const LoopCandidate& cand) {
   VerificationResult out;
   out.rejection = LoopRejection::EmptyCloud;
@@ -167,10 +178,7 @@ VerificationResult verifyCandidate(const LoopCandidate& cand, const LabeledCloud
     VerificationResult coarse = coarseCheck(cand, query_cloud, target, classes, c);
     if (coarse.rejection == LoopRejection::LowFitness) return coarse;
     if (degenerateAtCoarse(coarse, c)) return coarse;
-    // The coarse check converged on a strided subset of the same source: the full run refines it.
-    const RegistrationResult& cr = coarse.registration;
-    if (c.full_from_coarse && (cr.converged || cr.termination == Termination::MaxIterations) && isFinite(cr.transform))
-      start = cr.transform;
+    if (refinesCoarse(coarse.registration, cand.initial_guess, c)) start = coarse.registration.transform;
   }
   const RegistrationResult reg = registerClouds(query_cloud, target, start, classes, c.registration);
   VerificationResult v = evaluateRegistration(cand, reg, c);
