@@ -65,6 +65,10 @@ Matrix6d embedPlanar(const Eigen::Matrix3d& b) {
   return m;
 }
 
+// The diagonal (t2, t2, t2, r2, r2, r2): one variance for the three translations and one for the
+// three rotations (translation first, as se3Log).
+Vector6d translationRotationDiagonal(double t2, double r2) { return (Vector6d() << t2, t2, t2, r2, r2, r2).finished(); }
+
 Matrix6d inverseOf(const Matrix6d& covariance) {
   Eigen::SelfAdjointEigenSolver<Matrix6d> eig(0.5 * (covariance + covariance.transpose()));
   Eigen::Matrix<double, 6, 1> values = eig.eigenvalues().cwiseMax(1e-12);
@@ -372,7 +376,7 @@ class SlamRun {
     Matrix6d cov = config_.odometry_covariance_scale * positivePart(rec.covariance);
     const double t2 = config_.odometry_floor_translation * config_.odometry_floor_translation;
     const double r2 = config_.odometry_floor_rotation * config_.odometry_floor_rotation;
-    cov.diagonal() += (Vector6d() << t2, t2, t2, r2, r2, r2).finished();
+    cov.diagonal() += translationRotationDiagonal(t2, r2);
     const double turn = std::abs(se3Log(rec.T_prev_curr)(5));
     const double tt = config_.odometry_turn_translation * turn, tr = config_.odometry_turn_rotation * turn;
     cov.diagonal() += (Vector6d() << tt * tt, tt * tt, 0.0, 0.0, 0.0, tr * tr).finished();
@@ -425,7 +429,7 @@ class SlamRun {
       const Vector6d d = se3Log(result_.frames[rec.index - 1].T_prev_curr.inverse() * rec.T_prev_curr);
       const double w = config_.motion_disagreement_weight;
       const double t2 = w * w * d.head<3>().squaredNorm(), r2 = w * w * d.tail<3>().squaredNorm();
-      cov.diagonal() += (Vector6d() << t2, t2, t2, r2, r2, r2).finished();
+      cov.diagonal() += translationRotationDiagonal(t2, r2);
     }
     return cov;
   }
@@ -435,7 +439,7 @@ class SlamRun {
       return flooredCovariance(covariance, config_.min_translation_sigma, config_.min_rotation_sigma);
     const double t2 = config_.min_translation_sigma * config_.min_translation_sigma;
     const double r2 = config_.min_rotation_sigma * config_.min_rotation_sigma;
-    return positivePart(covariance) + Vector6d((Vector6d() << t2, t2, t2, r2, r2, r2).finished()).asDiagonal().toDenseMatrix();
+    return positivePart(covariance) + Matrix6d(translationRotationDiagonal(t2, r2).asDiagonal());
   }
 
   /// Whether a run that closed no loop is optimised with its gravity priors alone
@@ -528,7 +532,7 @@ class SlamRun {
     Matrix6d cov = registrationEdgeCovariance(result_.frames[frame]);
     const double t2 = config_.anchor_sigma_translation * config_.anchor_sigma_translation;
     const double r2 = config_.anchor_sigma_rotation * config_.anchor_sigma_rotation;
-    cov.diagonal() += (Vector6d() << t2, t2, t2, r2, r2, r2).finished();
+    cov.diagonal() += translationRotationDiagonal(t2, r2);
     return cov;
   }
 
@@ -713,7 +717,7 @@ class SlamRun {
       if (!(config_.loop_tail_weight > 0.0)) continue;
       const double t2 = config_.loop_tail_sigma_translation * config_.loop_tail_sigma_translation;
       const double r2 = config_.loop_tail_sigma_rotation * config_.loop_tail_sigma_rotation;
-      e.alt_information = inverseOf(own + Matrix6d((Vector6d() << t2, t2, t2, r2, r2, r2).finished().asDiagonal()));
+      e.alt_information = inverseOf(own + Matrix6d(translationRotationDiagonal(t2, r2).asDiagonal()));
       e.alt_weight = config_.loop_tail_weight;
     }
     if (config_.loop_bias) attachLoopBiases(consistent, first);
@@ -725,7 +729,7 @@ class SlamRun {
     const auto sq = [](double s) { return s * s; };
     const double t2 = sq(config_.loop_own_sigma_translation), r2 = sq(config_.loop_own_sigma_rotation);
     return positivePart(l.covariance - Matrix6d(floorVariances(config_.loop_closure.verification).asDiagonal())) +
-           Matrix6d((Vector6d() << t2, t2, t2, r2, r2, r2).finished().asDiagonal());
+           Matrix6d(translationRotationDiagonal(t2, r2).asDiagonal());
   }
 
   /// SlamConfig::loop_bias: groups of loops within loop_bias_window keyframes of the group's first
@@ -742,7 +746,7 @@ class SlamRun {
     const auto near = [w = config_.loop_bias_window](std::size_t a, std::size_t b) { return (a > b ? a - b : b - a) <= w; };
     const auto sq = [](double s) { return 1.0 / (s * s); };
     const double it = sq(config_.loop_shared_sigma_translation), ir = sq(config_.loop_shared_sigma_rotation);
-    const Matrix6d prior = (Vector6d() << it, it, it, ir, ir, ir).finished().asDiagonal();
+    const Matrix6d prior = translationRotationDiagonal(it, ir).asDiagonal();
     std::vector<std::pair<std::size_t, int>> groups;  // (first loop, bias node)
     for (std::size_t i : order) {
       const LoopClosure& l = loops[i];
