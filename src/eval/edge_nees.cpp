@@ -30,7 +30,7 @@ EdgeNees neesOf(const PoseGraphEdge& edge, const Eigen::Isometry3d& T_true_ij, i
 /// neesOf against the edge's marginal information when it passes through a bias node (the
 /// covariance it claims: own part + shared), with nees_own against the own part.
 EdgeNees neesOfGraphEdge(const PoseGraph& graph, const PoseGraphEdge& edge, const Eigen::Isometry3d& T_true_ij) {
-  if (edge.bias < 0 || graph.dimension != 3) return neesOf(edge, T_true_ij, graph.dimension);
+  if (!graph.hasBias(edge)) return neesOf(edge, T_true_ij, graph.dimension);
   PoseGraphEdge marginal = edge;
   marginal.information = marginalInformation(graph, edge);
   if (isMixtureEdge(edge, graph.dimension)) marginal.alt_information = marginalInformation(graph, edge, edge.alt_information);

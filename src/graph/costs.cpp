@@ -78,8 +78,7 @@ int mixtureSelection(const PoseGraph& graph, const PoseGraphEdge& edge) {
 }
 
 Vector6d biasOffset(const PoseGraph& graph, const PoseGraphEdge& edge) {
-  if (graph.dimension != 3 || edge.bias < 0 || edge.bias >= static_cast<int>(graph.biases.size()))
-    return Vector6d::Zero();
+  if (!graph.hasBias(edge)) return Vector6d::Zero();
   return adjoint(edge.T_from_to.inverse()) * edge.bias_map * graph.biases[static_cast<std::size_t>(edge.bias)].value;
 }
 

@@ -146,8 +146,7 @@ ceres::CostFunction* edgeCost(const PoseGraphEdge& e, int dimension, const PoseG
 /// Whether an edge enters the solve through its bias node (PoseGraphEdge::bias): 3-D geodesic
 /// graphs and edges that are not max-mixtures; elsewhere the bias is ignored (the edge's own part).
 bool usesBias(const PoseGraph& graph, const PoseGraphConfig& config, const PoseGraphEdge& e) {
-  return graph.dimension == 3 && config.cost == PoseGraphCost::Geodesic && e.bias >= 0 &&
-         e.bias < static_cast<int>(graph.biases.size());
+  return config.cost == PoseGraphCost::Geodesic && graph.hasBias(e);
 }
 
 /// An edge through its bias node: one Gaussian, or a max-mixture (both components share the bias).

@@ -84,7 +84,7 @@ Matrix6d marginalInformation(const PoseGraph& graph, const PoseGraphEdge& edge) 
 }
 
 Matrix6d marginalInformation(const PoseGraph& graph, const PoseGraphEdge& edge, const Matrix6d& information) {
-  if (edge.bias < 0 || edge.bias >= static_cast<int>(graph.biases.size())) return information;
+  if (!graph.hasBias(edge)) return information;
   const Matrix6d shared = graph.biases[static_cast<std::size_t>(edge.bias)].information.inverse();
   const Matrix6d cov = information.inverse() + edge.bias_map * shared * edge.bias_map.transpose();
   const Matrix6d info = cov.inverse();

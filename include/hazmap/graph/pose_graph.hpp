@@ -99,6 +99,11 @@ struct PoseGraph {
   /// Lets edge `edge` pass through bias `bias` with the map of the bias into the edge's left
   /// perturbation (PoseGraphEdge::bias_map); throws hazmap::Error on an index out of range.
   void attachBias(int edge, int bias, const Matrix6d& bias_map);
+  /// Whether `edge` passes through one of this graph's bias nodes (3-D graphs; an index out of
+  /// range counts as none).
+  bool hasBias(const PoseGraphEdge& edge) const {
+    return dimension == 3 && edge.bias >= 0 && edge.bias < static_cast<int>(biases.size());
+  }
 
   int numNodes() const { return static_cast<int>(poses.size()); }
   int numEdges() const { return static_cast<int>(edges.size()); }
