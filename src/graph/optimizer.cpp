@@ -158,7 +158,7 @@ ceres::CostFunction* biasedEdgeCost(const PoseGraphEdge& e, MixtureMode mode) {
   const Matrix6d wide = sqrtInformation(informationLeftToRight(e.T_from_to, e.alt_information));
   if (mode == MixtureMode::WideOnly) return new BiasedGeodesicCost3(e.T_from_to.linear(), e.T_from_to.translation(), wide, B);
   const MixtureOffsets g = mixtureOffsets(e);
-  return new BiasedMaxMixtureCost3(e.T_from_to.linear(), e.T_from_to.translation(), tight, wide, B, g.tight, g.alternative);
+  return new BiasedMaxMixtureCost3(e.T_from_to.linear(), e.T_from_to.translation(), tight, wide, g.tight, g.alternative, B);
 }
 
 /// One 6-double block per bias node, started at its current value, with its prior.

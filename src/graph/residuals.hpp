@@ -10,6 +10,7 @@
 #include <ceres/ceres.h>
 
 #include <Eigen/Core>
+#include <array>
 #include <cmath>
 
 #include "hazmap/core/se3.hpp"
@@ -98,45 +99,6 @@ class GeodesicCost3 final : public ceres::SizedCostFunction<6, 12, 12> {
   Matrix6d L_;
 };
 
-/// Max-mixture edge (Olson & Agarwal 2013; PoseGraphEdge::alt_weight): the geodesic error of
-/// the component with the larger likelihood at the current poses, whitened by its own L_k, and a
-/// 7th residual √γ_k carrying that component's weight and normaliser (graph/costs.hpp
-/// MixtureOffsets), so ½‖r‖² is the selected component's −log likelihood up to a constant. The
-/// selection changes only the Gauss–Newton model between iterations, never within one.
-class MaxMixtureCost3 final : public ceres::SizedCostFunction<7, 12, 12> {
- public:
-  MaxMixtureCost3(const Mat3& R_meas, const Vec3& t_meas, const Matrix6d& sqrt_tight, const Matrix6d& sqrt_wide,
-                  double offset_tight, double offset_wide)
-      : tight_(R_meas, t_meas, sqrt_tight), wide_(R_meas, t_meas, sqrt_wide),
-        offset_{offset_tight, offset_wide} {}
-
-  bool Evaluate(double const* const* p, double* residuals, double** jacobians) const override {
-    Vector6d r_tight, r_wide;
-    tight_.Evaluate(p, r_tight.data(), nullptr);
-    wide_.Evaluate(p, r_wide.data(), nullptr);
-    const int k = r_wide.squaredNorm() + offset_[1] < r_tight.squaredNorm() + offset_[0] ? 1 : 0;
-    const GeodesicCost3& chosen = k == 1 ? wide_ : tight_;
-    Eigen::Map<Vector6d>{residuals} = k == 1 ? r_wide : r_tight;
-    residuals[6] = std::sqrt(offset_[k]);
-    if (!jacobians) return true;
-    Eigen::Matrix<double, 6, 12, Eigen::RowMajor> Ji, Jj;
-    double* parts[2] = {jacobians[0] ? Ji.data() : nullptr, jacobians[1] ? Jj.data() : nullptr};
-    Vector6d unused;
-    chosen.Evaluate(p, unused.data(), parts);
-    for (int b = 0; b < 2; ++b) {
-      if (!jacobians[b]) continue;
-      Eigen::Map<Eigen::Matrix<double, 7, 12, Eigen::RowMajor>> J(jacobians[b]);
-      J.topRows<6>() = b == 0 ? Ji : Jj;
-      J.row(6).setZero();
-    }
-    return true;
-  }
-
- private:
-  GeodesicCost3 tight_, wide_;
-  double offset_[2];
-};
-
 /// An edge through a bias node (PoseGraphEdge::bias): the geodesic error less the part the bias
 /// b explains, L (e − B b), B = Ad(T̃⁻¹) · bias_map (graph/costs.hpp biasOffset). The bias enters
 /// linearly, so its Jacobian is −L B and the poses' are GeodesicCost3's.
@@ -158,13 +120,21 @@ class BiasedGeodesicCost3 final : public ceres::SizedCostFunction<6, 12, 12, 6> 
   Matrix6d LB_;
 };
 
-/// A max-mixture edge through a bias node: MaxMixtureCost3 on the error less the bias' part
-/// (BiasedGeodesicCost3 per component).
-class BiasedMaxMixtureCost3 final : public ceres::SizedCostFunction<7, 12, 12, 6> {
+/// Max-mixture edge (Olson & Agarwal 2013; PoseGraphEdge::alt_weight) over two components of the
+/// same kind (GeodesicCost3, or BiasedGeodesicCost3 through a bias node): the error of the
+/// component with the larger likelihood at the current estimate, whitened by its own L_k, and a
+/// 7th residual √γ_k carrying that component's weight and normaliser (graph/costs.hpp
+/// MixtureOffsets), so ½‖r‖² is the selected component's −log likelihood up to a constant. The
+/// selection changes only the Gauss–Newton model between iterations, never within one.
+template <class Component, int... BlockSizes>
+class MaxMixtureOf final : public ceres::SizedCostFunction<7, BlockSizes...> {
  public:
-  BiasedMaxMixtureCost3(const Mat3& R_meas, const Vec3& t_meas, const Matrix6d& sqrt_tight, const Matrix6d& sqrt_wide,
-                        const Matrix6d& B, double offset_tight, double offset_wide)
-      : tight_(R_meas, t_meas, sqrt_tight, B), wide_(R_meas, t_meas, sqrt_wide, B), offset_{offset_tight, offset_wide} {}
+  /// The components are Component(R_meas, t_meas, sqrt_k, shared...), k = tight, wide.
+  template <class... Shared>
+  MaxMixtureOf(const Mat3& R_meas, const Vec3& t_meas, const Matrix6d& sqrt_tight, const Matrix6d& sqrt_wide,
+               double offset_tight, double offset_wide, const Shared&... shared)
+      : tight_(R_meas, t_meas, sqrt_tight, shared...), wide_(R_meas, t_meas, sqrt_wide, shared...),
+        offset_{offset_tight, offset_wide} {}
 
   bool Evaluate(double const* const* p, double* residuals, double** jacobians) const override {
     Vector6d r_tight, r_wide;
@@ -174,21 +144,31 @@ class BiasedMaxMixtureCost3 final : public ceres::SizedCostFunction<7, 12, 12, 6
     Eigen::Map<Vector6d>{residuals} = k == 1 ? r_wide : r_tight;
     residuals[6] = std::sqrt(offset_[k]);
     if (!jacobians) return true;
-    Eigen::Matrix<double, 6, 12, Eigen::RowMajor> Ji, Jj;
-    Eigen::Matrix<double, 6, 6, Eigen::RowMajor> Jb;
-    double* parts[3] = {Ji.data(), Jj.data(), Jb.data()};
+    // The chosen component's 6-row Jacobians, then a zero 7th row (γ_k does not depend on the estimate).
+    constexpr std::size_t blocks = sizeof...(BlockSizes);
+    constexpr int sizes[blocks] = {BlockSizes...};
+    std::array<Eigen::Matrix<double, 6, 12, Eigen::RowMajor>, blocks> part;
+    std::array<double*, blocks> parts;
+    for (std::size_t b = 0; b < blocks; ++b) parts[b] = jacobians[b] ? part[b].data() : nullptr;
     Vector6d unused;
-    (k == 1 ? wide_ : tight_).Evaluate(p, unused.data(), parts);
-    if (jacobians[0]) Eigen::Map<Eigen::Matrix<double, 7, 12, Eigen::RowMajor>>{jacobians[0]} << Ji, Eigen::Matrix<double, 1, 12>::Zero();
-    if (jacobians[1]) Eigen::Map<Eigen::Matrix<double, 7, 12, Eigen::RowMajor>>{jacobians[1]} << Jj, Eigen::Matrix<double, 1, 12>::Zero();
-    if (jacobians[2]) Eigen::Map<Eigen::Matrix<double, 7, 6, Eigen::RowMajor>>{jacobians[2]} << Jb, Eigen::Matrix<double, 1, 6>::Zero();
+    (k == 1 ? wide_ : tight_).Evaluate(p, unused.data(), parts.data());
+    for (std::size_t b = 0; b < blocks; ++b) {
+      if (!jacobians[b]) continue;
+      using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+      Eigen::Map<RowMajor> J(jacobians[b], 7, sizes[b]);
+      J.topRows(6) = Eigen::Map<const RowMajor>(part[b].data(), 6, sizes[b]);
+      J.row(6).setZero();
+    }
     return true;
   }
 
  private:
-  BiasedGeodesicCost3 tight_, wide_;
+  Component tight_, wide_;
   double offset_[2];
 };
+
+using MaxMixtureCost3 = MaxMixtureOf<GeodesicCost3, 12, 12>;
+using BiasedMaxMixtureCost3 = MaxMixtureOf<BiasedGeodesicCost3, 12, 12, 6>;
 
 /// A bias node's prior N(0, Ω_b⁻¹): r = U b with Ω_b = UᵀU.
 class BiasPriorCost final : public ceres::SizedCostFunction<6, 6> {
