@@ -22,21 +22,29 @@ nlohmann::json statsJson(const DistanceStats& s) {
           {"max", s.max}, {"rmse", s.rmse}};
 }
 
+// The max-mixture odometry edge (slam.odometry_edge_mixture) into each frame, or null: looked up
+// once, not per doubtful frame (the last such edge into a frame, as the graph lists them).
+std::vector<const PoseGraphEdge*> mixtureOdometryEdges(const PoseGraph& graph, std::size_t frames) {
+  std::vector<const PoseGraphEdge*> into(frames, nullptr);
+  for (const PoseGraphEdge& e : graph.edges)
+    if (e.kind == EdgeKind::Odometry && e.from + 1 == e.to && e.alt_weight > 0.0 && e.to >= 0 &&
+        static_cast<std::size_t>(e.to) < frames)
+      into[static_cast<std::size_t>(e.to)] = &e;
+  return into;
+}
+
 // A doubtful odometry edge (slam.honest_odometry_edges); a max-mixture one (slam.odometry_edge_mixture)
 // also with the component the final solution selects (0 tight, 1 wide), its weight and both
 // covariances (left perturbation, translation first, row-major) for the NEES of docs/pose_graph.md.
-nlohmann::json doubtfulEdgeJson(const PoseGraph& graph, const FrameRecord& f) {
+nlohmann::json doubtfulEdgeJson(const FrameRecord& f, const PoseGraphEdge* mixture) {
   nlohmann::json j = {{"frame", f.index}, {"contradicted_by", f.edge_doubt}};
-  for (const PoseGraphEdge& e : graph.edges) {
-    if (e.kind != EdgeKind::Odometry || e.to != static_cast<int>(f.index) || e.from + 1 != e.to || !(e.alt_weight > 0.0))
-      continue;
-    const Matrix6d tight = e.information.inverse(), wide = e.alt_information.inverse();
-    std::vector<double> t(tight.data(), tight.data() + 36), w(wide.data(), wide.data() + 36);  // symmetric
-    j["selected"] = e.selected;
-    j["alt_weight"] = e.alt_weight;
-    j["tight_covariance"] = t;
-    j["wide_covariance"] = w;
-  }
+  if (!mixture) return j;
+  const Matrix6d tight = mixture->information.inverse(), wide = mixture->alt_information.inverse();
+  std::vector<double> t(tight.data(), tight.data() + 36), w(wide.data(), wide.data() + 36);  // symmetric
+  j["selected"] = mixture->selected;
+  j["alt_weight"] = mixture->alt_weight;
+  j["tight_covariance"] = t;
+  j["wide_covariance"] = w;
   return j;
 }
 
@@ -49,10 +57,11 @@ nlohmann::json trackingJson(const SlamResult& r) {
   nlohmann::json stalled = nlohmann::json::array();  // ICP stopped at its iteration limit (issue 14)
   nlohmann::json doubtful = nlohmann::json::array();  // slam.honest_odometry_edges: a prior contradicted the increment
   double ms_sum = 0;
+  const std::vector<const PoseGraphEdge*> mixture = mixtureOdometryEdges(r.graph, r.frames.size());
   for (const auto& f : r.frames) {
     ms_sum += f.milliseconds;
     if (f.stalled) stalled.push_back(f.index);
-    if (!f.edge_doubt.empty()) doubtful.push_back(doubtfulEdgeJson(r.graph, f));
+    if (!f.edge_doubt.empty()) doubtful.push_back(doubtfulEdgeJson(f, f.index < mixture.size() ? mixture[f.index] : nullptr));
     status.push_back(toString(f.status));
     if (f.status == FrameStatus::Relocalised)
       relocalised_frames.push_back({{"frame", f.index}, {"reason", f.fallback_reason}});
