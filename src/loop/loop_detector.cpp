@@ -88,8 +88,7 @@ std::shared_ptr<const RegistrationTarget> LoopDetector::submapTarget(std::size_t
   const double tol = config_.submap_reuse_tolerance;
   const auto same = [tol](const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
     if (tol <= 0.0) return a.matrix() == b.matrix();
-    const Eigen::Isometry3d d = a.inverse() * b;
-    return translationNorm(d) + kSubmapReuseLever * rotationAngle(d) <= tol;
+    return poseChangeSize(a.inverse() * b) <= tol;
   };
   for (const auto& c : submaps_)
     if (c.k == key.k && c.first == key.first && c.last == key.last &&

@@ -143,10 +143,7 @@ bool degenerateAtCoarse(VerificationResult& coarse, const VerificationConfig& c)
 bool refinesCoarse(const RegistrationResult& coarse, const Eigen::Isometry3d& guess, const VerificationConfig& c) {
   if (!(c.full_from_coarse_within > 0.0) || !isFinite(coarse.transform)) return false;
   if (!coarse.converged && coarse.termination != Termination::MaxIterations) return false;
-  const Eigen::Isometry3d move = guess.inverse() * coarse.transform;
-  constexpr double lever = 10.0;  // m, as submap_reuse_tolerance
-  const double size = move.translation().norm() + lever * Eigen::AngleAxisd(move.rotation()).angle();
-  return size <= c.full_from_coarse_within;
+  return poseChangeSize(guess.inverse() * coarse.transform) <= c.full_from_coarse_within;
 }
 
 VerificationResult emptyCloudRejection(const LoopCandidate& cand) {

@@ -297,7 +297,6 @@ class LoopDetector {
     std::shared_ptr<const RegistrationTarget> target;
   };
   static constexpr std::size_t kSubmapCache = 16;
-  static constexpr double kSubmapReuseLever = 10.0;  ///< m, submap_reuse_tolerance's rotation lever
   mutable std::deque<CachedSubmap> submaps_;
   mutable std::size_t submap_targets_built_ = 0;
   std::vector<std::vector<PropertyLandmark>> landmarks_;

@@ -14,6 +14,13 @@
 
 namespace hazmap {
 
+/// The size (m) of a small pose change d wherever one distance bounds it (full_from_coarse_within,
+/// LoopClosureConfig::submap_reuse_tolerance): translation + a 10 m lever × rotation angle.
+inline double poseChangeSize(const Eigen::Isometry3d& d) {
+  constexpr double lever = 10.0;  // m
+  return translationNorm(d) + lever * rotationAngle(d);
+}
+
 class RegistrationTarget;
 
 struct VerificationConfig {
