@@ -19,7 +19,6 @@
 #include "hazmap/loop/verification.hpp"
 #include "hazmap/odometry/local_map.hpp"
 #include "hazmap/odometry/odometry.hpp"
-#include "hazmap/pipeline/map_entropy.hpp"
 #include "hazmap/pipeline/run_outputs.hpp"
 #include "hazmap/pipeline/slam.hpp"
 #include "test_helpers.hpp"
@@ -474,25 +473,6 @@ TEST(OdometryReanchor, NeedsOnePosePerFrameAndTakesTheNewPoses) {
   // The next frame continues from the corrected pose on the moved map.
   const OdometryFrame& f = odo.addFrame(scan, Eigen::Isometry3d::Identity());
   EXPECT_LT((f.pose.translation() - shifted.translation()).norm(), 0.05);
-}
-
-// Mean map entropy: two copies of a surface placed consistently make a crisper map (lower
-// entropy) than the same copies 10 cm apart.
-TEST(MapEntropy, ACrispMapHasLowerEntropyThanABlurredOne) {
-  auto cloud = std::make_shared<LabeledCloud>();
-  std::mt19937 rng(5);
-  std::uniform_real_distribution<float> u(-2.0f, 2.0f);
-  for (int i = 0; i < 4000; ++i) cloud->push_back(Eigen::Vector3f(u(rng), u(rng), 0.0f), 0);
-  const std::vector<std::shared_ptr<const LabeledCloud>> clouds{cloud, cloud};
-  const double crisp = meanMapEntropy(clouds, {Eigen::Isometry3d::Identity(), Eigen::Isometry3d::Identity()});
-  Eigen::Isometry3d off = Eigen::Isometry3d::Identity();
-  off.translation().z() = 0.1;
-  const double blurred = meanMapEntropy(clouds, {Eigen::Isometry3d::Identity(), off});
-  EXPECT_LT(crisp, blurred - 1.0);
-  EXPECT_THROW(meanMapEntropy(clouds, {Eigen::Isometry3d::Identity()}), Error);
-  MapEntropyConfig bad;
-  bad.radius = 0.0;
-  EXPECT_THROW(meanMapEntropy(clouds, {Eigen::Isometry3d::Identity(), off}, bad), Error);
 }
 
 // Naraha seed 7 (frame to map): two wheel slips make ICP from the slipped guess fail at frames

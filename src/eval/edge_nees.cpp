@@ -7,7 +7,6 @@
 #include <cmath>
 
 #include "hazmap/core/error.hpp"
-#include "hazmap/graph/costs.hpp"
 
 namespace hazmap {
 
@@ -23,21 +22,6 @@ double quantile(const std::vector<double>& sorted, double q) {
   const auto lo = static_cast<std::size_t>(std::floor(pos));
   const std::size_t hi = std::min(lo + 1, sorted.size() - 1);
   return sorted[lo] + (pos - static_cast<double>(lo)) * (sorted[hi] - sorted[lo]);
-}
-
-EdgeNees neesOf(const PoseGraphEdge& edge, const Eigen::Isometry3d& T_true_ij, int dimension);
-
-/// neesOf against the edge's marginal information when it passes through a bias node (the
-/// covariance it claims: own part + shared), with nees_own against the own part.
-EdgeNees neesOfGraphEdge(const PoseGraph& graph, const PoseGraphEdge& edge, const Eigen::Isometry3d& T_true_ij) {
-  if (!graph.hasBias(edge)) return neesOf(edge, T_true_ij, graph.dimension);
-  PoseGraphEdge marginal = edge;
-  marginal.information = marginalInformation(graph, edge);
-  if (isMixtureEdge(edge, graph.dimension)) marginal.alt_information = marginalInformation(graph, edge, edge.alt_information);
-  EdgeNees n = neesOf(marginal, T_true_ij, graph.dimension);
-  n.biased = true;
-  n.nees_own = n.error.dot(edge.information * n.error);
-  return n;
 }
 
 EdgeNees neesOf(const PoseGraphEdge& edge, const Eigen::Isometry3d& T_true_ij, int dimension) {
@@ -61,34 +45,15 @@ EdgeNees neesOf(const PoseGraphEdge& edge, const Eigen::Isometry3d& T_true_ij, i
   n.nees = n.error.dot(edge.information * n.error);
   const Matrix6d cov = edge.information.inverse();
   for (int k = 0; k < 6; ++k) n.axis_nees[k] = n.error(k) * n.error(k) / cov(k, k);
-  n.nees_selected = n.nees_moment_matched = n.nees_own = n.nees;
-  if (isMixtureEdge(edge, dimension)) {
-    n.mixture = true;
-    if (edge.selected == 1) n.nees_selected = n.error.dot(edge.alt_information * n.error);
-    const Matrix6d matched = (1.0 - edge.alt_weight) * cov + edge.alt_weight * edge.alt_information.inverse();
-    n.nees_moment_matched = n.error.dot(matched.ldlt().solve(n.error));
-  }
   return n;
 }
 
-/// summariseNees over edges held by value (span chains, mixture copies).
+/// summariseNees over edges held by value (span chains).
 NeesStats summariseOwned(const std::vector<EdgeNees>& edges, int dof) {
   std::vector<const EdgeNees*> ptrs;
   ptrs.reserve(edges.size());
   for (const EdgeNees& e : edges) ptrs.push_back(&e);
   return summariseNees(ptrs, dof);
-}
-
-/// Summary of the edges with each one's NEES replaced by `value` of it (a mixture edge's selected
-/// or moment-matched figure, a biased loop's own-part figure; the others keep theirs).
-NeesStats mixtureSummary(const std::vector<const EdgeNees*>& odometry, int dof, double EdgeNees::*value) {
-  std::vector<EdgeNees> copies;
-  copies.reserve(odometry.size());
-  for (const EdgeNees* e : odometry) {
-    copies.push_back(*e);
-    copies.back().nees = e->*value;
-  }
-  return summariseOwned(copies, dof);
 }
 
 nlohmann::json statsJson(const NeesStats& s) {
@@ -119,7 +84,7 @@ EdgeNeesReport computeEdgeNees(const PoseGraph& graph, std::span<const Eigen::Is
     if (edge.from < 0 || edge.to < 0 || edge.from >= graph.numNodes() || edge.to >= graph.numNodes())
       fail(where, fmt::format("edge {}-{} joins a node the graph does not have", edge.from, edge.to));
     const Eigen::Isometry3d T_true_ij = truth[static_cast<std::size_t>(edge.from)].inverse() * truth[static_cast<std::size_t>(edge.to)];
-    report.edges.push_back(neesOfGraphEdge(graph, edge, T_true_ij));
+    report.edges.push_back(neesOf(edge, T_true_ij, graph.dimension));
   }
   const int dof = graph.dimension == 2 ? 3 : 6;
   std::vector<const EdgeNees*> odometry, loop, anchor, all;
@@ -128,16 +93,7 @@ EdgeNeesReport computeEdgeNees(const PoseGraph& graph, std::span<const Eigen::Is
     all.push_back(&e);
   }
   report.odometry = summariseNees(odometry, dof);
-  for (const EdgeNees* e : odometry) report.mixture_edges += e->mixture ? 1 : 0;
-  if (report.mixture_edges > 0) {
-    report.odometry_selected = mixtureSummary(odometry, dof, &EdgeNees::nees_selected);
-    report.odometry_moment_matched = mixtureSummary(odometry, dof, &EdgeNees::nees_moment_matched);
-  }
   report.loop = summariseNees(loop, dof);
-  for (const EdgeNees* e : loop) report.biased_edges += e->biased ? 1 : 0;
-  if (report.biased_edges > 0) report.loop_own = mixtureSummary(loop, dof, &EdgeNees::nees_own);
-  for (const EdgeNees* e : loop) report.loop_mixture_edges += e->mixture ? 1 : 0;
-  if (report.loop_mixture_edges > 0) report.loop_moment_matched = mixtureSummary(loop, dof, &EdgeNees::nees_moment_matched);
   report.map_anchor = summariseNees(anchor, dof);
   report.all = summariseNees(all, dof);
   return report;
@@ -206,19 +162,6 @@ std::string toJson(const EdgeNeesReport& report, bool per_edge) {
                       {"loop", statsJson(report.loop)},
                       {"map_anchor", statsJson(report.map_anchor)},
                       {"all", statsJson(report.all)}};
-  if (report.mixture_edges > 0) {
-    j["mixture_edges"] = report.mixture_edges;
-    j["odometry_selected"] = statsJson(report.odometry_selected);
-    j["odometry_moment_matched"] = statsJson(report.odometry_moment_matched);
-  }
-  if (report.biased_edges > 0) {
-    j["loop_biased_edges"] = report.biased_edges;
-    j["loop_own"] = statsJson(report.loop_own);
-  }
-  if (report.loop_mixture_edges > 0) {
-    j["loop_mixture_edges"] = report.loop_mixture_edges;
-    j["loop_moment_matched"] = statsJson(report.loop_moment_matched);
-  }
   if (per_edge) {
     nlohmann::json edges = nlohmann::json::array();
     for (const EdgeNees& e : report.edges)

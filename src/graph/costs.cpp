@@ -47,53 +47,8 @@ Vector6d geodesicError(const PoseGraph& graph, const PoseGraphEdge& edge) {
   return e;
 }
 
-bool isMixtureEdge(const PoseGraphEdge& edge, int dimension) {
-  return edge.alt_weight > 0.0 && edge.alt_weight < 1.0 && dimension == 3;
-}
-
-MixtureOffsets mixtureOffsets(const PoseGraphEdge& edge) {
-  // det Ω is the same for left and right perturbation (det Ad = 1).
-  const double g_t = -std::log(edge.information.determinant()) - 2.0 * std::log(1.0 - edge.alt_weight);
-  const double g_a = -std::log(edge.alt_information.determinant()) - 2.0 * std::log(edge.alt_weight);
-  const double low = std::min(g_t, g_a);
-  return {g_t - low, g_a - low};
-}
-
-namespace {
-
-/// The two components' costs eᵀΩ_k e + γ_k of a mixture edge at error e (measurement frame).
-std::pair<double, double> mixtureCosts(const PoseGraphEdge& edge, const Vector6d& e) {
-  const MixtureOffsets g = mixtureOffsets(edge);
-  const Matrix6d tight = informationLeftToRight(edge.T_from_to, edge.information);
-  const Matrix6d wide = informationLeftToRight(edge.T_from_to, edge.alt_information);
-  return {e.dot(tight * e) + g.tight, e.dot(wide * e) + g.alternative};
-}
-
-}  // namespace
-
-int mixtureSelection(const PoseGraph& graph, const PoseGraphEdge& edge) {
-  if (!isMixtureEdge(edge, graph.dimension)) return 0;
-  const auto [tight, wide] = mixtureCosts(edge, geodesicError(graph, edge) - biasOffset(graph, edge));
-  return wide < tight ? 1 : 0;
-}
-
-Vector6d biasOffset(const PoseGraph& graph, const PoseGraphEdge& edge) {
-  if (!graph.hasBias(edge)) return Vector6d::Zero();
-  return adjoint(edge.T_from_to.inverse()) * edge.bias_map * graph.biases[static_cast<std::size_t>(edge.bias)].value;
-}
-
-double biasPriorCost(const PoseGraph& graph) {
-  double sum = 0.0;
-  for (const EdgeBias& b : graph.biases) sum += b.value.dot(b.information * b.value);
-  return sum;
-}
-
 double geodesicEdgeCost(const PoseGraph& graph, const PoseGraphEdge& edge) {
-  const Vector6d e = geodesicError(graph, edge) - biasOffset(graph, edge);
-  if (isMixtureEdge(edge, graph.dimension)) {
-    const auto [tight, wide] = mixtureCosts(edge, e);
-    return std::min(tight, wide);
-  }
+  const Vector6d e = geodesicError(graph, edge);
   const Matrix6d info = informationLeftToRight(edge.T_from_to, edge.information);
   if (graph.dimension == 2) {
     double c = 0.0;
@@ -120,7 +75,7 @@ double chordalEdgeCost(const PoseGraph& graph, const PoseGraphEdge& edge) {
 double geodesicCost(const PoseGraph& graph) {
   double sum = 0.0;
   for (const auto& e : graph.edges) sum += geodesicEdgeCost(graph, e);
-  return sum + biasPriorCost(graph);
+  return sum;
 }
 
 double chordalCost(const PoseGraph& graph) {

@@ -289,7 +289,7 @@ std::string formatG2o(const PoseGraph& graph) {
     // read and written again keeps its clean numbers (10, not 9.999999999999998 and 4e-16).
     // An edge through a bias node (PoseGraphEdge::bias): g2o files hold no bias nodes, so the
     // edge's marginal information (its own part and the shared one) is written.
-    Matrix6d info = informationLeftToRight(e.T_from_to, marginalInformation(graph, e));
+    Matrix6d info = informationLeftToRight(e.T_from_to, e.information);
     const double noise = 1e-13 * info.cwiseAbs().maxCoeff();
     info = info.unaryExpr([noise](double v) { return std::abs(v) < noise ? 0.0 : v; });
     const Eigen::Vector3d t = e.T_from_to.translation();

@@ -112,14 +112,9 @@ std::vector<double> packPoses(const PoseGraph& graph, int block) {
 }
 
 /// The residual of one edge for the configured cost (owned by the problem it is added to).
-/// How a max-mixture edge enters one solve: both components (max-mixture) or its wide one only.
-enum class MixtureMode { Mixture, WideOnly };
-
-ceres::CostFunction* edgeCost(const PoseGraphEdge& e, int dimension, const PoseGraphConfig& config,
-                              MixtureMode mode = MixtureMode::Mixture) {
+ceres::CostFunction* edgeCost(const PoseGraphEdge& e, int dimension, const PoseGraphConfig& config) {
   const bool planar = dimension == 2;
-  const bool wide_only = mode == MixtureMode::WideOnly && isMixtureEdge(e, dimension);
-  const Matrix6d info = informationLeftToRight(e.T_from_to, wide_only ? e.alt_information : e.information);
+  const Matrix6d info = informationLeftToRight(e.T_from_to, e.information);
   if (config.cost == PoseGraphCost::Chordal) {
     const ChordalWeights w = chordalWeights(e, dimension);
     if (planar)
@@ -134,42 +129,7 @@ ceres::CostFunction* edgeCost(const PoseGraphEdge& e, int dimension, const PoseG
     return new GeodesicCost2(e.T_from_to.translation().x(), e.T_from_to.translation().y(),
                              yawOf(e.T_from_to), sqrtInformation(info3));
   }
-  if (isMixtureEdge(e, dimension) && !wide_only) {
-    const MixtureOffsets g = mixtureOffsets(e);
-    return new MaxMixtureCost3(e.T_from_to.linear(), e.T_from_to.translation(), sqrtInformation(info),
-                               sqrtInformation(informationLeftToRight(e.T_from_to, e.alt_information)), g.tight,
-                               g.alternative);
-  }
   return new GeodesicCost3(e.T_from_to.linear(), e.T_from_to.translation(), sqrtInformation(info));
-}
-
-/// Whether an edge enters the solve through its bias node (PoseGraphEdge::bias): 3-D geodesic
-/// graphs and edges that are not max-mixtures; elsewhere the bias is ignored (the edge's own part).
-bool usesBias(const PoseGraph& graph, const PoseGraphConfig& config, const PoseGraphEdge& e) {
-  return config.cost == PoseGraphCost::Geodesic && graph.hasBias(e);
-}
-
-/// An edge through its bias node: one Gaussian, or a max-mixture (both components share the bias).
-ceres::CostFunction* biasedEdgeCost(const PoseGraphEdge& e, MixtureMode mode) {
-  const bool mixture = isMixtureEdge(e, 3);
-  const Matrix6d B = adjoint(e.T_from_to.inverse()) * e.bias_map;
-  const Matrix6d tight = sqrtInformation(informationLeftToRight(e.T_from_to, e.information));
-  if (!mixture) return new BiasedGeodesicCost3(e.T_from_to.linear(), e.T_from_to.translation(), tight, B);
-  const Matrix6d wide = sqrtInformation(informationLeftToRight(e.T_from_to, e.alt_information));
-  if (mode == MixtureMode::WideOnly) return new BiasedGeodesicCost3(e.T_from_to.linear(), e.T_from_to.translation(), wide, B);
-  const MixtureOffsets g = mixtureOffsets(e);
-  return new BiasedMaxMixtureCost3(e.T_from_to.linear(), e.T_from_to.translation(), tight, wide, g.tight, g.alternative, B);
-}
-
-/// One 6-double block per bias node, started at its current value, with its prior.
-std::vector<Vector6d> addBiases(const PoseGraph& graph, const PoseGraphConfig& config, ceres::Problem& problem) {
-  std::vector<Vector6d> values;
-  if (graph.dimension != 3 || config.cost != PoseGraphCost::Geodesic) return values;
-  values.reserve(graph.biases.size());
-  for (const EdgeBias& b : graph.biases) values.push_back(b.value);
-  for (std::size_t b = 0; b < values.size(); ++b)
-    problem.AddResidualBlock(new BiasPriorCost(sqrtInformation(graph.biases[b].information)), nullptr, values[b].data());
-  return values;
 }
 
 ceres::Solver::Options solverOptions(const PoseGraphConfig& config) {
@@ -205,7 +165,7 @@ void unpackPoses(const std::vector<double>& params, int block, PoseGraph& graph)
   }
 }
 
-Solved solve(PoseGraph& graph, const PoseGraphConfig& config, MixtureMode mode = MixtureMode::Mixture) {
+Solved solve(PoseGraph& graph, const PoseGraphConfig& config) {
   const bool planar = graph.dimension == 2;
   const int block = planar ? 3 : 12;
   std::vector<double> params = packPoses(graph, block);
@@ -218,15 +178,9 @@ Solved solve(PoseGraph& graph, const PoseGraphConfig& config, MixtureMode mode =
   PoseManifold3 manifold;   // outlives the problem's use of it (not owned)
   for (int i = 0; i < graph.numNodes(); ++i)
     problem.AddParameterBlock(blockOf(i), block, planar ? nullptr : &manifold);
-  std::vector<Vector6d> biases = addBiases(graph, config, problem);
-  for (const auto& e : graph.edges) {
-    if (usesBias(graph, config, e))
-      problem.AddResidualBlock(biasedEdgeCost(e, mode), makeLoss(config, e.kind), blockOf(e.from), blockOf(e.to),
-                               biases[static_cast<std::size_t>(e.bias)].data());
-    else
-      problem.AddResidualBlock(edgeCost(e, graph.dimension, config, mode), makeLoss(config, e.kind), blockOf(e.from),
-                               blockOf(e.to));
-  }
+  for (const auto& e : graph.edges)
+    problem.AddResidualBlock(edgeCost(e, graph.dimension, config), makeLoss(config, e.kind), blockOf(e.from),
+                             blockOf(e.to));
   problem.SetParameterBlockConstant(blockOf(graph.fixed_node));
   ceres::SphereManifold<3> sphere;  // world down: 2 degrees of freedom (not owned)
   Vec3 gravity_world = graph.gravity_world;
@@ -240,7 +194,6 @@ Solved solve(PoseGraph& graph, const PoseGraphConfig& config, MixtureMode mode =
   ceres::Solve(solverOptions(config), &problem, &summary);
   if (config.verbose) std::fprintf(stderr, "%s\n", summary.FullReport().c_str());
   unpackPoses(params, block, graph);
-  for (std::size_t b = 0; b < biases.size(); ++b) graph.biases[b].value = biases[b];
   graph.gravity_world = gravity_world.normalized();
   Solved s;
   s.iterations = summary.num_successful_steps + summary.num_unsuccessful_steps;
@@ -250,31 +203,6 @@ Solved solve(PoseGraph& graph, const PoseGraphConfig& config, MixtureMode mode =
   if (summary.termination_type == ceres::FAILURE)
     fail("pose graph optimisation", "Ceres failed: " + summary.message);
   return s;
-}
-
-/// A graph with max-mixture edges (PoseGraphEdge::alt_weight): the max-mixture objective is
-/// multi-modal and Levenberg–Marquardt only finds the mode nearest its start. Started from the
-/// chain, a wrong-basin edge never reaches the point where its wide component wins (a loop's
-/// robust loss pulls too weakly on a tight chain); started from the wide-only solution (every
-/// doubtful edge soft, the single-Gaussian model), a right edge the loops bent a few mm selects its
-/// tight component again and straightens. Both are solved; the lower max-mixture cost is kept.
-Solved solveWithMixtures(PoseGraph& graph, const PoseGraphConfig& config) {
-  bool any = false;
-  for (const auto& e : graph.edges) any = any || isMixtureEdge(e, graph.dimension);
-  if (!any) return solve(graph, config);
-  PoseGraph from_wide = graph;
-  Solved tight_start = solve(graph, config);
-  const Solved wide = solve(from_wide, config, MixtureMode::WideOnly);
-  Solved wide_start = solve(from_wide, config);
-  wide_start.iterations += wide.iterations + tight_start.iterations;
-  if (!(wide_start.cost < tight_start.cost)) {  // the same objective (robust losses included)
-    tight_start.iterations = wide_start.iterations;
-    return tight_start;
-  }
-  graph.poses = std::move(from_wide.poses);
-  graph.biases = std::move(from_wide.biases);
-  graph.gravity_world = from_wide.gravity_world;
-  return wide_start;
 }
 
 }  // namespace
@@ -300,7 +228,7 @@ PoseGraphReport optimizePoseGraph(PoseGraph& graph, const PoseGraphConfig& confi
   report.initial_chordal = chordalCost(graph) + gravityPriorCost(graph);
   const auto solve_start = Clock::now();
   if (!graph.edges.empty() && graph.numNodes() > 1) {
-    const Solved s = solveWithMixtures(graph, config);
+    const Solved s = solve(graph, config);
     report.iterations = s.iterations;
     report.converged = s.converged;
     report.message = s.message;
@@ -309,7 +237,6 @@ PoseGraphReport optimizePoseGraph(PoseGraph& graph, const PoseGraphConfig& confi
     report.message = "nothing to optimise";
   }
   report.solve_seconds = secondsSince(solve_start);
-  for (PoseGraphEdge& e : graph.edges) e.selected = mixtureSelection(graph, e);
   report.final_geodesic = geodesicCost(graph) + gravityPriorCost(graph);
   report.final_chordal = chordalCost(graph) + gravityPriorCost(graph);
   report.total_seconds = secondsSince(start);

@@ -62,35 +62,6 @@ int PoseGraph::addEdge(int from, int to, const Eigen::Isometry3d& T_from_to,
   return static_cast<int>(edges.size() - 1);
 }
 
-int PoseGraph::addBias(const Matrix6d& information) {
-  if (dimension != 3) fail("pose graph bias", "bias nodes need a 3-D graph");
-  if (!symmetricPositiveDefinite(information)) fail("pose graph bias", "prior information is not symmetric positive definite");
-  EdgeBias b;
-  b.information = information;
-  biases.push_back(b);
-  return static_cast<int>(biases.size() - 1);
-}
-
-void PoseGraph::attachBias(int edge, int bias, const Matrix6d& bias_map) {
-  if (edge < 0 || edge >= numEdges() || bias < 0 || bias >= static_cast<int>(biases.size()))
-    fail("pose graph bias", "edge " + std::to_string(edge) + " or bias " + std::to_string(bias) + " out of range");
-  if (!bias_map.allFinite()) fail("pose graph bias", "non-finite bias map");
-  edges[static_cast<std::size_t>(edge)].bias = bias;
-  edges[static_cast<std::size_t>(edge)].bias_map = bias_map;
-}
-
-Matrix6d marginalInformation(const PoseGraph& graph, const PoseGraphEdge& edge) {
-  return marginalInformation(graph, edge, edge.information);
-}
-
-Matrix6d marginalInformation(const PoseGraph& graph, const PoseGraphEdge& edge, const Matrix6d& information) {
-  if (!graph.hasBias(edge)) return information;
-  const Matrix6d shared = graph.biases[static_cast<std::size_t>(edge.bias)].information.inverse();
-  const Matrix6d cov = information.inverse() + edge.bias_map * shared * edge.bias_map.transpose();
-  const Matrix6d info = cov.inverse();
-  return 0.5 * (info + info.transpose());
-}
-
 int PoseGraph::numLoopEdges() const {
   int n = 0;
   for (const auto& e : edges) n += e.kind == EdgeKind::Loop;

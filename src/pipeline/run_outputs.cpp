@@ -22,46 +22,17 @@ nlohmann::json statsJson(const DistanceStats& s) {
           {"max", s.max}, {"rmse", s.rmse}};
 }
 
-// The max-mixture odometry edge (slam.odometry_edge_mixture) into each frame, or null: looked up
-// once, not per doubtful frame (the last such edge into a frame, as the graph lists them).
-std::vector<const PoseGraphEdge*> mixtureOdometryEdges(const PoseGraph& graph, std::size_t frames) {
-  std::vector<const PoseGraphEdge*> into(frames, nullptr);
-  for (const PoseGraphEdge& e : graph.edges)
-    if (e.kind == EdgeKind::Odometry && e.from + 1 == e.to && e.alt_weight > 0.0 && e.to >= 0 &&
-        static_cast<std::size_t>(e.to) < frames)
-      into[static_cast<std::size_t>(e.to)] = &e;
-  return into;
-}
-
-// A doubtful odometry edge (slam.honest_odometry_edges); a max-mixture one (slam.odometry_edge_mixture)
-// also with the component the final solution selects (0 tight, 1 wide), its weight and both
-// covariances (left perturbation, translation first, row-major) for the NEES of docs/pose_graph.md.
-nlohmann::json doubtfulEdgeJson(const FrameRecord& f, const PoseGraphEdge* mixture) {
-  nlohmann::json j = {{"frame", f.index}, {"contradicted_by", f.edge_doubt}};
-  if (!mixture) return j;
-  const Matrix6d tight = mixture->information.inverse(), wide = mixture->alt_information.inverse();
-  std::vector<double> t(tight.data(), tight.data() + 36), w(wide.data(), wide.data() + 36);  // symmetric
-  j["selected"] = mixture->selected;
-  j["alt_weight"] = mixture->alt_weight;
-  j["tight_covariance"] = t;
-  j["wide_covariance"] = w;
-  return j;
-}
-
-// run.json "tracking": per-frame statuses, fallbacks, stalled and doubtful edges.
+// run.json "tracking": per-frame statuses, fallbacks and stalled frames.
 nlohmann::json trackingJson(const SlamResult& r) {
   std::size_t fallbacks = 0;
   nlohmann::json fallback_frames = nlohmann::json::array();
   nlohmann::json relocalised_frames = nlohmann::json::array();
   nlohmann::json status = nlohmann::json::array();  // per frame: tracked / relocalised / fallback …
   nlohmann::json stalled = nlohmann::json::array();  // ICP stopped at its iteration limit (issue 14)
-  nlohmann::json doubtful = nlohmann::json::array();  // slam.honest_odometry_edges: a prior contradicted the increment
   double ms_sum = 0;
-  const std::vector<const PoseGraphEdge*> mixture = mixtureOdometryEdges(r.graph, r.frames.size());
   for (const auto& f : r.frames) {
     ms_sum += f.milliseconds;
     if (f.stalled) stalled.push_back(f.index);
-    if (!f.edge_doubt.empty()) doubtful.push_back(doubtfulEdgeJson(f, f.index < mixture.size() ? mixture[f.index] : nullptr));
     status.push_back(toString(f.status));
     if (f.status == FrameStatus::Relocalised)
       relocalised_frames.push_back({{"frame", f.index}, {"reason", f.fallback_reason}});
@@ -75,8 +46,7 @@ nlohmann::json trackingJson(const SlamResult& r) {
                    {"odometry_fallbacks", fallbacks}, {"fallback_frames", fallback_frames},
                    {"tracked", counts.tracked}, {"relocalised", counts.relocalised},
                    {"flagged", counts.fallback}, {"relocalised_frames", relocalised_frames},
-                   {"frame_status", status}, {"stalled_frames", stalled},
-                   {"doubtful_edges", doubtful}};
+                   {"frame_status", status}, {"stalled_frames", stalled}};
 }
 
 // run.json "loop_closure": accepted loops and rejected candidates with their reasons.
@@ -127,13 +97,7 @@ nlohmann::json runJson(const SlamResult& r, const SlamConfig& config, const RunS
     opt.push_back(entry);
   }
   j["pose_graph"] = {{"nodes", r.graph.numNodes()}, {"edges", r.graph.numEdges()},
-                     {"loop_edges", r.graph.numLoopEdges()}, {"map_anchor_edges", r.anchors}, {"reanchors", r.reanchors},
-                     {"final_accept_test", {{"tested", r.final_accept.tested},
-                                            {"loops_contradict_tracking", r.final_accept.loops_contradict_tracking},
-                                            {"worst_loop_d2", r.final_accept.worst_loop_d2},
-                                            {"optimised_entropy", r.final_accept.optimised_entropy},
-                                            {"tracking_entropy", r.final_accept.tracking_entropy},
-                                            {"kept_optimised", r.final_accept.kept_optimised}}},
+                     {"loop_edges", r.graph.numLoopEdges()}, {"map_anchor_edges", r.anchors},
                      {"optimisations", opt}};
   // Every setting of the run, nested as in the YAML (`hazmap run --config` reads it back).
   j["parameters"] = configToJson(config);

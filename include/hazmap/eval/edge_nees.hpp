@@ -27,16 +27,6 @@ struct EdgeNees {
   Vector6d error = Vector6d::Zero();  ///< ξ, translation first (m, rad)
   double nees = 0.0;                  ///< ξᵀ Ω ξ
   std::array<double, 6> axis_nees{};  ///< ξ_k² / (Ω⁻¹)_kk (2-D: 0 outside [x y rz])
-  /// A max-mixture edge (PoseGraphEdge::alt_weight > 0): ξᵀ Ω_k ξ with the component k the
-  /// graph's solution selects (PoseGraphEdge::selected), and against the moment-matched
-  /// covariance (1 − w) Ω⁻¹ + w Ω_alt⁻¹ (both components share the mean). Others: = nees.
-  double nees_selected = 0.0;
-  double nees_moment_matched = 0.0;
-  bool mixture = false;
-  /// An edge through a bias node (PoseGraphEdge::bias): `nees` is against its marginal
-  /// covariance (own part + the shared one, marginalInformation), nees_own against its own part.
-  bool biased = false;
-  double nees_own = 0.0;
 };
 
 struct NeesStats {
@@ -57,18 +47,6 @@ struct EdgeNeesReport {
   /// Map-anchor edges (frame to map: tracking's relative pose of a revisit), apart from the
   /// odometry increments since their error is tracking's drift, not one registration's.
   NeesStats map_anchor;
-  /// Odometry edges with each max-mixture edge's NEES taken against its selected component and
-  /// against its moment-matched covariance (only when the graph has mixture edges: mixture_edges > 0).
-  NeesStats odometry_selected, odometry_moment_matched;
-  std::size_t mixture_edges = 0;
-  /// Loop edges through bias nodes (PoseGraph::biases): `loop` is against their marginal
-  /// covariances; loop_own against their own parts alone (only when biased_edges > 0).
-  NeesStats loop_own;
-  std::size_t biased_edges = 0;
-  /// Loop edges that are max-mixtures (slam.loop_tail_weight): `loop` is against their tight
-  /// component, loop_moment_matched against (1 − w) Σ_tight + w Σ_tail (marginal with a bias).
-  NeesStats loop_moment_matched;
-  std::size_t loop_mixture_edges = 0;
 };
 
 /// NEES of every edge of `graph` against the true node poses `truth` (T_world_node for every

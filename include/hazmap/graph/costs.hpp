@@ -33,30 +33,11 @@ ChordalWeights chordalWeights(const PoseGraphEdge& edge, int dimension);
 /// Error vector of one edge in the measurement frame: [t; Log R] (3-D) or [x y 0 0 0 θ] (2-D).
 Vector6d geodesicError(const PoseGraph& graph, const PoseGraphEdge& edge);
 
-/// A max-mixture edge's two components (PoseGraphEdge::alt_weight > 0; 3-D only): each one's
-/// −2 log of its weight and normaliser, γ_k = −log det Ω_k − 2 log w_k, less the smaller of the
-/// two (so the cost of a mixture edge, min_k eᵀΩ_k e + γ_k, is 0 at e = 0).
-struct MixtureOffsets {
-  double tight = 0.0, alternative = 0.0;
-};
-bool isMixtureEdge(const PoseGraphEdge& edge, int dimension);
-MixtureOffsets mixtureOffsets(const PoseGraphEdge& edge);
-/// Which component the current poses select: 0 = information, 1 = alt_information.
-int mixtureSelection(const PoseGraph& graph, const PoseGraphEdge& edge);
-
-/// The part of an edge's error its bias node explains (PoseGraphEdge::bias, 3-D), in the
-/// measurement frame: Ad(T̃⁻¹) · bias_map · b (a left perturbation moved to the right); zero
-/// without a bias.
-Vector6d biasOffset(const PoseGraph& graph, const PoseGraphEdge& edge);
-/// The bias nodes' prior cost Σ bᵀ Ω_b b.
-double biasPriorCost(const PoseGraph& graph);
-
-/// Cost of one edge under each model (no ½, no robust loss; a mixture edge's selected component
-/// with its offset, geodesic only; an edge with a bias node: its own part, e − biasOffset).
+/// Cost of one edge under each model (no ½, no robust loss).
 double geodesicEdgeCost(const PoseGraph& graph, const PoseGraphEdge& edge);
 double chordalEdgeCost(const PoseGraph& graph, const PoseGraphEdge& edge);
 
-/// Total costs over all edges (no ½, no robust loss); the geodesic one with the bias priors.
+/// Total costs over all edges (no ½, no robust loss).
 double geodesicCost(const PoseGraph& graph);
 double chordalCost(const PoseGraph& graph);
 double poseGraphCost(const PoseGraph& graph, PoseGraphCost cost);

@@ -33,30 +33,6 @@ struct PoseGraphEdge {
   Eigen::Isometry3d T_from_to = Eigen::Isometry3d::Identity();  ///< measured relative pose
   Matrix6d information = Matrix6d::Identity();  ///< translation first, left perturbation
   EdgeKind kind = EdgeKind::Odometry;
-  /// Max-mixture edge (Olson & Agarwal 2013) when alt_weight > 0: the error ξ follows
-  /// N(0, information⁻¹) with probability 1 − alt_weight (the registration's answer, tight) or
-  /// N(0, alt_information⁻¹) with probability alt_weight (a wrong basin, wide), and the optimiser
-  /// uses, at every evaluation, the component of larger likelihood. A right increment stays stiff
-  /// until the rest of the graph disagrees with it by more than its tight component explains.
-  /// Only the geodesic 3-D cost knows the alternative; g2o files keep `information`.
-  Matrix6d alt_information = Matrix6d::Zero();
-  double alt_weight = 0.0;
-  /// Set by optimizePoseGraph for a mixture edge: 1 when the solution selects the alternative.
-  int selected = 0;
-  /// A shared error (3-D graphs; PoseGraph::biases, issue 14): the edge's error is its own part
-  /// N(0, information⁻¹) plus bias_map · b of the bias node `bias` (-1 = none), both as left
-  /// perturbations of the measurement: T_true = exp(ξ_own + bias_map · b) · T_from_to. Loops that
-  /// registered against the same old submap share that part, and the graph counts it once.
-  int bias = -1;
-  Matrix6d bias_map = Matrix6d::Identity();
-};
-
-/// A bias node: a 6-DoF error several edges share (PoseGraphEdge::bias), with the prior
-/// N(0, information⁻¹) in its own frame (left perturbation, translation first). The optimiser
-/// estimates `value` with the poses; the costs (graph/costs.hpp) include the prior.
-struct EdgeBias {
-  Matrix6d information = Matrix6d::Identity();
-  Vector6d value = Vector6d::Zero();
 };
 
 /// A unary prior on a node's roll and pitch: the direction of gravity ("down", a unit vector)
@@ -78,8 +54,6 @@ struct PoseGraph {
   /// fixed node's frame, which need not be level, so it is estimated with the poses whenever
   /// there are priors (2 degrees of freedom; initialised from the priors and current poses).
   Eigen::Vector3d gravity_world = Eigen::Vector3d(0.0, 0.0, -1.0);
-  /// Shared errors of groups of edges (PoseGraphEdge::bias; 3-D graphs).
-  std::vector<EdgeBias> biases;
 
   /// Appends a node and returns its index. id < 0 means "use the index as id".
   int addNode(const Eigen::Isometry3d& T_world_node, std::int64_t id = -1);
@@ -92,18 +66,6 @@ struct PoseGraph {
   /// Appends a gravity prior (3-D graphs); throws hazmap::Error on a node out of range, a
   /// direction that is not a finite unit vector or σ ≤ 0. Returns its index.
   int addGravityPrior(int node, const Eigen::Vector3d& down, double sigma);
-
-  /// Appends a bias node with prior information (symmetric positive definite; 3-D graphs only)
-  /// and returns its index; throws hazmap::Error otherwise.
-  int addBias(const Matrix6d& information);
-  /// Lets edge `edge` pass through bias `bias` with the map of the bias into the edge's left
-  /// perturbation (PoseGraphEdge::bias_map); throws hazmap::Error on an index out of range.
-  void attachBias(int edge, int bias, const Matrix6d& bias_map);
-  /// Whether `edge` passes through one of this graph's bias nodes (3-D graphs; an index out of
-  /// range counts as none).
-  bool hasBias(const PoseGraphEdge& edge) const {
-    return dimension == 3 && edge.bias >= 0 && edge.bias < static_cast<int>(biases.size());
-  }
 
   int numNodes() const { return static_cast<int>(poses.size()); }
   int numEdges() const { return static_cast<int>(edges.size()); }
@@ -126,12 +88,6 @@ int initialiseFromOdometry(PoseGraph& graph);
 /// in an edge: Ω_right = Ad(T)ᵀ Ω_left Ad(T). And back.
 Matrix6d informationLeftToRight(const Eigen::Isometry3d& T_from_to, const Matrix6d& left);
 Matrix6d informationRightToLeft(const Eigen::Isometry3d& T_from_to, const Matrix6d& right);
-
-/// An edge's marginal information, its own part and its bias' prior together (left perturbation):
-/// (information⁻¹ + M Σ_b Mᵀ)⁻¹, M = bias_map. The edge's information when it has no bias.
-/// `information` is the edge's own (default) or another of its components (a mixture's alternative).
-Matrix6d marginalInformation(const PoseGraph& graph, const PoseGraphEdge& edge);
-Matrix6d marginalInformation(const PoseGraph& graph, const PoseGraphEdge& edge, const Matrix6d& information);
 
 /// Indices of the 2-D [x y rz] block inside a 6×6 translation-first matrix.
 inline constexpr int kPlanarIndex[3] = {0, 1, 5};
