@@ -109,54 +109,6 @@ TEST(GraphResiduals, AnalyticJacobiansMatchNumeric3D) {
   }
 }
 
-// MaxMixtureOf assembles the chosen component's residual and Jacobians (any block sizes: the
-// bias block is 6 wide) above a zero 7th row, with √offset_k as the 7th residual.
-template <class Mixture, class Component>
-void expectMixtureIsItsComponent(const Mixture& mixture, const Component& component, double offset,
-                                 const std::vector<const double*>& params, const std::vector<int>& sizes) {
-  const std::size_t n = params.size();
-  Eigen::Matrix<double, 7, 1> r;
-  Vector6d rc;
-  std::vector<std::vector<double>> J(n), Jc(n);
-  std::vector<double*> jac(n), jac_c(n);
-  for (std::size_t b = 0; b < n; ++b) {
-    J[b].assign(7 * sizes[b], 0.5);
-    Jc[b].assign(6 * sizes[b], 0.0);
-    jac[b] = J[b].data();
-    jac_c[b] = Jc[b].data();
-  }
-  ASSERT_TRUE(mixture.Evaluate(params.data(), r.data(), jac.data()));
-  ASSERT_TRUE(component.Evaluate(params.data(), rc.data(), jac_c.data()));
-  EXPECT_EQ(r.head<6>(), rc);
-  EXPECT_EQ(r(6), std::sqrt(offset));
-  for (std::size_t b = 0; b < n; ++b) {
-    for (int k = 0; k < 6 * sizes[b]; ++k) EXPECT_EQ(J[b][k], Jc[b][k]) << "block " << b << " entry " << k;
-    for (int k = 0; k < sizes[b]; ++k) EXPECT_EQ(J[b][6 * sizes[b] + k], 0.0) << "block " << b;
-  }
-}
-
-TEST(GraphResiduals, MaxMixtureIsItsSelectedComponentWithOrWithoutABias) {
-  std::mt19937 rng(11);
-  const Eigen::Isometry3d Ti = randomPose(rng, 3.0, 1.0), meas = randomPose(rng, 1.0, 0.5);
-  const Eigen::Isometry3d Tj = Ti * meas * randomPose(rng, 0.2, 0.3);
-  const Matrix6d Lt = Eigen::LLT<Matrix6d>(randomInformation(rng)).matrixU(), Lw = 0.1 * Lt;
-  const Matrix6d B = Matrix6d::Random();
-  const Vector6d bias = 0.01 * Vector6d::Random();
-  const std::vector<double> pi = block3(Ti), pj = block3(Tj);
-  const std::vector<const double*> poses = {pi.data(), pj.data()}, biased = {pi.data(), pj.data(), bias.data()};
-  const Eigen::Matrix3d R = meas.linear();
-  const Eigen::Vector3d t = meas.translation();
-  // Offsets far apart decide the component: (0, 1e6) the tight one, (1e6, 0) the wide one.
-  for (const bool wide : {false, true}) {
-    const double ot = wide ? 1e6 : 0.0, ow = wide ? 0.0 : 1e6;
-    const Matrix6d& L = wide ? Lw : Lt;
-    expectMixtureIsItsComponent(graph_detail::MaxMixtureCost3(R, t, Lt, Lw, ot, ow), graph_detail::GeodesicCost3(R, t, L),
-                                wide ? ow : ot, poses, {12, 12});
-    expectMixtureIsItsComponent(graph_detail::BiasedMaxMixtureCost3(R, t, Lt, Lw, ot, ow, B),
-                                graph_detail::BiasedGeodesicCost3(R, t, L, B), wide ? ow : ot, biased, {12, 12, 6});
-  }
-}
-
 TEST(GraphResiduals, AnalyticJacobiansMatchNumeric2D) {
   std::mt19937 rng(8);
   std::normal_distribution<double> n(0.0, 1.0);

@@ -10,7 +10,6 @@
 #include <ceres/ceres.h>
 
 #include <Eigen/Core>
-#include <array>
 #include <cmath>
 
 #include "hazmap/core/se3.hpp"

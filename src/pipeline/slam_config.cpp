@@ -64,6 +64,22 @@ const ConfigFields<SlamConfig>& configFields(ConfigTag<SlamConfig>) {
   return fields;
 }
 
+Matrix6d WheelOdometryNoise::information() const {
+  Vector6d sigma;
+  sigma << translation_sigma, translation_sigma, vertical_sigma, tilt_sigma, tilt_sigma, yaw_sigma;
+  return sigma.cwiseProduct(sigma).cwiseInverse().asDiagonal();
+}
+
+SlamConfig SlamConfig::forMethod(SlamMethod method) {
+  SlamConfig c;
+  c.method = method;
+  c.odometry.registration.use_classes = usesClasses(method);
+  c.loop_closure.verification.registration.use_classes = usesClasses(method);
+  c.loop_closure.method =
+      usesClasses(method) ? CandidateMethod::Constellation : CandidateMethod::Distance;
+  return c;
+}
+
 void SlamConfig::applyYamlString(const std::string& yaml, const std::string& where) {
   *this = readConfig(parseConfigYaml(yaml, where), ConfigPlace{where, ""}, *this);
 }

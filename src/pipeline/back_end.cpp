@@ -1,0 +1,175 @@
+#include "pipeline/back_end.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "hazmap/graph/chain_covariance.hpp"
+#include "hazmap/graph/optimizer.hpp"
+#include "pipeline/loop_edges.hpp"
+
+namespace hazmap::pipeline_detail {
+
+namespace {
+using Clock = std::chrono::steady_clock;
+double secondsSince(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+}  // namespace
+
+BackEnd::BackEnd(const SlamConfig& config, SlamResult& result, const std::vector<Eigen::Isometry3d>& tracked)
+    : config_(config), result_(result), tracked_(tracked),
+      schedule_(config.loop_search_every, config.loop_pause_after_accept), anchors_(config) {}
+
+void BackEnd::start(const ClassTable& classes, ScanSource& source) {
+  loops_ = std::make_unique<LoopDetector>(classes, loopClosureConfigFor(config_));
+  if (config_.innovation_gate)
+    loops_->setRelativeCovariance([this](std::size_t from, std::size_t to) { return relativeCovariance(from, to); });
+  // Old keyframes are re-read when a loop needs them (bounded memory): from the recording when
+  // it allows that, else from the copies a stream's keyframes leave on disk.
+  if (source.canReread()) {
+    loops_->setCloudLoader([this, &source](std::size_t k) {
+      const std::size_t f = keyframe_frames_.at(k);
+      LabeledCloud cloud = source.reread(f);
+      redoDeskew(cloud, result_.frames.at(f));
+      return cloud;
+    });
+  } else {
+    spill_.emplace();
+    loops_->setCloudLoader([this, &source](std::size_t k) { return spill_->load(keyframe_frames_.at(k), source.classTable()); });
+  }
+}
+
+void BackEnd::addStep(const FrameRecord& rec, const Matrix6d& edge_covariance) {
+  step_covariance_.push_back(edge_covariance);
+  anchors_.addStep(rec, edge_covariance);
+}
+
+bool BackEnd::isKeyframe(const Eigen::Isometry3d& pose) const {
+  if (keyframe_frames_.empty()) return true;
+  const Eigen::Isometry3d since = last_keyframe_pose_.inverse() * pose;
+  return translationNorm(since) >= config_.keyframe_distance || rotationAngle(since) >= config_.keyframe_angle;
+}
+
+// Roll and pitch observed absolutely (PoseGraphConfig::gravity_prior), also where no loop reaches.
+void BackEnd::addGravityPrior(const Scan& scan) {
+  if (!config_.graph.gravity_prior || !scan.gravity) return;
+  double sigma = config_.graph.gravity_sigma_deg > 0.0 ? config_.graph.gravity_sigma_deg * M_PI / 180.0
+                                                      : scan.gravity->sigmaRad();
+  if (config_.odometry.mode == OdometryMode::FrameToMap) sigma *= config_.graph.gravity_sigma_scale_frame_to_map;
+  result_.graph.addGravityPrior(static_cast<int>(result_.frames.size() - 1), scan.gravity->down, sigma);
+}
+
+void BackEnd::closeLoops(const Eigen::Isometry3d& pose, LabeledCloud cloud) {
+  const auto t_loop = Clock::now();
+  last_keyframe_pose_ = pose;
+  keyframe_frames_.push_back(result_.frames.size() - 1);
+  if (spill_) spill_->store(keyframe_frames_.back(), cloud);
+  const std::size_t k = loops_->addKeyframe(std::move(cloud));
+  if (const auto anchor = anchors_.anchorNewest(keyframe_frames_, tracked_, result_.frames, result_.graph))
+    result_.anchors.push_back(*anchor);
+  if (!schedule_.searches(k)) return void(result_.timings.loop_s += secondsSince(t_loop));
+  ++result_.keyframes_searched;
+  const LoopDetection detection = loops_->detect(k, keyframeEstimate());
+  if (!detection.accepted.empty()) schedule_.accepted(k);
+  recordDetection(detection);
+  result_.timings.loop_s += secondsSince(t_loop);
+  if (!detection.accepted.empty() && config_.optimise_online) optimiseWithLoops();
+}
+
+void BackEnd::recordDetection(const LoopDetection& detection) {
+  result_.loop_candidates += detection.candidates.size();
+  result_.loop_near_duplicates += detection.near_duplicates;
+  result_.loop_light_verifications += detection.light_verifications;
+  result_.submap_targets_built = loops_->submapTargetsBuilt();
+  for (const auto& v : detection.verifications) {
+    result_.loops_verified += v.accepted ? 1 : 0;
+    if (!v.accepted) reject(v.closure, v.rejection, v.reason);
+  }
+}
+
+void BackEnd::finish() {
+  result_.keyframes = keyframe_frames_.size();
+  optimiseWithLoops();
+  anchors_.refreshInformation(result_.graph);  // the graph written out carries what the last solve used
+  const auto consistent = loops_->consistentLoops(keyframeEstimate());
+  setLoopEdges(result_.graph, consistent, keyframe_frames_);
+  if (consistent.empty() && gravityAloneHelps()) optimise();
+  recordLoops(consistent);
+}
+
+void BackEnd::recordLoops(const std::vector<LoopClosure>& consistent) {
+  for (const auto& l : loops_->acceptedLoops()) {
+    const bool kept = std::any_of(consistent.begin(), consistent.end(),
+                                  [&](const LoopClosure& c) { return c.from == l.from && c.to == l.to; });
+    if (kept)
+      result_.loops.push_back({keyframe_frames_[l.from], keyframe_frames_[l.to], toString(l.source), l.fitness, l.rmse});
+    else
+      reject(l, LoopRejection::Inconsistent, "not in the largest pairwise-consistent set");
+  }
+}
+
+// Using the map anchor's covariance instead when one links the two keyframes was measured worse
+// (corridor seed 1 0.129 → 0.142 m, docs/pose_graph.md).
+Matrix6d BackEnd::relativeCovariance(std::size_t from, std::size_t to) const {
+  return chainCovariance(result_.graph.poses, step_covariance_, keyframe_frames_.at(from), keyframe_frames_.at(to));
+}
+
+void BackEnd::reject(const LoopClosure& l, LoopRejection why, std::string detail) {
+  result_.rejected_loops.push_back({keyframe_frames_.at(l.from), keyframe_frames_.at(l.to), why, std::move(detail)});
+}
+
+void BackEnd::dropLoop(const LoopClosure& l, LoopRejection why, const std::string& detail) {
+  loops_->dropLoop(l.from, l.to);
+  reject(l, why, detail);
+}
+
+// The pairwise-consistent loops into the graph and one optimisation; a loop the solution cannot
+// agree with (its whitened residual beyond the gate's χ² quantile) or a failed solve is dropped,
+// recorded, and the previous estimate kept (then re-solved without the loop).
+void BackEnd::optimiseWithLoops() {
+  for (int attempt = 0; attempt < 3; ++attempt) {
+    const std::vector<LoopClosure> consistent = loops_->consistentLoops(keyframeEstimate());
+    if (consistent.empty()) return;
+    setLoopEdges(result_.graph, consistent, keyframe_frames_);
+    const std::vector<Eigen::Isometry3d> before = result_.graph.poses;
+    const std::string failure = optimise();
+    if (failure.empty()) {
+      const std::vector<LoopClosure> misfits = loopsTheSolutionRejects(
+          result_.graph, consistent, keyframe_frames_, config_.loop_closure.consistency.gate_probability);
+      if (misfits.empty()) return;
+      result_.optimisation_outcomes.back() = {false, "dropped " + std::to_string(misfits.size()) +
+                                                        " loop(s) the solution could not agree with"};
+      for (const auto& l : misfits) dropLoop(l, LoopRejection::OptimisationDiverged, "residual beyond the χ² gate after optimisation");
+    } else {
+      for (const auto& l : consistent)
+        if (l.to == consistent.back().to) dropLoop(l, LoopRejection::OptimisationFailed, failure);
+    }
+    result_.graph.poses = before;
+  }
+}
+
+// On failure (Ceres cannot solve it, non-finite or higher cost) the poses are restored and the
+// reason returned.
+std::string BackEnd::optimise() {
+  anchors_.refreshInformation(result_.graph);
+  const auto t = Clock::now();
+  std::string failure;
+  result_.optimisations.push_back(optimizePoseGraphOrKeep(result_.graph, config_.graph, failure));
+  result_.optimisation_outcomes.push_back({failure.empty(), failure.empty() ? "" : "not solved, previous estimate kept: " + failure});
+  result_.timings.graph_s += secondsSince(t);
+  return failure;
+}
+
+// A run that closed no loop is optimised with its gravity priors alone only frame to frame, or
+// where PoseGraphConfig::gravity_alone_frame_to_map says so.
+bool BackEnd::gravityAloneHelps() const {
+  if (result_.graph.gravity_priors.empty()) return false;
+  return config_.odometry.mode != OdometryMode::FrameToMap || config_.graph.gravity_alone_frame_to_map;
+}
+
+PoseList BackEnd::keyframeEstimate() const {
+  PoseList poses;
+  for (std::size_t f : keyframe_frames_) poses.push_back(result_.graph.poses[f]);
+  return poses;
+}
+
+}  // namespace hazmap::pipeline_detail

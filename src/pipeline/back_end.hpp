@@ -1,0 +1,66 @@
+#pragma once
+// The back end of one run (paper Fig. 1, right): keyframes, property-landmark (or distance) loop
+// closure verified by ICP, map anchors, and pose-graph optimisation with information = inverse
+// ICP covariance (eq. 3). It works on the run's graph and records (SlamResult) while the front
+// end (slam.cpp) tracks and adds each frame's node and odometry edge.
+#include <cstddef>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "hazmap/loop/loop_closure.hpp"
+#include "hazmap/pipeline/slam.hpp"
+#include "hazmap/sources/scan_source.hpp"
+#include "pipeline/keyframe_spill.hpp"
+#include "pipeline/loop_schedule.hpp"
+#include "pipeline/map_anchors.hpp"
+
+namespace hazmap::pipeline_detail {
+
+class BackEnd {
+ public:
+  /// `tracked` = the tracked poses (T_world_sensor per frame), read when keyframes are anchored.
+  BackEnd(const SlamConfig& config, SlamResult& result, const std::vector<Eigen::Isometry3d>& tracked);
+
+  /// The loop detector over the run's classes; old keyframes are re-read from `source` when a
+  /// loop needs them (or from copies on disk when the source cannot re-read).
+  void start(const ClassTable& classes, ScanSource& source);
+  /// The newest frame's odometry edge covariance (what the loop gate chains) and its share no
+  /// registration vouched for (what the anchors chain). replaceStep: a re-estimated frame's.
+  void addStep(const FrameRecord& rec, const Matrix6d& edge_covariance);
+  void replaceStep(std::size_t frame, const Matrix6d& edge_covariance) { step_covariance_.at(frame) = edge_covariance; }
+  /// A frame this far (SlamConfig::keyframe_distance / keyframe_angle) from the last keyframe.
+  bool isKeyframe(const Eigen::Isometry3d& pose) const;
+  /// The newest frame's gravity-direction prior when its scan has an IMU measurement.
+  void addGravityPrior(const Scan& scan);
+  /// The newest frame becomes a keyframe: its anchor edge, loop candidates verified by ICP, and
+  /// an online optimisation as soon as one is accepted.
+  void closeLoops(const Eigen::Isometry3d& pose, LabeledCloud cloud);
+  /// The last optimisation with the consistent loops; the loops and rejections recorded.
+  void finish();
+
+ private:
+  Matrix6d relativeCovariance(std::size_t from, std::size_t to) const;
+  void optimiseWithLoops();
+  std::string optimise();
+  void reject(const LoopClosure& l, LoopRejection why, std::string detail);
+  void dropLoop(const LoopClosure& l, LoopRejection why, const std::string& detail);
+  void recordDetection(const LoopDetection& detection);
+  void recordLoops(const std::vector<LoopClosure>& consistent);
+  bool gravityAloneHelps() const;
+  PoseList keyframeEstimate() const;
+
+  const SlamConfig& config_;
+  SlamResult& result_;
+  const std::vector<Eigen::Isometry3d>& tracked_;
+  std::unique_ptr<LoopDetector> loops_;
+  LoopSchedule schedule_;
+  std::optional<KeyframeSpill> spill_;
+  std::vector<std::size_t> keyframe_frames_;  // keyframe index → frame index
+  std::vector<Matrix6d> step_covariance_;      // frame index → its odometry edge's covariance
+  Eigen::Isometry3d last_keyframe_pose_ = Eigen::Isometry3d::Identity();
+  MapAnchors anchors_;
+};
+
+}  // namespace hazmap::pipeline_detail
