@@ -145,38 +145,46 @@ TEST(WorstDay, CorridorWithoutOdometryIsFlaggedNotSilentlyWrong) {
   EXPECT_GE(s.flagged, 20u);  // most frames: the motion along the corridor is unknown
 }
 
-// Recovery must never make tracking worse than keeping the guess (it is on by default). Tanks,
-// seed 3 (twelve identical tanks: ICP slides along degenerate directions and fails its checks):
-// answers from other starts fitted no better than the wheel-odometry guess yet replaced it, and
-// property ICP's mean error went 0.925 -> 2.287 m. Now every such answer must beat the guess's
+// Recovery must never make tracking worse than keeping the guess (it is on by default). Tanks
+// (twelve identical tanks: ICP slides along degenerate directions and fails its checks): answers
+// from other starts fitted no better than the wheel-odometry guess yet replaced it, and property
+// ICP's mean error on seed 3 went 0.925 -> 2.287 m. Now every such answer must beat the guess's
 // own surface fit, and a degenerate one is not accepted.
+// Which frames fail and try recovery is chaotic (seed 3 tried 4 on one machine, 1 on another), so
+// the test holds no count of one run: on four seeds, each run with recovery stays within a few
+// per cent of the same run without it and within the scene's bounds, and recovery ran on some
+// frames of them (else the test would prove nothing). Measured 2026-12-03, seeds 2-5: off
+// 0.893 / 0.920 / 1.028 / 0.788 m, on 0.706 / 0.920 / 1.028 / 0.788 m, 9 / 4 / 3 / 8 frames tried.
 TEST(Relocalise, NeverWorseThanTheGuessOnTanks) {
-  sim::SimulatorConfig sc;
-  sc.scenario = "tanks";
-  sc.seed = 3;
-  const sim::Simulator sim(sc);
-  const auto run = [&](bool relocalise, std::size_t* tried) {
-    OdometryConfig c = OdometryConfig::defaults();
-    c.relocalise = relocalise;
-    Odometry odo(sim.classTable(), c);
-    double error = 0.0;
-    for (std::size_t i = 0; i < sim.frames(); ++i) {
-      std::optional<Eigen::Isometry3d> inc;
-      if (i > 0) inc = sim.odometry()[i - 1].inverse() * sim.odometry()[i];
-      const OdometryFrame& f = odo.addFrame(sim.scan(i), inc);
-      error += (f.pose.translation() - sim.groundTruth()[i].translation()).norm();
-      if (tried) *tried += f.global.tried;
-    }
-    return error / double(sim.frames());
-  };
   std::size_t tried = 0;
-  const double off = run(false, nullptr), on = run(true, &tried);
-  std::printf("tanks seed 3, property ICP: relocalise off %.3f m, on %.3f m (%zu frames tried recovery)\n", off, on,
-              tried);
-  // recovery did run (5 frames before ICP's correction was measured in the sensor frame: a turn far
-  // from the world origin no longer reads as a divergence; 4 now, mean error 0.925 -> 0.920 m)
-  EXPECT_GE(tried, 3u);
-  EXPECT_LE(on, off + 1e-3);
+  for (const std::uint64_t seed : {2, 3, 4, 5}) {
+    sim::SimulatorConfig sc;
+    sc.scenario = "tanks";
+    sc.seed = seed;
+    const sim::Simulator sim(sc);
+    const auto run = [&](bool relocalise) {
+      OdometryConfig c = OdometryConfig::defaults();
+      c.relocalise = relocalise;
+      Odometry odo(sim.classTable(), c);
+      double error = 0.0;
+      for (std::size_t i = 0; i < sim.frames(); ++i) {
+        std::optional<Eigen::Isometry3d> inc;
+        if (i > 0) inc = sim.odometry()[i - 1].inverse() * sim.odometry()[i];
+        const OdometryFrame& f = odo.addFrame(sim.scan(i), inc);
+        error += (f.pose.translation() - sim.groundTruth()[i].translation()).norm();
+        if (relocalise) tried += f.global.tried;
+      }
+      return error / double(sim.frames());
+    };
+    const double off = run(false), on = run(true);
+    std::printf("tanks seed %u, property ICP: relocalise off %.3f m, on %.3f m\n", unsigned(seed), off, on);
+    // Never worse: a few per cent for the chaos of a run that took another answer somewhere
+    // (the regression above was +150 %).
+    EXPECT_LE(on, 1.05 * off + 0.01) << "seed " << seed;
+    EXPECT_LT(on, 1.5) << "seed " << seed;  // the tanks' property-ICP tracking: 0.6-1.1 m on seeds 1-8
+  }
+  std::printf("%zu frames tried recovery\n", tried);
+  EXPECT_GE(tried, 4u);  // at least one per seed on average (24 measured)
 }
 
 // The targets on naraha, with and without wheel odometry: >= 98 % of the frames within
