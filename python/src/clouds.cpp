@@ -54,7 +54,8 @@ LabeledCloud cloudFromArray(const py::array& array, const std::string& where) {
     fail(where, "must be a float array (float32 or float64), got dtype " + py::str(array.dtype()).cast<std::string>());
   if (array.ndim() != 2 || (array.shape(1) != 3 && array.shape(1) != 4))
     fail(where, "must be an (N,3) array of x y z or (N,4) of x y z class, got shape " + shapeOf(array));
-  const auto a = py::array_t<double, py::array::forcecast>::ensure(array).unchecked<2>();
+  const auto values = py::array_t<double, py::array::forcecast>::ensure(array);  // outlives `a`
+  const auto a = values.unchecked<2>();
   const bool labelled = array.shape(1) == 4;
   LabeledCloud c;
   c.resize(static_cast<std::size_t>(a.shape(0)));
