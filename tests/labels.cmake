@@ -79,7 +79,7 @@ hazmap_label(test_pipeline scene
 hazmap_label(test_preprocess real-data
   unit "^Preprocess\\.CropAndDownsampleRejectsBadConfig$")
 hazmap_label(test_properties unit
-  real-data "^Labeler\\.|^ViewFusion\\.|^BagImages\\.")
+  real-data "^BagImages\\.")
 hazmap_label(test_properties_loops scene)
 hazmap_label(test_properties_sim scene)
 hazmap_label(test_registration_real real-data)
@@ -91,7 +91,7 @@ hazmap_label(test_sources unit
 hazmap_label(test_sources_cli real-data
   scene "^SimulateMcap\\.")
 hazmap_label(test_velodyne real-data
-  unit "^Velodyne\\.(Hdl32eBlockLayout|ExactAzimuth)|^VelodyneCalibration\\.")
+  unit "^Velodyne\\.(Hdl32eBlockLayout|ExactAzimuth)|^VelodyneCalibration\\.|^VelodyneCalibrationFile\\.BadFilesAreNamed$")
 hazmap_label(test_viewer unit
   browser "^ViewerBrowser\\.ShowsTheMap"
   "browser,scene" "^ViewerBrowser\\.RunWritesAViewer")
