@@ -101,6 +101,7 @@ void infoSequence(const InfoOptions& o) {
   std::optional<ClassTable> override_table;
   if (!o.classes.empty()) override_table = ClassTable::load(o.classes);
   const Sequence seq = Sequence::open(o.path, override_table);
+  if (!seq.tableNote().empty()) std::cerr << "notice: " << seq.tableNote() << "\n";
   Summary total;
   json frames = json::array();
   std::map<std::string, std::size_t> formats;

@@ -508,11 +508,11 @@ TEST(MapSkipsFallback, NarahaSeed7IsNotLost) {
   // slipped guess passes at frames 31-32 even without recovery: the slips were refused as
   // "diverged" only because a turn 30 m from the world origin read as metres. Nothing falls back
   // any more (map error 0.85 -> 0.015 m), so this sequence no longer exercises map_skips_fallback.
-  EXPECT_EQ(cases[0].fallback, 0u);
-  EXPECT_LT(cases[0].error, 0.05);
-  EXPECT_EQ(cases[1].fallback, 0u);
-  EXPECT_LT(cases[1].error, 0.05);
-  EXPECT_EQ(cases[2].fallback, 0u);  // recovered instead
-  EXPECT_LT(cases[2].error, 0.05);
+  // Which frames fall back is chaotic (none here; another machine may see one): what matters is
+  // that tracking is not lost, which costs more than a couple of frames and 5 cm of map error.
+  for (const Case& c : cases) {
+    EXPECT_LE(c.fallback, 2u) << "relocalise " << c.relocalise << ", skip " << c.skip;
+    EXPECT_LT(c.error, 0.05) << "relocalise " << c.relocalise << ", skip " << c.skip;
+  }
   std::filesystem::remove_all(dir);
 }

@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <stdexcept>
 
 #include "hazmap/core/error.hpp"
 #include "hazmap/sources/bag_message.hpp"
@@ -17,9 +18,14 @@ namespace fs = std::filesystem;
 
 namespace {
 
+/// The file's bytes; throws naming the file when it cannot be read or is empty (the tests below
+/// index into it: an empty read must stop the test, not crash it).
 std::vector<std::uint8_t> readBytes(const fs::path& p) {
   std::ifstream in(p, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+  std::vector<std::uint8_t> bytes{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+  if (!in.good() && !in.eof()) throw std::runtime_error("cannot read " + p.string());
+  if (bytes.empty()) throw std::runtime_error(p.string() + " is empty or missing");
+  return bytes;
 }
 void writeBytes(const fs::path& p, std::span<const std::uint8_t> b) {
   std::ofstream(p, std::ios::binary).write(reinterpret_cast<const char*>(b.data()), static_cast<std::streamsize>(b.size()));
@@ -189,6 +195,7 @@ TEST(Mcap, CorruptChunkIsReportedAndSkipped) {
     auto scanned = openBag(path);
     const ReadAll s = readAll(*scanned);
     EXPECT_EQ(scanned->loss().chunks_skipped, 1u);
+    ASSERT_FALSE(scanned->loss().notices.empty());
     EXPECT_NE(scanned->loss().notices[0].find("offset " + std::to_string(chunks[1].offset)), std::string::npos);
     // That chunk was the first to use /odom and /thermal/image_raw, so without a summary their
     // Channel records are lost with it: the later messages are skipped, and said to be.
@@ -202,7 +209,9 @@ TEST(Mcap, CorruptChunkIsReportedAndSkipped) {
 TEST(Mcap, CorruptCompressedDataIsSkipped) {
   auto bytes = readBytes(fixture("velodyne-zstd-chunked.mcap"));
   const auto records = topRecords(bytes);
-  const auto chunk = *std::find_if(records.begin(), records.end(), [](const TopRecord& t) { return t.opcode == 0x06; });
+  const auto first_chunk = std::find_if(records.begin(), records.end(), [](const TopRecord& t) { return t.opcode == 0x06; });
+  ASSERT_NE(first_chunk, records.end()) << "no chunk in velodyne-zstd-chunked.mcap";
+  const TopRecord chunk = *first_chunk;
   // Scribble over the middle of the first chunk's compressed records.
   for (std::uint64_t i = 0; i < 64; ++i) bytes[chunk.offset + chunk.length / 2 + i] ^= 0xFF;
   const auto path = test::scratchDir() / "scribbled.mcap";
@@ -243,6 +252,7 @@ TEST(Mcap, TruncatedFileReadsUpToTheLastCompleteMessage) {
   std::vector<TopRecord> chunks;
   for (const auto& r : zrecords)
     if (r.opcode == 0x06) chunks.push_back(r);
+  ASSERT_GE(chunks.size(), 3u);
   const std::uint64_t cut = chunks[2].offset + 100;
   writeBytes(dir / "cut-chunked.mcap", std::span(zstd).first(cut));
   auto reader = openBag(dir / "cut-chunked.mcap");
@@ -256,6 +266,7 @@ TEST(Mcap, BrokenSummaryFallsBackToScan) {
   auto bytes = readBytes(fixture("velodyne-zstd-chunked.mcap"));
   const auto records = topRecords(bytes);
   const auto data_end = std::find_if(records.begin(), records.end(), [](const TopRecord& t) { return t.opcode == 0x0F; });
+  ASSERT_NE(data_end, records.end()) << "no DataEnd record";
   bytes[data_end->offset + 9 + 4 + 20] ^= 0x01;  // inside the summary's first record
   const auto path = test::scratchDir() / "summary.mcap";
   writeBytes(path, bytes);
@@ -301,9 +312,11 @@ TEST(Mcap, ChunkStartingAfterItsMessagesIsSkipped) {
   std::vector<TopRecord> chunks;
   for (const auto& r : records)
     if (r.opcode == 0x06) chunks.push_back(r);
+  ASSERT_GE(chunks.size(), 2u);
   const std::uint64_t late = 1700000000150000000;  // after chunk 1's messages (…001 to …100)
   std::memcpy(bytes.data() + chunks[1].offset + 9, &late, 8);
   const auto data_end = std::find_if(records.begin(), records.end(), [](const TopRecord& t) { return t.opcode == 0x0F; });
+  ASSERT_NE(data_end, records.end()) << "no DataEnd record";
   bytes.resize(data_end->offset);
   const auto path = test::scratchDir() / "late.mcap";
   writeBytes(path, bytes);

@@ -15,12 +15,9 @@
 #include "hazmap/core/se3.hpp"
 #include "hazmap/io/kitti.hpp"
 #include "hazmap/sim/simulator.hpp"
+#include "test_paths.hpp"
 
 namespace hazmap::test {
-
-inline std::filesystem::path sharedData(const std::string& rel = "") {
-  return std::filesystem::path(HAZMAP_SHARED_DATA_DIR) / rel;
-}
 
 /// Scan i of the SemanticKITTI sample (../shared/data/kitti-semantic-sample), labels mapped by
 /// `table`.
@@ -40,9 +37,7 @@ inline double rotErrDeg(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) 
   return rotationAngle(a.inverse() * b) * 180.0 / M_PI;
 }
 
-inline std::filesystem::path sourceDir(const std::string& rel = "") {
-  return std::filesystem::path(HAZMAP_SOURCE_DIR) / rel;
-}
+inline std::filesystem::path sourceDir(const std::string& rel = "") { return sourceRoot() / rel; }
 
 /// A new empty folder named after the running test.
 inline std::filesystem::path scratchDir() {
@@ -72,7 +67,7 @@ struct CommandResult {
 
 /// Runs the hazmap CLI with the given argument string (shell-quoted by the caller).
 inline CommandResult runCli(const std::string& args) {
-  const std::string cmd = std::string(HAZMAP_CLI) + " " + args + " 2>&1";
+  const std::string cmd = cliPath() + " " + args + " 2>&1";
   CommandResult r;
   FILE* pipe = popen(cmd.c_str(), "r");
   if (!pipe) return {-1, "popen failed"};

@@ -152,6 +152,23 @@ TEST(IoRealData, KittiSampleIsASequence) {
   EXPECT_THROW(seq.frame(6), Error);
 }
 
+// A SemanticKITTI folder names no class table: its labels (71 trunk, 80 pole, …) are read with
+// the built-in semantic-kitti table, and the sequence says why (one line, for a notice).
+TEST(IoRealData, KittiSampleWithoutATableIsReadAsSemanticKitti) {
+  const auto seq = Sequence::open(test::sharedData(kKitti));
+  EXPECT_NE(seq.tableNote().find("000000.label"), std::string::npos) << seq.tableNote();
+  EXPECT_NE(seq.tableNote().find("semantic-kitti"), std::string::npos) << seq.tableNote();
+  EXPECT_EQ(seq.tableNote().find('\n'), std::string::npos);
+  const auto named = Sequence::open(test::sharedData(kKitti), ClassTable::semanticKitti());
+  EXPECT_TRUE(named.tableNote().empty());
+  EXPECT_EQ(seq.frame(0).classes, named.frame(0).classes);
+  EXPECT_EQ(countClass(seq.frame(0), 3), 102u);  // traffic-sign → radiation
+  // A table named on the command line wins: the raw ids are kept, as before.
+  const auto plain = Sequence::open(test::sharedData(kKitti), ClassTable::defaults());
+  EXPECT_TRUE(plain.tableNote().empty());
+  EXPECT_GT(countClass(plain.frame(0), 71), 0u);
+}
+
 TEST(IoRealData, KittiGroundTruthTrajectory) {
   const auto t = readTrajectoryAuto(test::sharedData("trajectories/KITTI_00_gt.txt"));
   ASSERT_EQ(t.size(), 4541u);
@@ -382,6 +399,39 @@ TEST(IoRoundTrip, SequenceOfPcdFilesWithTableByName) {
   EXPECT_EQ(seq.frame(1).size(), 12u);
   EXPECT_EQ(seq.frame(0).classes, richCloud(10).classes);
   EXPECT_NE(seq.sensorYaml().find("hdl64"), std::string::npos);
+}
+
+TEST(IoKitti, SemanticKittiLabelsAreToldFromHazmapClasses) {
+  EXPECT_FALSE(looksLikeSemanticKittiLabels({}));
+  EXPECT_FALSE(looksLikeSemanticKittiLabels({0, 1, 2, 3}));  // hazmap's own classes
+  EXPECT_TRUE(looksLikeSemanticKittiLabels({0, 40, 71, 80u | (7u << 16)}));  // instance ids ignored
+  EXPECT_TRUE(looksLikeSemanticKittiLabels({1, 252}));
+  EXPECT_FALSE(looksLikeSemanticKittiLabels({0, 71, 7}));  // 7 is no SemanticKITTI id
+  EXPECT_FALSE(looksLikeSemanticKittiLabels({0, 71, 260}));
+}
+
+// Only a folder that names no table is recognised; hazmap.yaml's table is kept as it is.
+TEST(IoKitti, OnlyAFolderWithoutATableIsRecognised) {
+  const auto dir = test::scratchDir();
+  LabeledCloud scan;
+  for (int i = 0; i < 6; ++i) scan.push_back(Eigen::Vector3f(float(i), 1.0f, 0.0f), ClassId(i % 2 ? 71 : 40));
+  fs::create_directories(dir / "velodyne");
+  fs::create_directories(dir / "labels");
+  writeKittiBin(dir / "velodyne/000000.bin", scan);
+  writeSemanticKittiLabels(dir / "labels/000000.label", scan);
+  const auto recognised = Sequence::open(dir);
+  EXPECT_FALSE(recognised.tableNote().empty());
+  EXPECT_EQ(countClass(recognised.frame(0), 2), 3u);  // trunk → water
+  EXPECT_EQ(countClass(recognised.frame(0), 0), 3u);  // road → none
+  writeTextAtomically(dir / "hazmap.yaml", "class_table: default\n");
+  const auto named = Sequence::open(dir);
+  EXPECT_TRUE(named.tableNote().empty());
+  EXPECT_EQ(countClass(named.frame(0), 71), 3u);
+  // Ids outside SemanticKITTI's set are not guessed at: the default table, as before.
+  fs::remove(dir / "hazmap.yaml");
+  scan.classes[0] = 7;
+  writeSemanticKittiLabels(dir / "labels/000000.label", scan);
+  EXPECT_TRUE(Sequence::open(dir).tableNote().empty());
 }
 
 TEST(IoLzf, CompressDecompressAndRejectCorruption) {

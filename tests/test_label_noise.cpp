@@ -59,8 +59,9 @@ TEST(PropertyVsPlain, CorridorLabelsHoldTheAxis) {
   std::printf("corridor (default label noise): plain %.3f m, property %.3f m, labels used %.0f%%\n",
               plain.mean_error, prop.mean_error, 100.0 * prop.labels_used);
   // 0.6x until 2026-12-02; then plain ICP stopped refusing right answers as "diverged" (ICP's
-  // correction measured in the sensor frame, issue 19): plain 4.02 -> 0.89 m, property 0.534 -> 0.541 m.
-  EXPECT_LT(prop.mean_error, 0.65 * plain.mean_error);
+  // correction measured in the sensor frame, issue 19): plain 4.02 -> 0.89 m, property 0.534 -> 0.541 m
+  // (0.61x). Both are chaotic runs: the bound asks for a clear win, not for the last measured ratio.
+  EXPECT_LT(prop.mean_error, 0.8 * plain.mean_error);
   EXPECT_GT(prop.labels_used, 0.9);
 }
 

@@ -386,6 +386,23 @@ TEST(Cli, OdometryOnTheKittiSample) {
   EXPECT_EQ(bad.exit_code, 1);
 }
 
+// What a user types first: no --classes. The folder is recognised as SemanticKITTI (a notice
+// says so, naming the label file), and the run is the one with --classes semantic-kitti.
+TEST(Cli, OdometryOnTheKittiSampleWithDefaults) {
+  const auto seq = hazmap::test::sharedData("kitti-semantic-sample");
+  const auto dir = hazmap::test::scratchDir();
+  const auto r = hazmap::test::runCli("odometry " + seq.string() + " --max-frames 3 --out " + (dir / "a").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("labels/000000.label holds SemanticKITTI label ids"), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find("not in the class table"), std::string::npos) << r.output;
+  const auto named = hazmap::test::runCli("odometry " + seq.string() + " --classes semantic-kitti --max-frames 3 --out " +
+                                          (dir / "b").string());
+  ASSERT_EQ(named.exit_code, 0) << named.output;
+  EXPECT_EQ(named.output.find("SemanticKITTI label ids"), std::string::npos) << named.output;
+  EXPECT_EQ(readTextFile(dir / "a/poses.txt"), readTextFile(dir / "b/poses.txt"));
+  EXPECT_EQ(readKittiTrajectory(dir / "a/poses.txt").size(), 3u);
+}
+
 namespace {
 
 // A straight drive along the featureless corridor (plain ICP is degenerate along x), 0.5 m a

@@ -3,21 +3,15 @@
 // status and recovery (relocalised / fallback with reasons), and real data with large motion.
 #include <gtest/gtest.h>
 
-#include <Eigen/Eigenvalues>
-
 #include <cmath>
-#include <cstdlib>
-#include <sstream>
 #include <nlohmann/json.hpp>
 
 #include "hazmap/core/error.hpp"
 #include "hazmap/core/se3.hpp"
 #include "hazmap/io/atomic_file.hpp"
 #include "hazmap/io/kitti.hpp"
-#include "hazmap/odometry/local_map.hpp"
 #include "hazmap/odometry/odometry.hpp"
 #include "hazmap/preprocess/voxel_downsample.hpp"
-#include "hazmap/registration/registration_target.hpp"
 #include "hazmap/sim/simulator.hpp"
 #include "odometry/odometry_checks.hpp"
 #include "test_helpers.hpp"
@@ -143,45 +137,55 @@ sim::Simulator worstDay(const std::string& scenario, std::size_t frames) {
 // 29); flagging at flag_weak_axis_ratio (0.25) and probing every recovery answer along its
 // weakest axis leaves 1 (a lost frame re-estimated 1 m along the corridor: docs/registration.md);
 // with re-estimated lost frames probed and placed by their labels too, none.
-// The issue's corridor targets are DISABLED_MeetsTheIssueTargetsOnTheCorridor.
+// The issue's targets, which the corridor does not meet, are measured by
+// scripts/corridor_observability.sh (TARGETS=1).
 TEST(WorstDay, CorridorWithoutOdometryIsFlaggedNotSilentlyWrong) {
   const Score s = trackWorstDay(worstDay("corridor", 30), /*wheel=*/false, OdometryConfig::defaults());
   EXPECT_EQ(s.silently_wrong, 0u);
   EXPECT_GE(s.flagged, 20u);  // most frames: the motion along the corridor is unknown
 }
 
-// Recovery must never make tracking worse than keeping the guess (it is on by default). Tanks,
-// seed 3 (twelve identical tanks: ICP slides along degenerate directions and fails its checks):
-// answers from other starts fitted no better than the wheel-odometry guess yet replaced it, and
-// property ICP's mean error went 0.925 -> 2.287 m. Now every such answer must beat the guess's
+// Recovery must never make tracking worse than keeping the guess (it is on by default). Tanks
+// (twelve identical tanks: ICP slides along degenerate directions and fails its checks): answers
+// from other starts fitted no better than the wheel-odometry guess yet replaced it, and property
+// ICP's mean error on seed 3 went 0.925 -> 2.287 m. Now every such answer must beat the guess's
 // own surface fit, and a degenerate one is not accepted.
+// Which frames fail and try recovery is chaotic (seed 3 tried 4 on one machine, 1 on another), so
+// the test holds no count of one run: on three seeds, each run with recovery stays within a few
+// per cent of the same run without it and within the scene's bounds, and recovery ran on some
+// frames of them (else the test would prove nothing). Measured 2026-12-03, seeds 2 / 3 / 5: off
+// 0.893 / 0.920 / 0.788 m, on 0.706 / 0.920 / 0.788 m (seed 2: one frame relocalised), 9 / 4 / 8
+// frames tried.
 TEST(Relocalise, NeverWorseThanTheGuessOnTanks) {
-  sim::SimulatorConfig sc;
-  sc.scenario = "tanks";
-  sc.seed = 3;
-  const sim::Simulator sim(sc);
-  const auto run = [&](bool relocalise, std::size_t* tried) {
-    OdometryConfig c = OdometryConfig::defaults();
-    c.relocalise = relocalise;
-    Odometry odo(sim.classTable(), c);
-    double error = 0.0;
-    for (std::size_t i = 0; i < sim.frames(); ++i) {
-      std::optional<Eigen::Isometry3d> inc;
-      if (i > 0) inc = sim.odometry()[i - 1].inverse() * sim.odometry()[i];
-      const OdometryFrame& f = odo.addFrame(sim.scan(i), inc);
-      error += (f.pose.translation() - sim.groundTruth()[i].translation()).norm();
-      if (tried) *tried += f.global.tried;
-    }
-    return error / double(sim.frames());
-  };
   std::size_t tried = 0;
-  const double off = run(false, nullptr), on = run(true, &tried);
-  std::printf("tanks seed 3, property ICP: relocalise off %.3f m, on %.3f m (%zu frames tried recovery)\n", off, on,
-              tried);
-  // recovery did run (5 frames before ICP's correction was measured in the sensor frame: a turn far
-  // from the world origin no longer reads as a divergence; 4 now, mean error 0.925 -> 0.920 m)
-  EXPECT_GE(tried, 3u);
-  EXPECT_LE(on, off + 1e-3);
+  for (const std::uint64_t seed : {2, 3, 5}) {
+    sim::SimulatorConfig sc;
+    sc.scenario = "tanks";
+    sc.seed = seed;
+    const sim::Simulator sim(sc);
+    const auto run = [&](bool relocalise) {
+      OdometryConfig c = OdometryConfig::defaults();
+      c.relocalise = relocalise;
+      Odometry odo(sim.classTable(), c);
+      double error = 0.0;
+      for (std::size_t i = 0; i < sim.frames(); ++i) {
+        std::optional<Eigen::Isometry3d> inc;
+        if (i > 0) inc = sim.odometry()[i - 1].inverse() * sim.odometry()[i];
+        const OdometryFrame& f = odo.addFrame(sim.scan(i), inc);
+        error += (f.pose.translation() - sim.groundTruth()[i].translation()).norm();
+        if (relocalise) tried += f.global.tried;
+      }
+      return error / double(sim.frames());
+    };
+    const double off = run(false), on = run(true);
+    std::printf("tanks seed %u, property ICP: relocalise off %.3f m, on %.3f m\n", unsigned(seed), off, on);
+    // Never worse: a few per cent for the chaos of a run that took another answer somewhere
+    // (the regression above was +150 %).
+    EXPECT_LE(on, 1.05 * off + 0.01) << "seed " << seed;
+    EXPECT_LT(on, 1.5) << "seed " << seed;  // the tanks' property-ICP tracking: 0.15-1.03 m on seeds 1-8
+  }
+  std::printf("%zu frames tried recovery\n", tried);
+  EXPECT_GE(tried, 4u);  // a frame or two per seed (21 measured)
 }
 
 // The issue's targets on naraha, with and without wheel odometry: >= 98 % of the frames within
@@ -198,20 +202,6 @@ TEST(WorstDay, MeetsTheIssueTargetsOnNaraha) {
     EXPECT_LE(s.mean_position_error, 2.0 * std::max(reference.mean_position_error, 0.005))
         << (wheel ? "with" : "without") << " wheel odometry";
     EXPECT_GE(s.relocalised, 3u);  // the kicks were recovered, not just flagged
-  }
-}
-
-// The corridor does not meet them (docs/registration.md): along its axis the walls cannot tell the
-// motion, so without a motion prior most frames are flagged, and slips the encoders lied about
-// cannot be told from true travel there. Kept as the statement of what is left: measured by
-// DISABLED_CorridorObservabilityTable, at most 28 / 23 of 99 frames (seeds 1 / 2) are determinable
-// from any sensor the sequence has (all of them from labels, none from the geometry), so >= 98 %
-// within cannot be met; silently wrong = 0 is (every row, seeds 1-2).
-TEST(WorstDay, DISABLED_MeetsTheIssueTargetsOnTheCorridor) {
-  for (const bool wheel : {true, false}) {
-    const Score s = trackWorstDay(worstDay("corridor", 60), wheel, OdometryConfig::defaults());
-    EXPECT_GE(s.within_share(), 0.98) << (wheel ? "with" : "without") << " wheel odometry";
-    EXPECT_EQ(s.silently_wrong, 0u) << (wheel ? "with" : "without") << " wheel odometry";
   }
 }
 
@@ -509,90 +499,6 @@ TEST(Relocalise, OusterOs1128CaptureIsTrackedFrameByFrame) {
   EXPECT_EQ(s["frames"].get<int>(), 3);
   EXPECT_EQ(s["fallbacks"].get<int>(), 0) << s.dump();
   EXPECT_EQ(s["tracked_frames"].get<int>() + s["relocalised_frames"].get<int>(), 3);
-}
-
-// What the data can tell about each corridor worst-day frame's increment along the corridor
-// (docs/registration.md, 2026-12-02): a table, not a check (run with
-// --gtest_also_run_disabled_tests; HAZMAP_OBS_SEED, HAZMAP_OBS_FRAMES, HAZMAP_OBS_OUT = a CSV).
-// Per frame, against the map of the frames before it placed at their true poses: the plain-ICP
-// Hessian along the axis at the true pose (rotation marginalised; its share of the strongest and
-// the standard deviation it implies), whether plain ICP started 0.5, 1 and 2 m either way along the
-// axis comes back within 5 cm (geometry), and whether the label search (placeAlongAxisByLabels)
-// started 1 m either way puts it back within 5 cm (labels).
-TEST(WorstDay, DISABLED_CorridorObservabilityTable) {
-  const char* seed_env = std::getenv("HAZMAP_OBS_SEED");
-  const char* frames_env = std::getenv("HAZMAP_OBS_FRAMES");
-  sim::SimulatorConfig sc;
-  sc.scenario = "corridor";
-  sc.seed = seed_env ? std::stoul(seed_env) : 1;
-  sc.max_frames = frames_env ? std::stoul(frames_env) : 100;
-  const sim::Simulator sim(sim::SimulatorConfig::withPreset("worst-day", sc, "test"));
-  const ClassTable& classes = sim.classTable();
-  const OdometryConfig config = OdometryConfig::defaults();
-  RegistrationConfig plain = config.registration;
-  plain.use_classes = false;
-  // The corridor's axis in the frame of the first scan (poses.txt's frame).
-  const Eigen::Vector3d axis = sim.worldFromFirst().linear().transpose() * Eigen::Vector3d::UnitX();
-  LocalMap map(config.map);
-  std::vector<LabeledCloud> labels;
-  std::ostringstream csv;
-  csv << "frame,world_x,end_distance,slip,kick_deg,encoder_error,info_ratio,sigma_axis,geometry,labels,labels_precise,"
-         "labelled_points,class\n";
-  std::size_t counts[3] = {0, 0, 0};
-  for (std::size_t i = 0; i < sim.frames(); ++i) {
-    const LabeledCloud scan = sim.scan(i);
-    const LabeledCloud prepared = preprocessForTracking(scan, config, classes);
-    labels.push_back(labelledPointsOf(scan, config, classes));
-    const Eigen::Isometry3d& truth = sim.groundTruth()[i];
-    if (i > 0) {
-      const RegistrationTarget target = map.makeTarget(classes, plain, /*lazy_normals=*/true);
-      const RegistrationResult at = registerClouds(prepared, target, truth, classes, plain);
-      // Information along the axis with the rotation free (Schur complement), as weakHorizontalAxis.
-      const Matrix6d H = 0.5 * (at.hessian + at.hessian.transpose());
-      const Eigen::Matrix3d S =
-          H.topLeftCorner<3, 3>() - H.topRightCorner<3, 3>() * H.bottomRightCorner<3, 3>().ldlt().solve(H.bottomLeftCorner<3, 3>());
-      const double along = axis.dot(S * axis);
-      const double strongest = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(S).eigenvalues()(2);
-      const double sigma = at.residual_sigma / std::sqrt(std::max(along, 1e-12));
-      bool geometry = true;
-      for (const double d : {-2.0, -1.0, -0.5, 0.5, 1.0, 2.0}) {
-        const RegistrationResult r = registerClouds(prepared, target, shiftedAlong(truth, axis, d), classes, plain);
-        geometry = geometry && std::abs(axis.dot(r.transform.translation() - truth.translation())) <= 0.05;
-        if (!geometry) break;
-      }
-      std::vector<std::pair<Eigen::Isometry3d, const LabeledCloud*>> placed;
-      for (std::size_t j = 0; j < i; ++j)
-        if ((sim.groundTruth()[j].translation() - truth.translation()).norm() <= config.relocalise_map_radius + config.label_axis_range)
-          placed.push_back({sim.groundTruth()[j], &labels[j]});
-      const LabeledCloud label_map = labelMapOf(placed, config, classes);
-      bool by_labels = true, precise = true;
-      std::size_t labelled = 0;
-      for (const double d : {-1.0, 1.0}) {
-        const LabelPlacement lp =
-            placeAlongAxisByLabels({&labels[i], &label_map}, classes, shiftedAlong(truth, axis, d), axis, config);
-        labelled = lp.labelled;
-        by_labels = by_labels && lp.decided && std::abs(lp.offset + d) <= 0.05;
-        precise = precise && lp.precise;
-      }
-      const Eigen::Isometry3d true_inc = sim.groundTruth()[i - 1].inverse() * truth;
-      const Eigen::Isometry3d odo_inc = sim.odometry()[i - 1].inverse() * sim.odometry()[i];
-      const double wx = sim.worldPoses()[i].translation().x();
-      const int cls = geometry ? 0 : by_labels ? 1 : 2;
-      ++counts[cls];
-      char line[320];
-      std::snprintf(line, sizeof line, "%zu,%.2f,%.2f,%d,%.1f,%.3f,%.4f,%.4f,%d,%d,%d,%zu,%s\n", i, wx,
-                    std::min(wx, 60.0 - wx), int(sim.slips()[i]), sim.yawKicks()[i] / kDeg,
-                    translationNorm(true_inc.inverse() * odo_inc), along / std::max(strongest, 1e-12), sigma,
-                    int(geometry), int(by_labels), int(by_labels && precise), labelled,
-                    cls == 0 ? "geometry" : cls == 1 ? "labels" : "none");
-      csv << line;
-    }
-    map.integrate(prepared.transformed(truth), truth.translation(), classes);
-  }
-  std::printf("corridor worst day seed %u: %zu frames determinable from geometry, %zu only from labels, %zu from neither\n",
-              static_cast<unsigned>(sc.seed), counts[0], counts[1], counts[2]);
-  if (const char* out = std::getenv("HAZMAP_OBS_OUT")) writeTextAtomically(out, csv.str());
-  else std::printf("%s", csv.str().c_str());
 }
 
 }  // namespace

@@ -11,6 +11,7 @@
 #include "hazmap/io/atomic_file.hpp"
 #include "hazmap/sim/mesh_builder.hpp"
 #include "hazmap/sim/simulator.hpp"
+#include "test_helpers.hpp"
 
 using namespace hazmap;
 using namespace hazmap::sim;
@@ -580,12 +581,12 @@ TEST(SimConfig, EmptySceneAndUnknownRegionClassFail) {
 TEST(SimConfig, ShippedFilesMatchTheCode) {
   // config/scenarios/simulator_defaults.yaml documents every key with the default of the code.
   const SimulatorConfig file = SimulatorConfig::fromYamlFile(
-      std::filesystem::path(HAZMAP_SOURCE_DIR) / "config/scenarios/simulator_defaults.yaml");
+      test::sourceDir("config/scenarios/simulator_defaults.yaml"));
   EXPECT_EQ(file.toYamlString(), SimulatorConfig{}.toYamlString());
   // config/scenarios/room_regions.yaml parses, with its two regions and a closed route.
   Scene room = roomScene();
   room.regions.clear();
-  parseRegionsYaml(readTextFile(std::filesystem::path(HAZMAP_SOURCE_DIR) / "config/scenarios/room_regions.yaml"),
+  parseRegionsYaml(readTextFile(test::sourceDir("config/scenarios/room_regions.yaml")),
                    "room_regions.yaml", ClassTable::defaults(), room);
   ASSERT_EQ(room.regions.size(), 2u);
   EXPECT_EQ(room.route.waypoints.front(), room.route.waypoints.back());

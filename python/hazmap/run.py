@@ -40,7 +40,8 @@ def run(sequence, method="property-icp+pgo", out=None, config=None, classes=None
     """Runs SLAM over `sequence` and returns a RunResult.
 
     sequence: a sequence folder, a bag (.bag, .mcap, rosbag2 folder) or a capture (.pcap) path,
-      or any iterable of hazmap.Scan (cloud, stamp, odometry, ground_truth) or hazmap.LabeledCloud
+      or any iterable of hazmap.Scan (cloud, stamp, odometry, ground_truth), hazmap.LabeledCloud or
+      (N,3)/(N,4) float arrays (x y z [class])
       (fed from Python, e.g. a driver; kept in memory for the map's second pass).
     out: folder for everything `hazmap run --out` writes; None = a temporary folder, no PNGs.
     config: dict (or hazmap.Config('run')) with the YAML's sections over `method`'s defaults.

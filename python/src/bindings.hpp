@@ -22,6 +22,22 @@ namespace py = pybind11;
 /// "default", "semantic-kitti", a YAML path, or None (= default).
 ClassTable classTableArg(const py::handle& classes);
 
+/// A cloud argument as every entry point takes it: a hazmap.LabeledCloud (used in place, no copy)
+/// or a numpy array (N,3) x y z / (N,4) x y z class of floats (copied in). Anything else, or a
+/// non-finite coordinate, or a class that is not a whole number 0-65535, throws hazmap::Error
+/// naming `where` (the argument).
+class CloudArg {
+ public:
+  CloudArg(const py::handle& value, const std::string& where);
+  const LabeledCloud& get() const { return borrowed_ ? *borrowed_ : owned_; }
+
+ private:
+  const LabeledCloud* borrowed_ = nullptr;  ///< the Python object outlives the call
+  LabeledCloud owned_;
+};
+/// True when `value` can be a cloud argument (a LabeledCloud or a numpy array, checked later).
+bool isCloudLike(const py::handle& value);
+
 Eigen::Isometry3d isometryFrom(const Eigen::Matrix4d& m, const std::string& where);
 /// (N,4,4) float64 array of the poses.
 template <typename Poses>

@@ -1,6 +1,7 @@
 // LabeledCloud ↔ numpy. Reading a channel gives a view on the C++ vector (no copy: points are
 // Eigen::Vector3f, 12 contiguous bytes, so (N,3) float32 with strides (12, 4)); the view keeps
 // the cloud alive. Assigning a channel copies the array in.
+#include <cmath>
 #include <cstring>
 #include <filesystem>
 
@@ -40,6 +41,37 @@ Trajectory trajectoryFrom(const py::array_t<double, py::array::c_style | py::arr
 }
 
 namespace {
+
+std::string shapeOf(const py::array& a) {
+  std::string out = "(";
+  for (py::ssize_t d = 0; d < a.ndim(); ++d) out += (d ? ", " : "") + std::to_string(a.shape(d));
+  return out + (a.ndim() == 1 ? ",)" : ")");
+}
+
+/// An (N,3) or (N,4) float array: x y z [class], as docs/python.md promises.
+LabeledCloud cloudFromArray(const py::array& array, const std::string& where) {
+  if (array.dtype().kind() != 'f')
+    fail(where, "must be a float array (float32 or float64), got dtype " + py::str(array.dtype()).cast<std::string>());
+  if (array.ndim() != 2 || (array.shape(1) != 3 && array.shape(1) != 4))
+    fail(where, "must be an (N,3) array of x y z or (N,4) of x y z class, got shape " + shapeOf(array));
+  const auto values = py::array_t<double, py::array::forcecast>::ensure(array);  // outlives `a`
+  const auto a = values.unchecked<2>();
+  const bool labelled = array.shape(1) == 4;
+  LabeledCloud c;
+  c.resize(static_cast<std::size_t>(a.shape(0)));
+  for (py::ssize_t i = 0; i < a.shape(0); ++i) {
+    const Eigen::Vector3d p(a(i, 0), a(i, 1), a(i, 2));
+    if (!p.allFinite()) fail(where, "point " + std::to_string(i) + " has a non-finite coordinate");
+    c.points[std::size_t(i)] = p.cast<float>();
+    if (!labelled) continue;
+    const double cls = a(i, 3);
+    if (!(cls >= 0 && cls <= 65535 && cls == std::floor(cls)))
+      fail(where, "point " + std::to_string(i) + " has class " + py::str(py::float_(cls)).cast<std::string>() +
+                      " (the 4th column must hold whole numbers 0-65535)");
+    c.classes[std::size_t(i)] = static_cast<ClassId>(cls);
+  }
+  return c;
+}
 
 template <typename T>
 py::object channelView(std::vector<T>& v, py::handle owner, bool present) {
@@ -94,6 +126,16 @@ py::object pointsView(LabeledCloud& c, py::handle owner) {
 
 }  // namespace
 
+CloudArg::CloudArg(const py::handle& value, const std::string& where) {
+  if (py::isinstance<LabeledCloud>(value)) borrowed_ = &value.cast<const LabeledCloud&>();
+  else if (py::isinstance<py::array>(value)) owned_ = cloudFromArray(py::reinterpret_borrow<py::array>(value), where);
+  else
+    fail(where, "must be a hazmap.LabeledCloud or a numpy array (N,3) x y z / (N,4) x y z class, got " +
+                    py::str(py::type::of(value).attr("__name__")).cast<std::string>());
+}
+
+bool isCloudLike(const py::handle& value) { return py::isinstance<LabeledCloud>(value) || py::isinstance<py::array>(value); }
+
 void bindClouds(py::module_& m) {
   static_assert(sizeof(Eigen::Vector3f) == 3 * sizeof(float), "points must be packed for the numpy view");
   py::class_<LabeledCloud>(m, "LabeledCloud",
@@ -139,7 +181,9 @@ void bindClouds(py::module_& m) {
       "Reads a KITTI .bin (+ .label), PCD or PLY file by extension");
   m.def(
       "voxel_downsample",
-      [](const LabeledCloud& cloud, double voxel_size, const py::object& classes) {
+      [](const py::object& cloud_arg, double voxel_size, const py::object& classes) {
+        const CloudArg cloud_in(cloud_arg, "cloud");
+        const LabeledCloud& cloud = cloud_in.get();
         VoxelDownsampleConfig config;
         config.voxel_size = voxel_size;
         if (!(voxel_size > 0)) fail("voxel_size", "must be > 0, got " + std::to_string(voxel_size));
@@ -151,7 +195,9 @@ void bindClouds(py::module_& m) {
       "Voxel grid averaging that keeps classes (majority vote)");
   m.def(
       "write_cloud",
-      [](const std::filesystem::path& path, const LabeledCloud& cloud, const py::object& classes) {
+      [](const std::filesystem::path& path, const py::object& cloud_arg, const py::object& classes) {
+        const CloudArg cloud_in(cloud_arg, "cloud");
+        const LabeledCloud& cloud = cloud_in.get();
         const ClassTable table = classTableArg(classes);
         py::gil_scoped_release release;
         writeCloud(path, cloud, table);

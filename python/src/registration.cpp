@@ -61,20 +61,24 @@ void bindRegistration(py::module_& m) {
 
   m.def(
       "register",
-      [](const LabeledCloud& source, const LabeledCloud& target, const py::object& init, const py::object& config,
+      [](const py::object& source_arg, const py::object& target_arg, const py::object& init, const py::object& config,
          const py::object& classes) {
+        const CloudArg source(source_arg, "source"), target(target_arg, "target");
         const RegistrationConfig cfg = configFrom(config, RegistrationConfig{}, "registration");
         const Eigen::Isometry3d guess = optionalIsometry(init, "init").value_or(Eigen::Isometry3d::Identity());
         const ClassTable table = classTableArg(classes);
         py::gil_scoped_release release;
-        return registerClouds(source, target, guess, table, cfg);
+        return registerClouds(source.get(), target.get(), guess, table, cfg);
       },
       py::arg("source"), py::arg("target"), py::arg("init") = py::none(), py::arg("config") = py::none(),
       py::arg("classes") = py::none(),
-      "Property-aware ICP of source onto target (config: the YAML registration: keys)");
+      "Property-aware ICP of source onto target (clouds: LabeledCloud or (N,3)/(N,4) float array; "
+      "config: the YAML registration: keys)");
 
   // The peer of bench/python_overhead.py: the same C++ call, timed in C++ around the call only.
-  m.def("_time_register", [](const LabeledCloud& source, const LabeledCloud& target, const py::object& config) {
+  m.def("_time_register", [](const py::object& source_arg, const py::object& target_arg, const py::object& config) {
+    const CloudArg source_in(source_arg, "source"), target_in(target_arg, "target");
+    const LabeledCloud &source = source_in.get(), &target = target_in.get();
     const RegistrationConfig cfg = configFrom(config, RegistrationConfig{}, "registration");
     const ClassTable table = ClassTable::defaults();
     py::gil_scoped_release release;
@@ -94,12 +98,13 @@ void bindRegistration(py::module_& m) {
            py::arg("config") = py::none(), py::arg("classes") = py::none(), py::arg("initial_pose") = py::none())
       .def(
           "add_frame",
-          [](Odometry& o, const LabeledCloud& cloud, const py::object& wheel_increment, double stamp) {
+          [](Odometry& o, const py::object& cloud_arg, const py::object& wheel_increment, double stamp) {
+            const CloudArg cloud(cloud_arg, "cloud");
             const auto wheel = optionalIsometry(wheel_increment, "wheel_increment");
             const OdometryFrame* f = nullptr;
             {
               py::gil_scoped_release release;
-              f = &o.addFrame(cloud, wheel, stamp);
+              f = &o.addFrame(cloud.get(), wheel, stamp);
             }
             return frameDict(*f);
           },

@@ -14,7 +14,8 @@ namespace hazmap::python {
 
 namespace {
 
-/// Scans pulled from a Python iterable (hazmap.Scan objects or bare LabeledClouds, whose stamp
+/// Scans pulled from a Python iterable (hazmap.Scan objects or bare clouds — LabeledClouds or
+/// (N,3)/(N,4) arrays —, whose stamp
 /// is then their index) while the C++ run holds no GIL. Each scan is kept so the map's second
 /// pass can replay the stream: memory grows with the recording, unlike a file source.
 class PythonScanSource : public ScanSource {
@@ -32,11 +33,12 @@ class PythonScanSource : public ScanSource {
     Scan scan;
     if (py::isinstance<Scan>(obj)) {
       scan = obj.cast<Scan>();
-    } else if (py::isinstance<LabeledCloud>(obj)) {
-      scan.cloud = obj.cast<LabeledCloud>();
+    } else if (isCloudLike(obj)) {
+      scan.cloud = CloudArg(obj, describe() + " item " + std::to_string(scans_.size())).get();
       scan.stamp = static_cast<double>(scans_.size());
     } else {
-      fail(describe(), "item " + std::to_string(scans_.size()) + " is neither a hazmap.Scan nor a hazmap.LabeledCloud");
+      fail(describe(), "item " + std::to_string(scans_.size()) +
+                              " is neither a hazmap.Scan, a hazmap.LabeledCloud nor an (N,3)/(N,4) array");
     }
     scan.index = scans_.size();
     scans_.push_back(scan);

@@ -26,10 +26,10 @@ ScanSourceOptions sourceOptions(const std::string& lidar_topic, const std::strin
 
 void bindSources(py::module_& m) {
   py::class_<Scan>(m, "Scan", "One scan of a recording: index, stamp (s), cloud, odometry/ground_truth 4x4 or None")
-      .def(py::init([](const LabeledCloud& cloud, double stamp, const py::object& odometry,
+      .def(py::init([](const py::object& cloud, double stamp, const py::object& odometry,
                        const py::object& ground_truth) {
              Scan s;
-             s.cloud = cloud;
+             s.cloud = CloudArg(cloud, "cloud").get();
              s.stamp = stamp;
              if (!odometry.is_none()) s.odometry = isometryFrom(odometry.cast<Eigen::Matrix4d>(), "odometry");
              if (!ground_truth.is_none())

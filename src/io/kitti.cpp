@@ -1,5 +1,6 @@
 #include "hazmap/io/kitti.hpp"
 
+#include <array>
 #include <cmath>
 #include <string>
 
@@ -73,6 +74,21 @@ LabeledCloud readKittiBin(const std::filesystem::path& bin, ReadStats* stats) {
 
 std::vector<std::uint32_t> readSemanticKittiLabels(const std::filesystem::path& label) {
   return labelsFromBytes(io_detail::readFileBytes(label), label);
+}
+
+bool looksLikeSemanticKittiLabels(const std::vector<std::uint32_t>& labels) {
+  // semantic-kitti.yaml's `labels:` (the ids a SemanticKITTI .label file may hold).
+  static constexpr std::uint32_t kIds[] = {0,  1,  10, 11, 13, 15, 16, 18, 20, 30,  31,  32,  40,  44,  48,  49, 50,
+                                           51, 52, 60, 70, 71, 72, 80, 81, 99, 252, 253, 254, 255, 256, 257, 258, 259};
+  std::array<bool, 260> known{};
+  for (const std::uint32_t id : kIds) known[id] = true;
+  bool beyond_defaults = false;
+  for (const std::uint32_t label : labels) {
+    const std::uint32_t id = label & 0xFFFFu;
+    if (id >= known.size() || !known[id]) return false;
+    beyond_defaults = beyond_defaults || id > 3;
+  }
+  return beyond_defaults;
 }
 
 LabeledCloud readKittiScan(const std::filesystem::path& bin,

@@ -83,6 +83,16 @@ fs::path channelFile(const fs::path& dir, const std::string& channel, const fs::
   return path;
 }
 
+// A folder named no class table: labels with SemanticKITTI's ids (the first label file decides,
+// read once) are meant for its table, not for hazmap's default classes 0-3.
+std::optional<std::string> semanticKittiNote(const std::vector<std::optional<fs::path>>& labels) {
+  const auto first = std::find_if(labels.begin(), labels.end(), [](const auto& l) { return l.has_value(); });
+  if (first == labels.end()) return std::nullopt;
+  if (!looksLikeSemanticKittiLabels(readSemanticKittiLabels(**first))) return std::nullopt;
+  return (*first)->string() + " holds SemanticKITTI label ids: read with the semantic-kitti class table "
+                              "(--classes to choose another)";
+}
+
 void checkFrameIndex(const fs::path& dir, std::size_t i, std::size_t frames) {
   if (i >= frames)
     fail(dir.string(), "frame " + std::to_string(i) + " out of range (" + std::to_string(frames) + " frames)");
@@ -112,6 +122,7 @@ Sequence Sequence::open(const fs::path& dir, const std::optional<ClassTable>& ta
     seq.labels_.push_back(label);
   }
 
+  bool table_named = table_override.has_value();
   const fs::path yaml_path = dir / "hazmap.yaml";
   if (fs::exists(yaml_path, ec)) {
     const std::string where = yaml_path.string();
@@ -124,6 +135,7 @@ Sequence Sequence::open(const fs::path& dir, const std::optional<ClassTable>& ta
     if (root && !root.IsNull() && !root.IsMap()) fail(where, "must be a YAML mapping");
     if (root.IsMap()) {
       if (const YAML::Node t = root["class_table"]; t && !table_override) {
+        table_named = true;
         if (t.IsScalar()) {
           // A built-in name or a path relative to the sequence folder.
           const std::string name = t.as<std::string>();
@@ -151,6 +163,11 @@ Sequence Sequence::open(const fs::path& dir, const std::optional<ClassTable>& ta
     }
   }
   if (table_override) seq.table_ = *table_override;
+  if (!table_named)
+    if (auto note = semanticKittiNote(seq.labels_)) {
+      seq.table_ = ClassTable::semanticKitti();
+      seq.table_note_ = std::move(*note);
+    }
   seq.ground_truth_ = readOptionalTrajectory(dir / "poses.txt", seq.scans_.size());
   seq.odometry_ = readOptionalTrajectory(dir / "odometry.txt", seq.scans_.size());
   if (fs::exists(dir / "gravity.txt", ec)) seq.gravity_ = readGravityFile(dir / "gravity.txt", seq.scans_.size());

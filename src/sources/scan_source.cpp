@@ -21,8 +21,11 @@ LabeledCloud ScanSource::reread(std::size_t index) const {
 std::unique_ptr<ScanSource> openScanSource(const fs::path& path, const ScanSourceOptions& options) {
   std::error_code ec;
   if (!fs::exists(path, ec)) fail(path.string(), "not found");
-  if (fs::is_directory(path / "velodyne", ec))
-    return sequenceScanSource(Sequence::open(path, options.class_table), options.read_channels);
+  if (fs::is_directory(path / "velodyne", ec)) {
+    Sequence sequence = Sequence::open(path, options.class_table);
+    if (options.notice && !sequence.tableNote().empty()) options.notice(sequence.tableNote());
+    return sequenceScanSource(std::move(sequence), options.read_channels);
+  }
   if (isBag(path)) return sources::openBagScanSource(path, options);
   if (isPcap(path)) return sources::openPcapScanSource(path, options);
   fail(path.string(), "neither a sequence folder (velodyne/), a bag (.bag, .mcap, rosbag2 folder) nor a "

@@ -12,11 +12,13 @@ import hazmap
 REPO = pathlib.Path(__file__).resolve().parents[2]
 
 def _find_data():
-    """HAZMAP_SHARED_DATA_DIR, else the first shared/data above the checkout (../shared/data)."""
-    candidates = [os.environ.get("HAZMAP_SHARED_DATA_DIR")] + [p / "shared" / "data" for p in REPO.parents]
-    for c in candidates:
-        if c and pathlib.Path(c).is_dir():
-            return pathlib.Path(c).resolve()
+    """HAZMAP_SHARED_DATA_DIR (CTest sets the configured folder: a missing one fails the tests that
+    need it, naming it), else the first shared/data above the checkout (../shared/data)."""
+    if os.environ.get("HAZMAP_SHARED_DATA_DIR"):
+        return pathlib.Path(os.environ["HAZMAP_SHARED_DATA_DIR"])
+    for c in [p / "shared" / "data" for p in REPO.parents]:
+        if c.is_dir():
+            return c.resolve()
     return REPO.parent / "shared" / "data"
 
 

@@ -2,9 +2,12 @@
 # CI-sized fuzz smoke run: builds the libFuzzer targets (fuzz/) with clang in a separate build
 # folder and runs each for a few seconds on a seed corpus made from the real shared data.
 # Skips (passes with a message) when clang or its fuzzer runtime is missing.
-# Args: SOURCE_DIR BINARY_DIR HAZMAP_CLI. Env: HAZMAP_FUZZ_SECONDS (per target, default 5).
+# Args: SOURCE_DIR BINARY_DIR HAZMAP_CLI. Env: HAZMAP_FUZZ_SECONDS (per target, default 5),
+# HAZMAP_SHARED_DATA_DIR (CTest sets it; default SOURCE_DIR/../shared/data).
 set -euo pipefail
 src=$1; bin=$2
+data=${HAZMAP_SHARED_DATA_DIR:-$src/../shared/data}
+[[ -d "$data" ]] || { echo "FAIL: shared test data not found: $data (configure with -DHAZMAP_SHARED_DATA_DIR=<dir>)"; exit 1; }
 seconds=${HAZMAP_FUZZ_SECONDS:-5}
 cc=$(command -v clang || command -v clang-14 || true)
 cxx=$(command -v clang++ || command -v clang++-14 || true)
@@ -30,9 +33,9 @@ cmake --build "$fuzz_build" -j 2 --target "${targets[@]}" hazmap_fuzz_seeds hazm
   hazmap_fuzz_bag_seeds >> "$log" 2>&1 || { tail -50 "$log"; exit 1; }
 seeds="$fuzz_build/seeds"
 rm -rf "$seeds"
-"$fuzz_build/fuzz/hazmap_fuzz_seeds" "$src/../shared/data" "$src" "$seeds"
-"$fuzz_build/fuzz/hazmap_fuzz_sensor_seeds" "$src/../shared/data" "$seeds"
-"$fuzz_build/fuzz/hazmap_fuzz_bag_seeds" "$src/../shared/data" "$seeds"
+"$fuzz_build/fuzz/hazmap_fuzz_seeds" "$data" "$src" "$seeds"
+"$fuzz_build/fuzz/hazmap_fuzz_sensor_seeds" "$data" "$seeds"
+"$fuzz_build/fuzz/hazmap_fuzz_bag_seeds" "$data" "$seeds"
 export HAZMAP_FUZZ_DB3="$seeds/run_0.db3"  # the .db3 fuzz_rosbag2's metadata.yaml points at
 status=0
 for t in "${targets[@]}"; do

@@ -46,6 +46,7 @@ cmake --build "$tmp/build" > "$tmp/build.log" 2>&1 || { cat "$tmp/build.log"; ec
 data=$(sed -n 's/^HAZMAP_SHARED_DATA_DIR:[A-Z]*=//p' "$bin/CMakeCache.txt")
 [[ -n "$data" ]] || data="$src/../shared/data"
 scan="$data/kitti-semantic-sample/velodyne/000000.bin"
+[[ -f "$scan" ]] || { echo "FAIL: shared test data not found: $scan (configure with -DHAZMAP_SHARED_DATA_DIR=<dir>)"; exit 1; }
 out=$("$tmp/build/consumer" "$scan")
 [[ "$out" == "124668 532" ]] || { echo "FAIL: consumer printed '$out', expected '124668 532'"; exit 1; }
 out_io=$("$tmp/build/consumer_io" "$scan")

@@ -3,7 +3,8 @@
 # PCL's binary_compressed PCDs. Args: SOURCE_DIR BINARY_DIR HAZMAP_CLI
 set -euo pipefail
 src=$1; bin=$2; hazmap=$3
-data="$src/../shared/data"
+data=${HAZMAP_SHARED_DATA_DIR:-$src/../shared/data}  # CTest sets it to the configured folder
+[[ -d "$data" ]] || { echo "FAIL: shared test data not found: $data (configure with -DHAZMAP_SHARED_DATA_DIR=<dir>)"; exit 1; }
 for tool in pcl_pcd2ply pcl_convert_pcd_ascii_binary; do
   command -v "$tool" > /dev/null || { echo "FAIL: $tool missing (scripts/install-deps.sh installs pcl-tools)"; exit 1; }
 done

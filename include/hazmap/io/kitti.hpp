@@ -18,6 +18,11 @@ LabeledCloud readKittiBin(const std::filesystem::path& bin, ReadStats* stats = n
 /// Reads raw uint32 labels.
 std::vector<std::uint32_t> readSemanticKittiLabels(const std::filesystem::path& label);
 
+/// True when `labels` (raw .label values) look like SemanticKITTI's: every semantic id (low 16
+/// bits) is one of its label set (0 unlabeled … 259 moving-other-vehicle) and at least one lies
+/// outside hazmap's default classes 0-3, so the file cannot hold hazmap class ids.
+bool looksLikeSemanticKittiLabels(const std::vector<std::uint32_t>& labels);
+
 /// Reads a scan and (optionally) its labels; class = table.mapRaw(label & 0xFFFF). The label
 /// count must equal the point count in the file (checked before non-finite points are dropped,
 /// so labels stay aligned). Throws hazmap::Error naming the file on any problem.

@@ -1,7 +1,9 @@
 #pragma once
 // A sequence directory (SemanticKITTI-compatible layout):
 //   velodyne/NNNNNN.bin | .pcd | .ply   scans, sorted by name
-//   labels/NNNNNN.label                  optional per-point labels (for .bin scans)
+//   labels/NNNNNN.label                  optional per-point labels (for .bin scans); without a
+//                                        class table (hazmap.yaml, override) labels holding
+//                                        SemanticKITTI ids are read with its table (tableNote())
 //   poses.txt                            optional ground truth, KITTI format, one line per scan
 //   odometry.txt                         optional wheel odometry, KITTI format, one line per scan
 //   gravity.txt                          optional IMU gravity direction per scan (io/gravity.hpp)
@@ -44,6 +46,9 @@ class Sequence {
 
   const std::filesystem::path& directory() const { return dir_; }
   const ClassTable& classTable() const { return table_; }
+  /// Why classTable() is not the default one when nothing named a table (a SemanticKITTI
+  /// sequence recognised by its first label file); empty otherwise. One line, for a notice.
+  const std::string& tableNote() const { return table_note_; }
   const std::optional<Trajectory>& groundTruth() const { return ground_truth_; }
   const std::optional<Trajectory>& odometry() const { return odometry_; }
   /// gravity.txt, one sample per scan; nullopt without the file (no gravity information).
@@ -63,6 +68,7 @@ class Sequence {
   std::vector<std::filesystem::path> scans_;
   std::vector<std::optional<std::filesystem::path>> labels_;
   ClassTable table_ = ClassTable::defaults();
+  std::string table_note_;
   std::optional<Trajectory> ground_truth_, odometry_;
   std::optional<std::vector<GravitySample>> gravity_;
   std::string sensor_yaml_;
