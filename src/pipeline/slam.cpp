@@ -510,7 +510,6 @@ class SlamRun {
     const LoopDetection detection = loops_->detect(k, keyframeEstimate());
     if (!detection.accepted.empty()) schedule_.accepted(k);
     result_.loop_candidates += detection.candidates.size();
-    result_.loop_near_duplicates += detection.near_duplicates;
     result_.loop_light_verifications += detection.light_verifications;
     result_.submap_targets_built = loops_->submapTargetsBuilt();
     for (const auto& v : detection.verifications) {
