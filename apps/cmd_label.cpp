@@ -106,11 +106,6 @@ const RegisterCommand registration{{
       app.add_option("--calibration-uncertainty", o->fusion.calibration_uncertainty_deg,
                      "View fusion: the calibration's angular uncertainty (degrees)");
       app.add_option("--odometry-drift", o->fusion.odometry_drift, "View fusion: odometry drift (m per m travelled)");
-      app.add_option("--fusion-occlusion-margin", o->fusion.occlusion_margin_cells,
-                     "View fusion: another scan's view gives a point a value only where that scan saw no nearer "
-                     "surface within the depth splat + N cells (-1: no depth test in other views)");
-      app.add_option("--fusion-views-tried", o->fusion.max_views_tried,
-                     "View fusion: views tried per point, cheapest first, before it stays unobserved");
       app.add_option("--overlay", o->overlay,
                      "Also draw frame N's points on each camera's image: OUT/overlays/<camera>_NNNNNN.png");
       app.add_flag("--oracle-labels", o->oracle_labels,

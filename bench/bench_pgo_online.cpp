@@ -20,9 +20,6 @@
 //                                           knobs below are the defaults since 2026-12-02)
 //   BM_Naraha_PropertyIcpPgo_SingleStageProbes  probe_coarse_points 0, probe_tolerance_scale 1
 //                                           (the defaults before 2026-12-02)
-//   BM_Naraha_PropertyIcpPgo_NearDuplicates loop_closure.near_duplicate_keyframes = 2 (opt-in):
-//                                           candidates an accepted loop already covers are not
-//                                           verified
 //   BM_Naraha_PropertyIcpPgo_FullCrossChecks loop_closure.light_duplicate_keyframes = 0: every
 //                                           accepted loop runs its own reverse cross-check (the
 //                                           behaviour before 2026-12-02; default 2: near-duplicates
@@ -135,12 +132,6 @@ void BM_Naraha_PropertyIcpPgo_SingleStageProbes(benchmark::State& state) {
   c.loop_closure.verification.probe_tolerance_scale = 1.0;
   runConfig(state, c, false);
 }
-// Near-duplicate candidates of accepted loops not verified (opt-in: docs/pose_graph.md "Online cost").
-void BM_Naraha_PropertyIcpPgo_NearDuplicates(benchmark::State& state) {
-  SlamConfig c = SlamConfig::forMethod(SlamMethod::PropertyIcpPgo);
-  c.loop_closure.near_duplicate_keyframes = 2;
-  runConfig(state, c, false);
-}
 // Verification targets rebuilt whenever an optimisation moved their keyframes at all (before 2026-12-02).
 void BM_Naraha_PropertyIcpPgo_ExactSubmaps(benchmark::State& state) {
   SlamConfig c = SlamConfig::forMethod(SlamMethod::PropertyIcpPgo);
@@ -173,7 +164,6 @@ BENCHMARK(BM_Naraha_PropertyIcpPgo_Sequential)->Unit(benchmark::kSecond)->Iterat
 BENCHMARK(BM_Naraha_PropertyIcpPgo_Every2nd)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
 BENCHMARK(BM_Naraha_PropertyIcpPgo_CheapVerify)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
 BENCHMARK(BM_Naraha_PropertyIcpPgo_SingleStageProbes)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
-BENCHMARK(BM_Naraha_PropertyIcpPgo_NearDuplicates)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
 BENCHMARK(BM_Naraha_PropertyIcpPgo_ExactSubmaps)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
 BENCHMARK(BM_Naraha_PropertyIcpPgo_FullCrossChecks)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
 BENCHMARK(BM_Naraha_PropertyIcpPgo_FullFromGuess)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();

@@ -153,6 +153,26 @@ TEST(ConfigFields, SetOverridesAnyKey) {
             "--set: expected KEY=VALUE, got 'odometry.voxel_size'");
 }
 
+// A retired experiment's key (src/core/retired_keys.cpp) is unknown like any other, and the error
+// says where its write-up lives, however the key is spelled (run section, one command's section).
+TEST(ConfigFields, RetiredKeysPointToTheirHistory) {
+  SlamConfig c;
+  EXPECT_EQ(errorOf([&] { c.applySetting("odometry.slip_guess_translation=0.15"); }),
+            "--set: odometry: unknown key 'slip_guess_translation' (retired: measured and not adopted, see "
+            "docs/history/odometry-sensor-frame-and-slip-guess.md)");
+  EXPECT_EQ(errorOf([&] { c.applySetting("loop_closure.verification.probe_source_points=2000"); }),
+            "--set: loop_closure.verification: unknown key 'probe_source_points' (retired: measured and not "
+            "adopted, see docs/history/loop-verification-shortcuts.md)");
+  EXPECT_EQ(errorOf([] { odometryConfigFromYaml("map_skips_fallback: true\n", "odo.yaml"); }),
+            "odo.yaml: odometry: unknown key 'map_skips_fallback' (retired: measured and not adopted, see "
+            "docs/history/odometry-map-skips.md)");
+  OdometryConfig o;
+  EXPECT_NE(errorOf([&] { applyConfigSetting(o, "map_skips_flagged=true"); }).find("docs/history/odometry-map-skips.md"),
+            std::string::npos);
+  // A key that merely ends like a retired one is not taken for it.
+  EXPECT_EQ(errorOf([&] { applyConfigSetting(o, "guess_yaw=1"); }).find("retired"), std::string::npos);
+}
+
 TEST(PropertyIcpConfig, SetsTheClassTableOnce) {
   PropertyIcpConfig p;
   EXPECT_TRUE(p.empty());

@@ -535,9 +535,6 @@ TEST(ViewFusion, EachSurfaceVoxelIsSampledInItsMostFrontalViewNearby) {
     return static_cast<std::size_t>(std::lround((world_x - 0.525f) / 0.05f)) * 21 + 10;
   };
   ViewFusionConfig fusion_config;
-  // (With the depth test in other views, occlusion_margin_cells, its margin is in cells: this
-  // camera's 1-px cells are 6° wide, and 2 of them would hide the grazing wall's far points
-  // behind its near ones; 0 passes this test.)
   ViewFusion fusion(labeler, fusion_config);
   std::vector<ScanLabels> labels(2);
   for (int k = 0; k < 2; ++k) {
@@ -567,95 +564,6 @@ TEST(ViewFusion, EachSurfaceVoxelIsSampledInItsMostFrontalViewNearby) {
   EXPECT_EQ(labels[0].channels[0][index_of(0, 6.025f)], 90.0f);
   near_only.fuse(1, scans[1], near_only.bestFrames(1, scans[1]), labels[1]);
   EXPECT_TRUE(std::isnan(labels[1].channels[0][index_of(1, 2.525f)]));
-}
-
-TEST(ViewFusion, AnotherScansViewIsNotSampledWhereAHotObjectHidesThePoint) {
-  // A hot box face (x = 4, 0 <= y <= 0.99) in front of a wall (x = 8), seen by a forward camera
-  // from x = 0 (scan 0) and x = 2 (scan 1). From x = 2 the box hides the wall up to y = 2.97, from
-  // x = 0 up to y = 1.98. The wall point at y = 2.925 shares its 10 cm voxel (y 2.9-3.0) with the
-  // point at y = 2.975, which scan 1 sees just beside the box's silhouette, and more frontally
-  // than scan 0 does — so main took scan 1's view for the whole voxel, where the point at 2.925
-  // is behind the box and its pixel shows the box (90 °C): a background point beside a hot
-  // silhouette got the heat. Scan 1's depth buffer has the box's points in front of it there,
-  // so that view is refused: the point gets no value (not observed), or, when the next views
-  // may be tried, scan 0's own (cold) one.
-  CameraCalibration cam;
-  CameraIntrinsics k;
-  k.width = 301;
-  k.height = 201;
-  k.fx = k.fy = 100;
-  k.cx = 150;
-  k.cy = 100;
-  cam.model = CameraModel(k);
-  cam.channel = defaultChannel("temperature");
-  cam.T_camera_lidar.linear() << 0, -1, 0, 0, 0, -1, 1, 0, 0;  // looks along the LiDAR's x axis
-  auto images = std::make_shared<MemoryImages>();
-  for (int s = 0; s < 2; ++s) {
-    PropertyImage img;
-    img.width = k.width;
-    img.height = k.height;
-    img.stamp = 10.0 * s;
-    for (int v = 0; v < k.height; ++v)
-      for (int u = 0; u < k.width; ++u) {  // the ray through (u, v) at the box's plane x = 4
-        const double t = 4.0 - 2.0 * s, y = -t * (u - 150) / 100.0, z = -t * (v - 100) / 100.0;
-        img.values.push_back(y >= 0 && y <= 0.99 && std::abs(z) <= 0.5 ? 90.0f : 20.0f);
-      }
-    images->add(img);
-  }
-  LabelerConfig config;
-  config.footprints = true;
-  config.projection.depth_cell_px = 1;  // a dense scan in this small image: no splat needed
-  config.projection.splat_cells = 0;
-  const PropertyLabeler labeler({{cam, images}}, PropertyRules::defaults({"temperature"}, ClassTable::defaults()), config);
-  Trajectory poses;
-  for (int s = 0; s < 2; ++s) poses.push_back(10.0 * s, Eigen::Isometry3d(Eigen::Translation3d(2.0 * s, 0, 0)));
-  std::vector<LabeledCloud> scans(2);
-  std::size_t probe = 0;  // scan 0's wall point (8, 2.925, 0.025)
-  for (int s = 0; s < 2; ++s) {
-    const float x0 = 2.0f * s, hidden_to = s == 0 ? 1.98f : 2.97f;
-    for (int iy = 0; iy <= 19; ++iy)
-      for (int iz = -10; iz <= 9; ++iz) scans[s].push_back({4.0f - x0, 0.025f + 0.05f * iy, 0.025f + 0.05f * iz});
-    for (int iy = -20; iy <= 100; ++iy)
-      for (int iz = -10; iz <= 9; ++iz) {
-        const float y = 0.025f + 0.05f * iy;
-        if (y > 0 && y < hidden_to) continue;  // the LiDAR does not see the wall behind the box
-        if (s == 0 && iy == 58 && iz == 0) probe = scans[s].size();
-        scans[s].push_back({8.0f - x0, y, 0.025f + 0.05f * iz});
-      }
-  }
-  ASSERT_FLOAT_EQ(scans[0].points[probe].y(), 2.925f);
-  const auto fused = [&](int margin, int views) {
-    ViewFusionConfig fusion_config;
-    fusion_config.odometry_drift = 0;  // the most frontal view wins outright
-    fusion_config.occlusion_margin_cells = margin;
-    fusion_config.max_views_tried = views;
-    ViewFusion fusion(labeler, fusion_config);
-    std::vector<ScanLabels> labels(2);
-    for (int s = 0; s < 2; ++s) {
-      labels[s] = labeler.observe(scans[s], 10.0 * s);
-      fusion.add(s, scans[s], poses.poses[s], 2.0 * s, labels[s]);
-    }
-    EXPECT_FLOAT_EQ(labels[0].channels[0][probe], 20.0f);  // its own view: the wall, cold
-    fusion.fuse(0, scans[0], fusion.bestFrames(0, scans[0]), labels[0]);
-    labeler.classify(scans[0], poses.poses[0], labels[0]);
-    return labels[0];
-  };
-  EXPECT_EQ(ViewFusionConfig{}.occlusion_margin_cells, -1);  // off by default (docs/properties.md)
-  const ScanLabels without = fused(-1, 8);  // no depth test in the other view (main's fusion)
-  EXPECT_EQ(without.channels[0][probe], 90.0f);
-  EXPECT_EQ(without.classes[probe], 1);
-  const ScanLabels with = fused(2, 1);
-  EXPECT_TRUE(std::isnan(with.channels[0][probe]));
-  EXPECT_EQ(with.classes[probe], 0);
-  const ScanLabels next = fused(2, 8);
-  EXPECT_FLOAT_EQ(next.channels[0][probe], 20.0f);
-  EXPECT_EQ(next.classes[probe], 0);
-  // The box itself stays hot, and no wall point on the box's far side takes its heat.
-  EXPECT_EQ(with.classes[0], 1);
-  std::size_t wall_heat = 0;
-  for (std::size_t i = 0; i < scans[0].size(); ++i)  // the wall scan 1 sees behind the box (y > 1.98)
-    wall_heat += scans[0].points[i].x() > 6 && scans[0].points[i].y() > 1 && with.classes[i] == 1;
-  EXPECT_EQ(wall_heat, 0u);
 }
 
 }  // namespace

@@ -4,6 +4,8 @@
 #include <array>
 #include <charconv>
 
+#include "hazmap/core/retired_keys.hpp"
+
 namespace hazmap {
 
 bool Range::contains(double v) const {
@@ -125,6 +127,8 @@ void checkRange(double value, const Range& range, const ConfigPlace& place) {
 }
 
 void unknownKey(const std::string& key, const std::vector<std::string>& valid, const ConfigPlace& place) {
+  if (const std::string note = retiredKeyNote(place.child(key).path); !note.empty())
+    place.fail("unknown key '" + key + "' (" + note + ")");
   std::string best;
   std::size_t best_distance = std::max<std::size_t>(3, key.size() / 3) + 1;
   for (const auto& name : valid) {

@@ -113,10 +113,6 @@ const ConfigFields<VerificationConfig>& configFields(ConfigTag<VerificationConfi
                    "Fitness of this many source points at the guess (one search, no ICP) before the coarse check (0 = off)")
           .number("guess_fitness_margin", &C::guess_fitness_margin, nonNegative(),
                   "The guess check rejects below min_fitness − coarse_fitness_margin − this")
-          .number("coarse_degeneracy_scale", &C::coarse_degeneracy_scale, closed(0, 1),
-                  "A coarse check degenerate below registration.degeneracy_threshold × this rejects the candidate without the full run (with reject_degenerate; 0 = off)")
-          .integer("probe_source_points", &C::probe_source_points, atLeast(0),
-                   "Basin probes register at most this many source points (0 = as the verification)")
           .number("full_from_coarse_within", &C::full_from_coarse_within, nonNegative(),
                   "m (translation + 10 m × rotation); the full verification ICP starts where the coarse check converged when that lies within this of the guess (0 = always from the guess)")
           .integer("probe_coarse_points", &C::probe_coarse_points, atLeast(0),
@@ -170,8 +166,6 @@ const ConfigFields<LoopClosureConfig>& configFields(ConfigTag<LoopClosureConfig>
                    "Loops are verified against the matched keyframe and this many neighbours on each side (0 = its scan alone)")
           .integer("cross_check_query_keyframes", &C::cross_check_query_keyframes, atLeast(0),
                    "The reverse cross-check registers the match submap onto the query keyframe and this many keyframes before it (0 = the two scans alone)")
-          .integer("near_duplicate_keyframes", &C::near_duplicate_keyframes, atLeast(0),
-                   "A candidate within this many keyframes of an accepted loop's two keyframes is not verified and covers its query (online cost; 0 = off)")
           .number("submap_reuse_tolerance", &C::submap_reuse_tolerance, nonNegative(),
                   "m; a cached verification submap is reused while its keyframes moved less than this (translation + 10 m × rotation; 0 = only when placed identically)")
           .integer("light_duplicate_keyframes", &C::light_duplicate_keyframes, atLeast(0),

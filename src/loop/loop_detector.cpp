@@ -233,7 +233,6 @@ LoopDetection LoopDetector::detect(std::size_t query, const PoseList& estimate) 
   det.verifications.insert(det.verifications.end(), delayed.verifications.begin(), delayed.verifications.end());
   det.gates.insert(det.gates.end(), delayed.gates.begin(), delayed.gates.end());
   det.accepted.insert(det.accepted.end(), delayed.accepted.begin(), delayed.accepted.end());
-  det.near_duplicates += delayed.near_duplicates;
   det.light_verifications += delayed.light_verifications;
   return det;
 }
@@ -276,7 +275,7 @@ double LoopDetector::crossCheckDistance(const LoopCandidate& cand, const PoseLis
 }
 
 namespace {
-// How many keyframes apart a and b are (near-duplicate and light-verification neighbourhoods).
+// How many keyframes apart a and b are (light-verification neighbourhoods).
 std::size_t keyframeGap(std::size_t a, std::size_t b) { return a > b ? a - b : b - a; }
 // A loop whose reverse cross-check agreed (its own, or a checked neighbour's for a light loop)
 // no longer carries the misfit term (verification.hpp misfitTerm).
@@ -358,14 +357,8 @@ VerificationResult LoopDetector::verifyOne(const LoopCandidate& cand, const Pose
 
 void LoopDetector::verifyInto(const std::vector<LoopCandidate>& candidates, const PoseList& estimate, LoopDetection& det) {
   const bool gate = config_.consistency.use_drift_gate;
-  std::size_t covered = 0;  // near-duplicates of accepted loops: they count as this query's loops
   for (const auto& cand : candidates) {
-    if (det.accepted.size() + covered >= config_.max_loops_per_keyframe) break;
-    if (nearDuplicate(cand)) {
-      ++covered;
-      ++det.near_duplicates;
-      continue;
-    }
+    if (det.accepted.size() >= config_.max_loops_per_keyframe) break;
     if (relative_covariance_ && gate && !candidatePlausible(cand, estimate, det)) continue;
     bool light = false;
     CheckedLoop checked;
@@ -421,14 +414,6 @@ bool LoopDetector::candidatePlausible(const LoopCandidate& cand, const PoseList&
   v.reason = "candidate guess, innovation gate: d² = " + std::to_string(g.mahalanobis2) + " > " + std::to_string(g.threshold);
   det.verifications.push_back(std::move(v));
   return false;
-}
-
-bool LoopDetector::nearDuplicate(const LoopCandidate& cand) const {
-  const std::size_t r = config_.near_duplicate_keyframes;
-  if (r == 0) return false;
-  return std::any_of(loops_.begin(), loops_.end(), [&](const LoopClosure& l) {
-    return keyframeGap(l.from, cand.match) <= r && keyframeGap(l.to, cand.query) <= r;
-  });
 }
 
 void LoopDetector::dropLoop(std::size_t from, std::size_t to) {

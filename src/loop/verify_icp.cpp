@@ -10,7 +10,6 @@
 #include <tbb/parallel_for.h>
 
 #include "hazmap/core/se3.hpp"
-#include "hazmap/registration/covariance.hpp"
 #include "hazmap/registration/registration_target.hpp"
 
 namespace hazmap {
@@ -23,20 +22,9 @@ void widenByBasinProbes(VerificationResult& v, const LabeledCloud& query_cloud, 
                         const ClassTable& classes, const VerificationConfig& c) {
   const Eigen::Isometry3d& result = v.closure.T_from_to;
   RegistrationConfig probe = c.registration;
-  if (c.probe_source_points > 0)
-    probe.max_source_points = probe.max_source_points > 0 ? std::min(probe.max_source_points, c.probe_source_points)
-                                                          : c.probe_source_points;
   if (c.probe_coarse_points > 0) probe.coarse_source_points = c.probe_coarse_points;
   probe.translation_tolerance *= c.probe_tolerance_scale;
   probe.rotation_tolerance *= c.probe_tolerance_scale;
-  // A probe on a subset (probe_source_points) is measured from where that same subset settles
-  // when started at the result: the subset's own answer sits a few mm from the full source's, an
-  // offset every probe would share and the spread must not count as a second basin.
-  Eigen::Isometry3d centre = result;
-  if (c.probe_source_points > 0) {
-    const RegistrationResult ref = registerClouds(query_cloud, target, result, classes, probe);
-    if ((ref.converged || ref.termination == Termination::MaxIterations) && isFinite(ref.transform)) centre = ref.transform;
-  }
   // Two probes at a time (each ICP is deterministic whatever its threads), the ±x pair first;
   // their shifts are added in the fixed order −x, +x, −y, +y. Each probe only adds to the spread's
   // trace, so when the ±x pair alone already puts it beyond max_probe_spread the loop is rejected
@@ -50,7 +38,7 @@ void widenByBasinProbes(VerificationResult& v, const LabeledCloud& query_cloud, 
       guess.translation()[run / 2] += (run % 2 == 0 ? -1.0 : 1.0) * c.probe_distance;
       const RegistrationResult r = registerClouds(query_cloud, target, guess, classes, probe);
       // A probe that fails or stops far away is a basin of its own: count the shift it kept.
-      shift[run] = r.converged || r.termination == Termination::MaxIterations ? se3Log(r.transform * centre.inverse())
+      shift[run] = r.converged || r.termination == Termination::MaxIterations ? se3Log(r.transform * result.inverse())
                                                                                 : se3Log(guess * result.inverse());
     });
     for (int run = first; run < first + 2; ++run) spread += shift[run] * shift[run].transpose();
@@ -122,22 +110,6 @@ VerificationResult coarseCheck(const LoopCandidate& cand, const LabeledCloud& qu
   return v;
 }
 
-// A corridor leaves the loop unconstrained along its axis whatever the source's size: a coarse
-// check far below the degeneracy test (coarse_degeneracy_scale) rejects the candidate here.
-bool degenerateAtCoarse(VerificationResult& coarse, const VerificationConfig& c) {
-  const RegistrationResult& r = coarse.registration;
-  if (!(c.coarse_degeneracy_scale > 0.0) || !c.reject_degenerate || !r.converged || r.degenerate_directions.empty())
-    return false;
-  const RegistrationConfig& rc = c.registration;
-  const auto weak = degenerateDirections(r.hessian, r.pairs_weight, rc.degeneracy_length,
-                                         rc.degeneracy_threshold * c.coarse_degeneracy_scale);
-  if (weak.empty()) return false;
-  coarse.rejection = LoopRejection::Degenerate;
-  coarse.reason = "coarse check (" + std::to_string(c.coarse_source_points) + " points): degenerate registration (" +
-                  std::to_string(weak.size()) + " unconstrained directions)";
-  return true;
-}
-
 // The coarse check converged on a strided subset of the same source near the guess: the full run
 // only refines it (full_from_coarse_within). Farther moves keep the guess as the full run's start.
 bool refinesCoarse(const RegistrationResult& coarse, const Eigen::Isometry3d& guess, const VerificationConfig& c) {
@@ -174,7 +146,6 @@ VerificationResult verifyCandidate(const LoopCandidate& cand, const LabeledCloud
   if (c.coarse_source_points > 0 && query_cloud.size() > c.coarse_source_points) {
     VerificationResult coarse = coarseCheck(cand, query_cloud, target, classes, c);
     if (coarse.rejection == LoopRejection::LowFitness) return coarse;
-    if (degenerateAtCoarse(coarse, c)) return coarse;
     if (refinesCoarse(coarse.registration, cand.initial_guess, c)) start = coarse.registration.transform;
   }
   const RegistrationResult reg = registerClouds(query_cloud, target, start, classes, c.registration);

@@ -225,45 +225,11 @@ Estimate keepGuessAlong(const std::vector<Vector6d>& basis, const RegistrationRe
   return e;
 }
 
-// ICP's Hessian is that of a left perturbation in ICP's space (J = [n, p x n], p about the world
-// origin frame to map): there a turn of the sensor 20 m from the origin is mostly travel, so a
-// weak translation direction took the sensor's yaw with it and the kept guess carried the wheels'
-// yaw error (tanks seed 3, turning frames 21 / 37-42: 10-45 mrad off, as the encoders were). In
-// the sensor's frame (right perturbation, xi_world = Ad_T xi_sensor) the same unit-balanced test
-// as poseCovariance's; the pairs' total weight is the translation block's trace (a unit normal
-// adds 1 per plane pair, a point pair 3).
-std::vector<Vector6d> sensorFrameDegenerate(const RegistrationResult& r, const RegistrationConfig& rc) {
-  const Matrix6d Ad = adjoint(r.transform);
-  const Matrix6d Hs = Ad.transpose() * r.hessian * Ad;
-  const double per_pair = rc.metric == IcpMetric::PointToPlane ? 1.0 : 3.0;
-  const double pairs = r.hessian.topLeftCorner<3, 3>().trace() / per_pair;
-  if (!(pairs > 0.0) || !Hs.allFinite()) return {};
-  return orthonormalBasis(degenerateDirections(Hs, pairs, rc.degeneracy_length, rc.degeneracy_threshold));
-}
-
-// keepGuessAlong in the sensor's frame: the guess's right perturbation along the (sensor-frame)
-// basis, ICP's elsewhere; the covariance taken to the sensor frame, handled there, and back.
-Estimate keepGuessAlongInSensorFrame(const std::vector<Vector6d>& basis, const RegistrationResult& r,
-                                     const Eigen::Isometry3d& guess, const OdometryConfig& config) {
-  Vector6d delta = se3Log(guess.inverse() * r.transform);
-  const Matrix6d P = projectOut(basis, delta);
-  const Eigen::Isometry3d pose = normalized(guess * se3Exp(delta));
-  const Matrix6d to_sensor = adjoint(r.transform.inverse());
-  Matrix6d C = P * to_sensor * r.covariance * to_sensor.transpose() * P.transpose();
-  addFallbackAlong(basis, config, C);
-  const Matrix6d to_world = adjoint(pose);
-  return {pose, to_world * C * to_world.transpose()};
-}
-
-// Whether keptGuess started the frame from constant velocity for a slip (f.guess is not the
-// encoders' increment); if so the reason says so.
-bool noteSlipGuess(OdometryFrame& f, const std::optional<Eigen::Isometry3d>& wheel_increment) {
-  if (!wheel_increment || f.guess.isApprox(*wheel_increment)) return false;
-  char buf[160];
-  std::snprintf(buf, sizeof buf, "the encoders reported %.2f m more than constant velocity (a slip): ICP started from "
-                "constant velocity", wheel_increment->translation().norm() - f.guess.translation().norm());
-  f.reason += (f.reason.empty() ? "" : "; ") + std::string(buf);
-  return true;
+// The directions along which the guess is kept: ICP's own (in its space), none unless
+// keep_guess_along_degenerate.
+std::vector<Vector6d> degenerateBasis(const RegistrationResult& r, const OdometryConfig& config) {
+  if (!config.keep_guess_along_degenerate) return {};
+  return orthonormalBasis(r.degenerate_directions);
 }
 
 // With relocalise_suspect: along a weakly constrained horizontal axis ICP cannot know the motion
@@ -308,8 +274,7 @@ void flagAfterFlagged(OdometryFrame& f, const OdometryFrame& previous, const Eig
   if (!config.relocalise_suspect || !(config.flag_correction_after_flagged > 0.0) || !isFlagged(previous.status)) return;
   if (f.status != FrameStatus::Tracked && f.status != FrameStatus::Relocalised) return;
   const bool to_map = config.mode == OdometryMode::FrameToMap;
-  const bool lost_reestimated = previous.status == FrameStatus::Fallback && to_map && config.reestimate_lost_frames &&
-                                !config.map_skips_fallback;
+  const bool lost_reestimated = previous.status == FrameStatus::Fallback && to_map && config.reestimate_lost_frames;
   if (lost_reestimated) return;
   Eigen::Vector3d delta = W.linear() * (answer.translation() - guess.translation());  // world
   delta.z() = 0.0;
@@ -389,7 +354,7 @@ void Odometry::track(OdometryFrame& f, const LabeledCloud& source, std::optional
   // target-scan ← current (the target is the last non-empty scan, normally the previous one).
   const bool to_map = config_.mode == OdometryMode::FrameToMap;
   const Eigen::Isometry3d W = to_map ? Eigen::Isometry3d::Identity() : impl_->previous_pose;
-  const Eigen::Isometry3d reg_guess = keptGuess(f, W.inverse() * prev_pose * f.guess, W, prev_pose);
+  const Eigen::Isometry3d reg_guess = W.inverse() * prev_pose * f.guess;
   const RegistrationTarget* target = to_map ? &*map_target : impl_->previous.get();
   RegistrationResult r;
   if (target) {
@@ -424,10 +389,9 @@ void Odometry::track(OdometryFrame& f, const LabeledCloud& source, std::optional
   } else if (relocalised) {
     f.status = FrameStatus::Relocalised;
     f.reason = f.global.trigger + "; " + f.global.outcome;
-  } else if (const std::vector<Vector6d> basis = degenerateBasis(r); !basis.empty()) {
-    f.reason = describeDegenerate(basis) + (config_.degenerate_in_sensor_frame ? " (sensor frame)" : "");
-    estimate = config_.degenerate_in_sensor_frame ? keepGuessAlongInSensorFrame(basis, r, reg_guess, config_)
-                                                  : keepGuessAlong(basis, r, reg_guess, config_);
+  } else if (const std::vector<Vector6d> basis = degenerateBasis(r, config_); !basis.empty()) {
+    f.reason = describeDegenerate(basis);
+    estimate = keepGuessAlong(basis, r, reg_guess, config_);
     f.status = FrameStatus::Degenerate;
   } else {
     f.status = FrameStatus::Tracked;
@@ -453,41 +417,10 @@ void Odometry::track(OdometryFrame& f, const LabeledCloud& source, std::optional
   impl_->velocity = level_velocity ? levelled(f.increment) : f.increment;
   impl_->has_velocity = true;
   impl_->velocity_verified = f.status != FrameStatus::Fallback;
-  impl_->slip_guess_used = noteSlipGuess(f, wheel_increment);
   impl_->fallback_streak = f.status == FrameStatus::Fallback ? impl_->fallback_streak + 1 : 0;
   if (f.status == FrameStatus::Tracked || f.status == FrameStatus::Degenerate)
     impl_->typical_rmse = impl_->typical_rmse > 0.0 ? 0.9 * impl_->typical_rmse + 0.1 * f.registration.inlier_rmse
                                                     : f.registration.inlier_rmse;
-}
-
-// The directions along which the guess is kept: none unless keep_guess_along_degenerate; ICP's
-// own (in its space) or, with degenerate_in_sensor_frame, those of the sensor's frame.
-std::vector<Vector6d> Odometry::degenerateBasis(const RegistrationResult& r) const {
-  if (!config_.keep_guess_along_degenerate) return {};
-  if (config_.degenerate_in_sensor_frame) return sensorFrameDegenerate(r, config_.registration);
-  return orthonormalBasis(r.degenerate_directions);
-}
-
-// A slipping track turns without moving the robot: the encoders report travel that did not
-// happen, and along a degenerate direction ICP keeps it whole (tanks seeds 3 / 5 / 7: frames 20-48
-// cm off, as the encoders were, while constant velocity was within a few cm). On a straight run
-// (the two guesses agree in yaw) more travel than constant velocity by slip_guess_translation is
-// taken for a slip: ICP starts from constant velocity's increment (f.guess becomes it), which is
-// also what a degenerate frame keeps along its degenerate directions. ICP from the encoders' guess
-// stays in its basin even along directions it constrains (tanks 7 frame 31: 41 cm off, tracked).
-// Never two frames in a row: constant velocity after a slip frame is that frame's own short
-// increment, and taken again it held tanks 3 (property ICP) 30 cm short for four frames.
-Eigen::Isometry3d Odometry::keptGuess(OdometryFrame& f, const Eigen::Isometry3d& reg_guess, const Eigen::Isometry3d& W,
-                                      const Eigen::Isometry3d& prev_pose) const {
-  if (!(config_.slip_guess_translation > 0.0) || !f.wheel_guess || !impl_->has_velocity || !impl_->velocity_verified ||
-      impl_->slip_guess_used)
-    return reg_guess;
-  const Eigen::Isometry3d& cv = impl_->velocity;
-  const double extra = f.guess.translation().norm() - cv.translation().norm();
-  const double dyaw = std::abs(yawOf(f.guess.inverse() * cv));
-  if (!(extra > config_.slip_guess_translation) || !(dyaw <= config_.slip_guess_yaw)) return reg_guess;
-  f.guess = cv;
-  return W.inverse() * prev_pose * cv;
 }
 
 // A guess-free global registration when ICP from the guess failed or is suspect (issue 19).
@@ -566,12 +499,11 @@ void Odometry::remember(OdometryFrame& f, const LabeledCloud& frame) {
   }
   if (config_.mode == OdometryMode::FrameToMap) {
     // A fallback frame's pose is an unverified guess: its points would place a wrong copy of the
-    // scene in the map that the next frames then track against (issue 14, naraha seed 7).
-    const bool fallback = f.status == FrameStatus::Fallback;
-    const bool keep_out = (config_.map_skips_fallback && fallback) || (config_.map_skips_flagged && isFlagged(f.status));
-    LabeledCloud scan_world = keep_out ? LabeledCloud() : frame.transformed(f.pose);
-    if (config_.reestimate_lost_frames && !config_.map_skips_fallback) {
-      if (fallback) {
+    // scene in the map that the next frames then track against (issue 14, naraha seed 7), so its
+    // scan waits outside the map (reestimate_lost_frames).
+    LabeledCloud scan_world = frame.transformed(f.pose);
+    if (config_.reestimate_lost_frames) {
+      if (f.status == FrameStatus::Fallback) {
         impl_->lost.push_back({f.index, frame, impl_->scan_labels});  // waits outside the map until a later frame is verified
         scan_world = LabeledCloud();
         // Lost for long (a corridor nothing can place along): the map must follow the robot, so the

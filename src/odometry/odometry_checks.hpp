@@ -33,9 +33,6 @@ struct Odometry::Impl {
   Eigen::Isometry3d velocity = Eigen::Isometry3d::Identity();  ///< last increment
   bool has_velocity = false;
   bool velocity_verified = false;  ///< the last increment came from a verified registration
-  /// The last frame started from constant velocity for a slip (slip_guess_translation): the next
-  /// one may not, or a short increment taken for the truth would hold every later frame to it.
-  bool slip_guess_used = false;
   /// Running mean of the inlier RMSE of tracked frames: how well a right answer fits here.
   double typical_rmse = 0.0;
   // --- whole-map re-localisation (odometry_whole_map.cpp) ---

@@ -38,9 +38,6 @@ static ConfigFields<OdometryConfig>& addWholeMapFields(ConfigFields<OdometryConf
                   "A whole-map answer must put this share of the source points on a keyframe surface")
           .flag("whole_map_confirm", &C::whole_map_confirm,
                 "A whole-map answer is used only when the next frame's agrees with it (a plausible motion apart)")
-          .flag("map_skips_flagged", &C::map_skips_flagged,
-                "Frame to map: a flagged frame's points (fallback; degenerate or weak-axis with relocalise_suspect) "
-                "stay out of the local map, so a wrong pose is not matched by the next frames")
           .flag("reestimate_lost_frames", &C::reestimate_lost_frames,
                 "Frame to map: a fallback frame's scan waits outside the local map; once a later frame is verified "
                 "the waiting frames are re-registered against the recovered map from interpolated poses (verified: "
@@ -76,28 +73,10 @@ static ConfigFields<OdometryConfig>& addWholeMapFields(ConfigFields<OdometryConf
                   "m; the halves of the labelled points place the frame this close, or it stays flagged");
 }
 
-// Degenerate directions and slips: what the frame keeps from its guess (docs/registration.md).
-static ConfigFields<OdometryConfig>& addDegeneracyFields(ConfigFields<OdometryConfig>& fields) {
-  using C = OdometryConfig;
-  return fields
-          .flag("keep_guess_along_degenerate", &C::keep_guess_along_degenerate,
-                "Replace ICP's degenerate directions by the guess")
-          .flag("degenerate_in_sensor_frame", &C::degenerate_in_sensor_frame,
-                "Test ICP's Hessian for degenerate directions in the sensor's frame (right perturbation) and keep "
-                "the guess along them there, not in ICP's space about the world origin (a turn far from the "
-                "origin reads as travel there)")
-          .number("slip_guess_translation", &C::slip_guess_translation, nonNegative(),
-                  "m; start ICP from (and keep along degenerate directions) constant velocity's increment instead of "
-                  "the encoders' when they report more travel than it by more than this and agree in yaw (a track "
-                  "slip; 0 = off)")
-          .number("slip_guess_yaw", &C::slip_guess_yaw, positive(),
-                  "rad; the encoders and constant velocity agree in yaw within this for slip_guess_translation");
-}
-
 const ConfigFields<OdometryConfig>& configFields(ConfigTag<OdometryConfig>) {
   using C = OdometryConfig;
   static const ConfigFields<C> fields =
-      addWholeMapFields(addDegeneracyFields(ConfigFields<C>("Tracking: preprocessing, (property-)ICP against the previous scan or the local "
+      addWholeMapFields(ConfigFields<C>("Tracking: preprocessing, (property-)ICP against the previous scan or the local "
                       "map, failure detection.")
           .choice("mode", &C::mode, {{"map", OdometryMode::FrameToMap}, {"frame", OdometryMode::FrameToFrame}},
                   "map: scan to local map; frame: scan to previous scan (the paper)")
@@ -114,9 +93,8 @@ const ConfigFields<OdometryConfig>& configFields(ConfigTag<OdometryConfig>) {
           .number("max_correction_translation", &C::max_correction_translation, positive(),
                   "m; ICP farther from the guess = diverged")
           .number("max_correction_rotation", &C::max_correction_rotation, positive(), "rad")
-          .flag("map_skips_fallback", &C::map_skips_fallback,
-                "Frame to map: a fallback frame's points stay out of the local map (its pose is an unverified guess)")
-          )
+          .flag("keep_guess_along_degenerate", &C::keep_guess_along_degenerate,
+                "Replace ICP's degenerate directions by the guess")
           .number("fallback_sigma_translation", &C::fallback_sigma_translation, positive(),
                   "m; covariance of a fallback increment (and along degenerate directions)")
           .number("fallback_sigma_rotation", &C::fallback_sigma_rotation, positive(), "rad")

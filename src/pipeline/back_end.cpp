@@ -77,7 +77,6 @@ void BackEnd::closeLoops(const Eigen::Isometry3d& pose, LabeledCloud cloud) {
 
 void BackEnd::recordDetection(const LoopDetection& detection) {
   result_.loop_candidates += detection.candidates.size();
-  result_.loop_near_duplicates += detection.near_duplicates;
   result_.loop_light_verifications += detection.light_verifications;
   result_.submap_targets_built = loops_->submapTargetsBuilt();
   for (const auto& v : detection.verifications) {

@@ -66,8 +66,6 @@ nlohmann::json loopClosureJson(const SlamResult& r, const SlamConfig& config) {
                         {"accepted", r.loops.size()},
                         {"loops", loops},
                         {"rejected", rejected}};
-  // Only with the rule on, so that run.json stays as it was without it.
-  if (config.loop_closure.near_duplicate_keyframes > 0) out["near_duplicates"] = r.loop_near_duplicates;
   if (usesPoseGraph(r.method) && config.loop_closure.light_duplicate_keyframes > 0)
     out["light_verifications"] = r.loop_light_verifications;
   if (usesPoseGraph(r.method)) out["submap_targets_built"] = r.submap_targets_built;

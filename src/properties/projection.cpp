@@ -65,39 +65,6 @@ void pixelRange(const PropertyImage& image, float u, float v, int r, float& lo, 
     }
 }
 
-float DepthBuffer::nearestAround(float u, float v, int radius) const {
-  const float inv_cell = 1.0f / static_cast<float>(cell);
-  const int cx = static_cast<int>((u + 0.5f) * inv_cell), cy = static_cast<int>((v + 0.5f) * inv_cell);
-  float m = kFar;
-  for (int y = std::max(0, cy - radius); y <= std::min(height - 1, cy + radius); ++y)
-    for (int x = std::max(0, cx - radius); x <= std::min(width - 1, cx + radius); ++x)
-      m = std::min(m, nearest[static_cast<std::size_t>(y) * width + x]);
-  return m;
-}
-
-DepthBuffer depthBufferOf(std::span<const Eigen::Vector3f> points, const Eigen::Isometry3d& T, const CameraModel& camera,
-                          const ProjectionConfig& config) {
-  DepthBuffer b;
-  b.cell = config.depth_cell_px;
-  b.width = (camera.width() + b.cell - 1) / b.cell;
-  b.height = (camera.height() + b.cell - 1) / b.cell;
-  b.nearest.assign(static_cast<std::size_t>(b.width) * b.height, kFar);
-  const Eigen::Matrix3f R = T.linear().cast<float>();
-  const Eigen::Vector3f t = T.translation().cast<float>();
-  const float inv_cell = 1.0f / static_cast<float>(b.cell);
-  for (const Eigen::Vector3f& q : points) {  // the same cells as projectIntoImage's pass 1
-    const Eigen::Vector3f p = R * q + t;
-    if (!(p.z() > static_cast<float>(config.min_depth))) continue;
-    const auto px = camera.projectUnbounded(p.cast<double>());
-    if (!px || !camera.inImage(*px)) continue;
-    const int cx = static_cast<int>((static_cast<float>(px->x()) + 0.5f) * inv_cell);
-    const int cy = static_cast<int>((static_cast<float>(px->y()) + 0.5f) * inv_cell);
-    float& z = b.nearest[static_cast<std::size_t>(cy) * b.width + cx];
-    z = std::min(z, p.z());
-  }
-  return b;
-}
-
 ProjectionStats projectIntoImage(std::span<const Eigen::Vector3f> points, const Eigen::Isometry3d& T,
                                  const CameraModel& camera, const PropertyImage& image,
                                  const ProjectionConfig& config, std::span<float> values,

@@ -15,9 +15,6 @@ void ViewFusionConfig::validate(const std::string& where) const {
   if (!(calibration_uncertainty_deg >= 0) || !std::isfinite(calibration_uncertainty_deg))
     fail(where, "view fusion calibration_uncertainty_deg must be >= 0");
   if (!(odometry_drift >= 0) || !std::isfinite(odometry_drift)) fail(where, "view fusion odometry_drift must be >= 0");
-  if (occlusion_margin_cells < -1 || occlusion_margin_cells > 16)
-    fail(where, "view fusion occlusion_margin_cells must be in [-1, 16]");
-  if (max_views_tried < 1) fail(where, "view fusion max_views_tried must be >= 1");
 }
 
 namespace {
@@ -54,15 +51,7 @@ void ViewFusion::add(std::size_t frame, const LabeledCloud& scan, const Eigen::I
   if (frame != frames_.size()) fail("view fusion", "frames must be added in order");
   if (labels.channels.size() != channels || labels.footprint.size() != channels || labels.normals.size() != scan.size())
     fail("view fusion", "labels need one channel and one footprint row per channel, and normals");
-  frames_.push_back({T_world_scan, travelled, labels.image_index, labels.T_camera_scan, {}});
-  if (config_.occlusion_margin_cells >= 0) {
-    Placement& p = frames_.back();
-    p.depth.resize(labeler_.cameras().size());
-    for (std::size_t c = 0; c < p.depth.size() && c < p.image_index.size(); ++c)
-      if (p.image_index[c] >= 0)
-        p.depth[c] = depthBufferOf(scan.points, p.T_camera_scan[c], labeler_.cameras()[c].camera.model,
-                                   labeler_.config().projection);
-  }
+  frames_.push_back({T_world_scan, travelled, labels.image_index, labels.T_camera_scan});
   const Eigen::Matrix3d R = T_world_scan.linear();
   for (std::size_t i = 0; i < scan.size(); ++i) {
     std::uint64_t k = 0;
@@ -85,7 +74,6 @@ std::vector<std::int32_t> ViewFusion::bestFrames(std::size_t frame, const Labele
   const std::vector<Eigen::Vector3f> normals = estimateNormals(scan, config_.normals);
   const Eigen::Matrix3d R = here.T_world_scan.linear();
   std::vector<std::int32_t> best(scan.size() * channels, -1);
-  std::vector<std::uint32_t> rejected;
   const float angle = static_cast<float>(config_.calibration_uncertainty_deg * M_PI / 180.0);
   const float drift = static_cast<float>(config_.odometry_drift);
   for (std::size_t i = 0; i < scan.size(); ++i) {
@@ -94,54 +82,25 @@ std::vector<std::int32_t> ViewFusion::bestFrames(std::size_t frame, const Labele
     const auto it = views_.find(k);
     if (it == views_.end()) continue;
     const std::uint8_t face = facing(normals[i], R);
-    const Eigen::Vector3d world = here.T_world_scan * scan.points[i].cast<double>();
     for (std::size_t ch = 0; ch < channels; ++ch) {
-      // The cheapest view first; another scan's view only where its depth test lets the point
-      // through, else the next cheapest (first of equal costs wins: deterministic).
-      rejected.clear();
-      for (int tries = 0; tries < config_.max_views_tried; ++tries) {
-        float best_cost = std::numeric_limits<float>::infinity();
-        std::int32_t pick = -1;
-        for (const View& v : it->second) {
-          if (v.channel != ch) continue;
-          const float travel = std::abs(v.travelled - at);
-          if (travel > window) continue;
-          if (face != kAnyFacing && v.facing != kAnyFacing && v.facing != face) continue;
-          const float cost = v.footprint * angle + drift * travel;
-          if (cost < best_cost && std::find(rejected.begin(), rejected.end(), v.frame) == rejected.end()) {
-            best_cost = cost;
-            pick = static_cast<std::int32_t>(v.frame);
-          }
+      // The cheapest view (first of equal costs wins: deterministic).
+      float best_cost = std::numeric_limits<float>::infinity();
+      std::int32_t pick = -1;
+      for (const View& v : it->second) {
+        if (v.channel != ch) continue;
+        const float travel = std::abs(v.travelled - at);
+        if (travel > window) continue;
+        if (face != kAnyFacing && v.facing != kAnyFacing && v.facing != face) continue;
+        const float cost = v.footprint * angle + drift * travel;
+        if (cost < best_cost) {
+          best_cost = cost;
+          pick = static_cast<std::int32_t>(v.frame);
         }
-        if (pick < 0 || static_cast<std::size_t>(pick) == frame || visibleIn(static_cast<std::size_t>(pick), ch, world)) {
-          best[i * channels + ch] = pick;
-          break;
-        }
-        rejected.push_back(static_cast<std::uint32_t>(pick));
       }
+      best[i * channels + ch] = pick;
     }
   }
   return best;
-}
-
-bool ViewFusion::visibleIn(std::size_t frame, std::size_t channel, const Eigen::Vector3d& world) const {
-  const Placement& view = frames_[frame];
-  if (view.depth.empty()) return true;  // the depth test is off
-  const ProjectionConfig& projection = labeler_.config().projection;
-  const int radius = projection.splat_cells + config_.occlusion_margin_cells;
-  const float tol = static_cast<float>(projection.depth_tolerance), ratio = static_cast<float>(projection.depth_tolerance_ratio);
-  for (std::size_t c = 0; c < labeler_.cameras().size(); ++c) {  // the channel's first camera that sees it, as sample()
-    if (static_cast<std::size_t>(labeler_.cameraChannel(c)) != channel || view.image_index.at(c) < 0) continue;
-    const Eigen::Vector3d p = view.T_camera_scan[c] * (view.T_world_scan.inverse() * world);
-    if (!(p.z() > projection.min_depth)) continue;
-    const CameraModel& model = labeler_.cameras()[c].camera.model;
-    const auto px = model.projectUnbounded(p);
-    if (!px || !model.inImage(*px)) continue;
-    const float z = static_cast<float>(p.z());
-    const float front = view.depth[c].nearestAround(static_cast<float>(px->x()), static_cast<float>(px->y()), radius);
-    return z <= front + tol + ratio * front;
-  }
-  return false;
 }
 
 const PropertyImage& ViewFusion::image(std::size_t camera, long index) {

@@ -470,7 +470,6 @@ void IcpSolver::estimateCovariance(RegistrationResult& result) const {
   const PoseCovariance pc = poseCovariance(H, bread, meat, sums.wr2, sums.components, sums.pairs,
                                            config_.degeneracy_length, config_.degeneracy_threshold);
   result.hessian = H;
-  result.pairs_weight = sums.pairs;
   result.covariance = pc.covariance;
   result.residual_sigma = pc.residual_sigma;
   result.degenerate_directions = pc.degenerate_directions;

@@ -113,14 +113,6 @@ struct LoopClosureConfig {
   /// current estimate in the query's frame: submap against submap, from scans the forward loop
   /// did not use on the query side. 0 = the match keyframe's scan onto the query's scan alone.
   std::size_t cross_check_query_keyframes = 6;
-  /// Online cost (issue 14): a candidate whose match lies within this many keyframes of an
-  /// accepted loop's old keyframe, and whose query within this many keyframes after that loop's
-  /// query, is not verified: the graph has just tied the two passes together there, and along a
-  /// revisited stretch every keyframe otherwise closes its own loop to the same old place (naraha
-  /// seed 1: 0→138, 0→139, …, 0→142), each costing a full ICP, four basin probes and the reverse
-  /// cross-check. Such a near-duplicate counts against max_loops_per_keyframe (the query is
-  /// covered: its lower-ranked candidates are not tried either). 0 = off (every candidate verified).
-  std::size_t near_duplicate_keyframes = 0;
   /// Online cost (issue 14): a cached verification target (LoopDetector::submapTarget) is reused
   /// while every keyframe of its submap sits within this of where the target placed it (m: the
   /// placement's translation change plus its rotation change times 10 m, the submap's reach);
@@ -170,9 +162,6 @@ struct LoopDetection {
   std::vector<VerificationResult> verifications;  ///< one per candidate tried
   std::vector<GateResult> gates;                  ///< one per verified candidate (drift gate)
   std::vector<LoopClosure> accepted;              ///< passed verification and the drift gate
-  /// Candidates not verified as near-duplicates of an accepted loop
-  /// (LoopClosureConfig::near_duplicate_keyframes).
-  std::size_t near_duplicates = 0;
   /// Loops accepted without their own reverse cross-check, as agreeing near-duplicates of a fully
   /// checked loop (LoopClosureConfig::light_duplicate_keyframes).
   std::size_t light_verifications = 0;
@@ -256,8 +245,6 @@ class LoopDetector {
   LoopClosureConfig config_;
   LabeledCloud prepare(LabeledCloud cloud) const;  ///< keyframe_voxel downsampling
   bool candidatePlausible(const LoopCandidate& cand, const PoseList& estimate, LoopDetection& det) const;
-  /// Whether an accepted loop already ties cand's two places (near_duplicate_keyframes).
-  bool nearDuplicate(const LoopCandidate& cand) const;
   /// Constellation candidates of `query` with neighbourhoods reaching at most keyframe `newest`.
   std::vector<LoopCandidate> constellationCandidates(std::size_t query, std::size_t newest, const PoseList& estimate) const;
   /// Neighbourhood candidates moved to the keyframe of the matched stretch nearest the query.

@@ -124,16 +124,6 @@ struct VerificationConfig {
   /// naraha, corridor and tanks (seed 1, 233 candidates). 0 = off.
   std::size_t guess_check_points = 300;
   double guess_fitness_margin = 0.25;
-  /// A coarse check that converged with a direction this much weaker than the degeneracy test asks
-  /// (eigenvalue below registration.degeneracy_threshold × this × the pairs' weight) rejects the
-  /// candidate as degenerate (reject_degenerate) without the full run: a corridor leaves its axis
-  /// free whatever the source's size (online cost, issue 14). 1 = the full run's own test, which
-  /// 1000 points fail on some tanks loops 6000 points constrain; 0 = off.
-  double coarse_degeneracy_scale = 0.0;
-  /// The basin probes register at most this many source points: they only have to tell which
-  /// basin they land in, not refine it. 0 = as many as the verification (default: 1500 points
-  /// was measured to judge basins worse, naraha seed 1 frame-to-map 0.012 → 0.018 m).
-  std::size_t probe_source_points = 0;
   /// Online cost (issue 14): the full verification ICP starts where the coarse check converged
   /// (its 1000-point answer) instead of at the candidate's guess again, so it only refines — but
   /// only when that answer lies within this distance of the guess (m, translation + 10 m ×
@@ -149,7 +139,7 @@ struct VerificationConfig {
   /// Online cost (issue 14): the basin probes and the reverse cross-check run a coarse stage of
   /// this many source points (RegistrationConfig::coarse_source_points: the far-moving first steps
   /// on a strided subset, tolerances 10× looser) before the full source refines where it ended;
-  /// unlike probe_source_points the probe's answer is still the full source's. 0 = single stage.
+  /// the probe's answer is still the full source's. 0 = single stage.
   /// Default since 2026-12-02 with probe_tolerance_scale 10: every accuracy rule held on naraha,
   /// corridor and tanks (seeds 1–8) and in the paper's set-up (docs/pose_graph.md, "Online cost").
   std::size_t probe_coarse_points = 1000;

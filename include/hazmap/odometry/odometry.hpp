@@ -46,23 +46,6 @@ struct OdometryConfig {
   double max_correction_translation = 1.0;  ///< m; farther from the guess = diverged
   double max_correction_rotation = 0.2;     ///< rad
   bool keep_guess_along_degenerate = true;  ///< replace ICP's degenerate directions by the guess
-  /// Find the degenerate directions (and keep the guess along them) in the sensor's own frame
-  /// rather than in ICP's space, whose rotations turn about the world origin: there a turn of a
-  /// sensor 20 m from the origin reads as metres of travel, so the test mixed the sensor's yaw
-  /// into weak translations and the kept guess carried the encoders' yaw error (tanks: turning
-  /// frames 10-45 mrad off, as the wheels were; docs/registration.md, 2026-12-02).
-  bool degenerate_in_sensor_frame = false;
-  /// Along degenerate directions keep constant velocity's increment instead of the encoders'
-  /// when the encoders report more travel than constant velocity by more than this (m; 0 = off)
-  /// while the two agree in yaw (slip_guess_yaw): a track slip, which ICP cannot see along a
-  /// degenerate direction (tanks: 20-48 cm slips taken whole; docs/registration.md, 2026-12-02).
-  double slip_guess_translation = 0.0;
-  double slip_guess_yaw = 0.05;  ///< rad; the two guesses agree in yaw within this (not a turn's start or end)
-  /// Frame to map: a fallback frame's points stay out of the local map (its pose is a guess), so
-  /// the next frames track against the verified map only. Off by default until it is never worse
-  /// (issue 14, docs/pose_graph.md): on, naraha seed 7 property ICP 0.853 -> 0.023 m (tracking no
-  /// longer lost), naraha 2 0.016 -> 0.010, but tanks 2 property ICP 0.934 -> 1.167.
-  bool map_skips_fallback = false;
   /// Covariance given to a fallback increment (and along degenerate directions).
   double fallback_sigma_translation = 0.1;  ///< m
   double fallback_sigma_rotation = 0.02;    ///< rad
@@ -137,11 +120,7 @@ struct OdometryConfig {
   /// relocalise_max_translation / relocalise_max_rotation): a single scan can look like another
   /// place (naraha without odometry: 27.8 m / 127 deg off with surface fit 0.71).
   bool whole_map_confirm = true;
-  // --- keeping doubtful frames out of the local map ---
-  /// Frame to map: a flagged frame's points (fallback, or degenerate/weak-axis while
-  /// relocalise_suspect is on) stay out of the local map, like map_skips_fallback: a wrong pose in
-  /// the map is matched by the following frames and the errors compound.
-  bool map_skips_flagged = false;
+  // --- lost frames (frame to map) ---
   /// Frame to map: a fallback frame's scan (its pose an unverified guess) waits outside the local
   /// map, so a lost frame cannot poison the map the next frames track against. Once a later frame
   /// is verified (tracked, degenerate or relocalised against the map without them), the waiting
@@ -316,12 +295,6 @@ class Odometry {
                                                const RegistrationTarget& target, const Eigen::Isometry3d& W);
   /// Step 5: the scan (`frame`, preprocessed) enters the local map or becomes the next target.
   void remember(OdometryFrame& f, const LabeledCloud& frame);
-  /// The directions along which a tracked frame keeps its guess (see degenerate_in_sensor_frame).
-  std::vector<Vector6d> degenerateBasis(const RegistrationResult& r) const;
-  /// The guess ICP starts from and a degenerate frame keeps (W space): the frame's, or constant
-  /// velocity's when the encoders report a slip (slip_guess_translation; f.guess becomes it).
-  Eigen::Isometry3d keptGuess(OdometryFrame& f, const Eigen::Isometry3d& reg_guess, const Eigen::Isometry3d& W,
-                              const Eigen::Isometry3d& prev_pose) const;
   /// Steps 3–4 of track(): recovery when a trigger fires; returns the failure left (empty = use
   /// `r`), `relocalised` when a recovered answer replaced r.
   std::string checkAndRecover(OdometryFrame& f, const LabeledCloud& source, const RegistrationTarget* target,

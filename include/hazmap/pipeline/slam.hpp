@@ -165,7 +165,6 @@ struct SlamResult {
   PoseGraph graph;           ///< nodes = frames
   std::vector<LoopRecord> loops;
   std::size_t keyframes = 0, loop_candidates = 0, loops_verified = 0;
-  std::size_t loop_near_duplicates = 0;  ///< candidates not verified (loop_closure.near_duplicate_keyframes)
   std::size_t loop_light_verifications = 0;  ///< loops that took over a checked neighbour's reverse cross-check verdict; their probes ran (loop_closure.light_duplicate_keyframes)
   std::size_t submap_targets_built = 0;  ///< verification targets built (the rest reused: submap_reuse_tolerance)
   std::size_t keyframes_searched = 0;  ///< keyframes whose loops were searched (SlamConfig::loop_search_every)

@@ -58,22 +58,6 @@ ProjectionStats projectIntoImage(std::span<const Eigen::Vector3f> points, const 
                                  std::span<std::uint8_t> in_view = {}, ProjectionScratch* scratch = nullptr,
                                  std::span<float> low = {}, std::span<float> high = {});
 
-/// A scan's nearest depth per depth_cell_px cell of an image: the depth test's z-buffer before
-/// the splat, kept so that points of *other* scans can be tested against it (view fusion samples
-/// a point in a nearby scan's image only where that scan saw no nearer surface around it).
-struct DepthBuffer {
-  int cell = 4;                ///< pixels per cell
-  int width = 0, height = 0;   ///< cells
-  std::vector<float> nearest;  ///< row-major, +inf where no point landed
-  bool empty() const { return nearest.empty(); }
-  /// Smallest depth within `radius` cells of the cell holding pixel (u, v); +inf if none.
-  float nearestAround(float u, float v, int radius) const;
-};
-
-/// The depth buffer of `points` (T_camera_points maps them into the camera) with config's cell.
-DepthBuffer depthBufferOf(std::span<const Eigen::Vector3f> points, const Eigen::Isometry3d& T_camera_points,
-                          const CameraModel& camera, const ProjectionConfig& config);
-
 /// Smallest and largest finite pixel value within r pixels of (u, v) (the edge guard's range).
 void pixelRange(const PropertyImage& image, float u, float v, int r, float& low, float& high);
 

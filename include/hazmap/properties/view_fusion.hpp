@@ -36,17 +36,6 @@ struct ViewFusionConfig {
   /// between the scan and the view (the poses that carry the point into the other image drift).
   double calibration_uncertainty_deg = 1.0;
   double odometry_drift = 0.05;  ///< m per m travelled
-  /// Depth test in the other scan's view (-1 = off, the default: the sample is taken wherever
-  /// it lands). A view of another scan is taken only where that scan saw no nearer surface
-  /// within its depth-test splat + this many cells around the point: the point may be behind a
-  /// hot object there (a background point beside a hot silhouette), and the odometry that
-  /// carries it into that view is off by a few centimetres, which at a silhouette is the
-  /// object's pixel. Off by default: on simulated naraha, 2 removed a sixth of the wrong heat
-  /// labels but cost precision with a 1° calibration error (0.841 < 0.85) and moved the maps
-  /// by less than their spread (docs/properties.md, 2026-12-02).
-  int occlusion_margin_cells = -1;
-  /// Views tried per point and channel, cheapest first, before the point stays unobserved (NaN).
-  int max_views_tried = 8;
   NormalConfig normals{20, 1.0};  ///< the labeler's
   void validate(const std::string& where) const;
 };
@@ -80,10 +69,7 @@ class ViewFusion {
     double travelled = 0.0;
     std::vector<long> image_index;
     std::vector<Eigen::Isometry3d, Eigen::aligned_allocator<Eigen::Isometry3d>> T_camera_scan;
-    std::vector<DepthBuffer> depth;  ///< per camera (empty: no image, or the depth test is off)
   };
-  /// Whether the view of `frame` may give channel `channel` to the world point (depth test).
-  bool visibleIn(std::size_t frame, std::size_t channel, const Eigen::Vector3d& world) const;
   bool key(const Eigen::Vector3d& world, std::uint64_t& out) const;
   const PropertyImage& image(std::size_t camera, long index);
   bool sample(std::size_t camera, const Placement& view, const Eigen::Vector3d& world, float& value, float& low,

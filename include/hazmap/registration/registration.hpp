@@ -187,7 +187,6 @@ struct RegistrationResult {
   // --- additions ---
   CorrespondenceStats stats;
   Matrix6d hessian = Matrix6d::Zero();  ///< Σ w JᵀJ at the solution (translation-first)
-  double pairs_weight = 0.0;            ///< Σ w over the pairs at the solution (the degeneracy test's scale)
   double residual_sigma = 0.0;          ///< m, estimated residual standard deviation
   double kernel_scale = 0.0;            ///< m, final adaptive robust-kernel scale
   /// Label gate (see RegistrationConfig::min_label_agreement): chance-corrected agreement, NaN
