@@ -15,6 +15,7 @@
 #include "hazmap/preprocess/voxel_downsample.hpp"
 #include "hazmap/registration/covariance.hpp"
 #include "hazmap/registration/registration_target.hpp"
+#include "odometry/frame_judgement.hpp"
 #include "odometry/odometry_checks.hpp"
 
 namespace hazmap {
@@ -91,6 +92,30 @@ PreparedScan prepareScan(const LabeledCloud& scan, const OdometryConfig& config,
   return out;
 }
 
+// The scan prepared for tracking and, frame to map after the first frame (`map` given), the local
+// map's registration target built meanwhile: it does not depend on this scan, and a downsampling
+// has a serial pass that leaves the other cores idle. Lazy normals: ICP estimates only those of
+// the map points it pairs with.
+PreparedScan prepareFrame(const LabeledCloud& scan, const OdometryConfig& config, const ClassTable& classes,
+                          LocalMap* map, std::optional<RegistrationTarget>& map_target) {
+  PreparedScan prepared;
+  const auto preprocess = [&] { prepared = prepareScan(scan, config, classes); };
+  if (config.mode == OdometryMode::FrameToMap && map) {
+    tbb::parallel_invoke(preprocess, [&] {
+      map_target.emplace(map->makeTarget(classes, config.registration, /*lazy_normals=*/true));
+    });
+  } else {
+    preprocess();
+  }
+  return prepared;
+}
+
+RegistrationResult unregistered(const char* reason) {
+  RegistrationResult r;
+  r.reason = reason;
+  return r;
+}
+
 }  // namespace
 
 LabeledCloud preprocessForTracking(const LabeledCloud& scan, const OdometryConfig& config, const ClassTable& classes) {
@@ -100,198 +125,22 @@ LabeledCloud preprocessForTracking(const LabeledCloud& scan, const OdometryConfi
   return cropAndDownsample(scan, crop, trackingVoxels(config.voxel_size), classes);
 }
 
-// How far ICP moved the sensor from where it started, in the sensor's own frame. Measured as a
-// left perturbation in the world frame, a small turn of a sensor far from the world origin read
-// as metres of travel (6 deg at 30 m from the origin: 3.2 m), and right answers 6-9 deg from a
-// recovery start were refused as "diverged" (naraha worst day, frames 52-55).
-Vector6d correctionOf(const RegistrationResult& r, const Eigen::Isometry3d& start) {
-  return se3Log(start.inverse() * r.transform);
-}
-
-// Stopping at the iteration limit is not a failure: the pose is usually close, and the other
-// checks still apply.
-std::string registrationFailure(const RegistrationResult& r, const Eigen::Isometry3d& guess,
-                                const OdometryConfig& config) {
-  const bool hit_limit = !r.converged && r.termination == Termination::MaxIterations;
-  if (!r.converged && !hit_limit) return r.reason;
-  char buf[160];
-  if (r.fitness < config.min_fitness) {
-    std::snprintf(buf, sizeof buf, "fitness %.3f below min_fitness %.3f", r.fitness, config.min_fitness);
-    return buf;
-  }
-  const Vector6d correction = correctionOf(r, guess);
-  const double dt = correction.head<3>().norm(), dr = correction.tail<3>().norm();
-  if (!(dt > config.max_correction_translation || dr > config.max_correction_rotation)) return {};
-  std::snprintf(buf, sizeof buf, "diverged: %.3f m / %.2f deg from the guess (limits %.3f m / %.2f deg)", dt,
-                dr * 180.0 / M_PI, config.max_correction_translation, config.max_correction_rotation * 180.0 / M_PI);
-  return buf;
-}
-
-namespace {
-
-// Why a registration that passed its checks is still suspect (empty when it is not): the triggers
-// for trying a global registration as well (issue 19).
-std::string suspicion(const RegistrationResult& r, const Eigen::Isometry3d& guess, bool has_prior,
-                      double typical_rmse, const OdometryConfig& config, bool& only_weak_axis) {
-  only_weak_axis = false;
-  if (!config.relocalise_suspect) return {};
-  if (!has_prior) return "no motion prior";
-  char buf[160];
-  if (fitsWorseThanTracked(r, typical_rmse, config)) {
-    std::snprintf(buf, sizeof buf, "poor fit: inlier RMSE %.3f m above %.1f x that of tracked frames (%.3f m)",
-                  r.inlier_rmse, config.relocalise_max_rmse_ratio, typical_rmse);
-    return buf;
-  }
-  if (r.fitness < config.suspect_fitness) {
-    std::snprintf(buf, sizeof buf, "poor fit: fitness %.3f below suspect_fitness %.3f", r.fitness,
-                  config.suspect_fitness);
-    return buf;
-  }
-  const Vector6d correction = correctionOf(r, guess);
-  const double dt = correction.head<3>().norm(), dr = correction.tail<3>().norm();
-  if (dt > config.suspect_correction_translation || dr > config.suspect_correction_rotation) {
-    std::snprintf(buf, sizeof buf, "far from the guess: %.3f m / %.2f deg", dt, dr * 180.0 / M_PI);
-    return buf;
-  }
-  if (const auto axis = weakHorizontalAxis(r, config.suspect_weak_axis_ratio)) {
-    std::snprintf(buf, sizeof buf, "weakly constrained along [%.2f %.2f %.2f]", (*axis)(0), (*axis)(1), (*axis)(2));
-    only_weak_axis = true;
-    return buf;
-  }
-  return {};
-}
-
-// An orthonormal basis of the registration's degenerate directions.
-std::vector<Vector6d> orthonormalBasis(const std::vector<Vector6d>& directions) {
-  std::vector<Vector6d> basis;
-  for (Vector6d d : directions) {
-    for (const auto& b : basis) d -= b.dot(d) * b;
-    if (d.norm() > 1e-6) basis.push_back(d.normalized());
-  }
-  return basis;
-}
-
-std::string describeDegenerate(const std::vector<Vector6d>& basis) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%zu degenerate direction(s); guess kept along ", basis.size());
-  std::string out = buf;
-  for (std::size_t k = 0; k < basis.size(); ++k) {
-    char d[96];
-    const Vector6d& b = basis[k];
-    std::snprintf(d, sizeof d, "%s[%.2f %.2f %.2f %.2f %.2f %.2f]", k ? ", " : "", b(0), b(1), b(2), b(3), b(4), b(5));
-    out += d;
-  }
-  return out;
-}
-
-// The motion without its roll and pitch: translation and yaw kept.
-Eigen::Isometry3d levelled(const Eigen::Isometry3d& T) {
-  Eigen::Isometry3d out = Eigen::Isometry3d::Identity();
-  out.translation() = T.translation();
-  out.linear() = Eigen::AngleAxisd(yawOf(T), Eigen::Vector3d::UnitZ()).toRotationMatrix();
-  return out;
-}
-
-struct Estimate {
-  Eigen::Isometry3d pose;  ///< in registration space
-  Matrix6d covariance;
+// Registration in its own space W: frame to map it estimates world ← current, frame to frame
+// target-scan ← current (the target is the last non-empty scan, normally the previous one).
+struct Odometry::Attempt {
+  Eigen::Isometry3d prev_pose;  ///< world ← the previous frame
+  Eigen::Isometry3d W;          ///< world ← registration space
+  Eigen::Isometry3d guess;      ///< the guessed pose in registration space
+  const RegistrationTarget* target = nullptr;
+  bool has_prior = false;       ///< wheel odometry, or a verified last increment
 };
 
-// Removes delta's components along the orthonormal `basis`; returns the projector onto the rest.
-Matrix6d projectOut(const std::vector<Vector6d>& basis, Vector6d& delta) {
-  Matrix6d P = Matrix6d::Identity();
-  for (const auto& b : basis) {
-    delta -= b.dot(delta) * b;
-    P -= b * b.transpose();
-  }
-  return P;
-}
-
-// Along each degenerate direction the frame claims only the fallback covariance.
-void addFallbackAlong(const std::vector<Vector6d>& basis, const OdometryConfig& config, Matrix6d& covariance) {
-  const Matrix6d fb = fallbackCovariance(config);
-  for (const auto& b : basis) covariance += (b.transpose() * fb * b)(0, 0) * b * b.transpose();
-}
-
-// ICP's answer where it is constrained, the guess along the degenerate directions `basis`, with
-// the fallback covariance there.
-Estimate keepGuessAlong(const std::vector<Vector6d>& basis, const RegistrationResult& r,
-                        const Eigen::Isometry3d& guess, const OdometryConfig& config) {
-  Vector6d delta = se3Log(r.transform * guess.inverse());
-  const Matrix6d P = projectOut(basis, delta);
-  Estimate e{normalized(se3Exp(delta) * guess), r.covariance};
-  e.covariance = P * e.covariance * P.transpose();  // (assigned as the tested results were computed)
-  addFallbackAlong(basis, config, e.covariance);
-  return e;
-}
-
-// The directions along which the guess is kept: ICP's own (in its space), none unless
-// keep_guess_along_degenerate.
-std::vector<Vector6d> degenerateBasis(const RegistrationResult& r, const OdometryConfig& config) {
-  if (!config.keep_guess_along_degenerate) return {};
-  return orthonormalBasis(r.degenerate_directions);
-}
-
-// With relocalise_suspect: along a weakly constrained horizontal axis ICP cannot know the motion
-// (a corridor: "no motion" fits as well as the true step), so such a frame is flagged, ICP's
-// answer kept, with the fallback covariance along the axis.
-void flagWeakAxis(OdometryFrame& f, const RegistrationResult& r, Estimate& estimate, const OdometryConfig& config) {
-  if (!config.relocalise_suspect || !config.flag_weak_axis) return;
-  const std::optional<Eigen::Vector3d> axis = weakHorizontalAxis(r, config.flag_weak_axis_ratio);
-  if (!axis) return;
-  Vector6d b = Vector6d::Zero();
-  b.head<3>() = *axis;
-  estimate.covariance += config.fallback_sigma_translation * config.fallback_sigma_translation * b * b.transpose();
-  char buf[160];
-  std::snprintf(buf, sizeof buf, "weakly constrained along [%.2f %.2f %.2f]: ICP cannot know the motion along it (flagged)",
-                (*axis)(0), (*axis)(1), (*axis)(2));
-  f.reason = f.reason.empty() ? std::string(buf) : f.reason + "; " + buf;
-  f.status = FrameStatus::Degenerate;
-}
-
-// A tracked or relocalised frame: placed along its weak axis by its labels (flagged when not to
-// the centimetre), or flagged for the weak axis as before.
-void labelledOrFlagged(OdometryFrame& f, const RegistrationResult& r, Estimate& estimate, const OdometryConfig& config,
-                       const std::string& label_note, bool label_precise, const std::string& label_doubt) {
-  if (!label_note.empty()) {
-    f.reason += (f.reason.empty() ? "" : "; ") + label_note;
-    if (!label_precise) f.status = FrameStatus::Degenerate;
-    return;
-  }
-  flagWeakAxis(f, r, estimate, config);
-  if (f.status == FrameStatus::Degenerate && !label_doubt.empty()) f.reason += "; " + label_doubt;
-}
-
-// With relocalise_suspect: the previous frame was flagged, so its pose is not known along its
-// weakest horizontal axis, and this frame's increment starts there. An answer farther from the
-// guess along that axis than flag_correction_after_flagged is that pose's error put right (or a
-// slip of the encoders): the data cannot tell which, so the increment is not known either
-// (corridor worst day, seed 1: frame 35 beside the south heat panel put right frame 34, flagged
-// 0.40 m off, and was `tracked` 0.49 m off in its increment). A lost frame (fallback) that is
-// re-estimated later is left to reestimateLostFrames, which flags the frame after it when it stays lost.
-void flagAfterFlagged(OdometryFrame& f, const OdometryFrame& previous, const Eigen::Isometry3d& answer,
-                      const Eigen::Isometry3d& guess, const Eigen::Isometry3d& W, const OdometryConfig& config) {
-  if (!config.relocalise_suspect || !(config.flag_correction_after_flagged > 0.0) || !isFlagged(previous.status)) return;
-  if (f.status != FrameStatus::Tracked && f.status != FrameStatus::Relocalised) return;
-  const bool to_map = config.mode == OdometryMode::FrameToMap;
-  const bool lost_reestimated = previous.status == FrameStatus::Fallback && to_map && config.reestimate_lost_frames;
-  if (lost_reestimated) return;
-  Eigen::Vector3d delta = W.linear() * (answer.translation() - guess.translation());  // world
-  delta.z() = 0.0;
-  double along = delta.norm();
-  // Frame to map the previous registration's space is the world's: measure along its weakest axis.
-  if (to_map && previous.status == FrameStatus::Degenerate)
-    if (const auto axis = weakHorizontalAxis(previous.registration, 1.0)) along = std::abs(axis->dot(delta));
-  if (along <= config.flag_correction_after_flagged) return;
-  char buf[200];
-  std::snprintf(buf, sizeof buf,
-                "%.2f m from the guess along the flagged frame %zu's weakest axis: its pose's error or a slip, "
-                "the increment is not known (flagged)", along, previous.index);
-  f.reason += (f.reason.empty() ? "" : "; ") + std::string(buf);
-  f.status = FrameStatus::Degenerate;
-}
-
-}  // namespace
+// What judging left: the estimate the frame keeps (registration space) and whether the next
+// guess drops the increment's roll and pitch.
+struct Odometry::Judgement {
+  Estimate estimate;
+  bool levels_velocity = false;
+};
 
 // The paper's Fig. 1 for one scan: preprocess, register against the previous scan or the local
 // map from the wheel-odometry guess, check the result, then update the map.
@@ -308,34 +157,26 @@ const OdometryFrame& Odometry::addFrame(const LabeledCloud& scan,
   f.stamp = stamp >= 0.0 ? stamp : static_cast<double>(f.index);
   f.scan_points = scan.size();
 
-  // 1. preprocessing. Frame to map, the local map's registration target is built meanwhile: it
-  //    does not depend on this scan, and a downsampling has a serial pass that leaves the other
-  //    cores idle.
-  PreparedScan prepared;
+  // 1. prepare: crop and downsample (frame to map, the local map's target is built meanwhile)
   std::optional<RegistrationTarget> map_target;
-  const auto preprocess = [&] { prepared = prepareScan(scan, config_, classes_); };
-  if (config_.mode == OdometryMode::FrameToMap && !frames_.empty()) {
-    // Lazy normals: ICP estimates only those of the map points it pairs with.
-    tbb::parallel_invoke(preprocess, [&] {
-      map_target.emplace(map_.makeTarget(classes_, config_.registration, /*lazy_normals=*/true));
-    });
-  } else {
-    preprocess();
-  }
+  const PreparedScan prepared = prepareFrame(scan, config_, classes_, frames_.empty() ? nullptr : &map_, map_target);
   f.source_points = prepared.source().size();
   f.preprocess_ms = prepared.ms;
 
-  // 2.–4. registration, failure detection, the pose
   if (frames_.empty()) {
     f.pose = initial_pose_;
     f.status = FrameStatus::First;
     impl_->velocity_verified = false;
+    if (labelsDecideAxes(config_)) impl_->scan_labels = labelledPointsOf(scan, config_, classes_);
   } else {
     if (labelsDecideAxes(config_)) prepareLabels(scan);
-    track(f, prepared.source(), map_target, wheel_increment);
+    const Attempt a = guess(f, wheel_increment, map_target);  // 2. guess
+    RegistrationResult r = a.target ? registerClouds(prepared.source(), *a.target, a.guess, classes_, config_.registration)
+                                    : unregistered("no previous scan to register against");  // 3. register (eq. 2)
+    const Judgement j = judge(f, prepared.source(), a, map_target, r);  // 4. judge: checks, recovery
+    place(f, a, j, std::move(r));
   }
-  if (labelsDecideAxes(config_) && frames_.empty()) impl_->scan_labels = labelledPointsOf(scan, config_, classes_);
-  // 5. the map / the previous scan
+  // 5. integrate: the scan enters the local map (or becomes the next frame's target)
   remember(f, prepared.frame);
   if (labelsDecideAxes(config_)) impl_->frame_labels.push_back({f.index, std::move(impl_->scan_labels)});
   f.total_ms = msSince(t_start);
@@ -344,77 +185,80 @@ const OdometryFrame& Odometry::addFrame(const LabeledCloud& scan,
   return frames_.back();
 }
 
-void Odometry::track(OdometryFrame& f, const LabeledCloud& source, std::optional<RegistrationTarget>& map_target,
-                     const std::optional<Eigen::Isometry3d>& wheel_increment) {
-  const Eigen::Isometry3d prev_pose = frames_.back().pose;
+// The wheel increment, else constant velocity (identity before the first increment).
+Odometry::Attempt Odometry::guess(OdometryFrame& f, const std::optional<Eigen::Isometry3d>& wheel_increment,
+                                  std::optional<RegistrationTarget>& map_target) const {
+  Attempt a;
+  a.prev_pose = frames_.back().pose;
   f.wheel_guess = wheel_increment.has_value();
   f.guess = wheel_increment ? *wheel_increment
                             : (impl_->has_velocity ? impl_->velocity : Eigen::Isometry3d::Identity());
-  // Registration in its own space W: FrameToMap estimates world ← current, FrameToFrame
-  // target-scan ← current (the target is the last non-empty scan, normally the previous one).
   const bool to_map = config_.mode == OdometryMode::FrameToMap;
-  const Eigen::Isometry3d W = to_map ? Eigen::Isometry3d::Identity() : impl_->previous_pose;
-  const Eigen::Isometry3d reg_guess = W.inverse() * prev_pose * f.guess;
-  const RegistrationTarget* target = to_map ? &*map_target : impl_->previous.get();
-  RegistrationResult r;
-  if (target) {
-    f.map_points = target->size();
-    r = registerClouds(source, *target, reg_guess, classes_, config_.registration);
-  } else {
-    r.reason = "no previous scan to register against";
-  }
+  a.W = to_map ? Eigen::Isometry3d::Identity() : impl_->previous_pose;
+  a.guess = a.W.inverse() * a.prev_pose * f.guess;
+  a.target = to_map ? &*map_target : impl_->previous.get();
+  if (a.target) f.map_points = a.target->size();
+  a.has_prior = wheel_increment.has_value() || impl_->velocity_verified;
+  return a;
+}
 
-  const bool has_prior = wheel_increment.has_value() || impl_->velocity_verified;
+// The checks, recovery when one fails or the answer is suspect, the whole map when several frames
+// in a row found nothing (a kidnapped robot): the frame's status and reason, and what it keeps.
+Odometry::Judgement Odometry::judge(OdometryFrame& f, const LabeledCloud& source, const Attempt& a,
+                                    std::optional<RegistrationTarget>& map_target, RegistrationResult& r) {
   bool relocalised = false;
-  std::string failure = checkAndRecover(f, source, target, W, reg_guess, has_prior, r, relocalised);
-  if (to_map) map_target.reset();  // its lazy normals read the map, which changes below
-  // A kidnapped robot: several frames in a row nothing verified; try the whole map.
+  std::string failure = checkAndRecover(f, source, a.target, a.W, a.guess, a.has_prior, r, relocalised);
+  if (config_.mode == OdometryMode::FrameToMap) map_target.reset();  // its lazy normals read the map, which changes
   if (!failure.empty() && config_.relocalise && config_.whole_map_relocalise && !source.empty() &&
       impl_->fallback_streak + 1 >= static_cast<std::size_t>(config_.whole_map_after)) {
-    if (std::optional<RegistrationResult> g = relocaliseInWholeMap(f, source, prev_pose * f.guess)) {
+    if (std::optional<RegistrationResult> g = relocaliseInWholeMap(f, source, a.prev_pose * f.guess)) {
       r = std::move(*g);
-      const Matrix6d Ad = adjoint(W.inverse());  // world → W space (identity frame to map)
-      r.transform = W.inverse() * r.transform;
+      const Matrix6d Ad = adjoint(a.W.inverse());  // world → W space (identity frame to map)
+      r.transform = a.W.inverse() * r.transform;
       r.covariance = Ad * r.covariance * Ad.transpose();
       failure.clear();
       relocalised = true;
     }
   }
-
-  Estimate estimate{r.transform, r.covariance};
+  Judgement j{{r.transform, r.covariance}};
   if (!failure.empty()) {
     f.status = FrameStatus::Fallback;
     f.reason = f.global.trigger.empty() || failure == f.global.outcome ? failure : failure + "; " + f.global.outcome;
-    estimate.pose = reg_guess;
+    j.estimate.pose = a.guess;
   } else if (relocalised) {
     f.status = FrameStatus::Relocalised;
     f.reason = f.global.trigger + "; " + f.global.outcome;
   } else if (const std::vector<Vector6d> basis = degenerateBasis(r, config_); !basis.empty()) {
     f.reason = describeDegenerate(basis);
-    estimate = keepGuessAlong(basis, r, reg_guess, config_);
+    j.estimate = keepGuessAlong(basis, r, a.guess, config_);
     f.status = FrameStatus::Degenerate;
   } else {
     f.status = FrameStatus::Tracked;
   }
   // A relocalised answer flagged only by the looser flag_weak_axis_ratio still levels the velocity.
-  const bool level_velocity = f.status == FrameStatus::Relocalised &&
-                              !(config_.relocalise_suspect && config_.flag_weak_axis &&
-                                weakHorizontalAxis(r, config_.suspect_weak_axis_ratio));
+  j.levels_velocity = f.status == FrameStatus::Relocalised &&
+                      !(config_.relocalise_suspect && config_.flag_weak_axis &&
+                        weakHorizontalAxis(r, config_.suspect_weak_axis_ratio));
   if (f.status == FrameStatus::Tracked || f.status == FrameStatus::Relocalised)
-    labelledOrFlagged(f, r, estimate, config_, impl_->label_note, impl_->label_precise, impl_->label_doubt);
-  flagAfterFlagged(f, frames_.back(), estimate.pose, reg_guess, W, config_);
-  f.increment = normalized(prev_pose.inverse() * W * estimate.pose);
+    labelledOrFlagged(f, r, j.estimate, config_, impl_->label_note, impl_->label_precise, impl_->label_doubt);
+  flagAfterFlagged(f, frames_.back(), j.estimate.pose, a.guess, a.W, config_);
+  return j;
+}
+
+// The frame's increment, pose and covariance, and the motion model the next guess comes from.
+void Odometry::place(OdometryFrame& f, const Attempt& a, const Judgement& j, RegistrationResult r) {
+  f.increment = normalized(a.prev_pose.inverse() * a.W * j.estimate.pose);
   // W-frame perturbation → previous-frame perturbation of the increment
-  const Matrix6d Ad = adjoint(prev_pose.inverse() * W);
+  const Matrix6d Ad = adjoint(a.prev_pose.inverse() * a.W);
   f.covariance = f.status == FrameStatus::Fallback ? fallbackCovariance(config_)
-                                                   : Matrix6d(Ad * estimate.covariance * Ad.transpose());
-  f.pose = normalized(prev_pose * f.increment);
+                                                   : Matrix6d(Ad * j.estimate.covariance * Ad.transpose());
+  f.pose = normalized(a.prev_pose * f.increment);
   f.registration = std::move(r);
   // A relocalised increment also undoes the drift before it, which is not motion: a ground robot's
   // next guess keeps its travel and yaw but not the roll / pitch of that correction (carried on at
   // constant velocity where the floor leaves pitch weak, naraha without odometry drifted 1 deg a
   // frame until the next relocalisation).
-  impl_->velocity = level_velocity ? levelled(f.increment) : f.increment;
+  impl_->velocity = j.levels_velocity ? levelled(f.increment) : f.increment;
   impl_->has_velocity = true;
   impl_->velocity_verified = f.status != FrameStatus::Fallback;
   impl_->fallback_streak = f.status == FrameStatus::Fallback ? impl_->fallback_streak + 1 : 0;
@@ -449,7 +293,7 @@ std::string Odometry::checkAndRecover(OdometryFrame& f, const LabeledCloud& sour
     }
   }
   // ICP from the guess kept but weak along an axis (flag_weak_axis_ratio): the labels decide, or
-  // track() flags the frame.
+  // judge() flags the frame.
   if (failure.empty() && !relocalised && impl_->label_note.empty() && target && labelsDecideAxes(config_) &&
       config_.flag_weak_axis)
     placeAlongWeakAxis(source, *target, r, config_.flag_weak_axis_ratio);

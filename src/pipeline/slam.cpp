@@ -102,17 +102,20 @@ class SlamRun {
   /// Deskewing, then (property-)ICP against the previous scan or the local map with the wheel
   /// increment as the initial guess (the odometry method takes the wheel increment as it is).
   FrameRecord track(Scan& scan, const std::optional<Eigen::Isometry3d>& wheel_increment) {
+    const auto t_frame = Clock::now();
     FrameRecord rec;
     rec.index = frames();
     rec.stamp = scan.stamp;
     if (!usesIcp(config_.method)) {
       if (wheel_increment) rec.T_prev_curr = *wheel_increment;
-      return rec;
+    } else {
+      rec.deskew_velocity = deskewer_.apply(scan.cloud, scan.stamp, wheel_increment);
+      const OdometryFrame& f = tracker_->addFrame(scan.cloud, wheel_increment, scan.stamp);
+      deskewer_.tracked(f.increment);
+      recordTracking(rec, f, config_.odometry.mode);
     }
-    rec.deskew_velocity = deskewer_.apply(scan.cloud, scan.stamp, wheel_increment);
-    const OdometryFrame& f = tracker_->addFrame(scan.cloud, wheel_increment, scan.stamp);
-    deskewer_.tracked(f.increment);
-    recordTracking(rec, f, config_.odometry.mode);
+    rec.milliseconds = 1e3 * secondsSince(t_frame);
+    result_.timings.tracking_s += secondsSince(t_frame);
     return rec;
   }
 
@@ -174,17 +177,9 @@ class SlamRun {
   /// keyframes, loops) and the loop stage nothing the tracker writes, and the next scan's node and
   /// edges join the graph only after both finished, so the results are the same bit for bit.
   FrameRecord trackBesideLoops(Scan& scan, const std::optional<Eigen::Isometry3d>& wheel_increment) {
+    if (!pending_loops_) return track(scan, wheel_increment);
     FrameRecord record;
-    const auto tracking = [&] {
-      const auto t_frame = Clock::now();
-      record = track(scan, wheel_increment);
-      record.milliseconds = 1e3 * secondsSince(t_frame);
-      result_.timings.tracking_s += secondsSince(t_frame);
-    };
-    if (pending_loops_)
-      tbb::parallel_invoke(tracking, [&] { runPendingLoops(); });
-    else
-      tracking();
+    tbb::parallel_invoke([&] { record = track(scan, wheel_increment); }, [&] { runPendingLoops(); });
     return record;
   }
 

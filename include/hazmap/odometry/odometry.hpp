@@ -273,9 +273,14 @@ class Odometry {
   const OdometryConfig& config() const { return config_; }
 
  private:
-  /// Steps 2–4 of a frame after the first: the guess, registration, failure detection, the pose.
-  void track(OdometryFrame& f, const LabeledCloud& source, std::optional<RegistrationTarget>& map_target,
-             const std::optional<Eigen::Isometry3d>& wheel_increment);
+  /// Steps 2–4 of a frame after the first (addFrame): guess → register → judge → place.
+  struct Attempt;
+  struct Judgement;
+  Attempt guess(OdometryFrame& f, const std::optional<Eigen::Isometry3d>& wheel_increment,
+                std::optional<RegistrationTarget>& map_target) const;
+  Judgement judge(OdometryFrame& f, const LabeledCloud& source, const Attempt& a,
+                  std::optional<RegistrationTarget>& map_target, RegistrationResult& r);
+  void place(OdometryFrame& f, const Attempt& a, const Judgement& j, RegistrationResult r);
   /// Recovery of a triggered frame (odometry_recover.cpp): ICP from a global registration's
   /// answer and from a few other starts around the motion prior, each verified by the tracking
   /// checks and the plausibility bounds. Returns the best verified answer; `from_guess` (ICP
@@ -295,7 +300,7 @@ class Odometry {
                                                const RegistrationTarget& target, const Eigen::Isometry3d& W);
   /// Step 5: the scan (`frame`, preprocessed) enters the local map or becomes the next target.
   void remember(OdometryFrame& f, const LabeledCloud& frame);
-  /// Steps 3–4 of track(): recovery when a trigger fires; returns the failure left (empty = use
+  /// Part of judge(): recovery when a trigger fires; returns the failure left (empty = use
   /// `r`), `relocalised` when a recovered answer replaced r.
   std::string checkAndRecover(OdometryFrame& f, const LabeledCloud& source, const RegistrationTarget* target,
                               const Eigen::Isometry3d& W, const Eigen::Isometry3d& reg_guess, bool has_prior,

@@ -1,0 +1,39 @@
+#pragma once
+// Judging a tracked frame (Odometry::judge, step 4 of Fig. 1): whether ICP from the guess is
+// suspect, the directions along which the guess is kept, and when a frame is flagged. The
+// failure checks themselves (registrationFailure, correctionOf) are in odometry_checks.hpp.
+#include <string>
+#include <vector>
+
+#include "hazmap/odometry/odometry.hpp"
+
+namespace hazmap {
+
+/// A frame's answer in registration space: the pose and its covariance.
+struct Estimate {
+  Eigen::Isometry3d pose;  ///< in registration space
+  Matrix6d covariance;
+};
+
+/// Why a registration that passed its checks is still suspect (empty when it is not): the
+/// triggers for trying a global registration as well (relocalise_suspect). `only_weak_axis`: the
+/// only trigger is a weakly constrained horizontal axis.
+std::string suspicion(const RegistrationResult& r, const Eigen::Isometry3d& guess, bool has_prior,
+                      double typical_rmse, const OdometryConfig& config, bool& only_weak_axis);
+/// The directions along which a tracked frame keeps its guess (keep_guess_along_degenerate), and
+/// their description for the frame's reason.
+std::vector<Vector6d> degenerateBasis(const RegistrationResult& r, const OdometryConfig& config);
+std::string describeDegenerate(const std::vector<Vector6d>& basis);
+/// ICP's answer where it is constrained, the guess along `basis`, with the fallback covariance there.
+Estimate keepGuessAlong(const std::vector<Vector6d>& basis, const RegistrationResult& r,
+                        const Eigen::Isometry3d& guess, const OdometryConfig& config);
+/// A tracked or relocalised frame placed along its weak axis by its labels, or flagged for it.
+void labelledOrFlagged(OdometryFrame& f, const RegistrationResult& r, Estimate& estimate, const OdometryConfig& config,
+                       const std::string& label_note, bool label_precise, const std::string& label_doubt);
+/// A frame after a flagged one whose answer moved far along that frame's weakest axis is flagged.
+void flagAfterFlagged(OdometryFrame& f, const OdometryFrame& previous, const Eigen::Isometry3d& answer,
+                      const Eigen::Isometry3d& guess, const Eigen::Isometry3d& W, const OdometryConfig& config);
+/// The motion without its roll and pitch: translation and yaw kept.
+Eigen::Isometry3d levelled(const Eigen::Isometry3d& T);
+
+}  // namespace hazmap
