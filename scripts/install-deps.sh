@@ -4,7 +4,7 @@
 #   scripts/install-deps.sh --peers  also PCL and Open3D (benchmarks only)
 set -euo pipefail
 packages=(
-  build-essential cmake pkg-config
+  build-essential cmake pkg-config ninja-build
   libeigen3-dev libtbb-dev libceres-dev libsuitesparse-dev libnanoflann-dev
   libcli11-dev libyaml-cpp-dev libfmt-dev libspdlog-dev libstb-dev libembree-dev
   nlohmann-json3-dev libgtest-dev libgmock-dev libbenchmark-dev robin-map-dev

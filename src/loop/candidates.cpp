@@ -9,6 +9,7 @@
 
 #include "hazmap/core/error.hpp"
 #include "hazmap/core/se3.hpp"
+#include "hazmap/core/stable_sort.hpp"
 
 namespace hazmap {
 
@@ -292,8 +293,8 @@ std::vector<LoopCandidate> findConstellationCandidates(
                  match->rmse / config.constellation.inlier_distance;
     out.push_back(cand);
   }
-  std::stable_sort(out.begin(), out.end(),
-                   [](const LoopCandidate& a, const LoopCandidate& b) { return a.score > b.score; });
+  // LoopCandidate holds an Isometry3d: std::stable_sort's scratch buffer would misalign it under AVX.
+  stableSortAligned(out, [](const LoopCandidate& a, const LoopCandidate& b) { return a.score > b.score; });
   if (out.size() > config.max_candidates) out.resize(config.max_candidates);
   return out;
 }
@@ -317,8 +318,8 @@ std::vector<LoopCandidate> findDistanceCandidates(std::size_t query, const PoseL
     cand.rmse = d;
     out.push_back(cand);
   }
-  std::stable_sort(out.begin(), out.end(),
-                   [](const LoopCandidate& a, const LoopCandidate& b) { return a.score > b.score; });
+  // LoopCandidate holds an Isometry3d: std::stable_sort's scratch buffer would misalign it under AVX.
+  stableSortAligned(out, [](const LoopCandidate& a, const LoopCandidate& b) { return a.score > b.score; });
   if (out.size() > config.max_candidates) out.resize(config.max_candidates);
   return out;
 }

@@ -12,6 +12,7 @@
 #include <span>
 
 #include "global_internal.hpp"
+#include "hazmap/core/stable_sort.hpp"
 
 namespace hazmap::global {
 namespace {
@@ -60,7 +61,8 @@ std::size_t countAgreeing(const Eigen::Isometry3d& T, const std::vector<Eigen::V
 // Sorted by votes (descending; ties by insertion order) and thinned to pairwise distinct poses.
 std::vector<Hypothesis> bestDistinct(std::vector<Hypothesis> all, const GlobalRegistrationConfig& config,
                                      std::size_t keep) {
-  std::stable_sort(all.begin(), all.end(), [](const Hypothesis& a, const Hypothesis& b) { return a.votes > b.votes; });
+  // Hypothesis holds an Isometry3d: std::stable_sort's scratch buffer would misalign it under AVX.
+  stableSortAligned(all, [](const Hypothesis& a, const Hypothesis& b) { return a.votes > b.votes; });
   std::vector<Hypothesis> out;
   for (const auto& h : all) {
     if (out.size() >= keep) break;

@@ -10,6 +10,7 @@
 
 #include "global_internal.hpp"
 #include "hazmap/core/error.hpp"
+#include "hazmap/core/stable_sort.hpp"
 #include "hazmap/preprocess/voxel_downsample.hpp"
 #include "thread_arena.hpp"
 
@@ -210,7 +211,7 @@ void refineOne(Candidate& c, const global::FeatureCloud& src, const GlobalRegist
 // Refined first (the winner must be a refined one), each group by score; then pairwise distinct
 // (candidates that ICP brought to the same pose are one).
 void sortAndThin(std::vector<Candidate>& v, const GlobalRegistrationConfig& config) {
-  std::stable_sort(v.begin(), v.end(), [](const Candidate& a, const Candidate& b) {
+  stableSortAligned(v, [](const Candidate& a, const Candidate& b) {  // holds Isometry3d: not std::stable_sort
     return refined(a) != refined(b) ? refined(a) : a.score.weighted > b.score.weighted;
   });
   std::vector<Candidate> out;
