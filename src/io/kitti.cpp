@@ -80,13 +80,17 @@ bool looksLikeSemanticKittiLabels(const std::vector<std::uint32_t>& labels) {
   // semantic-kitti.yaml's `labels:` (the ids a SemanticKITTI .label file may hold).
   static constexpr std::uint32_t kIds[] = {0,  1,  10, 11, 13, 15, 16, 18, 20, 30,  31,  32,  40,  44,  48,  49, 50,
                                            51, 52, 60, 70, 71, 72, 80, 81, 99, 252, 253, 254, 255, 256, 257, 258, 259};
-  std::array<bool, 260> known{};
-  for (const std::uint32_t id : kIds) known[id] = true;
+  static const std::array<bool, 260> known = [] {
+    std::array<bool, 260> k{};
+    for (const std::uint32_t id : kIds) k[id] = true;
+    return k;
+  }();
+  const ClassTable defaults = ClassTable::defaults();
   bool beyond_defaults = false;
   for (const std::uint32_t label : labels) {
     const std::uint32_t id = label & 0xFFFFu;
     if (id >= known.size() || !known[id]) return false;
-    beyond_defaults = beyond_defaults || id > 3;
+    beyond_defaults = beyond_defaults || !defaults.contains(static_cast<ClassId>(id));
   }
   return beyond_defaults;
 }

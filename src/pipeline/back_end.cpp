@@ -1,19 +1,14 @@
 #include "pipeline/back_end.hpp"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 
 #include "hazmap/graph/chain_covariance.hpp"
 #include "hazmap/graph/optimizer.hpp"
+#include "pipeline/clock.hpp"
 #include "pipeline/loop_edges.hpp"
 
 namespace hazmap::pipeline_detail {
-
-namespace {
-using Clock = std::chrono::steady_clock;
-double secondsSince(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
-}  // namespace
 
 BackEnd::BackEnd(const SlamConfig& config, SlamResult& result, const std::vector<Eigen::Isometry3d>& tracked)
     : config_(config), result_(result), tracked_(tracked),

@@ -12,13 +12,17 @@ Matrix6d inverseOf(const Matrix6d& covariance) {
   return eig.eigenvectors() * values.cwiseInverse().asDiagonal() * eig.eigenvectors().transpose();
 }
 
+namespace {
+
+// The positive semi-definite part of a symmetric matrix (negative eigenvalues set to zero).
 Matrix6d positivePart(const Matrix6d& m) {
   Eigen::SelfAdjointEigenSolver<Matrix6d> eig(0.5 * (m + m.transpose()));
   const Eigen::Matrix<double, 6, 1> values = eig.eigenvalues().cwiseMax(0.0);
   return eig.eigenvectors() * values.asDiagonal() * eig.eigenvectors().transpose();
 }
 
-// Returned with its eigenvalues bounded below, so that it inverts.
+// The covariance with its diagonal raised to the σ floors (m, rad); returned with its eigenvalues
+// bounded below, so that it inverts.
 Matrix6d flooredCovariance(const Matrix6d& covariance, double min_translation_sigma, double min_rotation_sigma) {
   Matrix6d c = 0.5 * (covariance + covariance.transpose());
   for (int i = 0; i < 3; ++i) c(i, i) = std::max(c(i, i), min_translation_sigma * min_translation_sigma);
@@ -27,6 +31,8 @@ Matrix6d flooredCovariance(const Matrix6d& covariance, double min_translation_si
   Eigen::Matrix<double, 6, 1> values = eig.eigenvalues().cwiseMax(1e-12);
   return eig.eigenvectors() * values.asDiagonal() * eig.eigenvectors().transpose();
 }
+
+}  // namespace
 
 Vector6d translationRotationDiagonal(double t2, double r2) { return (Vector6d() << t2, t2, t2, r2, r2, r2).finished(); }
 

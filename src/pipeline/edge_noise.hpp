@@ -11,10 +11,6 @@ namespace hazmap::pipeline_detail {
 
 /// The inverse of a covariance, its eigenvalues bounded below by 1e-12 first.
 Matrix6d inverseOf(const Matrix6d& covariance);
-/// The positive semi-definite part of a symmetric matrix (negative eigenvalues set to zero).
-Matrix6d positivePart(const Matrix6d& m);
-/// The covariance with its diagonal raised to the σ floors (m, rad), eigenvalues bounded below.
-Matrix6d flooredCovariance(const Matrix6d& covariance, double min_translation_sigma, double min_rotation_sigma);
 /// The diagonal (t2, t2, t2, r2, r2, r2), translation first.
 Vector6d translationRotationDiagonal(double t2, double r2);
 

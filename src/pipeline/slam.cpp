@@ -4,13 +4,12 @@
 #include <tbb/parallel_invoke.h>
 
 #include <algorithm>
-#include <chrono>
-#include <cmath>
 #include <memory>
 
 #include "hazmap/core/error.hpp"
 #include "hazmap/core/se3.hpp"
 #include "pipeline/back_end.hpp"
+#include "pipeline/clock.hpp"
 #include "pipeline/edge_noise.hpp"
 #include "pipeline/frame_records.hpp"
 
@@ -19,8 +18,6 @@ namespace hazmap {
 namespace {
 
 using namespace pipeline_detail;
-using Clock = std::chrono::steady_clock;
-double secondsSince(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
 // One SLAM run, frame by frame: each public step is one box of the paper's Fig. 1.
 class SlamRun {
@@ -131,7 +128,7 @@ class SlamRun {
 
   /// Odometry edge, information = inverse of the calibrated ICP covariance (eq. 3), or the wheel
   /// noise when the tracker fell back to the encoders. The covariance is kept for the gate.
-  void addOdometryEdge(FrameRecord& rec) {
+  void addOdometryEdge(const FrameRecord& rec) {
     if (rec.index == 0) {
       if (back_end_) back_end_->addStep(rec, Matrix6d::Zero());
       return;
