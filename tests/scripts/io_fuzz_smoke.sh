@@ -24,7 +24,12 @@ fi
 fuzz_build="$bin/io-fuzz"
 log="$fuzz_build/smoke.log"
 mkdir -p "$fuzz_build"
-CC="$cc" CXX="$cxx" cmake -S "$src" -B "$fuzz_build" -DHAZMAP_FUZZ=ON -DHAZMAP_BUILD_TESTS=OFF \
+# Ninja starts the next library's files while one is linking; ccache (where a developer has it)
+# makes a re-run of the suite skip the clang build. A folder keeps the generator it was made with.
+extra=()
+[[ ! -f "$fuzz_build/CMakeCache.txt" ]] && command -v ninja > /dev/null && extra+=(-G Ninja)
+command -v ccache > /dev/null && extra+=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache -DCMAKE_C_COMPILER_LAUNCHER=ccache)
+CC="$cc" CXX="$cxx" cmake -S "$src" -B "$fuzz_build" "${extra[@]}" -DHAZMAP_FUZZ=ON -DHAZMAP_BUILD_TESTS=OFF \
   -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -gline-tables-only" \
   -DHAZMAP_SANITIZE=OFF > "$log" 2>&1 || { cat "$log"; exit 1; }
 targets=(fuzz_pcd fuzz_ply fuzz_kitti fuzz_trajectory fuzz_class_table fuzz_velodyne fuzz_pcap fuzz_ouster
@@ -37,14 +42,25 @@ rm -rf "$seeds"
 "$fuzz_build/fuzz/hazmap_fuzz_sensor_seeds" "$data" "$seeds"
 "$fuzz_build/fuzz/hazmap_fuzz_bag_seeds" "$data" "$seeds"
 export HAZMAP_FUZZ_DB3="$seeds/run_0.db3"  # the .db3 fuzz_rosbag2's metadata.yaml points at
+# Two targets at a time (the machines have two cores); each writes its own log, read after.
+fuzz_one() {
+  local t=$1 name=${1#fuzz_}
+  local corpus="$fuzz_build/corpus/$name"   # grows across runs; the seeds are re-read every time
+  mkdir -p "$corpus" "$seeds/$name"
+  (cd "$fuzz_build" && "$fuzz_build/fuzz/$t" -max_total_time="$seconds" -rss_limit_mb=2048 \
+     -malloc_limit_mb=1024 -timeout=10 -max_len=65536 -print_final_stats=1 \
+     -artifact_prefix="$fuzz_build/crash-$name-" "$corpus" "$seeds/$name" > "$fuzz_build/$name.log" 2>&1)
+  echo $? > "$fuzz_build/$name.status"
+}
+for ((i = 0; i < ${#targets[@]}; i += 2)); do
+  fuzz_one "${targets[i]}" &
+  [[ -n "${targets[i + 1]:-}" ]] && fuzz_one "${targets[i + 1]}" &
+  wait
+done
 status=0
 for t in "${targets[@]}"; do
   name=${t#fuzz_}
-  corpus="$fuzz_build/corpus/$name"   # grows across runs; the seeds are re-read every time
-  mkdir -p "$corpus" "$seeds/$name"
-  if ! (cd "$fuzz_build" && "$fuzz_build/fuzz/$t" -max_total_time="$seconds" -rss_limit_mb=2048 \
-         -malloc_limit_mb=1024 -timeout=10 -max_len=65536 -print_final_stats=1 \
-         -artifact_prefix="$fuzz_build/crash-$name-" "$corpus" "$seeds/$name" > "$fuzz_build/$name.log" 2>&1); then
+  if [[ "$(cat "$fuzz_build/$name.status")" != 0 ]]; then
     echo "FAIL: $t found a problem (log: $fuzz_build/$name.log)"
     grep -E "ERROR|SUMMARY|==[0-9]+==|Test unit written" "$fuzz_build/$name.log" | head -20
     status=1
