@@ -94,7 +94,7 @@ class BagScanSource final : public ScanSource {
     BagMessage m;
     if (!reader_->next(m)) {
       exhausted_ = true;
-      if (const auto dropped = assembler_->flush(pending_)) notice(*dropped);
+      for (const auto& line : assembler_->flush(path_.string() + ": " + topics_.lidar->name, pending_)) notice(line);
       for (const auto& line : reader_->loss().notices) notice(line);
       return;
     }

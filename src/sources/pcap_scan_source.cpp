@@ -80,7 +80,7 @@ class PcapScanSource final : public ScanSource {
         continue;
       }
       exhausted_ = true;
-      if (const auto dropped = assembler_->flush(pending_)) notice(*dropped);
+      for (const auto& line : assembler_->flush(path_.string(), pending_)) notice(line);
       for (const auto& line : reader_.loss().notices) notice(line);
     }
     if (pending_.empty()) return std::nullopt;
