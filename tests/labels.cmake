@@ -92,6 +92,7 @@ hazmap_label(test_sources unit
 hazmap_label(test_sources_cli real-data
   scene "^SimulateMcap\\.")
 hazmap_label(test_tolerant_decoding real-data)
+hazmap_label(test_hesai real-data)
 hazmap_label(test_velodyne real-data
   unit "^Velodyne\\.(Hdl32eBlockLayout|ExactAzimuth)|^VelodyneCalibration\\.|^VelodyneCalibrationFile\\.BadFilesAreNamed$")
 hazmap_label(test_viewer unit

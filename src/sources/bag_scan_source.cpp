@@ -74,6 +74,7 @@ class BagScanSource final : public ScanSource {
     switch (topics_.kind) {
       case LidarKind::PointCloud2: return nullptr;
       case LidarKind::VelodyneScan: return makeVelodyneDecoderFor(options_);
+      case LidarKind::HesaiScan: return makeHesaiDecoderFor(options_);
       case LidarKind::OusterPackets: break;
     }
     if (!options_.sensor_metadata.empty())

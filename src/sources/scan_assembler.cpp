@@ -39,6 +39,11 @@ void ScanAssembler::addMessage(const BagMessage& message, const std::string& whe
         addPacket(p.data, p.stamp, where, out);
       return;
     }
+    case LidarKind::HesaiScan: {
+      const VelodyneScanMsg msg = decodePandarScan(message.data, s, where);
+      for (const LidarPacket& p : msg.packets) addPacket(p.data, p.stamp, where, out);
+      return;
+    }
     case LidarKind::OusterPackets: {
       const LidarPacket p = decodeOusterPacket(message.data, s, where);
       // ouster_ros/PacketMsg has no stamp: the recorder's receive time stands in.
@@ -66,6 +71,13 @@ std::vector<std::string> ScanAssembler::flush(const std::string& where, std::deq
   if (!decoder_) return {};
   take(out);
   std::optional<DecodedScan> d = decoder_->flush();
+  for (std::optional<DecodedScan> more; (more = decoder_->flush());) {  // a decoder may hold more than one
+    if (d && !d->cloud.empty()) {
+      last_points_ = d->cloud.size();
+      out.push_back({sweepMiddle(d->cloud, d->stamp), std::move(d->cloud)});
+    }
+    d = std::move(more);
+  }
   const DecoderQuirks& q = decoder_->quirks();
   // One odd packet never costs the recording; a recording of nothing but odd packets is refused.
   if (q.decoded_packets == 0 && q.total() > 0)
