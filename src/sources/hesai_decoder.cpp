@@ -19,6 +19,7 @@
 #include <cmath>
 #include <deque>
 #include <limits>
+#include <map>
 #include <numbers>
 
 #include "hazmap/core/error.hpp"
@@ -33,6 +34,7 @@ constexpr int kCentiDegrees = 36000;
 
 struct Channel {
   float cos_el, sin_el, azimuth_offset;  // degrees
+  float cos_offset, sin_offset;          // of the azimuth offset
   std::uint16_t ring;
 };
 
@@ -46,6 +48,7 @@ class HesaiDecoder final : public PacketDecoder {
       fail("Hesai decoder", "cut_angle must be in [0, 360) and fov_min/fov_max in [0, 360] degrees");
     if (!(options.dual_return_distance_threshold >= 0))
       fail("Hesai decoder", "dual_return_distance_threshold must be >= 0");
+    full_fov_ = options.fov_min == 0 && options.fov_max == 360;
     if (options.model) setUp(*options.model);
   }
 
@@ -58,8 +61,9 @@ class HesaiDecoder final : public PacketDecoder {
   }
   std::optional<DecodedScan> flush() override {
     if (ready_.empty() && !open_.empty()) {  // the rotation the input ended in, one turn at a time
-      finish(open_.front().second);
-      open_.pop_front();
+      finish(open_.begin()->second);
+      open_.erase(open_.begin());
+      current_ = nullptr;
     }
     return takeScan();
   }
@@ -85,10 +89,11 @@ class HesaiDecoder final : public PacketDecoder {
   void decodeFiring(const std::uint8_t* packet, int first_block, int returns, std::uint16_t azimuth,
                     float unit, double time);
   bool keep(const std::uint8_t* const* units, int r, int returns, float unit, float distance) const;
-  void addPoint(std::int64_t index, const Channel& c, float distance, float azimuth_deg, std::uint8_t reflectivity,
-                double time, std::uint8_t return_type);
+  DecodedScan* scanFor(std::int64_t index);
   void closeScans(std::uint16_t azimuth);
   void finish(DecodedScan& scan) {
+    scan.cloud.classes.assign(scan.cloud.points.size(), 0);
+    last_size_ = std::max(last_size_, scan.cloud.points.size());
     scan.stamp = scan.cloud.timestamps.empty() ? 0.0 : scan.cloud.timestamps.front();
     ready_.push_back(std::move(scan));
   }
@@ -108,7 +113,11 @@ class HesaiDecoder final : public PacketDecoder {
   std::uint8_t last_mode_ = 0;
   std::int64_t turn_ = 0;  // block azimuth, unwrapped: turn_ · 360° + prev_azimuth_
   int prev_azimuth_ = -1;
-  std::deque<std::pair<std::int64_t, DecodedScan>> open_;  // scans being filled, by turn index
+  std::map<std::int64_t, DecodedScan> open_;  // scans being filled, by turn index
+  DecodedScan* current_ = nullptr;            // open_[current_index_], the one most points go to
+  std::int64_t current_index_ = 0;
+  bool full_fov_ = true;
+  std::size_t last_size_ = 0;  // the largest scan so far: what a new one reserves
   std::int64_t closed_below_ = std::numeric_limits<std::int64_t>::min();
   std::deque<DecodedScan> ready_;
 };
@@ -131,7 +140,13 @@ void HesaiDecoder::setUp(HesaiModel model) {
   for (std::size_t ring = 0; ring < order.size(); ++ring) {
     const std::size_t c = order[ring];
     const float el = static_cast<float>(cal.elevation_deg[c]) * kRad;
-    channels_[c] = {std::cos(el), std::sin(el), static_cast<float>(cal.azimuth_deg[c]), static_cast<std::uint16_t>(ring)};
+    const double offset = cal.azimuth_deg[c] * std::numbers::pi / 180;
+    channels_[c] = {std::cos(el),
+                    std::sin(el),
+                    static_cast<float>(cal.azimuth_deg[c]),
+                    static_cast<float>(std::cos(offset)),
+                    static_cast<float>(std::sin(offset)),
+                    static_cast<std::uint16_t>(ring)};
   }
   min_offset_ = channels_[0].azimuth_offset;
   for (const Channel& c : channels_) min_offset_ = std::min(min_offset_, c.azimuth_offset);
@@ -221,53 +236,70 @@ bool HesaiDecoder::keep(const std::uint8_t* const* units, int r, int returns, fl
   return true;
 }
 
+/// One firing's points. The azimuth's sine and cosine come from the block's and the channel
+/// offset's by the angle-addition formulas (a sine per point would cost most of the decoding);
+/// the scan a point belongs to from its azimuth in degrees, in float as nebula computes it.
 void HesaiDecoder::decodeFiring(const std::uint8_t* packet, int first_block, int returns, std::uint16_t azimuth,
                                 float unit, double time) {
   const HesaiLayout& l = *layout_;
   const float block_deg = static_cast<float>(azimuth / 100.0);
   const auto cut = static_cast<float>(options_.cut_angle);
+  const double block_rad = azimuth * std::numbers::pi / 18000.0;
+  const auto sin_block = static_cast<float>(std::sin(block_rad)), cos_block = static_cast<float>(std::cos(block_rad));
   const double block_time = time + l.blockOffsetNs(first_block, returns) * 1e-9;
+  const std::uint8_t* first = packet + l.header + static_cast<std::size_t>(first_block) * l.block_bytes + l.azimuth_at + 2;
   const std::uint8_t* units[3];
   for (int c = 0; c < l.channels; ++c) {
-    for (int r = 0; r < returns; ++r)
-      units[r] = packet + l.header + static_cast<std::size_t>(first_block + r) * l.block_bytes + l.azimuth_at + 2 +
-                 static_cast<std::size_t>(c * l.unit);
+    bool any = false;  // most units of a packet are empty (no echo): skip them first
+    for (int r = 0; r < returns; ++r) {
+      units[r] = first + static_cast<std::size_t>(r) * l.block_bytes + c * l.unit;
+      any = any || units[r][0] != 0 || units[r][1] != 0;
+    }
+    if (!any) continue;
     const Channel& ch = channels_[static_cast<std::size_t>(c)];
     const float azimuth_deg = block_deg + ch.azimuth_offset;
-    if (!inFov(azimuth_deg)) continue;
-    const std::int64_t index = turn_ + static_cast<std::int64_t>(std::floor((azimuth_deg - cut) / 360.0f));
+    if (!full_fov_ && !inFov(azimuth_deg)) continue;
+    const float from_cut = azimuth_deg - cut;
+    const std::int64_t index = turn_ + (from_cut < 0 ? -1 : from_cut >= 360.0f ? 1 : 0);
+    const float sin_az = sin_block * ch.cos_offset + cos_block * ch.sin_offset;
+    const float cos_az = cos_block * ch.cos_offset - sin_block * ch.sin_offset;
+    const double point_time = block_time + l.channelOffsetNs(c) * 1e-9;
     for (int r = 0; r < returns; ++r) {
       const std::uint16_t raw = u16(units[r]);
       const float distance = static_cast<float>(raw) * unit;
       if (raw == 0 || distance < min_range_ || distance > max_range_ || !keep(units, r, returns, unit, distance))
         continue;
-      addPoint(index, ch, distance, azimuth_deg, units[r][2], block_time + l.channelOffsetNs(c) * 1e-9,
-               static_cast<std::uint8_t>(returns == 1 ? 0 : r + 1));
+      DecodedScan* s = scanFor(index);
+      if (!s) continue;
+      const float xy = distance * ch.cos_el;
+      // Hesai's frame: azimuth 0 along y, clockwise seen from above (x right); ROS: x forward, y left.
+      s->cloud.points.emplace_back(xy * cos_az, -xy * sin_az, distance * ch.sin_el);
+      s->cloud.intensity.push_back(units[r][2]);
+      s->cloud.timestamps.push_back(point_time);
+      s->ring.push_back(ch.ring);
+      s->return_type.push_back(static_cast<std::uint8_t>(returns == 1 ? 0 : r + 1));
     }
   }
 }
 
-void HesaiDecoder::addPoint(std::int64_t index, const Channel& c, float distance, float azimuth_deg,
-                            std::uint8_t reflectivity, double time, std::uint8_t return_type) {
-  if (index < closed_below_) return;  // cannot happen with azimuths in order (advance)
-  auto it = open_.begin();
-  while (it != open_.end() && it->first < index) ++it;
-  if (it == open_.end() || it->first != index) {
-    DecodedScan scan;
-    scan.cloud.enableIntensity();
-    scan.cloud.enableTimestamps();
-    it = open_.insert(it, {index, std::move(scan)});
+/// The open scan of this turn index (made when new); nullptr for one already complete.
+DecodedScan* HesaiDecoder::scanFor(std::int64_t index) {
+  if (current_ && index == current_index_) return current_;
+  if (index < closed_below_) return nullptr;  // cannot happen with azimuths in order (advance)
+  auto [it, made] = open_.try_emplace(index);
+  if (made) {
+    DecodedScan& s = it->second;
+    s.cloud.enableIntensity();
+    s.cloud.enableTimestamps();
+    s.cloud.points.reserve(last_size_);
+    s.cloud.intensity.reserve(last_size_);
+    s.cloud.timestamps.reserve(last_size_);
+    s.ring.reserve(last_size_);
+    s.return_type.reserve(last_size_);
   }
-  DecodedScan& s = it->second;
-  const float rad = azimuth_deg * static_cast<float>(std::numbers::pi / 180.0);
-  const float xy = distance * c.cos_el;
-  // Hesai's frame: azimuth 0 along y, clockwise seen from above (x right); ROS: x forward, y left.
-  s.cloud.points.emplace_back(xy * std::cos(rad), -xy * std::sin(rad), distance * c.sin_el);
-  s.cloud.classes.push_back(0);
-  s.cloud.intensity.push_back(reflectivity);
-  s.cloud.timestamps.push_back(time);
-  s.ring.push_back(c.ring);
-  s.return_type.push_back(return_type);
+  current_ = &it->second;
+  current_index_ = index;
+  return current_;
 }
 
 /// Scans whose end every channel has passed at this block azimuth are complete.
@@ -276,9 +308,10 @@ void HesaiDecoder::closeScans(std::uint16_t azimuth) {
   // the last to pass the cut, and no point can fall behind it by rounding.
   const float passed = (static_cast<float>(azimuth / 100.0) + min_offset_ - static_cast<float>(options_.cut_angle)) / 360.0f;
   const std::int64_t complete_below = turn_ + static_cast<std::int64_t>(std::floor(passed));
-  while (!open_.empty() && open_.front().first < complete_below) {
-    finish(open_.front().second);
-    open_.pop_front();
+  while (!open_.empty() && open_.begin()->first < complete_below) {
+    if (current_ == &open_.begin()->second) current_ = nullptr;
+    finish(open_.begin()->second);
+    open_.erase(open_.begin());
   }
   closed_below_ = std::max(closed_below_, complete_below);
 }
