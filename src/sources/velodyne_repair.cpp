@@ -57,6 +57,7 @@ bool VelodyneDecoder::repairBlocks(std::uint8_t mode, const std::string& where) 
   const bool vls = *model_ == VelodyneModel::VLS128;
   const int used = vls && mode == kModeDual ? 8 : kBlocks;
   std::vector<int> candidates;
+  bool odd[kBlocks] = {};  // skipped for what it holds (its azimuth is replaced below)
   for (int b = 0; b < kBlocks; ++b) {
     skip_[b] = true;
     const std::uint16_t header = u16(p + b * kBlockBytes), azimuth = u16(p + b * kBlockBytes + 2);
@@ -65,9 +66,14 @@ bool VelodyneDecoder::repairBlocks(std::uint8_t mode, const std::string& where) 
       quirks_.note("Velodyne block azimuths of 36000 wrapped to 0", where);
     } else if (azimuth > kCentiDegrees) {
       quirks_.note("Velodyne blocks with an azimuth above 36000 skipped", where);
+      odd[b] = true;
       continue;
     }
-    if (b >= used) continue;  // VLS-128 dual return padding: never decoded
+    odd[b] = true;            // until it proves in order below
+    if (b >= used) {          // VLS-128 dual return padding: never decoded, its azimuth kept
+      odd[b] = false;
+      continue;
+    }
     if (!(vls ? bankOf(header) >= 0 : header == kBankIds[0])) {
       quirks_.note(fmt::format("Velodyne blocks whose header is no {} bank id skipped", velodyneModelName(*model_)),
                    where);
@@ -78,11 +84,11 @@ bool VelodyneDecoder::repairBlocks(std::uint8_t mode, const std::string& where) 
   const std::vector<int> kept = inOrder(candidates, p);
   if (kept.size() < candidates.size())
     quirks_.note("Velodyne blocks out of azimuth order skipped", where, candidates.size() - kept.size());
-  for (int b : kept) skip_[b] = false;
+  for (int b : kept) skip_[b] = false, odd[b] = false;
   if (kept.empty()) return false;
   std::uint16_t last = u16(p + kept.front() * kBlockBytes + 2);
   for (int b = 0; b < kBlocks; ++b) {
-    if (skip_[b]) putAzimuth(p, b, last);
+    if (odd[b]) putAzimuth(p, b, last);
     last = u16(p + b * kBlockBytes + 2);
   }
   return true;
