@@ -181,7 +181,8 @@ bool HesaiDecoder::packetFits(std::span<const std::uint8_t> p, const std::string
 }
 
 void HesaiDecoder::addPacket(std::span<const std::uint8_t> payload, double packet_time, const std::string& where) {
-  if (!packetFits(payload, where)) return;
+  constexpr std::size_t kGpsPacketSize = 512;  // the sensors' GPS/PPS status packets: no odd input
+  if (payload.size() == kGpsPacketSize || !packetFits(payload, where)) return;
   const std::uint8_t* p = payload.data();
   last_mode_ = p[layout_->return_mode_at];
   const int returns = returnsOfMode(last_mode_);

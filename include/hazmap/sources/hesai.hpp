@@ -63,7 +63,8 @@ struct HesaiOptions {
 /// right, y forward); intensity = the return's reflectivity (0–255); timestamps = packet time +
 /// the block's firing offset from the manual (+ the channel's for the XT models); ring = 0 for
 /// the lowest elevation; return_type = 0 in single return modes, else 1 + the return's block
-/// within its firing (last+strongest: 1 last, 2 strongest).
+/// within its firing (last+strongest: 1 last, 2 strongest). 512-byte GPS packets are ignored;
+/// other odd input is skipped and counted in quirks() (docs/formats.md, "Tolerant decoding").
 std::unique_ptr<PacketDecoder> makeHesaiDecoder(const HesaiOptions& options = {});
 
 inline constexpr std::uint16_t kHesaiDataPort = 2368;
