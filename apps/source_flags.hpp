@@ -14,7 +14,7 @@
 namespace hazmap::cli {
 
 struct SourceFlags {
-  std::string lidar_topic, odom_topic, sensor_metadata, velodyne_calibration;
+  std::string lidar_topic, odom_topic, sensor_metadata, velodyne_calibration, hesai_calibration, sensor;
   bool no_deskew = false;
 
   void add(CLI::App& app, bool with_deskew = true) {
@@ -26,6 +26,11 @@ struct SourceFlags {
                    "Ouster metadata JSON (default: the bag's metadata topic, or the .json next to a .pcap)");
     app.add_option("--velodyne-calibration", velodyne_calibration,
                    "Velodyne calibration YAML (default: the model's factory calibration)");
+    app.add_option("--hesai-calibration", hesai_calibration,
+                   "Hesai angle-correction CSV (default: the model's built-in angles)");
+    app.add_option("--sensor", sensor,
+                   "LiDAR model to expect (Hesai: Pandar40P, Pandar64, PandarQT64, PandarQT128, PandarXT16, "
+                   "PandarXT32, PandarXT32M; Velodyne: VLP-16, VLP-32C, HDL-32E, VLS-128); default: from the packets");
     if (with_deskew)
       app.add_flag("--no-deskew", no_deskew, "Do not motion-compensate scans with per-point times");
   }
@@ -37,6 +42,8 @@ struct SourceFlags {
     o.odom_topic = odom_topic;
     o.sensor_metadata = sensor_metadata;
     o.velodyne_calibration = velodyne_calibration;
+    o.hesai_calibration = hesai_calibration;
+    o.sensor = sensor;
     o.class_table = std::move(table);
     // On a terminal the progress bar's line is cleared first (it is redrawn on the next frame).
     if (print_notices)

@@ -40,7 +40,7 @@ set(HAZMAP_STAGE_HEADERS_properties preprocess/normals.hpp preprocess/spatial_in
 set(HAZMAP_STAGE_LINKS_properties preprocess)
 
 # Third-party libraries: private to the stages (a static library passes them on as link-only).
-set(HAZMAP_STAGE_THIRD_PARTY TBB::tbb Ceres::ceres yaml-cpp fmt::fmt embree nanoflann::nanoflann
+set(HAZMAP_STAGE_THIRD_PARTY TBB::tbb Ceres::ceres yaml-cpp fmt::fmt spdlog::spdlog embree nanoflann::nanoflann
   nlohmann_json::nlohmann_json ${STB_LIBRARY} ${CAIRO_LIBRARY} SQLite::SQLite3 PkgConfig::ZSTD
   PkgConfig::LZ4 BZip2::BZip2 ZLIB::ZLIB ${PCAP_LIBRARY})
 

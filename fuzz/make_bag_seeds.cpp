@@ -10,7 +10,9 @@
 #include <fstream>
 #include <iostream>
 
+#include "hazmap/sources/bag_message.hpp"
 #include "hazmap/sources/mcap_writer.hpp"
+#include "hazmap/sources/ros_messages.hpp"
 #include "hazmap/sources/ros_encode.hpp"
 #include "ros1_bag_builder.hpp"
 
@@ -115,6 +117,33 @@ void messageSeeds(const fs::path& dir) {
   put(dir / "pose_cdr", encodePoseStamped({1.0, "map"}, Eigen::Isometry3d::Identity()), 12, true);
 }
 
+/// fuzz_hesai's seeds: the first packets of each real Hesai bag (selector = the model's size
+/// class, as fuzz_hesai.cpp reads them) and each recording's angle-correction CSV.
+void hesaiSeeds(const fs::path& data, const fs::path& dir) {
+  const std::pair<const char*, std::uint8_t> bags[] = {
+      {"hesai-pandar40p", 0}, {"hesai-pandar64", 1}, {"hesai-qt128", 3}, {"hesai-xt32", 5}};
+  for (const auto& [name, model] : bags) {
+    for (const auto& e : fs::directory_iterator(data / "sensors" / name)) {
+      if (e.path().extension() == ".csv") {
+        std::ifstream csv(e.path(), std::ios::binary);
+        const std::vector<std::uint8_t> text{std::istreambuf_iterator<char>(csv), std::istreambuf_iterator<char>()};
+        put(dir / (std::string(name) + "_csv"), text, static_cast<std::uint8_t>(0x80 | model), true);
+      }
+      if (!e.is_directory()) continue;
+      auto bag = openBag(e.path());
+      BagMessage m;
+      if (!bag->next(m)) continue;
+      const auto scan = decodePandarScan(m.data, m.topic->serialization, e.path().string());
+      std::vector<std::uint8_t> seed = {0, 0};
+      for (std::size_t i = 0; i < scan.packets.size() && i < 8; ++i) {
+        seed.push_back(model);
+        seed.insert(seed.end(), scan.packets[i].data.begin(), scan.packets[i].data.end());
+      }
+      put(dir / (std::string(name) + "_packets"), seed);
+    }
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -124,7 +153,8 @@ int main(int argc, char** argv) {
   }
   const fs::path data = argv[1], out = argv[2];
   try {
-    for (const char* d : {"mcap", "ros1_bag", "rosbag2", "ros_messages"}) fs::create_directories(out / d);
+    for (const char* d : {"mcap", "ros1_bag", "rosbag2", "ros_messages", "hesai"}) fs::create_directories(out / d);
+    hesaiSeeds(data, out / "hesai");
     mcapSeeds(out / "mcap");
     ros1Seeds(out / "ros1_bag");
     db3Seed(out / "run_0.db3");

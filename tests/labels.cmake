@@ -91,6 +91,8 @@ hazmap_label(test_sources unit
   scene "^SlamStream\\.")
 hazmap_label(test_sources_cli real-data
   scene "^SimulateMcap\\.")
+hazmap_label(test_tolerant_decoding real-data)
+hazmap_label(test_hesai real-data)
 hazmap_label(test_velodyne real-data
   unit "^Velodyne\\.(Hdl32eBlockLayout|ExactAzimuth)|^VelodyneCalibration\\.|^VelodyneCalibrationFile\\.BadFilesAreNamed$")
 hazmap_label(test_viewer unit

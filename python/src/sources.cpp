@@ -14,10 +14,14 @@ py::object optionalPose(const std::optional<Eigen::Isometry3d>& pose) {
 }
 
 ScanSourceOptions sourceOptions(const std::string& lidar_topic, const std::string& odom_topic,
-                                const py::object& classes) {
+                                const py::object& classes, const std::string& sensor,
+                                const py::object& hesai_calibration) {
   ScanSourceOptions options;
   options.lidar_topic = lidar_topic;
   options.odom_topic = odom_topic;
+  options.sensor = sensor;
+  // None (not an empty path: pybind turns "" into ".") means the built-in angles.
+  if (!hesai_calibration.is_none()) options.hesai_calibration = hesai_calibration.cast<std::filesystem::path>();
   if (!classes.is_none()) options.class_table = classTableArg(classes);
   return options;
 }
@@ -68,13 +72,15 @@ void bindSources(py::module_& m) {
   m.def(
       "open",
       [](const std::filesystem::path& path, const std::string& lidar_topic, const std::string& odom_topic,
-         const py::object& classes) {
-        const ScanSourceOptions options = sourceOptions(lidar_topic, odom_topic, classes);
+         const py::object& classes, const std::string& sensor, const py::object& hesai_calibration) {
+        const ScanSourceOptions options = sourceOptions(lidar_topic, odom_topic, classes, sensor, hesai_calibration);
         py::gil_scoped_release release;
         return openScanSource(path, options);
       },
       py::arg("path"), py::arg("lidar_topic") = "", py::arg("odom_topic") = "", py::arg("classes") = py::none(),
-      "Opens a sequence folder, a bag (.bag, .mcap, rosbag2 folder) or a capture (.pcap) as a scan stream");
+      py::arg("sensor") = "", py::arg("hesai_calibration") = py::none(),
+      "Opens a sequence folder, a bag (.bag, .mcap, rosbag2 folder) or a capture (.pcap) as a scan stream; "
+      "sensor: the LiDAR model to expect (e.g. 'PandarXT32'), hesai_calibration: a Hesai angle-correction CSV");
 }
 
 }  // namespace hazmap::python

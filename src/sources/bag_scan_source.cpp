@@ -74,6 +74,7 @@ class BagScanSource final : public ScanSource {
     switch (topics_.kind) {
       case LidarKind::PointCloud2: return nullptr;
       case LidarKind::VelodyneScan: return makeVelodyneDecoderFor(options_);
+      case LidarKind::HesaiScan: return makeHesaiDecoderFor(options_);
       case LidarKind::OusterPackets: break;
     }
     if (!options_.sensor_metadata.empty())
@@ -94,7 +95,7 @@ class BagScanSource final : public ScanSource {
     BagMessage m;
     if (!reader_->next(m)) {
       exhausted_ = true;
-      if (const auto dropped = assembler_->flush(pending_)) notice(*dropped);
+      for (const auto& line : assembler_->flush(path_.string() + ": " + topics_.lidar->name, pending_)) notice(line);
       for (const auto& line : reader_->loss().notices) notice(line);
       return;
     }

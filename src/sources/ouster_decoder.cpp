@@ -1,6 +1,10 @@
 // Ouster packets → scans. Columns are gathered by measurement id into a range image of the
 // current frame; a packet of another frame id completes the scan (like ouster-sdk's
-// ScanBatcher), a packet of the previous frame arriving late is dropped.
+// ScanBatcher), a packet of the previous frame arriving late is dropped. Like ouster-sdk, what does
+// not fit (a datagram of another size, a column beyond the frame, a late or foreign packet) is
+// skipped, never fatal: counted in DecoderQuirks and warned once.
+#include <fmt/format.h>
+
 #include <deque>
 
 #include "hazmap/core/error.hpp"
@@ -10,6 +14,7 @@
 namespace hazmap {
 namespace {
 
+constexpr std::size_t kImuPacketSize = 48;  // IMU packets share the capture's stream: not odd
 constexpr std::uint64_t kYear2001Ns = 978'307'200ull * 1'000'000'000ull;
 enum class ColumnState : std::uint8_t { Missing, Valid, Invalid };
 
@@ -30,13 +35,15 @@ struct OusterDecoder::Impl {
   std::vector<std::uint64_t> column_time;
   std::vector<ColumnState> state;
   std::uint32_t columns_received = 0;
+  std::uint32_t columns_skipped = 0;  // odd columns of this frame (DecoderQuirks)
   double clock_offset = 0.0;  // seconds added to the sensor's timestamps
 
   std::deque<DecodedScan> ready;
   OusterDecoderStats stats;
+  DecoderQuirks& quirks;  // the decoder's
 
-  Impl(const OusterMetadata& m, const OusterDecoderOptions& o)
-      : meta(m), options(o), layout(m), lut(ouster_detail::makeXyzLut(m)) {
+  Impl(const OusterMetadata& m, const OusterDecoderOptions& o, DecoderQuirks& q)
+      : meta(m), options(o), layout(m), lut(ouster_detail::makeXyzLut(m)), quirks(q) {
     const std::size_t n = std::size_t{m.columns_per_frame} * m.pixels_per_column;
     range.resize(n);
     intensity.resize(n);
@@ -59,17 +66,23 @@ struct OusterDecoder::Impl {
     if (payload.size() != layout.packet_size || layout.packetType(payload.data()) != 1) {
       ++stats.other_packets;
       stats.last_other_size = payload.size();
+      if (payload.size() != kImuPacketSize && payload.size() != layout.packet_size)
+        quirks.note(fmt::format("Ouster datagrams of another size than {}'s lidar packets ({} bytes; truncated, or "
+                                "another sensor or mode) skipped", meta.describe(), layout.packet_size), where);
       return;
     }
     const std::uint8_t* packet = payload.data();
     if (foreign(packet)) {
       ++stats.foreign_packets;
+      quirks.note("Ouster packets of another sensor (initialization id or serial number) skipped", where);
       return;
     }
     ++stats.lidar_packets;
+    ++quirks.decoded_packets;
     const std::uint16_t f_id = layout.frameId(packet);
     if (frame_id >= 0 && static_cast<std::uint16_t>(f_id + 1) == frame_id) {
       ++stats.late_packets;
+      quirks.note("Ouster packets of an already completed frame (out of order) skipped", where);
       return;
     }
     if (frame_id >= 0 && f_id != frame_id) finishFrame();
@@ -81,6 +94,7 @@ struct OusterDecoder::Impl {
     frame_id = f_id;
     std::fill(state.begin(), state.end(), ColumnState::Missing);
     columns_received = 0;
+    columns_skipped = 0;
     const std::uint64_t last_ts = ouster_detail::PacketLayout::timestamp(layout.column(packet, layout.columns - 1));
     bool sensor_clock = options.clock == OusterDecoderOptions::Clock::Sensor;
     if (options.clock == OusterDecoderOptions::Clock::Auto) sensor_clock = last_ts >= kYear2001Ns;
@@ -98,11 +112,12 @@ struct OusterDecoder::Impl {
       }
       return;
     }
-    if (m_id >= meta.columns_per_frame)
-      fail(where, "Ouster column with measurement id " + std::to_string(m_id) + " in a " +
-                      std::to_string(meta.columns_per_frame) +
-                      "-column frame: the metadata (lidar_mode " + meta.lidar_mode +
-                      ") does not match the packets");
+    if (m_id >= meta.columns_per_frame) {  // ouster-sdk's batcher drops these columns too
+      quirks.note(fmt::format("Ouster columns with a measurement id beyond the {}-column frame (lidar_mode {}) "
+                              "skipped", meta.columns_per_frame, meta.lidar_mode), where);
+      ++columns_skipped;  // received, though unusable: the scan is not incomplete for it
+      return;
+    }
     if (state[m_id] == ColumnState::Missing) ++columns_received;
     state[m_id] = ColumnState::Valid;
     column_time[m_id] = ouster_detail::PacketLayout::timestamp(col);
@@ -147,7 +162,7 @@ struct OusterDecoder::Impl {
 
   void finishFrame() {
     if (frame_id < 0) return;
-    const bool complete = columns_received >= meta.columnsInWindow();
+    const bool complete = columns_received + columns_skipped >= meta.columnsInWindow();
     if (complete || options.keep_incomplete_scans) {
       ready.push_back(buildScan());
       ++stats.scans_emitted;
@@ -159,7 +174,7 @@ struct OusterDecoder::Impl {
 };
 
 OusterDecoder::OusterDecoder(const OusterMetadata& metadata, const OusterDecoderOptions& options)
-    : impl_(std::make_unique<Impl>(metadata, options)) {}
+    : impl_(std::make_unique<Impl>(metadata, options, quirks_)) {}
 OusterDecoder::~OusterDecoder() = default;
 
 void OusterDecoder::addPacket(std::span<const std::uint8_t> payload, double packet_time,

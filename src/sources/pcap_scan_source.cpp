@@ -1,10 +1,12 @@
 // A packet capture (.pcap) as a ScanSource. Which sensor sent it is sniffed from the datagrams:
-// Velodyne data packets are 1206-byte payloads (port 2368 by default), Ouster lidar packets go to
+// Velodyne data packets are 1206-byte payloads (port 2368 by default), Hesai data packets (port
+// 2368 too) start with 0xEEFF (0xFFEE on the Pandar40P) and have their model's size, Ouster lidar packets go to
 // port 7502 by default and need the sensor's metadata JSON (by default the .json next to the
 // capture) to be decoded.
 #include <fstream>
 
 #include "hazmap/core/error.hpp"
+#include "hazmap/sources/hesai.hpp"
 #include "hazmap/sources/ouster.hpp"
 #include "hazmap/sources/pcap_reader.hpp"
 #include "hazmap/sources/scan_source.hpp"
@@ -18,11 +20,12 @@ namespace {
 
 namespace fs = std::filesystem;
 
-enum class CaptureSensor { Velodyne, Ouster };
+enum class CaptureSensor { Velodyne, Hesai, Ouster };
 
 /// Looks at the first datagrams: a Velodyne data packet has a fixed size; anything else large
 /// is taken as Ouster when a metadata JSON is at hand.
-CaptureSensor sniffSensor(const fs::path& path, bool have_metadata) {
+CaptureSensor sniffSensor(const fs::path& path, bool have_metadata, bool hesai_named) {
+  if (hesai_named) return CaptureSensor::Hesai;
   PcapReader reader(path);
   UdpPacket packet;
   std::size_t seen = 0, largest = 0;
@@ -30,11 +33,12 @@ CaptureSensor sniffSensor(const fs::path& path, bool have_metadata) {
   while (seen < 200 && reader.next(packet)) {
     ++seen;
     if (packet.payload.size() == kVelodyneDataPacketSize) return CaptureSensor::Velodyne;
+    if (hesaiModelOfPacket(packet.payload)) return CaptureSensor::Hesai;
     if (packet.payload.size() > largest) largest = packet.payload.size(), largest_port = packet.destination_port;
   }
   if (seen == 0) fail(path.string(), "capture holds no UDP datagram");
   if (have_metadata || largest_port == 7502) return CaptureSensor::Ouster;
-  fail(path.string(), "no Velodyne data packet (1206 bytes) among the first " + std::to_string(seen) +
+  fail(path.string(), "no Velodyne (1206 bytes) or Hesai data packet among the first " + std::to_string(seen) +
                           " datagrams (largest " + std::to_string(largest) + " bytes to port " +
                           std::to_string(largest_port) + "); an Ouster capture needs its metadata JSON "
                           "(--sensor-metadata)");
@@ -58,9 +62,11 @@ class PcapScanSource final : public ScanSource {
   PcapScanSource(const fs::path& path, const ScanSourceOptions& options)
       : path_(path), options_(options), reader_(path) {
     const fs::path metadata = metadataPath(path, options);
-    const CaptureSensor sensor = sniffSensor(path, !metadata.empty());
+    const CaptureSensor sensor = sniffSensor(path, !metadata.empty(), sensorIsHesai(options));
     if (sensor == CaptureSensor::Velodyne) {
       assembler_.emplace(LidarKind::VelodyneScan, makeVelodyneDecoderFor(options));
+    } else if (sensor == CaptureSensor::Hesai) {
+      assembler_.emplace(LidarKind::HesaiScan, makeHesaiDecoderFor(options));
     } else {
       if (metadata.empty())
         fail(path.string(), "an Ouster capture needs the sensor's metadata JSON: put it next to the capture "
@@ -80,7 +86,7 @@ class PcapScanSource final : public ScanSource {
         continue;
       }
       exhausted_ = true;
-      if (const auto dropped = assembler_->flush(pending_)) notice(*dropped);
+      for (const auto& line : assembler_->flush(path_.string(), pending_)) notice(line);
       for (const auto& line : reader_.loss().notices) notice(line);
     }
     if (pending_.empty()) return std::nullopt;

@@ -102,6 +102,24 @@ VelodyneScanMsg decodeVelodyneScan(std::span<const std::uint8_t> bytes, Serializ
   return msg;
 }
 
+VelodyneScanMsg decodePandarScan(std::span<const std::uint8_t> bytes, Serialization s, const std::string& where) {
+  constexpr std::size_t kPandarPacketBytes = 1500;
+  RosReader r(bytes, s, where);
+  VelodyneScanMsg msg;
+  msg.header = r.header();
+  const auto n = r.count(8 + kPandarPacketBytes + 4, "PandarPacket");
+  msg.packets.resize(n);
+  for (auto& packet : msg.packets) {
+    packet.stamp = r.time();
+    const auto data = r.fixedBytes(kPandarPacketBytes, "PandarPacket data");
+    const auto size = r.prim<std::uint32_t>();
+    if (size > kPandarPacketBytes)
+      r.failAt("PandarPacket size " + std::to_string(size) + " exceeds its 1500 data bytes");
+    packet.data.assign(data.begin(), data.begin() + size);
+  }
+  return msg;
+}
+
 LidarPacket decodeOusterPacket(std::span<const std::uint8_t> bytes, Serialization s,
                                const std::string& where) {
   RosReader r(bytes, s, where);

@@ -39,6 +39,11 @@ void ScanAssembler::addMessage(const BagMessage& message, const std::string& whe
         addPacket(p.data, p.stamp, where, out);
       return;
     }
+    case LidarKind::HesaiScan: {
+      const VelodyneScanMsg msg = decodePandarScan(message.data, s, where);
+      for (const LidarPacket& p : msg.packets) addPacket(p.data, p.stamp, where, out);
+      return;
+    }
     case LidarKind::OusterPackets: {
       const LidarPacket p = decodeOusterPacket(message.data, s, where);
       // ouster_ros/PacketMsg has no stamp: the recorder's receive time stands in.
@@ -62,21 +67,38 @@ void ScanAssembler::take(std::deque<RawScan>& out) {
     }
 }
 
-std::optional<std::string> ScanAssembler::flush(std::deque<RawScan>& out) {
-  if (!decoder_) return std::nullopt;
+std::vector<std::string> ScanAssembler::flush(const std::string& where, std::deque<RawScan>& out) {
+  if (!decoder_) return {};
   take(out);
   std::optional<DecodedScan> d = decoder_->flush();
-  if (!d || d->cloud.empty()) return std::nullopt;
+  for (std::optional<DecodedScan> more; (more = decoder_->flush());) {  // a decoder may hold more than one
+    if (d && !d->cloud.empty()) {
+      last_points_ = d->cloud.size();
+      out.push_back({sweepMiddle(d->cloud, d->stamp), std::move(d->cloud)});
+    }
+    d = std::move(more);
+  }
+  const DecoderQuirks& q = decoder_->quirks();
+  // One odd packet never costs the recording; a recording of nothing but odd packets is refused.
+  if (q.decoded_packets == 0 && q.total() > 0)
+    fail(where, "no decodable LiDAR packet: " + q.summary());
+  std::vector<std::string> notices;
+  if (q.total() > 0) notices.push_back(where + ": tolerated " + q.summary());
+  if (!d || d->cloud.empty()) return notices;
   // The rotation the recording ended in: a scan only if it is not a small piece of one (a
   // capture shorter than a rotation still gives its one partial scan).
   if (last_points_ > 0 && 2 * d->cloud.size() < last_points_)
-    return "the last " + std::to_string(d->cloud.size()) + " points (a partial rotation at the end) dropped";
-  out.push_back({sweepMiddle(d->cloud, d->stamp), std::move(d->cloud)});
-  return std::nullopt;
+    notices.push_back("the last " + std::to_string(d->cloud.size()) +
+                      " points (a partial rotation at the end) dropped");
+  else
+    out.push_back({sweepMiddle(d->cloud, d->stamp), std::move(d->cloud)});
+  return notices;
 }
 
 std::string ScanAssembler::describe() const {
-  return decoder_ ? decoder_->describe() : std::string("PointCloud2");
+  if (!decoder_) return "PointCloud2";
+  const DecoderQuirks& q = decoder_->quirks();
+  return q.total() > 0 ? decoder_->describe() + "; tolerated " + q.summary() : decoder_->describe();
 }
 
 }  // namespace hazmap::sources

@@ -6,6 +6,7 @@
 #include <optional>
 #include <span>
 #include <string>
+#include <vector>
 
 #include "hazmap/sources/bag_message.hpp"
 #include "hazmap/sources/packet_decoder.hpp"
@@ -30,8 +31,10 @@ class ScanAssembler {
   void addPacket(std::span<const std::uint8_t> payload, double time, const std::string& where,
                  std::deque<RawScan>& out);
   /// At the end of the recording: the scan being assembled, unless it is a small piece of a
-  /// rotation (then a notice saying so is returned).
-  std::optional<std::string> flush(std::deque<RawScan>& out);
+  /// rotation. Returns notices: that piece dropped, what the decoder tolerated (DecoderQuirks).
+  /// Throws hazmap::Error naming `where` when no packet decoded and some were odd.
+  std::vector<std::string> flush(const std::string& where, std::deque<RawScan>& out);
+  /// The decoder's description, with what it tolerated when anything.
   std::string describe() const;
 
  private:

@@ -32,7 +32,7 @@ const TopicInfo* pick(const std::vector<const TopicInfo*>& candidates, const std
   if (candidates.size() == 1) return candidates.front();
   if (candidates.empty()) {
     if (!required) return nullptr;
-    fail(where, std::string("no ") + what + " topic (PointCloud2, velodyne_msgs/VelodyneScan or Ouster "
+    fail(where, std::string("no ") + what + " topic (PointCloud2, velodyne_msgs/VelodyneScan, pandar_msgs/PandarScan or Ouster "
                                             "packets); topics: " + (every.empty() ? "none" : listTopics(every)));
   }
   fail(where, std::string(candidates.size() > 1 ? "several " : "") + what + " topics, choose one with " + flag +
@@ -44,6 +44,7 @@ const TopicInfo* pick(const std::vector<const TopicInfo*>& candidates, const std
 bool lidarKindOf(const TopicInfo& topic, LidarKind& kind) {
   if (topic.type == kPointCloud2Type) kind = LidarKind::PointCloud2;
   else if (topic.type == kVelodyneScanType) kind = LidarKind::VelodyneScan;
+  else if (topic.type == kPandarScanType) kind = LidarKind::HesaiScan;
   // The Ouster driver sends IMU packets with the same message type on …/imu_packets.
   else if (isOusterPacketType(topic.type) && !contains(topic.name, "imu")) kind = LidarKind::OusterPackets;
   else return false;

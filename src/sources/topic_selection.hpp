@@ -1,6 +1,6 @@
 #pragma once
-// Which topics of a bag a scan stream reads: the LiDAR topic (PointCloud2, VelodyneScan or Ouster
-// packets), the wheel odometry, and what comes with them (Ouster metadata, ground truth, a
+// Which topics of a bag a scan stream reads: the LiDAR topic (PointCloud2, VelodyneScan, Hesai
+// PandarScan or Ouster packets), the wheel odometry, and what comes with them (Ouster metadata, ground truth, a
 // hazmap class table). Defaults: the only candidate; ambiguous or wrong → one line listing the
 // candidates with their types.
 #include <string>
@@ -11,10 +11,11 @@
 
 namespace hazmap::sources {
 
-enum class LidarKind { PointCloud2, VelodyneScan, OusterPackets };
+enum class LidarKind { PointCloud2, VelodyneScan, OusterPackets, HesaiScan };
 
 inline constexpr const char* kPointCloud2Type = "sensor_msgs/msg/PointCloud2";
 inline constexpr const char* kVelodyneScanType = "velodyne_msgs/msg/VelodyneScan";
+inline constexpr const char* kPandarScanType = "pandar_msgs/msg/PandarScan";
 inline constexpr const char* kOdometryType = "nav_msgs/msg/Odometry";
 inline constexpr const char* kStringType = "std_msgs/msg/String";
 inline constexpr const char* kPoseStampedType = "geometry_msgs/msg/PoseStamped";

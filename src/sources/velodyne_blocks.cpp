@@ -83,6 +83,7 @@ void VelodyneDecoder::decode16(const std::uint8_t* packet, double time, std::uin
   const bool dual = mode == kModeDual;
   const BlockAzimuths az = blockAzimuths(packet, kBlocks, dual, kBlocks - (dual ? 1 : 0) - 1);
   for (int b = 0; b < kBlocks; ++b) {
+    if (skip_[b]) continue;
     if (!(fov_min_cd_ < fov_max_cd_ ? inFov(az.azimuth[b]) : fov_min_cd_ > fov_max_cd_)) continue;
     const std::uint8_t* data = packet + b * kBlockBytes + 4;
     const std::uint8_t* pair = packet + (b ^ 1) * kBlockBytes + 4;
@@ -112,6 +113,7 @@ void VelodyneDecoder::decode32(const std::uint8_t* packet, double time, std::uin
   const float channel = hdl ? 1.152f : 2.304f, sequence_us = hdl ? 46.08f : 55.296f;
   const BlockAzimuths az = blockAzimuths(packet, kBlocks, dual, kBlocks - (dual ? 4 : 0) - 1);
   for (int b = 0; b < kBlocks; ++b) {
+    if (skip_[b]) continue;
     const std::uint8_t* data = packet + b * kBlockBytes + 4;
     const std::uint8_t* pair = packet + (b ^ 1) * kBlockBytes + 4;
     if (!inFov(u16(data - 2))) continue;  // the driver filters these models by block azimuth
@@ -140,6 +142,7 @@ void VelodyneDecoder::decode128(const std::uint8_t* packet, double time, std::ui
   const int used = dual ? 8 : kBlocks;
   const BlockAzimuths az = blockAzimuths(packet, used, dual, kBlocks - (dual ? 4 : 0) - 1);
   for (int b = 0; b < used; ++b) {
+    if (skip_[b]) continue;
     if (!(fov_min_cd_ < fov_max_cd_ ? inFov(az.azimuth[b]) : fov_min_cd_ > fov_max_cd_)) continue;
     const std::uint8_t* data = packet + b * kBlockBytes + 4;
     const std::uint8_t* pair = packet + (b ^ 1) * kBlockBytes + 4;

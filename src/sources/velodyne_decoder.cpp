@@ -7,6 +7,8 @@
 
 #include <fmt/format.h>
 
+#include <cstring>
+
 #include "hazmap/core/error.hpp"
 
 namespace hazmap {
@@ -138,20 +140,26 @@ bool productFits(VelodyneModel model, std::uint8_t product) {
 
 void VelodyneDecoder::addPacket(std::span<const std::uint8_t> payload, double packet_time,
                                 const std::string& where) {
-  if (payload.size() != kVelodyneDataPacketSize) return;  // position packets and others
+  if (payload.size() == kVelodynePositionPacketSize) return;
+  if (payload.size() != kVelodyneDataPacketSize) {
+    quirks_.note("Velodyne datagrams neither a data (1206 bytes) nor a position packet (truncated?) skipped", where);
+    return;
+  }
   const std::uint8_t* p = payload.data();
   const std::uint8_t mode = p[1204], product = p[1205];
   const auto model = velodyneModelFromProductId(product);
   const bool mode_ok = mode == kModeStrongest || mode == kModeLast || mode == kModeDual;
-  if (!model || !mode_ok)
-    fail(where, fmt::format("unsupported Velodyne {}: factory bytes 0x{:02x} 0x{:02x} (return "
-                            "mode, product id); supported: VLP-16 0x22, VLP-32C 0x28, HDL-32E "
-                            "0x21, VLS-128 0xa1 in mode 0x37, 0x38 or 0x39",
-                            model ? "return mode" : "product id", mode, product));
+  if (!model || !mode_ok) {
+    quirks_.note(fmt::format("Velodyne packets with unsupported factory bytes (e.g. 0x{:02x} 0x{:02x}: return "
+                             "mode, product id) skipped", mode, product), where);
+    return;
+  }
   const VelodyneModel expected = model_ ? *model_ : options_.model ? *options_.model : *model;
-  if (!productFits(expected, product))
-    fail(where, fmt::format("factory bytes 0x{:02x} 0x{:02x} say {}, expected {}", mode, product,
-                            velodyneModelName(*model), velodyneModelName(expected)));
+  if (!productFits(expected, product)) {
+    quirks_.note(fmt::format("Velodyne packets of another model ({}, expected {}) skipped",
+                             velodyneModelName(*model), velodyneModelName(expected)), where);
+    return;
+  }
   if (!model_ && !options_.model && product == 0x21) {
     if (held_.empty()) {  // decide with the next packet
       held_.assign(p, p + kVelodyneDataPacketSize);
@@ -170,10 +178,13 @@ void VelodyneDecoder::addPacket(std::span<const std::uint8_t> payload, double pa
   decodePacket(p, packet_time, where);
 }
 
-void VelodyneDecoder::decodePacket(const std::uint8_t* p, double packet_time,
+void VelodyneDecoder::decodePacket(const std::uint8_t* raw, double packet_time,
                                    const std::string& where) {
+  std::memcpy(packet_.data(), raw, kVelodyneDataPacketSize);
+  const std::uint8_t* p = packet_.data();
   const std::uint8_t mode = p[1204];
-  checkBlocks(p, mode, where);
+  if (!repairBlocks(mode, where)) return;
+  ++quirks_.decoded_packets;
   last_mode_ = mode;
   const Cut cut = findCut(p);
   if (cut == Cut::BeforePacket) cutScan(false);
@@ -185,23 +196,6 @@ void VelodyneDecoder::decodePacket(const std::uint8_t* p, double packet_time,
     case VelodyneModel::VLS128: decode128(p, packet_time, mode); break;
   }
   if (cut == Cut::WithinPacket) cutScan(true);
-}
-
-/// Every block the model uses must carry a bank id and an azimuth below 360° (checked before
-/// decoding, so a corrupt packet adds nothing).
-void VelodyneDecoder::checkBlocks(const std::uint8_t* p, std::uint8_t mode,
-                                  const std::string& where) const {
-  const bool vls = *model_ == VelodyneModel::VLS128;
-  const int used = vls && mode == kModeDual ? 8 : kBlocks;
-  for (int b = 0; b < kBlocks; ++b) {
-    const std::uint16_t header = u16(p + b * kBlockBytes), azimuth = u16(p + b * kBlockBytes + 2);
-    if (azimuth >= kCentiDegrees)
-      fail(where, fmt::format("Velodyne block {} azimuth {} is not below 36000", b, azimuth));
-    const bool ok = vls ? bankOf(header) >= 0 : header == kBankIds[0];
-    if (b < used && !ok)
-      fail(where, fmt::format("Velodyne block {} header 0x{:04x} is no {} bank id", b, header,
-                              velodyneModelName(*model_)));
-  }
 }
 
 /// Like the drivers: the scan is complete when a packet's azimuth passes the cut angle, within

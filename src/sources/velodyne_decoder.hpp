@@ -1,6 +1,7 @@
 #pragma once
 // Internal to the Velodyne decoder (velodyne_decoder.cpp: packets, scan cutting;
 // velodyne_blocks.cpp: the models' block layouts, timing and geometry).
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <deque>
@@ -101,9 +102,11 @@ class VelodyneDecoder final : public PacketDecoder {
                               rotor_rate_ * (offset - blockStart(block, dual)) -
                               lasers_[laser].rot_cd);
   }
-  void checkBlocks(const std::uint8_t* packet, std::uint8_t mode, const std::string& where) const;
+  bool repairBlocks(std::uint8_t mode, const std::string& where);
 
   VelodyneOptions options_;
+  std::array<std::uint8_t, kVelodyneDataPacketSize> packet_{};  // the packet being decoded, repaired
+  bool skip_[kBlocks] = {};  // blocks of packet_ not to decode (repairBlocks)
   std::uint32_t cut_cd_ = 0;
   int fov_min_cd_ = 0, fov_max_cd_ = kCentiDegrees;
   std::optional<VelodyneModel> model_;

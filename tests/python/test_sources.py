@@ -29,6 +29,17 @@ def test_ouster_capture_scans(data):
     assert scans[0].stamp < scans[1].stamp < scans[2].stamp
 
 
+def test_hesai_bag_with_its_model_and_angle_file(data):
+    d = data / "sensors" / "hesai-xt32"
+    source = hazmap.open(d / "1673400677802009732", sensor="PandarXT32", hesai_calibration=d / "PandarXT32.csv")
+    scans = list(source)
+    assert len(scans) == 4  # as `hazmap info` reports: the partial rotation at the end dropped
+    assert "Hesai PandarXT32" in source.description and "PandarXT32.csv" in source.description
+    assert all(len(s.cloud) > 40000 for s in scans)
+    with pytest.raises(hazmap.Error, match="no decodable LiDAR packet"):
+        list(hazmap.open(data / "sensors" / "hesai-qt128" / "1730273789074637152", sensor="XT32"))
+
+
 def test_sequence_folder(sim_sequence):
     source = hazmap.open(sim_sequence)
     assert len(source) == 15

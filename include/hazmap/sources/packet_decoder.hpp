@@ -20,12 +20,28 @@ struct DecodedScan {
   std::vector<std::uint8_t> return_type;   ///< per point; decoder-specific meaning (documented there)
 };
 
+/// What a decoder tolerated instead of refusing the recording: odd datagrams, packets and blocks
+/// it wrapped or skipped, counted per kind (e.g. "Velodyne block azimuths of 36000 wrapped to
+/// 0"). The first of each kind is warned once (spdlog) naming where it was; the rest are only
+/// counted. A recording is refused only when nothing of it decodes (`decoded_packets` == 0).
+struct DecoderQuirks {
+  std::vector<std::pair<std::string, std::uint64_t>> counts;  ///< kind → count, first seen first
+  std::uint64_t decoded_packets = 0;  ///< packets that gave data
+
+  void note(const std::string& kind, const std::string& where, std::uint64_t n = 1);
+  std::uint64_t count(const std::string& kind) const;
+  std::uint64_t total() const;
+  /// "3 Velodyne block azimuths of 36000 wrapped to 0, 1 datagram of 1000 bytes skipped"; empty if none.
+  std::string summary() const;
+};
+
 class PacketDecoder {
  public:
   virtual ~PacketDecoder() = default;
   /// Feeds one UDP payload received at `packet_time` (s). Payloads of other kinds (e.g.
-  /// Velodyne position packets, Ouster IMU packets) are ignored. Throws hazmap::Error
-  /// naming `where` on a packet of the right size but impossible content.
+  /// Velodyne position packets, Ouster IMU packets) are ignored; odd ones (truncated, of
+  /// another model, blocks out of order or with impossible azimuths) are wrapped or skipped
+  /// and counted in quirks(). `where` names the datagram for the one warning per kind.
   virtual void addPacket(std::span<const std::uint8_t> payload, double packet_time,
                          const std::string& where) = 0;
   /// A completed scan, if one is ready (call after each addPacket until it returns nullopt).
@@ -33,6 +49,11 @@ class PacketDecoder {
   /// At the end of input: the partial scan being assembled, if any.
   virtual std::optional<DecodedScan> flush() = 0;
   virtual std::string describe() const = 0;  ///< e.g. "Velodyne VLP-16 (dual return)"
+  /// What was tolerated so far (see DecoderQuirks).
+  const DecoderQuirks& quirks() const { return quirks_; }
+
+ protected:
+  DecoderQuirks quirks_;
 };
 
 }  // namespace hazmap

@@ -70,6 +70,10 @@ OdometryMsg decodeOdometry(std::span<const std::uint8_t> bytes, Serialization s,
 ImageMsg decodeImage(std::span<const std::uint8_t> bytes, Serialization s, const std::string& where);
 VelodyneScanMsg decodeVelodyneScan(std::span<const std::uint8_t> bytes, Serialization s,
                                    const std::string& where);
+/// pandar_msgs/msg/PandarScan (the Hesai drivers' packet topic): header, PandarPacket[] with
+/// {builtin_interfaces/Time stamp, uint8[1500] data, uint32 size}; each packet's first `size`
+/// bytes (size > 1500 is an error naming `where`).
+VelodyneScanMsg decodePandarScan(std::span<const std::uint8_t> bytes, Serialization s, const std::string& where);
 LidarPacket decodeOusterPacket(std::span<const std::uint8_t> bytes, Serialization s,
                                const std::string& where);
 /// std_msgs/String (the Ouster driver's metadata topic).

@@ -41,6 +41,10 @@ struct ScanSourceOptions {
   std::string odom_topic;      ///< empty: the only nav_msgs/Odometry topic, if any
   std::filesystem::path sensor_metadata;     ///< Ouster metadata JSON (else from a bag topic)
   std::filesystem::path velodyne_calibration;  ///< optional calibration YAML (else factory)
+  std::filesystem::path hesai_calibration;     ///< optional Hesai angle-correction CSV (else built-in)
+  /// The LiDAR model to expect, a Hesai ("Pandar64", "XT32", …) or Velodyne ("VLP-16", …) name;
+  /// empty: from the packets. Packets of another model are skipped and counted.
+  std::string sensor;
   std::optional<ClassTable> class_table;     ///< overrides the recording's
   /// Read the named per-point channels (Scan::channels). Only map assembly uses them: a pass
   /// that only tracks (hazmap run's first) turns this off and skips their files.

@@ -70,8 +70,8 @@ VelodyneCalibration velodyneFactoryCalibration(VelodyneModel model);
 VelodyneCalibration loadVelodyneCalibration(const std::filesystem::path& path, VelodyneModel model);
 
 struct VelodyneOptions {
-  /// Expected model; nullopt = taken from the first data packet's product id. A packet of
-  /// another product id is an error either way.
+  /// Expected model; nullopt = taken from the first data packet's product id. Packets of
+  /// another product id are skipped and counted (DecoderQuirks) either way.
   std::optional<VelodyneModel> model;
   /// Calibration YAML; empty = the model's factory calibration.
   std::filesystem::path calibration_file;
@@ -93,8 +93,10 @@ struct VelodyneOptions {
 /// DecodedScan: x forward, y left, z up (ROS convention); cloud.intensity = calibrated
 /// intensity 0–255; cloud.timestamps = absolute firing time (packet time + the firing's offset
 /// from the manual's timing table); ring = 0 for the lowest laser; return_type = VelodyneReturn.
-/// addPacket throws hazmap::Error naming `where` and the factory bytes on an unsupported
-/// product id or return mode, or on a block whose header is not a Velodyne bank id.
+/// Odd input is tolerated and counted in quirks(), never thrown: packets with unsupported
+/// factory bytes or of another model and datagrams of other sizes are skipped, a block azimuth
+/// of 36000 is wrapped to 0, blocks with no bank id, an azimuth above 36000 or out of azimuth
+/// order are skipped alone (docs/formats.md, "Tolerant decoding").
 std::unique_ptr<PacketDecoder> makeVelodyneDecoder(const VelodyneOptions& options = {});
 
 /// Size of a Velodyne data packet and of a position packet (UDP payload bytes).
