@@ -75,9 +75,12 @@ std::string markdown() {
          "- `hazmap config --dump-defaults [--json] [--for run|simulate]` prints the defaults;\n"
          "  `hazmap config --check FILE` validates a file. `run.json` stores a run's parameters in\n"
          "  this layout.\n"
+         "- One ICP is configured, tracking's (`odometry.registration`): loop verification\n"
+         "  (`loop_closure.verification.registration`) and the global registration's refinement\n"
+         "  (`odometry.global_registration.refinement`) state only what they change from it.\n"
          "\nDefaults of the run are those of `--method property-icp+pgo`; the other methods switch\n"
-         "`odometry.registration.use_classes`, `loop_closure.verification.registration.use_classes`\n"
-         "and `loop_closure.method` (distance for the conventional baselines).\n"
+         "`odometry.registration.use_classes` (which loop verification follows) and\n"
+         "`loop_closure.method` (distance for the conventional baselines).\n"
          "\n## Run (`hazmap run`, `hazmap demo`)\n";
   const SlamConfig run = SlamConfig::forMethod(SlamMethod::PropertyIcpPgo);
   for (const auto& f : describeConfig(run)) markdownSection(out, f.name, f.doc, f.children);

@@ -211,7 +211,7 @@ TEST(LoopCrossCheck, TheQuerysNeighbourhoodTellsARightLoopFromOneOffInHeightAndP
   const LabeledCloud world = corridorWorld();
   ClassTable classes = ClassTable::defaults();
   LoopClosureConfig c;
-  c.verification.registration.use_classes = false;
+  c.verification.tracking_registration.use_classes = false;
   // Keyframes 0–5 at x = 0…5, 6–16 far away (nothing there), 17–23 at x = 4…10: the same corridor again.
   PoseList truth;
   for (int k = 0; k < 24; ++k) truth.push_back(k < 6 ? pose(k, 0, 0) : k < 17 ? pose(200.0 + k, 0, 0) : pose(k - 13.0, 0, 0));

@@ -12,6 +12,8 @@
 #include "hazmap/map/hazards.hpp"
 #include "hazmap/pipeline/slam.hpp"
 #include "hazmap/sim/simulator.hpp"
+#include "odometry/odometry_checks.hpp"
+#include "pipeline/loop_edges.hpp"
 #include "test_helpers.hpp"
 
 using namespace hazmap;
@@ -171,6 +173,53 @@ TEST(ConfigFields, RetiredKeysPointToTheirHistory) {
             std::string::npos);
   // A key that merely ends like a retired one is not taken for it.
   EXPECT_EQ(errorOf([&] { applyConfigSetting(o, "guess_yaw=1"); }).find("retired"), std::string::npos);
+}
+
+// One ICP is configured (issue 37): loop verification and the global registration's refinement
+// run tracking's, with only their overrides stated; their defaults are what the full copies were.
+TEST(ConfigFields, VerificationAndRefinementOverrideTrackingsIcp) {
+  nlohmann::json verification = configToJson(RegistrationConfig{});
+  verification["max_correspondence_distance"] = 1.5;
+  verification["max_iterations"] = 60;
+  verification["max_source_points"] = 6000;
+  verification["coarse_source_points"] = 0;
+  verification["index"] = "kdtree";
+  EXPECT_EQ(configToJson(VerificationConfig{}.icp()), verification);
+  nlohmann::json refinement = configToJson(RegistrationConfig{});
+  refinement["max_iterations"] = 30;
+  refinement["max_source_points"] = 1500;
+  refinement["coarse_source_points"] = 0;
+  EXPECT_EQ(configToJson(GlobalRegistrationConfig{}.refinementIcp()), refinement);
+
+  // In a run both follow odometry.registration: the method's use_classes and any user setting.
+  SlamConfig c = SlamConfig::forMethod(SlamMethod::IcpPgo);
+  c.applySetting("odometry.registration.metric=point");
+  c.applySetting("odometry.registration.robust_min_scale=0.02");
+  c.applySetting("loop_closure.verification.registration.max_iterations=45");
+  const RegistrationConfig loop = pipeline_detail::loopClosureConfigFor(c).verification.icp();
+  EXPECT_FALSE(loop.use_classes);
+  EXPECT_EQ(loop.metric, IcpMetric::PointToPoint);
+  EXPECT_DOUBLE_EQ(loop.robust_min_scale, 0.02);
+  EXPECT_EQ(loop.max_iterations, 45);
+  EXPECT_DOUBLE_EQ(loop.max_correspondence_distance, 1.5);
+  const RegistrationConfig refine = globalConfigOf(c.odometry).refinementIcp();
+  EXPECT_EQ(refine.metric, IcpMetric::PointToPoint);
+  EXPECT_DOUBLE_EQ(refine.robust_min_scale, 0.02);
+  EXPECT_EQ(refine.max_iterations, 30);
+
+  // The keys of the old copies name where they live now.
+  EXPECT_EQ(errorOf([&] { c.applySetting("loop_closure.verification.registration.metric=point"); }),
+            "--set: loop_closure.verification.registration: unknown key 'metric' (moved to "
+            "odometry.registration.metric: loop verification runs tracking's ICP and states only its overrides)");
+  EXPECT_EQ(errorOf([&] { c.applySetting("odometry.global_registration.refinement.robust_kernel=cauchy"); }),
+            "--set: odometry.global_registration.refinement: unknown key 'robust_kernel' (moved to "
+            "odometry.registration.robust_kernel: the refinement runs tracking's ICP and states only its overrides)");
+  EXPECT_NE(errorOf([] { LoopClosureConfig::fromYamlString("verification: {registration: {metric: point}}\n", "l.yaml"); })
+                .find("moved to odometry.registration.metric"),
+            std::string::npos);
+  // `hazmap register --config` reads a plain registration section: a typo there is only a typo.
+  EXPECT_EQ(errorOf([] { registrationConfigFromYaml("registration: {metrik: point}\n", "r.yaml"); }),
+            "r.yaml: registration: unknown key 'metrik' (did you mean 'metric'?)");
 }
 
 TEST(PropertyIcpConfig, SetsTheClassTableOnce) {

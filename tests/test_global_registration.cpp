@@ -287,7 +287,7 @@ TEST(GlobalRegistration, ConfigReadsValidatesAndChecksTheTarget) {
   EXPECT_DOUBLE_EQ(c.voxel_size, 0.4);
   EXPECT_FALSE(c.use_classes);
   EXPECT_EQ(c.refinement.max_iterations, 12);
-  EXPECT_EQ(c.refinement.max_source_points, GlobalRegistrationConfig::defaultRefinement().max_source_points);
+  EXPECT_EQ(c.refinement.max_source_points, RefinementIcpOverrides{}.max_source_points);
   try {
     globalRegistrationConfigFromYaml("voxel_sise: 0.4\n", "g.yaml");
     FAIL() << "unknown key accepted";

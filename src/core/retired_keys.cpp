@@ -1,7 +1,10 @@
-// Keys of experiments that were measured and not adopted (issue 37). The code is gone; a YAML
-// file or `--set` naming one gets the usual unknown-key error plus where its write-up lives, so a
-// user's old config explains itself. An experiment not adopted leaves as a dated write-up in
-// docs/history/, and its keys join this table.
+// Keys that are no longer keys (issue 37). A YAML file or `--set` naming one gets the usual
+// unknown-key error plus what became of it, so a user's old config explains itself:
+//  - an experiment measured and not adopted: the code is gone, its dated write-up is in
+//    docs/history/ (the row names it);
+//  - an internal threshold that became a named constant in the file that uses it (issue 37
+//    part two: every key is a default path or a user's choice; the row names the file);
+//  - a key that moved: the row names its new path.
 #include "hazmap/core/retired_keys.hpp"
 
 #include <string_view>
@@ -14,10 +17,32 @@ namespace {
 constexpr std::string_view kNotAdopted = "measured and not adopted";
 constexpr std::string_view kAlwaysOn = "the switch of an adopted measure, now always on";
 
+enum class Fate { Retired, Constant, Moved };
+
 struct RetiredKey {
   std::string_view path;     ///< dotted, from the run config's top (`hazmap run --set` spelling)
-  std::string_view history;  ///< the write-up, relative to the repository
+  std::string_view history;  ///< the write-up (Retired), the file holding the constant (Constant),
+                             ///< or the new dotted path (Moved), relative to the repository / run config
   std::string_view why = kNotAdopted;
+  Fate fate = Fate::Retired;
+};
+
+/// A key that is now a named constant in `file`.
+constexpr RetiredKey constant(std::string_view path, std::string_view file) { return {path, file, {}, Fate::Constant}; }
+/// A key now spelled `to`.
+constexpr RetiredKey moved(std::string_view path, std::string_view to) { return {path, to, {}, Fate::Moved}; }
+
+/// Whole sections whose keys moved: every key under `from` (but the section's own, which are
+/// known and never reach here) is now the same key under `to`.
+struct MovedSection {
+  std::string_view from, to, why;
+};
+
+constexpr MovedSection kMovedSections[] = {
+    {"loop_closure.verification.registration", "odometry.registration",
+     "loop verification runs tracking's ICP and states only its overrides"},
+    {"odometry.global_registration.refinement", "odometry.registration",
+     "the refinement runs tracking's ICP and states only its overrides"},
 };
 
 constexpr RetiredKey kRetiredKeys[] = {
@@ -81,8 +106,21 @@ bool sameTail(std::string_view a, std::string_view b) {
 }  // namespace
 
 std::string retiredKeyNote(const std::string& path) {
-  for (const RetiredKey& r : kRetiredKeys)
-    if (sameTail(r.path, path)) return "retired: " + std::string(r.why) + ", see " + std::string(r.history);
+  for (const RetiredKey& r : kRetiredKeys) {
+    if (!sameTail(r.path, path)) continue;
+    switch (r.fate) {
+      case Fate::Retired: return "retired: " + std::string(r.why) + ", see " + std::string(r.history);
+      case Fate::Constant: return "now a constant in " + std::string(r.history) + "; see docs/configuration.md";
+      case Fate::Moved: return "moved to " + std::string(r.history);
+    }
+  }
+  const auto dot = path.rfind('.');
+  if (dot == std::string::npos) return {};
+  const std::string_view section(path.data(), dot), key = std::string_view(path).substr(dot + 1);
+  for (const MovedSection& m : kMovedSections)
+    // A lone "registration" is also the section of `hazmap register --config`, where the keys live.
+    if (sameTail(m.from, section) && section != "registration")
+      return "moved to " + std::string(m.to) + "." + std::string(key) + ": " + std::string(m.why);
   return {};
 }
 

@@ -77,6 +77,34 @@ const ConfigFields<CandidateSearchConfig>& configFields(ConfigTag<CandidateSearc
   return fields;
 }
 
+RegistrationConfig VerificationIcpOverrides::over(RegistrationConfig tracking) const {
+  tracking.max_correspondence_distance = max_correspondence_distance;
+  tracking.max_iterations = max_iterations;
+  tracking.max_source_points = max_source_points;
+  tracking.index = index;
+  tracking.coarse_source_points = coarse_source_points;
+  return tracking;
+}
+
+const ConfigFields<VerificationIcpOverrides>& configFields(ConfigTag<VerificationIcpOverrides>) {
+  using C = VerificationIcpOverrides;
+  static const ConfigFields<C> fields =
+      ConfigFields<C>("What the verification ICP changes from tracking's (odometry.registration); "
+                      "every other setting is tracking's.")
+          .number("max_correspondence_distance", &C::max_correspondence_distance, positive(),
+                  "m; search radius of unlabelled points (loops start farther from the truth than odometry steps)")
+          .integer("max_iterations", &C::max_iterations, atLeast(1), "Iteration limit")
+          .integer("max_source_points", &C::max_source_points, nonNegative(),
+                   "Use at most this many source points, evenly strided (0 = all)")
+          .choice("index", &C::index,
+                  {{"voxel", SpatialIndexKind::VoxelHash}, {"kdtree", SpatialIndexKind::KdTree},
+                   {"voxel-hash", SpatialIndexKind::VoxelHash}, {"k-d tree", SpatialIndexKind::KdTree}},
+                  "Spatial index of the target (dense submaps searched wide: the k-d tree is faster)")
+          .integer("coarse_source_points", &C::coarse_source_points, nonNegative(),
+                   "Coarse to fine stage of the verification ICP (0 = single stage, as the acceptance thresholds were set)");
+  return fields;
+}
+
 const ConfigFields<VerificationConfig>& configFields(ConfigTag<VerificationConfig>) {
   using C = VerificationConfig;
   static const ConfigFields<C> fields =
@@ -119,7 +147,8 @@ const ConfigFields<VerificationConfig>& configFields(ConfigTag<VerificationConfi
                    "Basin probes and the reverse cross-check start with a coarse stage on this many source points, then refine on all (0 = single stage)")
           .number("probe_tolerance_scale", &C::probe_tolerance_scale, atLeast(1.0),
                   "Basin probes stop at the registration's tolerances times this (1 = the verification's)")
-          .section("registration", &C::registration, "The verification ICP (α and class radii: property_icp)");
+          .section("registration", &C::registration,
+                   "The verification ICP: overrides of odometry.registration (α and class radii: property_icp)");
   return fields;
 }
 

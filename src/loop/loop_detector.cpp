@@ -95,7 +95,7 @@ std::shared_ptr<const RegistrationTarget> LoopDetector::submapTarget(std::size_t
         std::equal(c.placement.begin(), c.placement.end(), key.placement.begin(), key.placement.end(), same))
       return c.target;
   key.target = std::make_shared<const RegistrationTarget>(submap(k, query, estimate), classes_,
-                                                          config_.verification.registration);
+                                                          config_.verification.icp());
   ++submap_targets_built_;
   std::erase_if(submaps_, [&](const CachedSubmap& c) { return c.k == k; });
   submaps_.push_back(std::move(key));
@@ -263,8 +263,8 @@ double LoopDetector::crossCheckDistance(const LoopCandidate& cand, const PoseLis
   const auto match_scan = submaps ? nullptr : cloud(cand.match);
   const LabeledCloud& match = submaps ? match_target->cloud() : *match_scan;
   if (query.empty() || match.empty()) return std::numeric_limits<double>::quiet_NaN();
-  const RegistrationTarget target(query, classes_, c.registration);
-  RegistrationConfig reverse = c.registration;
+  const RegistrationTarget target(query, classes_, c.icp());
+  RegistrationConfig reverse = c.icp();
   if (c.probe_coarse_points > 0) reverse.coarse_source_points = c.probe_coarse_points;
   const RegistrationResult rev = registerClouds(match, target, cand.initial_guess.inverse(), classes_, reverse);
   if (!rev.converged || !isFinite(rev.transform)) return std::numeric_limits<double>::quiet_NaN();

@@ -51,7 +51,7 @@ void setLoopCovariance(LoopClosure& closure, const Matrix6d& covariance) {
 
 Matrix6d honestyTerms(const RegistrationResult& reg, const VerificationConfig& c) {
   Matrix6d extra = misfitTerm(reg, c);
-  const double L = c.registration.degeneracy_length > 0.0 ? c.registration.degeneracy_length : 1.0;
+  const double L = c.icp().degeneracy_length > 0.0 ? c.icp().degeneracy_length : 1.0;
   for (const Vector6d& d : reg.label_only_directions) {
     // d is a unit vector in pose units; in the balanced space (rotation × L) σ is isotropic.
     Vector6d v = d;

@@ -21,7 +21,7 @@ namespace {
 void widenByBasinProbes(VerificationResult& v, const LabeledCloud& query_cloud, const RegistrationTarget& target,
                         const ClassTable& classes, const VerificationConfig& c) {
   const Eigen::Isometry3d& result = v.closure.T_from_to;
-  RegistrationConfig probe = c.registration;
+  RegistrationConfig probe = c.icp();
   if (c.probe_coarse_points > 0) probe.coarse_source_points = c.probe_coarse_points;
   probe.translation_tolerance *= c.probe_tolerance_scale;
   probe.rotation_tolerance *= c.probe_tolerance_scale;
@@ -77,7 +77,7 @@ std::optional<VerificationResult> overlapAtGuess(const LoopCandidate& cand, cons
                                                  const RegistrationTarget& target, const ClassTable& classes,
                                                  const VerificationConfig& c) {
   if (c.guess_check_points == 0 || query_cloud.size() <= c.guess_check_points) return std::nullopt;
-  RegistrationConfig one = c.registration;
+  RegistrationConfig one = c.icp();
   one.max_source_points = c.guess_check_points;
   one.coarse_source_points = 0;
   one.max_iterations = 1;
@@ -97,7 +97,7 @@ std::optional<VerificationResult> overlapAtGuess(const LoopCandidate& cand, cons
 VerificationResult coarseCheck(const LoopCandidate& cand, const LabeledCloud& query_cloud, const RegistrationTarget& target,
                                const ClassTable& classes, const VerificationConfig& c) {
   if (auto hopeless = overlapAtGuess(cand, query_cloud, target, classes, c)) return *hopeless;
-  RegistrationConfig coarse = c.registration;
+  RegistrationConfig coarse = c.icp();
   coarse.max_source_points = c.coarse_source_points;
   const RegistrationResult reg = registerClouds(query_cloud, target, cand.initial_guess, classes, coarse);
   VerificationResult v = checkedAt(cand, reg);
@@ -134,7 +134,7 @@ VerificationResult verifyCandidate(const LoopCandidate& cand, const LabeledCloud
                                    const VerificationConfig& c) {
   validate(c);
   if (query_cloud.empty() || match_cloud.empty()) return emptyCloudRejection(cand);
-  const RegistrationTarget target(match_cloud, classes, c.registration);
+  const RegistrationTarget target(match_cloud, classes, c.icp());
   return verifyCandidate(cand, query_cloud, target, classes, c);
 }
 
@@ -148,7 +148,7 @@ VerificationResult verifyCandidate(const LoopCandidate& cand, const LabeledCloud
     if (coarse.rejection == LoopRejection::LowFitness) return coarse;
     if (refinesCoarse(coarse.registration, cand.initial_guess, c)) start = coarse.registration.transform;
   }
-  const RegistrationResult reg = registerClouds(query_cloud, target, start, classes, c.registration);
+  const RegistrationResult reg = registerClouds(query_cloud, target, start, classes, c.icp());
   VerificationResult v = evaluateRegistration(cand, reg, c);
   if (v.accepted && c.probe_distance > 0.0) widenByBasinProbes(v, query_cloud, target, classes, c);
   return v;

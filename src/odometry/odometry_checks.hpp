@@ -94,6 +94,7 @@ inline bool plausibleMotion(const Eigen::Isometry3d& motion, const OdometryConfi
 /// The odometry's global registration settings: its use_classes follows the registration's.
 inline GlobalRegistrationConfig globalConfigOf(const OdometryConfig& config) {
   GlobalRegistrationConfig gc = config.global;
+  gc.tracking_registration = config.registration;  // the refinement overrides tracking's ICP
   gc.use_classes = gc.use_classes && config.registration.use_classes;
   return gc;
 }

@@ -20,12 +20,24 @@ const char* toString(GlobalStatus s) {
   return "unknown";
 }
 
-RegistrationConfig GlobalRegistrationConfig::defaultRefinement() {
-  RegistrationConfig c;
-  c.max_iterations = 30;
-  c.coarse_source_points = 0;  // the downsampled scan is small already
-  c.max_source_points = 1500;  // plenty to tell a right hypothesis from a wrong one, and to refine it
-  return c;
+RegistrationConfig RefinementIcpOverrides::over(RegistrationConfig tracking) const {
+  tracking.max_iterations = max_iterations;
+  tracking.max_source_points = max_source_points;
+  tracking.coarse_source_points = coarse_source_points;
+  return tracking;
+}
+
+const ConfigFields<RefinementIcpOverrides>& configFields(ConfigTag<RefinementIcpOverrides>) {
+  using R = RefinementIcpOverrides;
+  static const ConfigFields<R> fields =
+      ConfigFields<R>("What the refinement ICP changes from tracking's (odometry.registration); every "
+                      "other setting is tracking's.")
+          .integer("max_iterations", &R::max_iterations, atLeast(1), "Iteration limit")
+          .integer("max_source_points", &R::max_source_points, nonNegative(),
+                   "Use at most this many source points, evenly strided (0 = all)")
+          .integer("coarse_source_points", &R::coarse_source_points, nonNegative(),
+                   "Coarse to fine stage (0 = off: the downsampled scan is small already)");
+  return fields;
 }
 
 namespace {

@@ -30,7 +30,7 @@ using Clock = std::chrono::steady_clock;
 double msSince(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
 RegistrationConfig refinementOf(const GlobalRegistrationConfig& config) {
-  RegistrationConfig r = config.refinement;
+  RegistrationConfig r = config.refinementIcp();
   r.use_classes = config.use_classes;
   r.threads = 0;  // runs inside the caller's arena
   return r;

@@ -52,11 +52,10 @@ const char* toString(CandidateMethod method);
 ///                    max_rotation_sigma: 0.035, reject_degenerate: true,
 ///                    max_correction_translation: 2, max_correction_rotation: 0.35,
 ///                    min_translation_sigma: 0.01, min_rotation_sigma: 0.001,
-///                    registration: {...}}  # the registration stage's keys
-///                                          # (docs/registration.md); defaults differ in
-///                                          # max_correspondence_distance 1.5, max_iterations 60,
-///                                          # max_source_points 6000, index kdtree,
-///                                          # coarse_source_points 0
+///                    registration: {max_correspondence_distance: 1.5, max_iterations: 60,
+///                                   max_source_points: 6000, index: kdtree,
+///                                   coarse_source_points: 0}}  # overrides of tracking's ICP
+///                                   # (odometry.registration); the rest is tracking's
 ///     consistency:  {translation_drift_per_metre: 0.04, rotation_drift_per_metre: 0.004,
 ///                    translation_sigma_floor: 0.1, rotation_sigma_floor: 0.01,
 ///                    gate_probability: 0.999, use_drift_gate: true, use_pairwise: true}
@@ -152,6 +151,7 @@ struct LoopClosureConfig {
 const ConfigFields<LandmarkConfig>& configFields(ConfigTag<LandmarkConfig>);
 const ConfigFields<ConstellationConfig>& configFields(ConfigTag<ConstellationConfig>);
 const ConfigFields<CandidateSearchConfig>& configFields(ConfigTag<CandidateSearchConfig>);
+const ConfigFields<VerificationIcpOverrides>& configFields(ConfigTag<VerificationIcpOverrides>);
 const ConfigFields<VerificationConfig>& configFields(ConfigTag<VerificationConfig>);
 const ConfigFields<ConsistencyConfig>& configFields(ConfigTag<ConsistencyConfig>);
 const ConfigFields<LoopClosureConfig>& configFields(ConfigTag<LoopClosureConfig>);

@@ -23,25 +23,36 @@ inline double poseChangeSize(const Eigen::Isometry3d& d) {
 
 class RegistrationTarget;
 
-struct VerificationConfig {
-  /// The ICP used for verification (property-aware by default; use_classes = false for the
-  /// conventional baselines). Loops start farther from the truth than odometry steps, so the
-  /// correspondence distance is wider than for frame-to-frame tracking.
+/// What loop verification's ICP changes from the tracking ICP (odometry.registration), and only
+/// that (issue 37: overrides, not a copy): every other setting — metric, robust kernel, labels,
+/// tolerances, use_classes — is tracking's.
+struct VerificationIcpOverrides {
+  /// Loops start farther from the truth than odometry steps: a wider correspondence distance.
+  double max_correspondence_distance = 1.5;
+  int max_iterations = 60;
   /// At most 6000 source points (evenly strided): enough to verify a loop and bounded in time.
-  RegistrationConfig registration = [] {
-    RegistrationConfig r;
-    r.max_correspondence_distance = 1.5;
-    r.max_iterations = 60;
-    r.max_source_points = 6000;
-    // Dense keyframes (0.15 m voxels) searched 1.5 m wide: a voxel hash with 1.5 m cells scans
-    // ~100 points per cell; the k-d tree verifies the same loops faster (docs/measurements.md).
-    r.index = SpatialIndexKind::KdTree;
-    // Single stage: the acceptance thresholds below were set on single-stage results, and a
-    // loop's larger initial error is where a 1000-point coarse stage could settle elsewhere
-    // (on naraha it accepted 18 loops instead of 16, map error +4 mm).
-    r.coarse_source_points = 0;
-    return r;
-  }();
+  std::size_t max_source_points = 6000;
+  /// Dense keyframes (0.15 m voxels) searched 1.5 m wide: a voxel hash with 1.5 m cells scans
+  /// ~100 points per cell; the k-d tree verifies the same loops faster (docs/measurements.md).
+  SpatialIndexKind index = SpatialIndexKind::KdTree;
+  /// Single stage: the acceptance thresholds below were set on single-stage results, and a
+  /// loop's larger initial error is where a 1000-point coarse stage could settle elsewhere
+  /// (on naraha it accepted 18 loops instead of 16, map error +4 mm).
+  std::size_t coarse_source_points = 0;
+  /// `tracking` with these fields replaced.
+  RegistrationConfig over(RegistrationConfig tracking) const;
+};
+
+struct VerificationConfig {
+  /// The verification ICP = tracking's with these overrides (property-aware by default;
+  /// tracking's use_classes = false for the conventional baselines).
+  VerificationIcpOverrides registration;
+  /// Not a key: the tracking ICP the overrides apply to. The pipeline sets it to
+  /// odometry.registration (loopClosureConfigFor); a standalone loop detector keeps the
+  /// default, which is tracking's default.
+  RegistrationConfig tracking_registration;
+  /// The ICP verification runs: tracking_registration with the overrides.
+  RegistrationConfig icp() const { return registration.over(tracking_registration); }
   /// Fraction of source points with a correspondence. Keyframes of one place from 1–3 m apart
   /// reach 0.93–1.0 on simulated VLP-16 data; wrong alignments often 0.7–0.9.
   double min_fitness = 0.8;

@@ -27,6 +27,17 @@
 
 namespace hazmap {
 
+/// What the global registration's refinement ICP changes from the tracking ICP
+/// (odometry.registration), and only that (issue 37: overrides, not a copy).
+struct RefinementIcpOverrides {
+  int max_iterations = 30;
+  /// Plenty to tell a right hypothesis from a wrong one, and to refine it.
+  std::size_t max_source_points = 1500;
+  std::size_t coarse_source_points = 0;  ///< the downsampled scan is small already
+  /// `tracking` with these fields replaced.
+  RegistrationConfig over(RegistrationConfig tracking) const;
+};
+
 struct GlobalRegistrationConfig {
   // --- features ---
   double voxel_size = 0.5;        ///< m, both clouds are downsampled to this first
@@ -70,19 +81,27 @@ struct GlobalRegistrationConfig {
   /// (RegistrationResult::degenerate_directions: a bare plane, a featureless corridor).
   bool reject_degenerate = true;
   int candidates_refined = 2;      ///< distinct hypotheses refined by ICP (>= 1; 2 = best + its rival)
-  RegistrationConfig refinement = defaultRefinement();  ///< property ICP of the candidates
+  /// The property ICP of the candidates: tracking's with these overrides (its use_classes
+  /// follows use_classes above).
+  RefinementIcpOverrides refinement;
+  /// Not a key: the tracking ICP the refinement's overrides apply to. The odometry sets it to
+  /// odometry.registration (globalConfigOf); standalone (`hazmap register --global`) it keeps the
+  /// default, which is tracking's default.
+  RegistrationConfig tracking_registration;
   /// The winner is polished by the same ICP on clouds downsampled to this (m; finer than
   /// voxel_size: at 0.5 m a sparse scan has shallow local minima a few degrees wide). 0 = off.
   double final_voxel_size = 0.25;
   int threads = 0;  ///< 0 = TBB's default (or the surrounding tbb::global_control)
 
-  static RegistrationConfig defaultRefinement();
+  /// The refinement ICP: tracking_registration with the refinement's overrides.
+  RegistrationConfig refinementIcp() const { return refinement.over(tracking_registration); }
   /// Throws hazmap::Error naming the offending parameter ("global_registration.<key>: ...").
   void validate() const;
 };
 
 /// The field table (keys, ranges, docs; core/config_fields.hpp, docs/configuration.md).
 const ConfigFields<GlobalRegistrationConfig>& configFields(ConfigTag<GlobalRegistrationConfig>);
+const ConfigFields<RefinementIcpOverrides>& configFields(ConfigTag<RefinementIcpOverrides>);
 /// YAML at top level or under `global_registration:`; unknown keys are errors.
 GlobalRegistrationConfig globalRegistrationConfigFromYaml(const std::string& yaml, const std::string& where,
                                                           const GlobalRegistrationConfig& base = {});
