@@ -6,6 +6,7 @@
 
 #include "command.hpp"
 #include "hazmap/core/config_fields.hpp"
+#include "hazmap/core/retired_keys.hpp"
 #include "hazmap/pipeline/slam.hpp"
 #include "hazmap/registration/global_registration.hpp"
 #include "hazmap/sim/simulator.hpp"
@@ -84,6 +85,7 @@ std::string markdown() {
          "\n## Run (`hazmap run`, `hazmap demo`)\n";
   const SlamConfig run = SlamConfig::forMethod(SlamMethod::PropertyIcpPgo);
   for (const auto& f : describeConfig(run)) markdownSection(out, f.name, f.doc, f.children);
+  out << "\n## Keys that moved or became constants\n\n" << config_detail::movedAndConstantKeysMarkdown();
   out << "\n## Global registration (`hazmap register --global --config`)\n";
   markdownSection(out, "global_registration", fieldsOf<GlobalRegistrationConfig>().doc(),
                   describeConfig<GlobalRegistrationConfig>());

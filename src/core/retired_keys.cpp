@@ -16,6 +16,7 @@ namespace {
 
 constexpr std::string_view kNotAdopted = "measured and not adopted";
 constexpr std::string_view kAlwaysOn = "the switch of an adopted measure, now always on";
+constexpr std::string_view kAlwaysOnHere = "the switch of an adopted measure, now always on in ";
 
 enum class Fate { Retired, Constant, Moved };
 
@@ -93,6 +94,86 @@ constexpr RetiredKey kRetiredKeys[] = {
     {"slam.submaps_only_frame_to_map", "docs/history/back-end-switches.md", kAlwaysOn},
     {"slam.misfit_only_frame_to_map", "docs/history/back-end-switches.md", kAlwaysOn},
     {"slam.nearest_partial_loops_only_frame_to_map", "docs/history/back-end-switches.md", kAlwaysOn},
+    // Issue 37 part two: internal thresholds became named constants in the file that uses them,
+    // switches of adopted measures became the code, and the tracking config was split.
+    constant("odometry.suspect_fitness", "src/odometry/odometry_checks.hpp"),
+    constant("odometry.suspect_correction_translation", "src/odometry/odometry_checks.hpp"),
+    constant("odometry.suspect_correction_rotation", "src/odometry/odometry_checks.hpp"),
+    constant("odometry.suspect_weak_axis_ratio", "src/odometry/odometry_checks.hpp"),
+    constant("odometry.relocalise_axis_step", "src/odometry/odometry_checks.hpp"),
+    constant("odometry.relocalise_probe_gain", "src/odometry/odometry_checks.hpp"),
+    constant("odometry.relocalise_start_correction", "src/odometry/odometry_checks.hpp"),
+    constant("odometry.relocalise_start_correction_rotation", "src/odometry/odometry_checks.hpp"),
+    constant("odometry.relocalise_min_gain", "src/odometry/odometry_checks.hpp"),
+    constant("odometry.relocalise_inlier_distance", "src/odometry/odometry_checks.hpp"),
+    constant("odometry.relocalise_distinct_translation", "src/odometry/odometry_checks.hpp"),
+    constant("odometry.relocalise_distinct_rotation", "src/odometry/odometry_checks.hpp"),
+    constant("odometry.relocalise_ambiguity", "src/odometry/odometry_checks.hpp"),
+    constant("odometry.relocalise_max_rmse_ratio", "src/odometry/odometry_checks.hpp"),
+    constant("odometry.relocalise_map_radius", "src/odometry/odometry_checks.hpp"),
+    constant("odometry.whole_map_min_fit", "src/odometry/odometry_checks.hpp"),
+    constant("odometry.flag_weak_axis_ratio", "src/odometry/odometry_checks.hpp"),
+    constant("odometry.flag_correction_after_flagged", "src/odometry/odometry_checks.hpp"),
+    constant("odometry.label_axis_gate", "src/odometry/odometry_checks.hpp"),
+    constant("odometry.label_axis_min_support", "src/odometry/odometry_checks.hpp"),
+    constant("odometry.label_axis_ambiguity", "src/odometry/odometry_checks.hpp"),
+    constant("odometry.label_axis_sigma", "src/odometry/odometry_checks.hpp"),
+    constant("odometry.label_axis_voxel", "src/odometry/odometry_checks.hpp"),
+    constant("odometry.label_axis_confirm", "src/odometry/odometry_checks.hpp"),
+    constant("odometry.label_axis_context", "src/odometry/odometry_checks.hpp"),
+    constant("odometry.label_axis_consistency", "src/odometry/odometry_checks.hpp"),
+    {"odometry.whole_map_confirm", "src/odometry/odometry_whole_map.cpp", kAlwaysOnHere, Fate::Constant},
+    {"odometry.flag_weak_axis", "src/odometry/frame_judgement.cpp", kAlwaysOnHere, Fate::Constant},
+    {"odometry.keep_guess_along_degenerate", "src/odometry/frame_judgement.cpp", kAlwaysOnHere, Fate::Constant},
+    moved("odometry.relocalise", "odometry.recovery.relocalise"),
+    moved("odometry.relocalise_suspect", "odometry.recovery.relocalise_suspect"),
+    moved("odometry.relocalise_max_translation", "odometry.recovery.max_translation"),
+    moved("odometry.relocalise_max_rotation", "odometry.recovery.max_rotation"),
+    moved("odometry.whole_map_relocalise", "odometry.recovery.whole_map"),
+    moved("odometry.whole_map_after", "odometry.recovery.whole_map_after"),
+    moved("odometry.keyframe_distance", "odometry.recovery.keyframe_distance"),
+    moved("odometry.keyframe_rotation", "odometry.recovery.keyframe_rotation"),
+    moved("odometry.reestimate_lost_frames", "odometry.recovery.reestimate_lost_frames"),
+    moved("odometry.lost_frames_max", "odometry.recovery.lost_frames_max"),
+    moved("odometry.label_axis_search", "odometry.label_axis.search"),
+    moved("odometry.label_axis_range", "odometry.label_axis.range"),
+    constant("odometry.global_registration.max_feature_neighbors", "src/registration/global_features.cpp"),
+    constant("odometry.global_registration.max_source_features", "src/registration/global_registration.cpp"),
+    constant("odometry.global_registration.mutual_filter", "src/registration/global_registration.cpp"),
+    constant("odometry.global_registration.min_correspondences", "src/registration/global_registration.cpp"),
+    constant("odometry.global_registration.edge_length_similarity", "src/registration/global_hypotheses.cpp"),
+    constant("odometry.global_registration.label_score_share", "src/registration/global_registration.cpp"),
+    constant("odometry.global_registration.min_labelled_points", "src/registration/global_registration.cpp"),
+    constant("odometry.global_registration.min_label_agreement", "src/registration/global_registration.cpp"),
+    constant("odometry.global_registration.landmark_cluster_distance", "src/registration/global_landmarks.cpp"),
+    constant("odometry.global_registration.landmark_min_points", "src/registration/global_landmarks.cpp"),
+    constant("odometry.global_registration.min_points", "src/registration/global_registration.cpp"),
+    constant("odometry.global_registration.min_features", "src/registration/global_registration.cpp"),
+    constant("odometry.global_registration.ambiguity_ratio", "src/registration/global_registration.cpp"),
+    constant("odometry.global_registration.distinct_translation", "src/registration/global_hypotheses.cpp"),
+    constant("odometry.global_registration.distinct_rotation_deg", "src/registration/global_hypotheses.cpp"),
+    constant("odometry.global_registration.reject_degenerate", "src/registration/global_registration.cpp"),
+    constant("odometry.global_registration.candidates_refined", "src/registration/global_registration.cpp"),
+    constant("loop_closure.candidates.constellation.distance_tolerance", "src/loop/candidates.cpp"),
+    constant("loop_closure.candidates.constellation.min_triangle_height", "src/loop/candidates.cpp"),
+    constant("loop_closure.candidates.constellation.max_extent_ratio", "src/loop/candidates.cpp"),
+    constant("loop_closure.candidates.constellation.max_hypotheses", "src/loop/candidates.cpp"),
+    constant("loop_closure.candidates.constellation.visibility_range", "src/loop/candidates.cpp"),
+    constant("loop_closure.candidates.constellation.miss_penalty", "src/loop/candidates.cpp"),
+    constant("loop_closure.candidates.constellation.min_overlap", "src/loop/candidates.cpp"),
+    constant("loop_closure.candidates.constellation.min_pair_distance", "include/hazmap/loop/candidates.hpp"),
+    constant("loop_closure.consistency.translation_sigma_floor", "src/loop/consistency.cpp"),
+    constant("loop_closure.consistency.rotation_sigma_floor", "src/loop/consistency.cpp"),
+    {"loop_closure.consistency.use_drift_gate", "src/loop/loop_detector.cpp", kAlwaysOnHere, Fate::Constant},
+    {"loop_closure.consistency.use_pairwise", "src/loop/loop_detector.cpp", kAlwaysOnHere, Fate::Constant},
+    constant("loop_closure.verification.max_translation_sigma", "src/loop/verification.cpp"),
+    constant("loop_closure.verification.max_rotation_sigma", "src/loop/verification.cpp"),
+    constant("loop_closure.verification.min_translation_sigma", "src/loop/verification.cpp"),
+    constant("loop_closure.verification.min_rotation_sigma", "src/loop/verification.cpp"),
+    constant("loop_closure.verification.max_probe_spread", "src/loop/verify_icp.cpp"),
+    constant("loop_closure.verification.guess_fitness_margin", "src/loop/verify_icp.cpp"),
+    constant("graph.gravity_sigma_scale_frame_to_map", "src/pipeline/back_end.cpp"),
+    constant("graph.gravity_alone_frame_to_map", "src/pipeline/back_end.cpp"),
 };
 
 // Whether the shorter of two dotted paths is a trailing part of the longer one: a command that
@@ -110,7 +191,9 @@ std::string retiredKeyNote(const std::string& path) {
     if (!sameTail(r.path, path)) continue;
     switch (r.fate) {
       case Fate::Retired: return "retired: " + std::string(r.why) + ", see " + std::string(r.history);
-      case Fate::Constant: return "now a constant in " + std::string(r.history) + "; see docs/configuration.md";
+      case Fate::Constant:
+        if (!r.why.empty()) return std::string(r.why) + std::string(r.history) + "; see docs/configuration.md";
+        return "now a constant in " + std::string(r.history) + "; see docs/configuration.md";
       case Fate::Moved: return "moved to " + std::string(r.history);
     }
   }
@@ -122,6 +205,23 @@ std::string retiredKeyNote(const std::string& path) {
     if (sameTail(m.from, section) && section != "registration")
       return "moved to " + std::string(m.to) + "." + std::string(key) + ": " + std::string(m.why);
   return {};
+}
+
+std::string movedAndConstantKeysMarkdown() {
+  std::string moved_rows, constant_rows;
+  for (const RetiredKey& r : kRetiredKeys) {
+    const std::string row = "| `" + std::string(r.path) + "` | `" + std::string(r.history) + "` |\n";
+    if (r.fate == Fate::Moved) moved_rows += row;
+    if (r.fate == Fate::Constant) constant_rows += row;
+  }
+  for (const MovedSection& m : kMovedSections)
+    moved_rows += "| `" + std::string(m.from) + ".*` (but its own keys) | `" + std::string(m.to) + ".*` |\n";
+  return "| old key | now |\n|---|---|\n" + moved_rows +
+         "\nInternal thresholds are not keys (issue 37: every key is a default path or a user's choice). Each is "
+         "a named `constexpr` constant, with a line on why it has its value, in the file that uses it; the "
+         "switches of adopted measures are the code itself. An old config naming one gets `unknown key 'X' (now a "
+         "constant in FILE; see docs/configuration.md)`.\n\n| old key | constant in |\n|---|---|\n" +
+         constant_rows;
 }
 
 }  // namespace hazmap::config_detail

@@ -14,6 +14,14 @@
 
 namespace hazmap {
 
+// Internal thresholds of the verification's shortcuts (issue 37: named constants, not keys).
+/// m; basin probes landing farther (RMS) from the result make the loop ambiguous: another basin
+/// fits as well (the neighbouring identical tank).
+constexpr double kMaxProbeSpread = 0.05;
+/// The guess check rejects below the coarse floor minus this: a candidate that far below at the
+/// guess never reached min_fitness in the measured runs (docs/loop_closure.md).
+constexpr double kGuessFitnessMargin = 0.25;
+
 namespace {
 
 // The basin probes (VerificationConfig::probe_distance): ICP from the result shifted along ±x, ±y
@@ -43,7 +51,7 @@ void widenByBasinProbes(VerificationResult& v, const LabeledCloud& query_cloud, 
     });
     for (int run = first; run < first + 2; ++run) spread += shift[run] * shift[run].transpose();
     const double rms = std::sqrt((spread / runs).topLeftCorner<3, 3>().trace());
-    if (c.max_probe_spread > 0.0 && rms > c.max_probe_spread) {
+    if (rms > kMaxProbeSpread) {
       v.accepted = false;
       v.rejection = LoopRejection::Ambiguous;
       v.reason = "basin probes landed " + std::string(first + 2 < runs ? "at least " : "") + std::to_string(rms) +
@@ -82,7 +90,7 @@ std::optional<VerificationResult> overlapAtGuess(const LoopCandidate& cand, cons
   one.coarse_source_points = 0;
   one.max_iterations = 1;
   const RegistrationResult reg = registerClouds(query_cloud, target, cand.initial_guess, classes, one);
-  const double floor = coarseFloor(c) - c.guess_fitness_margin;
+  const double floor = coarseFloor(c) - kGuessFitnessMargin;
   if (!(reg.fitness < floor)) return std::nullopt;
   VerificationResult v = checkedAt(cand, reg);
   v.closure.T_from_to = cand.initial_guess;  // one search moves nothing: the guess is the pose

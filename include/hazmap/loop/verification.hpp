@@ -60,10 +60,6 @@ struct VerificationConfig {
   /// 0.25–0.4 m even when aligned (the rings hit different spots), so this only catches gross
   /// misalignment; the covariance and consistency checks do the rest.
   double max_rmse = 0.4;
-  /// Bounded uncertainty: the largest standard deviation of the translation (m) and rotation
-  /// (rad) blocks of the ICP covariance.
-  double max_translation_sigma = 0.25;
-  double max_rotation_sigma = 0.035;  ///< ≈ 2°
   /// Reject loops whose registration reported a degenerate direction (a corridor: the loop
   /// would constrain nothing along it and pull the graph by an arbitrary amount).
   bool reject_degenerate = true;
@@ -71,10 +67,6 @@ struct VerificationConfig {
   /// slid into another local minimum (e.g. the neighbouring identical tank).
   double max_correction_translation = 2.0;
   double max_correction_rotation = 0.35;
-  /// Floors on the standard deviations before inverting (m, rad): an over-confident ICP
-  /// covariance (identical points, noise-free data) must not make a loop edge rigid.
-  double min_translation_sigma = 0.01;
-  double min_rotation_sigma = 0.001;
   /// Calibration of the loop covariance against the simulator's truth (issue 14, NEES):
   /// Σ_loop = covariance_scale · Σ_ICP + diag(floor²). docs/pose_graph.md has the fit.
   double covariance_scale = 1.0;
@@ -113,10 +105,6 @@ struct VerificationConfig {
   /// lets ICP settle in a neighbouring basin with a sharp Hessian covariance; the probes expose
   /// that ambiguity, which the Hessian cannot. 0 = off.
   double probe_distance = 0.2;
-  /// A loop whose probes land farther than this from its result (RMS translation, m) is
-  /// ambiguous — ICP has several basins there — and rejected. 0 = keep it (the spread only widens
-  /// the covariance).
-  double max_probe_spread = 0.05;
   /// Coarse check before the full verification ICP: the same registration with at most this many
   /// source points; a candidate whose coarse fitness stays below min_fitness − coarse_fitness_margin
   /// is rejected (low fitness) without the full run. Most candidates are wrong places with
@@ -130,11 +118,10 @@ struct VerificationConfig {
   double coarse_fitness_margin = 0.04;
   /// Before the coarse check (online cost, issue 14): the fitness of this many source points at
   /// the candidate's guess, one correspondence search and no ICP; a candidate below the coarse
-  /// floor (min_fitness − coarse_fitness_margin) minus guess_fitness_margin is rejected (low
+  /// floor (min_fitness − coarse_fitness_margin) minus a margin (verify_icp.cpp) is rejected (low
   /// fitness) without the coarse ICP. ICP raised the fitness by at most 0.18 from the guess on
   /// naraha, corridor and tanks (seed 1, 233 candidates). 0 = off.
   std::size_t guess_check_points = 300;
-  double guess_fitness_margin = 0.25;
   /// Online cost (issue 14): the full verification ICP starts where the coarse check converged
   /// (its 1000-point answer) instead of at the candidate's guess again, so it only refines — but
   /// only when that answer lies within this distance of the guess (m, translation + 10 m ×
@@ -184,11 +171,11 @@ enum class LoopRejection {
   Degenerate,             ///< a degenerate direction (reject_degenerate)
   LargeCorrection,        ///< ICP moved beyond max_correction_* from the guess
   CovarianceNotPositive,  ///< the covariance is not positive definite
-  UncertainTranslation,   ///< translation sigma above max_translation_sigma
-  UncertainRotation,      ///< rotation sigma above max_rotation_sigma
+  UncertainTranslation,   ///< translation sigma above the bound (verification.cpp)
+  UncertainRotation,      ///< rotation sigma above the bound (verification.cpp)
   DriftGate,              ///< verified, then rejected by the drift gate (LoopDetector)
   InnovationGate,         ///< verified, then rejected by the calibrated χ² innovation gate
-  Ambiguous,              ///< basin probes landed elsewhere (VerificationConfig::max_probe_spread)
+  Ambiguous,              ///< basin probes landed elsewhere (verify_icp.cpp, kMaxProbeSpread)
   Inconsistent,           ///< not in the largest pairwise-consistent set
   OptimisationFailed,     ///< the graph with this loop could not be solved (previous estimate kept)
   OptimisationDiverged,   ///< the solution with this loop moved poses beyond belief (dropped)
@@ -215,7 +202,8 @@ VerificationResult evaluateRegistration(const LoopCandidate& candidate,
 Matrix6d honestyTerms(const RegistrationResult& registration, const VerificationConfig& config = {});
 /// The misfit part of honestyTerms alone: misfit_scale · inlier_rmse² · H⁻¹ (0 when off).
 Matrix6d misfitTerm(const RegistrationResult& registration, const VerificationConfig& config = {});
-/// The floor variances every loop covariance carries (min_translation_sigma², min_rotation_sigma²),
+/// The floor variances every loop covariance carries (verification.cpp: kMinTranslationSigma²,
+/// kMinRotationSigma²),
 /// so no loop becomes rigid. Translation first.
 Vector6d floorVariances(const VerificationConfig& config);
 /// Sets closure.covariance and its symmetrised inverse, closure.information.
