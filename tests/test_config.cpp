@@ -241,6 +241,10 @@ TEST(ConfigFields, VerificationAndRefinementOverrideTrackingsIcp) {
   EXPECT_NE(errorOf([] { LoopClosureConfig::fromYamlString("verification: {registration: {metric: point}}\n", "l.yaml"); })
                 .find("moved to odometry.registration.metric"),
             std::string::npos);
+  // A typo of an override is a typo, not a moved key.
+  EXPECT_EQ(errorOf([&] { c.applySetting("loop_closure.verification.registration.max_iteration=45"); }),
+            "--set: loop_closure.verification.registration: unknown key 'max_iteration' (did you mean "
+            "'max_iterations'?)");
   // `hazmap register --config` reads a plain registration section: a typo there is only a typo.
   EXPECT_EQ(errorOf([] { registrationConfigFromYaml("registration: {metrik: point}\n", "r.yaml"); }),
             "r.yaml: registration: unknown key 'metrik' (did you mean 'metric'?)");
