@@ -6,6 +6,7 @@
 
 #include "command.hpp"
 #include "hazmap/core/config_fields.hpp"
+#include "hazmap/core/retired_keys.hpp"
 #include "hazmap/pipeline/slam.hpp"
 #include "hazmap/registration/global_registration.hpp"
 #include "hazmap/sim/simulator.hpp"
@@ -75,12 +76,16 @@ std::string markdown() {
          "- `hazmap config --dump-defaults [--json] [--for run|simulate]` prints the defaults;\n"
          "  `hazmap config --check FILE` validates a file. `run.json` stores a run's parameters in\n"
          "  this layout.\n"
+         "- One ICP is configured, tracking's (`odometry.registration`): loop verification\n"
+         "  (`loop_closure.verification.registration`) and the global registration's refinement\n"
+         "  (`odometry.global_registration.refinement`) state only what they change from it.\n"
          "\nDefaults of the run are those of `--method property-icp+pgo`; the other methods switch\n"
-         "`odometry.registration.use_classes`, `loop_closure.verification.registration.use_classes`\n"
-         "and `loop_closure.method` (distance for the conventional baselines).\n"
+         "`odometry.registration.use_classes` (which loop verification follows) and\n"
+         "`loop_closure.method` (distance for the conventional baselines).\n"
          "\n## Run (`hazmap run`, `hazmap demo`)\n";
   const SlamConfig run = SlamConfig::forMethod(SlamMethod::PropertyIcpPgo);
   for (const auto& f : describeConfig(run)) markdownSection(out, f.name, f.doc, f.children);
+  out << "\n## Keys that moved or became constants\n\n" << config_detail::movedAndConstantKeysMarkdown();
   out << "\n## Global registration (`hazmap register --global --config`)\n";
   markdownSection(out, "global_registration", fieldsOf<GlobalRegistrationConfig>().doc(),
                   describeConfig<GlobalRegistrationConfig>());

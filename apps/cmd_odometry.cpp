@@ -57,7 +57,8 @@ void appendFrameRows(std::size_t i, const OdometryFrame& f, std::ostringstream& 
   cov << "\n";
 }
 
-void run(const OdometryOptions& o, const ParameterOptions& params) {
+// The tracking config: the file, then the flags, then --set; validated.
+OdometryConfig configOf(const OdometryOptions& o, const ParameterOptions& params) {
   OdometryConfig cfg = o.config.empty() ? OdometryConfig::defaults() : loadOdometryConfig(o.config);
   if (o.method == "icp") cfg.registration.use_classes = false;
   else if (o.method == "property-icp") cfg.registration.use_classes = true;
@@ -71,6 +72,11 @@ void run(const OdometryOptions& o, const ParameterOptions& params) {
   if (o.threads < 0) fail("--threads", "must be >= 0");
   params.applySettings(cfg);
   cfg.validate();
+  return cfg;
+}
+
+void run(const OdometryOptions& o, const ParameterOptions& params) {
+  const OdometryConfig cfg = configOf(o, params);
   std::optional<tbb::global_control> threads;
   if (o.threads > 0) threads.emplace(tbb::global_control::max_allowed_parallelism, o.threads);
 

@@ -376,7 +376,7 @@ BENCHMARK(BM_SuccessRate_Kitti)->DenseRange(1, 4)->Iterations(1)->Unit(benchmark
 
 // The normal tracking path when nothing fails (issue 19: "the normal path unchanged"): frame-to-map
 // property ICP on the simulated naraha route (60 frames, today's noise, wheel-odometry guess),
-// with odometry.relocalise off (0) and on (1, the default), 2 threads. No frame triggers a
+// with odometry.recovery.relocalise off (0) and on (1, the default), 2 threads. No frame triggers a
 // recovery (counter `recoveries`), so the two rows should time alike; --benchmark_filter=NormalPath
 // --benchmark_repetitions=5 --benchmark_enable_random_interleaving=true compares them fairly.
 void BM_NormalPath_Naraha(benchmark::State& state) {
@@ -394,7 +394,7 @@ void BM_NormalPath_Naraha(benchmark::State& state) {
     return std::make_pair(simulator.classTable(), out);
   }();
   OdometryConfig cfg = OdometryConfig::defaults();
-  cfg.relocalise = state.range(0) != 0;
+  cfg.recovery.relocalise = state.range(0) != 0;
   std::size_t n = 0, recoveries = 0;
   double wall_ms = 0.0;
   for (auto _ : state) {

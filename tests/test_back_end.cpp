@@ -211,7 +211,7 @@ TEST(LoopCrossCheck, TheQuerysNeighbourhoodTellsARightLoopFromOneOffInHeightAndP
   const LabeledCloud world = corridorWorld();
   ClassTable classes = ClassTable::defaults();
   LoopClosureConfig c;
-  c.verification.registration.use_classes = false;
+  c.verification.tracking_registration.use_classes = false;
   // Keyframes 0–5 at x = 0…5, 6–16 far away (nothing there), 17–23 at x = 4…10: the same corridor again.
   PoseList truth;
   for (int k = 0; k < 24; ++k) truth.push_back(k < 6 ? pose(k, 0, 0) : k < 17 ? pose(200.0 + k, 0, 0) : pose(k - 13.0, 0, 0));
@@ -478,7 +478,7 @@ TEST(OdometryReanchor, NeedsOnePosePerFrameAndTakesTheNewPoses) {
 // Naraha seed 7 (frame to map): two wheel slips make ICP from the slipped guess fail at frames
 // 31–32. Without recovery they fall back to the guess; with their points in the local map the
 // rest of the route is tracked 1.05 m off (whole route: map error 0.85 m; first 45 frames:
-// 0.32 m). With recovery (odometry.relocalise, the default) the two frames are re-registered and
+// 0.32 m). With recovery (odometry.recovery.relocalise, the default) the two frames are re-registered and
 // nothing falls back at all. (Keeping fallback frames out of the map, odometry.map_skips_fallback,
 // was retired: docs/history/odometry-map-skips.md.)
 TEST(FallbackFrames, NarahaSeed7IsNotLost) {
@@ -495,7 +495,7 @@ TEST(FallbackFrames, NarahaSeed7IsNotLost) {
   Case cases[] = {{false}, {true}};
   for (Case& c : cases) {
     SlamConfig config = SlamConfig::forMethod(SlamMethod::PropertyIcp);
-    config.odometry.relocalise = c.relocalise;
+    config.odometry.recovery.relocalise = c.relocalise;
     const SlamResult r = runSlam(seq, config);
     c.fallback = countTracking(r.frames).fallback;
     const RunSummary s = writeRunOutputs(seq, r, config, out, dir / (c.relocalise ? "outR" : "out"));

@@ -12,6 +12,8 @@
 #include "hazmap/map/hazards.hpp"
 #include "hazmap/pipeline/slam.hpp"
 #include "hazmap/sim/simulator.hpp"
+#include "odometry/odometry_checks.hpp"
+#include "pipeline/loop_edges.hpp"
 #include "test_helpers.hpp"
 
 using namespace hazmap;
@@ -65,8 +67,13 @@ TEST(ConfigFields, DefaultsEqualTheStructsInitialisersAndRoundTrip) {
   o.mode = OdometryMode::FrameToFrame, o.registration = r, o.min_range = 2, o.max_range = 50;
   o.voxel_size = 0.2, o.source_voxel_size = 0.4, o.map.voxel_size = 3, o.map.max_points_per_voxel = 2;
   o.map.min_point_distance = 0.1, o.map.max_distance = 9, o.map.normal_updates = 4, o.min_fitness = 0.9;
-  o.max_correction_translation = 3, o.max_correction_rotation = 0.9, o.keep_guess_along_degenerate = false;
+  o.max_correction_translation = 3, o.max_correction_rotation = 0.9;
   o.fallback_sigma_translation = 0.7, o.fallback_sigma_rotation = 0.7;
+  o.recovery.relocalise = false, o.recovery.relocalise_suspect = true, o.recovery.max_translation = 1;
+  o.recovery.max_rotation = 0.3, o.recovery.whole_map = false, o.recovery.whole_map_after = 7;
+  o.recovery.keyframe_distance = 5, o.recovery.keyframe_rotation = 1, o.recovery.reestimate_lost_frames = false;
+  o.recovery.lost_frames_max = 9, o.label_axis.search = false, o.label_axis.range = 1.5;
+  o.global.voxel_size = 0.3, o.global.refinement.max_iterations = 9;
   expectDefaultsRoundTrip(OdometryConfig{}, o);
 
   // Every field of the whole run (nested sections included) round-trips its defaults exactly.
@@ -169,8 +176,78 @@ TEST(ConfigFields, RetiredKeysPointToTheirHistory) {
   OdometryConfig o;
   EXPECT_NE(errorOf([&] { applyConfigSetting(o, "map_skips_flagged=true"); }).find("docs/history/odometry-map-skips.md"),
             std::string::npos);
+  // Internal thresholds that became constants name the file; keys that moved name their new path.
+  EXPECT_EQ(errorOf([&] { c.applySetting("odometry.relocalise_min_gain=0.1"); }),
+            "--set: odometry: unknown key 'relocalise_min_gain' (now a constant in src/odometry/odometry_checks.hpp; "
+            "see docs/configuration.md)");
+  EXPECT_EQ(errorOf([&] { c.applySetting("loop_closure.candidates.constellation.max_hypotheses=10"); }),
+            "--set: loop_closure.candidates.constellation: unknown key 'max_hypotheses' (now a constant in "
+            "src/loop/candidates.cpp; see docs/configuration.md)");
+  EXPECT_EQ(errorOf([&] { c.applySetting("loop_closure.consistency.use_pairwise=false"); }),
+            "--set: loop_closure.consistency: unknown key 'use_pairwise' (the switch of an adopted measure, now always "
+            "on in src/loop/loop_detector.cpp; see docs/configuration.md)");
+  EXPECT_EQ(errorOf([&] { c.applySetting("odometry.relocalise_suspect=true"); }),
+            "--set: odometry: unknown key 'relocalise_suspect' (moved to odometry.recovery.relocalise_suspect)");
+  EXPECT_EQ(errorOf([] { odometryConfigFromYaml("label_axis_range: 3\n", "odo.yaml"); }),
+            "odo.yaml: odometry: unknown key 'label_axis_range' (moved to odometry.label_axis.range)");
+  EXPECT_NE(errorOf([] { globalRegistrationConfigFromYaml("ambiguity_ratio: 0.8\n", "g.yaml"); })
+                .find("now a constant in src/registration/global_registration.cpp"),
+            std::string::npos);
+  c.applySetting("odometry.recovery.relocalise_suspect=true");
+  EXPECT_TRUE(c.odometry.recovery.relocalise_suspect);
   // A key that merely ends like a retired one is not taken for it.
   EXPECT_EQ(errorOf([&] { applyConfigSetting(o, "guess_yaw=1"); }).find("retired"), std::string::npos);
+}
+
+// One ICP is configured (issue 37): loop verification and the global registration's refinement
+// run tracking's, with only their overrides stated; their defaults are what the full copies were.
+TEST(ConfigFields, VerificationAndRefinementOverrideTrackingsIcp) {
+  nlohmann::json verification = configToJson(RegistrationConfig{});
+  verification["max_correspondence_distance"] = 1.5;
+  verification["max_iterations"] = 60;
+  verification["max_source_points"] = 6000;
+  verification["coarse_source_points"] = 0;
+  verification["index"] = "kdtree";
+  EXPECT_EQ(configToJson(VerificationConfig{}.icp()), verification);
+  nlohmann::json refinement = configToJson(RegistrationConfig{});
+  refinement["max_iterations"] = 30;
+  refinement["max_source_points"] = 1500;
+  refinement["coarse_source_points"] = 0;
+  EXPECT_EQ(configToJson(GlobalRegistrationConfig{}.refinementIcp()), refinement);
+
+  // In a run both follow odometry.registration: the method's use_classes and any user setting.
+  SlamConfig c = SlamConfig::forMethod(SlamMethod::IcpPgo);
+  c.applySetting("odometry.registration.metric=point");
+  c.applySetting("odometry.registration.robust_min_scale=0.02");
+  c.applySetting("loop_closure.verification.registration.max_iterations=45");
+  const RegistrationConfig loop = pipeline_detail::loopClosureConfigFor(c).verification.icp();
+  EXPECT_FALSE(loop.use_classes);
+  EXPECT_EQ(loop.metric, IcpMetric::PointToPoint);
+  EXPECT_DOUBLE_EQ(loop.robust_min_scale, 0.02);
+  EXPECT_EQ(loop.max_iterations, 45);
+  EXPECT_DOUBLE_EQ(loop.max_correspondence_distance, 1.5);
+  const RegistrationConfig refine = globalConfigOf(c.odometry).refinementIcp();
+  EXPECT_EQ(refine.metric, IcpMetric::PointToPoint);
+  EXPECT_DOUBLE_EQ(refine.robust_min_scale, 0.02);
+  EXPECT_EQ(refine.max_iterations, 30);
+
+  // The keys of the old copies name where they live now.
+  EXPECT_EQ(errorOf([&] { c.applySetting("loop_closure.verification.registration.metric=point"); }),
+            "--set: loop_closure.verification.registration: unknown key 'metric' (moved to "
+            "odometry.registration.metric: loop verification runs tracking's ICP and states only its overrides)");
+  EXPECT_EQ(errorOf([&] { c.applySetting("odometry.global_registration.refinement.robust_kernel=cauchy"); }),
+            "--set: odometry.global_registration.refinement: unknown key 'robust_kernel' (moved to "
+            "odometry.registration.robust_kernel: the refinement runs tracking's ICP and states only its overrides)");
+  EXPECT_NE(errorOf([] { LoopClosureConfig::fromYamlString("verification: {registration: {metric: point}}\n", "l.yaml"); })
+                .find("moved to odometry.registration.metric"),
+            std::string::npos);
+  // A typo of an override is a typo, not a moved key.
+  EXPECT_EQ(errorOf([&] { c.applySetting("loop_closure.verification.registration.max_iteration=45"); }),
+            "--set: loop_closure.verification.registration: unknown key 'max_iteration' (did you mean "
+            "'max_iterations'?)");
+  // `hazmap register --config` reads a plain registration section: a typo there is only a typo.
+  EXPECT_EQ(errorOf([] { registrationConfigFromYaml("registration: {metrik: point}\n", "r.yaml"); }),
+            "r.yaml: registration: unknown key 'metrik' (did you mean 'metric'?)");
 }
 
 TEST(PropertyIcpConfig, SetsTheClassTableOnce) {

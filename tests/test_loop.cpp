@@ -431,14 +431,15 @@ TEST(LoopConfig, YamlRoundTripAndErrors) {
   c.landmarks.cluster_tolerance = 0.9;
   c.candidates.constellation.model = ConstellationModel::Full3D;
   c.candidates.constellation.min_inliers = 4;
-  c.verification.registration.use_classes = false;
-  c.verification.registration.metric = IcpMetric::PointToPoint;
+  c.verification.registration.max_iterations = 40;
+  c.verification.registration.index = SpatialIndexKind::VoxelHash;
   c.consistency.gate_probability = 0.99;
   const LoopClosureConfig back = LoopClosureConfig::fromYamlString(c.toYamlString(), "cfg.yaml");
   EXPECT_EQ(back.toYamlString(), c.toYamlString());
   EXPECT_EQ(back.method, CandidateMethod::Both);
   EXPECT_EQ(back.candidates.constellation.model, ConstellationModel::Full3D);
-  EXPECT_FALSE(back.verification.registration.use_classes);
+  EXPECT_EQ(back.verification.registration.max_iterations, 40);
+  EXPECT_EQ(back.verification.registration.index, SpatialIndexKind::VoxelHash);
   EXPECT_DOUBLE_EQ(back.landmarks.cluster_tolerance, 0.9);
 
   // Partial files keep defaults; the section may be top level.

@@ -26,7 +26,7 @@ TEST(WorstDay, PresetIsReadBeforeTheOtherKeysAndTheDefaultsStayOff) {
   EXPECT_EQ(defaults.preset, "none");
   EXPECT_EQ(defaults.upsets.yaw_kick_probability, 0.0);
   EXPECT_EQ(defaults.upsets.drop_probability, 0.0);
-  EXPECT_TRUE(OdometryConfig::defaults().relocalise);  // on: recovery is never worse than the guess
+  EXPECT_TRUE(OdometryConfig::defaults().recovery.relocalise);  // on: recovery is never worse than the guess
   EXPECT_EQ(defaults.odometry.slip_max, 0.5);
   EXPECT_TRUE(defaults.wheel_odometry);
   // The preset comes last in the file, yet the explicit key next to it wins.
@@ -92,8 +92,8 @@ enum class Guess { None, Wheel, Exact };
 
 Score trackWorstDay(const sim::Simulator& sim, bool wheel, OdometryConfig config, Guess guess = Guess::None) {
   if (guess == Guess::None && wheel) guess = Guess::Wheel;
-  config.relocalise = true;
-  config.relocalise_suspect = true;
+  config.recovery.relocalise = true;
+  config.recovery.relocalise_suspect = true;
   Odometry odo(sim.classTable(), config);
   for (std::size_t i = 0; i < sim.frames(); ++i) {
     std::optional<Eigen::Isometry3d> inc;
@@ -133,8 +133,8 @@ sim::Simulator worstDay(const std::string& scenario, std::size_t frames) {
 // ends constrain it weakly), and from frame 1 ICP locks onto "no motion". What is achievable is
 // honesty: with relocalise_suspect such frames are flagged (weak axis). With lost frames kept out
 // of the map and re-estimated (reestimate_lost_frames) the corridor's weak-axis ratios sat just
-// above suspect_weak_axis_ratio (0.15) for some frames, which stayed `tracked` 1 m wrong (4 of
-// 29); flagging at flag_weak_axis_ratio (0.25) and probing every recovery answer along its
+// above kSuspectWeakAxisRatio (0.15) for some frames, which stayed `tracked` 1 m wrong (4 of
+// 29); flagging at kFlagWeakAxisRatio (0.25) and probing every recovery answer along its
 // weakest axis leaves 1 (a lost frame re-estimated 1 m along the corridor: docs/registration.md);
 // with re-estimated lost frames probed and placed by their labels too, none.
 // The targets, which the corridor does not meet, are measured by
@@ -165,7 +165,7 @@ TEST(Relocalise, NeverWorseThanTheGuessOnTanks) {
     const sim::Simulator sim(sc);
     const auto run = [&](bool relocalise) {
       OdometryConfig c = OdometryConfig::defaults();
-      c.relocalise = relocalise;
+      c.recovery.relocalise = relocalise;
       Odometry odo(sim.classTable(), c);
       double error = 0.0;
       for (std::size_t i = 0; i < sim.frames(); ++i) {
@@ -270,11 +270,11 @@ TEST(LabelAxis, NoLabelledPointInViewIsUndecided) {
 // The corridor's property row (wheel odometry, the worst day): the labels place the frames the
 // walls cannot, so the route no longer drifts metres along the corridor as the encoders slip
 // (docs/registration.md: seed 1, 100 frames, map error 16.3 -> 0.65 m). Measured here on 30 frames
-// against the same run with label_axis_search off.
+// against the same run with label_axis.search off.
 TEST(WorstDay, CorridorLabelsPlaceTheFramesTheWallsCannot) {
   const sim::Simulator sim = worstDay("corridor", 30);
   OdometryConfig off = OdometryConfig::defaults();
-  off.label_axis_search = false;
+  off.label_axis.search = false;
   const Score without = trackWorstDay(sim, true, off);
   const Score with = trackWorstDay(sim, true, OdometryConfig::defaults());
   EXPECT_LT(with.mean_position_error, 0.5 * without.mean_position_error);
@@ -312,8 +312,8 @@ TEST(LostFrames, AreReestimatedOnceTrackingRecovers) {
   const sim::Simulator sim(sc);
   const auto run = [&](bool reestimate) {
     OdometryConfig c = OdometryConfig::defaults();
-    c.relocalise = false;
-    c.reestimate_lost_frames = reestimate;
+    c.recovery.relocalise = false;
+    c.recovery.reestimate_lost_frames = reestimate;
     Odometry odo(sim.classTable(), c);
     const auto& truth = sim.groundTruth();
     for (std::size_t i = 0; i < sim.frames(); ++i) {
@@ -389,7 +389,7 @@ TEST(WholeMap, AKidnappedRobotIsFoundAgainAgainstTheKeyframes) {
     if (translationNorm(error) > 0.2 || rotationAngle(error) > 2 * kDeg) EXPECT_TRUE(isFlagged(f.status)) << k;
   }
   ASSERT_GT(found, 0u) << "never re-localised";
-  EXPECT_LE(found, 35u + OdometryConfig::defaults().whole_map_after);
+  EXPECT_LE(found, 35u + OdometryConfig::defaults().recovery.whole_map_after);
   // From there on the robot is where it truly is, and stays tracked.
   for (std::size_t k = found; k < t.frames.size(); ++k) {
     const Eigen::Isometry3d error = t.truth[k].inverse() * t.frames[k].pose;
@@ -406,7 +406,7 @@ TEST(WholeMap, WithoutItTheKidnappedRobotStaysLost) {
   sc.max_frames = 40;
   const sim::Simulator sim(sc);
   OdometryConfig c = OdometryConfig::defaults();
-  c.whole_map_relocalise = false;
+  c.recovery.whole_map = false;
   const Teleport t = teleport(sim, c, 34, 6, 8);
   for (std::size_t k = 35; k < t.frames.size(); ++k) {
     EXPECT_FALSE(t.frames[k].global.whole_map);
@@ -424,7 +424,7 @@ TEST(WholeMap, AnUnknownPlaceIsNeverRelocalised) {
   sc.scenario = "corridor";
   const sim::Simulator corridor(sc);
   OdometryConfig c = OdometryConfig::defaults();
-  c.whole_map_after = 1;
+  c.recovery.whole_map_after = 1;
   Odometry odo(naraha.classTable(), c);
   for (std::size_t i = 0; i < 20; ++i)
     odo.addFrame(naraha.scan(i), i ? std::optional(naraha.odometry()[i - 1].inverse() * naraha.odometry()[i]) : std::nullopt);
@@ -441,7 +441,7 @@ TEST(WholeMap, AnUnknownPlaceIsNeverRelocalised) {
 TEST(Relocalise, AScanWithTooFewPointsSaysSoInItsReason) {
   const ClassTable table = ClassTable::semanticKitti();
   OdometryConfig c = OdometryConfig::defaults();
-  c.relocalise = true;
+  c.recovery.relocalise = true;
   Odometry odo(table, c);
   odo.addFrame(test::kittiScan(0, table));
   LabeledCloud few = test::kittiScan(1, table).slice(0, 30);
@@ -455,7 +455,7 @@ TEST(Relocalise, AScanWithTooFewPointsSaysSoInItsReason) {
 TEST(Relocalise, OffLeavesAFailedFrameAFallback) {
   const ClassTable table = ClassTable::semanticKitti();
   OdometryConfig c = OdometryConfig::defaults();
-  c.relocalise = false;
+  c.recovery.relocalise = false;
   Odometry odo(table, c);
   odo.addFrame(test::kittiScan(0, table));
   const OdometryFrame& f = odo.addFrame(test::kittiScan(2, table));  // 1.4 m from the identity guess
@@ -473,7 +473,7 @@ TEST(Relocalise, KittiWithEveryOtherFrameDroppedIsTracked) {
     return readKittiScan(test::sharedData("kitti-semantic-sample/velodyne") / name, std::nullopt, table);
   };
   OdometryConfig relocalising = OdometryConfig::defaults();
-  relocalising.relocalise = true;
+  relocalising.recovery.relocalise = true;
   Odometry full(table), dropped(table, relocalising);
   for (int i = 0; i < 6; ++i) full.addFrame(scan(i));
   for (int i = 0; i < 6; i += 2) {

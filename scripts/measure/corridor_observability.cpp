@@ -88,7 +88,7 @@ std::string observabilityTable(const sim::Simulator& sim, unsigned seed) {
       }
       std::vector<std::pair<Eigen::Isometry3d, const LabeledCloud*>> placed;
       for (std::size_t j = 0; j < i; ++j)
-        if ((sim.groundTruth()[j].translation() - truth.translation()).norm() <= config.relocalise_map_radius + config.label_axis_range)
+        if ((sim.groundTruth()[j].translation() - truth.translation()).norm() <= kRecoveryMapRadius + config.label_axis.range)
           placed.push_back({sim.groundTruth()[j], &labels[j]});
       const LabeledCloud label_map = labelMapOf(placed, config, classes);
       bool by_labels = true, precise = true;
@@ -125,8 +125,8 @@ std::string observabilityTable(const sim::Simulator& sim, unsigned seed) {
 /// off by more than 20 cm / 2 deg yet not flagged.
 std::string targetsRow(const sim::Simulator& sim, bool wheel) {
   OdometryConfig config = OdometryConfig::defaults();
-  config.relocalise = true;
-  config.relocalise_suspect = true;
+  config.recovery.relocalise = true;
+  config.recovery.relocalise_suspect = true;
   Odometry odo(sim.classTable(), config);
   for (std::size_t i = 0; i < sim.frames(); ++i) {
     std::optional<Eigen::Isometry3d> inc;

@@ -127,8 +127,6 @@ void checkRange(double value, const Range& range, const ConfigPlace& place) {
 }
 
 void unknownKey(const std::string& key, const std::vector<std::string>& valid, const ConfigPlace& place) {
-  if (const std::string note = retiredKeyNote(place.child(key).path); !note.empty())
-    place.fail("unknown key '" + key + "' (" + note + ")");
   std::string best;
   std::size_t best_distance = std::max<std::size_t>(3, key.size() / 3) + 1;
   for (const auto& name : valid) {
@@ -138,6 +136,11 @@ void unknownKey(const std::string& key, const std::vector<std::string>& valid, c
       best = name;
     }
   }
+  // A typo of a key the section has (one or two letters off) is a typo, even in a section whose
+  // other keys moved elsewhere.
+  const bool typo = !best.empty() && best_distance <= 2;
+  if (const std::string note = retiredKeyNote(place.child(key).path); !note.empty() && !typo)
+    place.fail("unknown key '" + key + "' (" + note + ")");
   place.fail("unknown key '" + key + "'" + (best.empty() ? "" : " (did you mean '" + best + "'?)"));
 }
 

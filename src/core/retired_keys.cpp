@@ -1,7 +1,10 @@
-// Keys of experiments that were measured and not adopted (issue 37). The code is gone; a YAML
-// file or `--set` naming one gets the usual unknown-key error plus where its write-up lives, so a
-// user's old config explains itself. An experiment not adopted leaves as a dated write-up in
-// docs/history/, and its keys join this table.
+// Keys that are no longer keys (issue 37). A YAML file or `--set` naming one gets the usual
+// unknown-key error plus what became of it, so a user's old config explains itself:
+//  - an experiment measured and not adopted: the code is gone, its dated write-up is in
+//    docs/history/ (the row names it);
+//  - an internal threshold that became a named constant in the file that uses it (issue 37
+//    part two: every key is a default path or a user's choice; the row names the file);
+//  - a key that moved: the row names its new path.
 #include "hazmap/core/retired_keys.hpp"
 
 #include <string_view>
@@ -13,11 +16,34 @@ namespace {
 
 constexpr std::string_view kNotAdopted = "measured and not adopted";
 constexpr std::string_view kAlwaysOn = "the switch of an adopted measure, now always on";
+constexpr std::string_view kAlwaysOnHere = "the switch of an adopted measure, now always on in ";
+
+enum class Fate { Retired, Constant, Moved };
 
 struct RetiredKey {
   std::string_view path;     ///< dotted, from the run config's top (`hazmap run --set` spelling)
-  std::string_view history;  ///< the write-up, relative to the repository
+  std::string_view history;  ///< the write-up (Retired), the file holding the constant (Constant),
+                             ///< or the new dotted path (Moved), relative to the repository / run config
   std::string_view why = kNotAdopted;
+  Fate fate = Fate::Retired;
+};
+
+/// A key that is now a named constant in `file`.
+constexpr RetiredKey constant(std::string_view path, std::string_view file) { return {path, file, {}, Fate::Constant}; }
+/// A key now spelled `to`.
+constexpr RetiredKey moved(std::string_view path, std::string_view to) { return {path, to, {}, Fate::Moved}; }
+
+/// Whole sections whose keys moved: every key under `from` (but the section's own, which are
+/// known and never reach here) is now the same key under `to`.
+struct MovedSection {
+  std::string_view from, to, why;
+};
+
+constexpr MovedSection kMovedSections[] = {
+    {"loop_closure.verification.registration", "odometry.registration",
+     "loop verification runs tracking's ICP and states only its overrides"},
+    {"odometry.global_registration.refinement", "odometry.registration",
+     "the refinement runs tracking's ICP and states only its overrides"},
 };
 
 constexpr RetiredKey kRetiredKeys[] = {
@@ -68,6 +94,86 @@ constexpr RetiredKey kRetiredKeys[] = {
     {"slam.submaps_only_frame_to_map", "docs/history/back-end-switches.md", kAlwaysOn},
     {"slam.misfit_only_frame_to_map", "docs/history/back-end-switches.md", kAlwaysOn},
     {"slam.nearest_partial_loops_only_frame_to_map", "docs/history/back-end-switches.md", kAlwaysOn},
+    // Issue 37 part two: internal thresholds became named constants in the file that uses them,
+    // switches of adopted measures became the code, and the tracking config was split.
+    constant("odometry.suspect_fitness", "src/odometry/odometry_checks.hpp"),
+    constant("odometry.suspect_correction_translation", "src/odometry/odometry_checks.hpp"),
+    constant("odometry.suspect_correction_rotation", "src/odometry/odometry_checks.hpp"),
+    constant("odometry.suspect_weak_axis_ratio", "src/odometry/odometry_checks.hpp"),
+    constant("odometry.relocalise_axis_step", "src/odometry/odometry_checks.hpp"),
+    constant("odometry.relocalise_probe_gain", "src/odometry/odometry_checks.hpp"),
+    constant("odometry.relocalise_start_correction", "src/odometry/odometry_checks.hpp"),
+    constant("odometry.relocalise_start_correction_rotation", "src/odometry/odometry_checks.hpp"),
+    constant("odometry.relocalise_min_gain", "src/odometry/odometry_checks.hpp"),
+    constant("odometry.relocalise_inlier_distance", "src/odometry/odometry_checks.hpp"),
+    constant("odometry.relocalise_distinct_translation", "src/odometry/odometry_checks.hpp"),
+    constant("odometry.relocalise_distinct_rotation", "src/odometry/odometry_checks.hpp"),
+    constant("odometry.relocalise_ambiguity", "src/odometry/odometry_checks.hpp"),
+    constant("odometry.relocalise_max_rmse_ratio", "src/odometry/odometry_checks.hpp"),
+    constant("odometry.relocalise_map_radius", "src/odometry/odometry_checks.hpp"),
+    constant("odometry.whole_map_min_fit", "src/odometry/odometry_checks.hpp"),
+    constant("odometry.flag_weak_axis_ratio", "src/odometry/odometry_checks.hpp"),
+    constant("odometry.flag_correction_after_flagged", "src/odometry/odometry_checks.hpp"),
+    constant("odometry.label_axis_gate", "src/odometry/odometry_checks.hpp"),
+    constant("odometry.label_axis_min_support", "src/odometry/odometry_checks.hpp"),
+    constant("odometry.label_axis_ambiguity", "src/odometry/odometry_checks.hpp"),
+    constant("odometry.label_axis_sigma", "src/odometry/odometry_checks.hpp"),
+    constant("odometry.label_axis_voxel", "src/odometry/odometry_checks.hpp"),
+    constant("odometry.label_axis_confirm", "src/odometry/odometry_checks.hpp"),
+    constant("odometry.label_axis_context", "src/odometry/odometry_checks.hpp"),
+    constant("odometry.label_axis_consistency", "src/odometry/odometry_checks.hpp"),
+    {"odometry.whole_map_confirm", "src/odometry/odometry_whole_map.cpp", kAlwaysOnHere, Fate::Constant},
+    {"odometry.flag_weak_axis", "src/odometry/frame_judgement.cpp", kAlwaysOnHere, Fate::Constant},
+    {"odometry.keep_guess_along_degenerate", "src/odometry/frame_judgement.cpp", kAlwaysOnHere, Fate::Constant},
+    moved("odometry.relocalise", "odometry.recovery.relocalise"),
+    moved("odometry.relocalise_suspect", "odometry.recovery.relocalise_suspect"),
+    moved("odometry.relocalise_max_translation", "odometry.recovery.max_translation"),
+    moved("odometry.relocalise_max_rotation", "odometry.recovery.max_rotation"),
+    moved("odometry.whole_map_relocalise", "odometry.recovery.whole_map"),
+    moved("odometry.whole_map_after", "odometry.recovery.whole_map_after"),
+    moved("odometry.keyframe_distance", "odometry.recovery.keyframe_distance"),
+    moved("odometry.keyframe_rotation", "odometry.recovery.keyframe_rotation"),
+    moved("odometry.reestimate_lost_frames", "odometry.recovery.reestimate_lost_frames"),
+    moved("odometry.lost_frames_max", "odometry.recovery.lost_frames_max"),
+    moved("odometry.label_axis_search", "odometry.label_axis.search"),
+    moved("odometry.label_axis_range", "odometry.label_axis.range"),
+    constant("odometry.global_registration.max_feature_neighbors", "src/registration/global_features.cpp"),
+    constant("odometry.global_registration.max_source_features", "src/registration/global_registration.cpp"),
+    constant("odometry.global_registration.mutual_filter", "src/registration/global_registration.cpp"),
+    constant("odometry.global_registration.min_correspondences", "src/registration/global_registration.cpp"),
+    constant("odometry.global_registration.edge_length_similarity", "src/registration/global_hypotheses.cpp"),
+    constant("odometry.global_registration.label_score_share", "src/registration/global_registration.cpp"),
+    constant("odometry.global_registration.min_labelled_points", "src/registration/global_registration.cpp"),
+    constant("odometry.global_registration.min_label_agreement", "src/registration/global_registration.cpp"),
+    constant("odometry.global_registration.landmark_cluster_distance", "src/registration/global_landmarks.cpp"),
+    constant("odometry.global_registration.landmark_min_points", "src/registration/global_landmarks.cpp"),
+    constant("odometry.global_registration.min_points", "src/registration/global_registration.cpp"),
+    constant("odometry.global_registration.min_features", "src/registration/global_registration.cpp"),
+    constant("odometry.global_registration.ambiguity_ratio", "src/registration/global_registration.cpp"),
+    constant("odometry.global_registration.distinct_translation", "src/registration/global_hypotheses.cpp"),
+    constant("odometry.global_registration.distinct_rotation_deg", "src/registration/global_hypotheses.cpp"),
+    constant("odometry.global_registration.reject_degenerate", "src/registration/global_registration.cpp"),
+    constant("odometry.global_registration.candidates_refined", "src/registration/global_registration.cpp"),
+    constant("loop_closure.candidates.constellation.distance_tolerance", "src/loop/candidates.cpp"),
+    constant("loop_closure.candidates.constellation.min_triangle_height", "src/loop/candidates.cpp"),
+    constant("loop_closure.candidates.constellation.max_extent_ratio", "src/loop/candidates.cpp"),
+    constant("loop_closure.candidates.constellation.max_hypotheses", "src/loop/candidates.cpp"),
+    constant("loop_closure.candidates.constellation.visibility_range", "src/loop/candidates.cpp"),
+    constant("loop_closure.candidates.constellation.miss_penalty", "src/loop/candidates.cpp"),
+    constant("loop_closure.candidates.constellation.min_overlap", "src/loop/candidates.cpp"),
+    constant("loop_closure.candidates.constellation.min_pair_distance", "include/hazmap/loop/candidates.hpp"),
+    constant("loop_closure.consistency.translation_sigma_floor", "src/loop/consistency.cpp"),
+    constant("loop_closure.consistency.rotation_sigma_floor", "src/loop/consistency.cpp"),
+    {"loop_closure.consistency.use_drift_gate", "src/loop/loop_detector.cpp", kAlwaysOnHere, Fate::Constant},
+    {"loop_closure.consistency.use_pairwise", "src/loop/loop_detector.cpp", kAlwaysOnHere, Fate::Constant},
+    constant("loop_closure.verification.max_translation_sigma", "src/loop/verification.cpp"),
+    constant("loop_closure.verification.max_rotation_sigma", "src/loop/verification.cpp"),
+    constant("loop_closure.verification.min_translation_sigma", "src/loop/verification.cpp"),
+    constant("loop_closure.verification.min_rotation_sigma", "src/loop/verification.cpp"),
+    constant("loop_closure.verification.max_probe_spread", "src/loop/verify_icp.cpp"),
+    constant("loop_closure.verification.guess_fitness_margin", "src/loop/verify_icp.cpp"),
+    constant("graph.gravity_sigma_scale_frame_to_map", "src/pipeline/back_end.cpp"),
+    constant("graph.gravity_alone_frame_to_map", "src/pipeline/back_end.cpp"),
 };
 
 // Whether the shorter of two dotted paths is a trailing part of the longer one: a command that
@@ -81,9 +187,41 @@ bool sameTail(std::string_view a, std::string_view b) {
 }  // namespace
 
 std::string retiredKeyNote(const std::string& path) {
-  for (const RetiredKey& r : kRetiredKeys)
-    if (sameTail(r.path, path)) return "retired: " + std::string(r.why) + ", see " + std::string(r.history);
+  for (const RetiredKey& r : kRetiredKeys) {
+    if (!sameTail(r.path, path)) continue;
+    switch (r.fate) {
+      case Fate::Retired: return "retired: " + std::string(r.why) + ", see " + std::string(r.history);
+      case Fate::Constant:
+        if (!r.why.empty()) return std::string(r.why) + std::string(r.history) + "; see docs/configuration.md";
+        return "now a constant in " + std::string(r.history) + "; see docs/configuration.md";
+      case Fate::Moved: return "moved to " + std::string(r.history);
+    }
+  }
+  const auto dot = path.rfind('.');
+  if (dot == std::string::npos) return {};
+  const std::string_view section(path.data(), dot), key = std::string_view(path).substr(dot + 1);
+  for (const MovedSection& m : kMovedSections)
+    // A lone "registration" is also the section of `hazmap register --config`, where the keys live.
+    if (sameTail(m.from, section) && section != "registration")
+      return "moved to " + std::string(m.to) + "." + std::string(key) + ": " + std::string(m.why);
   return {};
+}
+
+std::string movedAndConstantKeysMarkdown() {
+  std::string moved_rows, constant_rows;
+  for (const RetiredKey& r : kRetiredKeys) {
+    const std::string row = "| `" + std::string(r.path) + "` | `" + std::string(r.history) + "` |\n";
+    if (r.fate == Fate::Moved) moved_rows += row;
+    if (r.fate == Fate::Constant) constant_rows += row;
+  }
+  for (const MovedSection& m : kMovedSections)
+    moved_rows += "| `" + std::string(m.from) + ".*` (but its own keys) | `" + std::string(m.to) + ".*` |\n";
+  return "| old key | now |\n|---|---|\n" + moved_rows +
+         "\nInternal thresholds are not keys (issue 37: every key is a default path or a user's choice). Each is "
+         "a named `constexpr` constant, with a line on why it has its value, in the file that uses it; the "
+         "switches of adopted measures are the code itself. An old config naming one gets `unknown key 'X' (now a "
+         "constant in FILE; see docs/configuration.md)`.\n\n| old key | constant in |\n|---|---|\n" +
+         constant_rows;
 }
 
 }  // namespace hazmap::config_detail

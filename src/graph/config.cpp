@@ -30,10 +30,7 @@ const ConfigFields<PoseGraphConfig>& configFields(ConfigTag<PoseGraphConfig>) {
                 "SLAM runs: a gravity-direction (roll/pitch) prior on each keyframe with IMU gravity data (gravity.txt)")
           .number("gravity_sigma_deg", &C::gravity_sigma_deg, closed(0, 45),
                   "° per axis of the gravity priors; 0 = the σ stated with each measurement")
-          .number("gravity_sigma_scale_frame_to_map", &C::gravity_sigma_scale_frame_to_map, closed(1, 100),
-                  "Frame-to-map tracking: the gravity priors' σ × this (the chained increments overstate tilt drift)")
-          .flag("gravity_alone_frame_to_map", &C::gravity_alone_frame_to_map,
-                "Frame-to-map tracking: optimise a run that closed no loop with the gravity priors alone");
+;
   return fields;
 }
 

@@ -13,6 +13,23 @@
 
 namespace hazmap {
 
+// Internal gates and ranking of constellation matching (issue 37: named constants, not keys;
+// their old keys name this file).
+/// m; two landmark pairs are compatible when their centroid distances differ by at most this: centroids of partly seen clusters move by a fraction of the cluster size between views.
+constexpr double kDistanceTolerance = 0.8;
+/// m; triples whose smallest triangle height is below this are collinear for the full-3d model.
+constexpr double kMinTriangleHeight = 1.0;
+/// Descriptor gate: largest principal extent ratio. Loose, because a source seen from another side or distance is only partly covered by the scan rings.
+constexpr double kMaxExtentRatio = 4.0;
+/// Exhaustive search over compatible pairs (triples) up to this many hypotheses, a seeded random sample beyond: bounded time on repeated classes.
+constexpr std::size_t kMaxHypotheses = 4000;
+/// m; negative evidence: an unmatched landmark this close to the other keyframe's sensor should have been seen there (the landmarks' default max_range).
+constexpr double kVisibilityRange = 15.0;
+/// Hypotheses are ranked by inliers − this · misses: a miss is weaker evidence than a match.
+constexpr double kMissPenalty = 0.5;
+/// A match needs 2·inliers / (2·inliers + misses) >= this: chance alignments of a few same-class sources leave many landmarks unexplained.
+constexpr double kMinOverlap = 0.7;
+
 const char* toString(CandidateSource source) {
   return source == CandidateSource::Constellation ? "constellation" : "distance";
 }
@@ -23,10 +40,8 @@ using Corr = std::pair<std::size_t, std::size_t>;  // (query landmark, match lan
 
 bool compatible(const PropertyLandmark& a, const PropertyLandmark& b, const ConstellationConfig& c) {
   if (a.class_id != b.class_id) return false;
-  if (c.max_extent_ratio > 0.0) {
-    const double ea = std::max(a.extent(0), 0.05), eb = std::max(b.extent(0), 0.05);
-    if (std::max(ea, eb) / std::min(ea, eb) > c.max_extent_ratio) return false;
-  }
+  const double ea = std::max(a.extent(0), 0.05), eb = std::max(b.extent(0), 0.05);
+  if (std::max(ea, eb) / std::min(ea, eb) > kMaxExtentRatio) return false;
   if (c.property_value_tolerance > 0.0 && a.has_property_value && b.has_property_value &&
       std::abs(a.mean_property - b.mean_property) > c.property_value_tolerance)
     return false;
@@ -121,14 +136,14 @@ Scored score(const Eigen::Isometry3d& T, const std::vector<Corr>& corrs,
   s.rmse = s.inliers.empty() ? 0.0 : std::sqrt(sq / static_cast<double>(s.inliers.size()));
   // Negative evidence: an unmatched landmark that the hypothesis puts within the other
   // keyframe's sensing range should have been seen there.
-  if (c.visibility_range > 0.0) {
+  if (kVisibilityRange > 0.0) {
     const Eigen::Isometry3d Ti = T.inverse();
     for (std::size_t i = 0; i < q.size(); ++i)
-      if (!used_q[i] && (T * q[i].centroid).norm() <= c.visibility_range) ++s.misses;
+      if (!used_q[i] && (T * q[i].centroid).norm() <= kVisibilityRange) ++s.misses;
     for (std::size_t j = 0; j < m.size(); ++j)
-      if (!used_m[j] && (Ti * m[j].centroid).norm() <= c.visibility_range) ++s.misses;
+      if (!used_m[j] && (Ti * m[j].centroid).norm() <= kVisibilityRange) ++s.misses;
   }
-  s.value = static_cast<double>(s.inliers.size()) - c.miss_penalty * static_cast<double>(s.misses);
+  s.value = static_cast<double>(s.inliers.size()) - kMissPenalty * static_cast<double>(s.misses);
   return s;
 }
 
@@ -178,15 +193,15 @@ std::vector<std::array<std::size_t, 3>> minimalSamples(const std::vector<Corr>& 
     if (a.first == b.first || a.second == b.second) return false;
     const double dq = (q[a.first].centroid - q[b.first].centroid).norm();
     const double dm = (m[a.second].centroid - m[b.second].centroid).norm();
-    return std::abs(dq - dm) <= c.distance_tolerance;
+    return std::abs(dq - dm) <= kDistanceTolerance;
   };
   auto baselineOk = [&](const Corr& a, const Corr& b) {
     const Eigen::Vector3d d = q[a.first].centroid - q[b.first].centroid;
     const double len = c.model == ConstellationModel::Planar ? d.head<2>().norm() : d.norm();
-    return len >= c.min_pair_distance;
+    return len >= kConstellationMinPairDistance;
   };
   std::vector<std::array<std::size_t, 3>> samples;
-  const std::size_t cap = c.max_hypotheses * 8;  // bound enumeration before sampling
+  const std::size_t cap = kMaxHypotheses * 8;  // bound enumeration before sampling
   for (std::size_t a = 0; a < corrs.size() && samples.size() < cap; ++a)
     for (std::size_t b = a + 1; b < corrs.size() && samples.size() < cap; ++b) {
       if (!consistent(corrs[a], corrs[b]) || !baselineOk(corrs[a], corrs[b])) continue;
@@ -197,15 +212,15 @@ std::vector<std::array<std::size_t, 3>> minimalSamples(const std::vector<Corr>& 
       for (std::size_t d = b + 1; d < corrs.size() && samples.size() < cap; ++d) {
         if (!consistent(corrs[a], corrs[d]) || !consistent(corrs[b], corrs[d])) continue;
         if (triangleHeight(q[corrs[a].first].centroid, q[corrs[b].first].centroid,
-                           q[corrs[d].first].centroid) < c.min_triangle_height)
+                           q[corrs[d].first].centroid) < kMinTriangleHeight)
           continue;
         samples.push_back({a, b, d});
       }
     }
-  if (samples.size() > c.max_hypotheses) {
+  if (samples.size() > kMaxHypotheses) {
     std::mt19937_64 rng(c.seed);
     std::shuffle(samples.begin(), samples.end(), rng);
-    samples.resize(c.max_hypotheses);
+    samples.resize(kMaxHypotheses);
   }
   return samples;
 }
@@ -266,7 +281,7 @@ std::optional<ConstellationMatch> matchConstellations(const std::vector<Property
   out.misses = result.misses;
   out.overlap = 2.0 * static_cast<double>(result.inliers.size()) /
                 static_cast<double>(2 * result.inliers.size() + result.misses);
-  if (out.overlap < c.min_overlap) return std::nullopt;
+  if (out.overlap < kMinOverlap) return std::nullopt;
   out.ambiguous = ambiguous(hypotheses, result, q, c);
   return out;
 }
@@ -289,7 +304,7 @@ std::vector<LoopCandidate> findConstellationCandidates(
     cand.inliers = match->inliers.size();
     cand.rmse = match->rmse;
     cand.score = static_cast<double>(cand.inliers) -
-                 config.constellation.miss_penalty * static_cast<double>(match->misses) -
+                 kMissPenalty * static_cast<double>(match->misses) -
                  match->rmse / config.constellation.inlier_distance;
     out.push_back(cand);
   }

@@ -11,6 +11,11 @@
 
 namespace hazmap {
 
+// Floors of the drift model (issue 37: constants, not keys): a loop between keyframes a few metres
+// apart is still allowed the scan-matching error of a sparse VLP-16 keyframe, about 0.1 m / 0.6°.
+constexpr double kTranslationSigmaFloor = 0.1;  // m
+constexpr double kRotationSigmaFloor = 0.01;    // rad
+
 double pathLength(const PoseList& poses, std::size_t a, std::size_t b) {
   if (a > b) std::swap(a, b);
   if (b >= poses.size()) fail("pathLength", "keyframe index out of range");
@@ -21,8 +26,8 @@ double pathLength(const PoseList& poses, std::size_t a, std::size_t b) {
 }
 
 Matrix6d driftCovariance(double L, const ConsistencyConfig& c) {
-  const double st = c.translation_sigma_floor + c.translation_drift_per_metre * L;
-  const double sr = c.rotation_sigma_floor + c.rotation_drift_per_metre * L;
+  const double st = kTranslationSigmaFloor + c.translation_drift_per_metre * L;
+  const double sr = kRotationSigmaFloor + c.rotation_drift_per_metre * L;
   Vector6d d;
   d << st * st, st * st, st * st, sr * sr, sr * sr, sr * sr;
   return d.asDiagonal();

@@ -36,29 +36,13 @@ const ConfigFields<ConstellationConfig>& configFields(ConfigTag<ConstellationCon
       ConfigFields<C>("Constellation matching of two keyframes' landmarks (RANSAC over pairs or triples).")
           .choice("model", &C::model, {{"planar", ConstellationModel::Planar}, {"full-3d", ConstellationModel::Full3D}},
                   "planar: x, y, yaw from landmark pairs; full-3d: 6-DoF from triples")
-          .number("distance_tolerance", &C::distance_tolerance, positive(),
-                  "m; landmark pairs are compatible when their distances differ by at most this")
           .number("inlier_distance", &C::inlier_distance, positive(), "m; inlier radius after the hypothesis")
           .integer("min_inliers", &C::min_inliers, atLeast(2), "Matched landmarks needed for a candidate")
-          .number("min_pair_distance", &C::min_pair_distance, nonNegative(),
-                  "m; closer landmark pairs give no reliable yaw")
-          .number("min_triangle_height", &C::min_triangle_height, nonNegative(),
-                  "m; flatter triples are collinear (full-3d)")
-          .number("max_extent_ratio", &C::max_extent_ratio, nonNegative(),
-                  "Descriptor gate on the principal extent ratio (0 = off, else >= 1)")
           .number("property_value_tolerance", &C::property_value_tolerance, nonNegative(),
                   "Gate on the mean property value (0 = off)")
-          .integer("max_hypotheses", &C::max_hypotheses, atLeast(1),
-                   "Exhaustive search up to this many hypotheses, a random sample beyond")
-          .integer("seed", &C::seed, nonNegative(), "Seed of that sample")
-          .number("visibility_range", &C::visibility_range, nonNegative(),
-                  "m; an unmatched landmark this close to the other sensor counts as a miss (0 = off)")
-          .number("miss_penalty", &C::miss_penalty, nonNegative(), "Ranking: inliers − miss_penalty · misses")
-          .number("min_overlap", &C::min_overlap, closed(0, 1), "Required 2·inliers / (2·inliers + misses)")
+          .integer("seed", &C::seed, nonNegative(), "Seed of the hypotheses sample beyond its cap")
           .number("facing_tolerance", &C::facing_tolerance, closed(0, M_PI),
                   "rad; matched flat landmarks must face the same way (0 = off)")
-          .rule("max_extent_ratio", [](const C& c) { return c.max_extent_ratio == 0.0 || c.max_extent_ratio >= 1.0; },
-                "must be 0 (off) or >= 1")
           .rule("min_inliers",
                 [](const C& c) { return c.model != ConstellationModel::Full3D || c.min_inliers >= 3; },
                 "must be >= 3 for the full-3d model");
@@ -77,22 +61,44 @@ const ConfigFields<CandidateSearchConfig>& configFields(ConfigTag<CandidateSearc
   return fields;
 }
 
+RegistrationConfig VerificationIcpOverrides::over(RegistrationConfig tracking) const {
+  tracking.max_correspondence_distance = max_correspondence_distance;
+  tracking.max_iterations = max_iterations;
+  tracking.max_source_points = max_source_points;
+  tracking.index = index;
+  tracking.coarse_source_points = coarse_source_points;
+  return tracking;
+}
+
+const ConfigFields<VerificationIcpOverrides>& configFields(ConfigTag<VerificationIcpOverrides>) {
+  using C = VerificationIcpOverrides;
+  static const ConfigFields<C> fields =
+      ConfigFields<C>("What the verification ICP changes from tracking's (odometry.registration); "
+                      "every other setting is tracking's.")
+          .number("max_correspondence_distance", &C::max_correspondence_distance, positive(),
+                  "m; search radius of unlabelled points (loops start farther from the truth than odometry steps)")
+          .integer("max_iterations", &C::max_iterations, atLeast(1), "Iteration limit")
+          .integer("max_source_points", &C::max_source_points, nonNegative(),
+                   "Use at most this many source points, evenly strided (0 = all)")
+          .choice("index", &C::index,
+                  {{"voxel", SpatialIndexKind::VoxelHash}, {"kdtree", SpatialIndexKind::KdTree},
+                   {"voxel-hash", SpatialIndexKind::VoxelHash}, {"k-d tree", SpatialIndexKind::KdTree}},
+                  "Spatial index of the target (dense submaps searched wide: the k-d tree is faster)")
+          .integer("coarse_source_points", &C::coarse_source_points, nonNegative(),
+                   "Coarse to fine stage of the verification ICP (0 = single stage, as the acceptance thresholds were set)");
+  return fields;
+}
+
 const ConfigFields<VerificationConfig>& configFields(ConfigTag<VerificationConfig>) {
   using C = VerificationConfig;
   static const ConfigFields<C> fields =
       ConfigFields<C>("Loop verification: ICP from the candidate's guess, then acceptance rules.")
           .number("min_fitness", &C::min_fitness, closed(0, 1), "Fraction of source points with a partner")
           .number("max_rmse", &C::max_rmse, positive(), "m; inlier RMSE")
-          .number("max_translation_sigma", &C::max_translation_sigma, positive(),
-                  "m; largest translation standard deviation of the ICP covariance")
-          .number("max_rotation_sigma", &C::max_rotation_sigma, positive(), "rad")
           .flag("reject_degenerate", &C::reject_degenerate, "Reject loops with a degenerate direction")
           .number("max_correction_translation", &C::max_correction_translation, positive(),
                   "m; ICP may move the guess at most this far")
           .number("max_correction_rotation", &C::max_correction_rotation, positive(), "rad")
-          .number("min_translation_sigma", &C::min_translation_sigma, nonNegative(),
-                  "m; floor on the standard deviations before inverting")
-          .number("min_rotation_sigma", &C::min_rotation_sigma, nonNegative(), "rad")
           .number("covariance_scale", &C::covariance_scale, positive(),
                   "Calibration: the ICP covariance is multiplied by this before the floors (fitted by NEES)")
           .number("misfit_scale", &C::misfit_scale, nonNegative(),
@@ -103,23 +109,20 @@ const ConfigFields<VerificationConfig>& configFields(ConfigTag<VerificationConfi
                   "m; standard deviation added along directions only labelled patches constrain; the default removes the loop's information there (0 = off)")
           .number("probe_distance", &C::probe_distance, nonNegative(),
                   "m; basin probes: ICP again from ±this along x and y, their spread joins the covariance (0 = off)")
-          .number("max_probe_spread", &C::max_probe_spread, nonNegative(),
-                  "m; probes landing farther (RMS) from the result make the loop ambiguous: rejected (0 = keep)")
           .integer("coarse_source_points", &C::coarse_source_points, atLeast(0),
                    "Coarse check first with this many source points; rejects candidates far below min_fitness cheaply (0 = off)")
           .number("coarse_fitness_margin", &C::coarse_fitness_margin, nonNegative(),
                   "The coarse check rejects below min_fitness − this")
           .integer("guess_check_points", &C::guess_check_points, atLeast(0),
                    "Fitness of this many source points at the guess (one search, no ICP) before the coarse check (0 = off)")
-          .number("guess_fitness_margin", &C::guess_fitness_margin, nonNegative(),
-                  "The guess check rejects below min_fitness − coarse_fitness_margin − this")
           .number("full_from_coarse_within", &C::full_from_coarse_within, nonNegative(),
                   "m (translation + 10 m × rotation); the full verification ICP starts where the coarse check converged when that lies within this of the guess (0 = always from the guess)")
           .integer("probe_coarse_points", &C::probe_coarse_points, atLeast(0),
                    "Basin probes and the reverse cross-check start with a coarse stage on this many source points, then refine on all (0 = single stage)")
           .number("probe_tolerance_scale", &C::probe_tolerance_scale, atLeast(1.0),
                   "Basin probes stop at the registration's tolerances times this (1 = the verification's)")
-          .section("registration", &C::registration, "The verification ICP (α and class radii: property_icp)");
+          .section("registration", &C::registration,
+                   "The verification ICP: overrides of odometry.registration (α and class radii: property_icp)");
   return fields;
 }
 
@@ -130,12 +133,8 @@ const ConfigFields<ConsistencyConfig>& configFields(ConfigTag<ConsistencyConfig>
           .number("translation_drift_per_metre", &C::translation_drift_per_metre, nonNegative(),
                   "Drift model: m per m of path")
           .number("rotation_drift_per_metre", &C::rotation_drift_per_metre, nonNegative(), "rad per m")
-          .number("translation_sigma_floor", &C::translation_sigma_floor, positive(), "m")
-          .number("rotation_sigma_floor", &C::rotation_sigma_floor, positive(), "rad")
           .number("gate_probability", &C::gate_probability, Range{0.0, 1.0, true, true},
-                  "Probability of the χ² gates (6 degrees of freedom)")
-          .flag("use_drift_gate", &C::use_drift_gate, "Gate loops against the drifting estimate")
-          .flag("use_pairwise", &C::use_pairwise, "Keep only the largest pairwise-consistent set");
+                  "Probability of the χ² gates (6 degrees of freedom)");
   return fields;
 }
 

@@ -95,7 +95,7 @@ std::shared_ptr<const RegistrationTarget> LoopDetector::submapTarget(std::size_t
         std::equal(c.placement.begin(), c.placement.end(), key.placement.begin(), key.placement.end(), same))
       return c.target;
   key.target = std::make_shared<const RegistrationTarget>(submap(k, query, estimate), classes_,
-                                                          config_.verification.registration);
+                                                          config_.verification.icp());
   ++submap_targets_built_;
   std::erase_if(submaps_, [&](const CachedSubmap& c) { return c.k == k; });
   submaps_.push_back(std::move(key));
@@ -215,8 +215,7 @@ std::vector<PropertyLandmark> LoopDetector::placeLandmarks(std::size_t k, std::s
 LoopDetection LoopDetector::detect(std::size_t query, const PoseList& estimate) {
   LoopDetection det;
   det.candidates = candidates(query, estimate);
-  const bool gate = config_.consistency.use_drift_gate;
-  if (gate && estimate.size() <= query)
+  if (estimate.size() <= query)
     fail("loop closure", "the drift gate needs a pose estimate for keyframe " + std::to_string(query));
   verifyInto(det.candidates, estimate, det);
   // Neighbourhood landmarks: the keyframe partial_landmark_window back now has its keyframes
@@ -263,8 +262,8 @@ double LoopDetector::crossCheckDistance(const LoopCandidate& cand, const PoseLis
   const auto match_scan = submaps ? nullptr : cloud(cand.match);
   const LabeledCloud& match = submaps ? match_target->cloud() : *match_scan;
   if (query.empty() || match.empty()) return std::numeric_limits<double>::quiet_NaN();
-  const RegistrationTarget target(query, classes_, c.registration);
-  RegistrationConfig reverse = c.registration;
+  const RegistrationTarget target(query, classes_, c.icp());
+  RegistrationConfig reverse = c.icp();
   if (c.probe_coarse_points > 0) reverse.coarse_source_points = c.probe_coarse_points;
   const RegistrationResult rev = registerClouds(match, target, cand.initial_guess.inverse(), classes_, reverse);
   if (!rev.converged || !isFinite(rev.transform)) return std::numeric_limits<double>::quiet_NaN();
@@ -356,28 +355,27 @@ VerificationResult LoopDetector::verifyOne(const LoopCandidate& cand, const Pose
 }
 
 void LoopDetector::verifyInto(const std::vector<LoopCandidate>& candidates, const PoseList& estimate, LoopDetection& det) {
-  const bool gate = config_.consistency.use_drift_gate;
   for (const auto& cand : candidates) {
     if (det.accepted.size() >= config_.max_loops_per_keyframe) break;
-    if (relative_covariance_ && gate && !candidatePlausible(cand, estimate, det)) continue;
+    if (relative_covariance_ && !candidatePlausible(cand, estimate, det)) continue;
     bool light = false;
     CheckedLoop checked;
     VerificationResult v = verifyOne(cand, estimate, light, checked);
     det.verifications.push_back(v);
     if (!v.accepted) continue;
-    if (gate) {
-      const bool innovation = static_cast<bool>(relative_covariance_);
-      const GateResult g = innovation ? innovationGate(v.closure, estimate, relative_covariance_(v.closure.from, v.closure.to),
-                                                       config_.consistency.gate_probability)
-                                      : driftGate(v.closure, estimate, config_.consistency);
-      det.gates.push_back(g);
-      if (!g.accepted) {
-        det.verifications.back().accepted = false;
-        det.verifications.back().rejection = innovation ? LoopRejection::InnovationGate : LoopRejection::DriftGate;
-        det.verifications.back().reason = std::string(innovation ? "innovation" : "drift") + " gate: d² = " +
-                                          std::to_string(g.mahalanobis2) + " > " + std::to_string(g.threshold);
-        continue;
-      }
+    // Every verified loop is gated against the estimate: the innovation gate when the back end
+    // gives the graph's covariance, else the drift model's.
+    const bool innovation = static_cast<bool>(relative_covariance_);
+    const GateResult g = innovation ? innovationGate(v.closure, estimate, relative_covariance_(v.closure.from, v.closure.to),
+                                                     config_.consistency.gate_probability)
+                                    : driftGate(v.closure, estimate, config_.consistency);
+    det.gates.push_back(g);
+    if (!g.accepted) {
+      det.verifications.back().accepted = false;
+      det.verifications.back().rejection = innovation ? LoopRejection::InnovationGate : LoopRejection::DriftGate;
+      det.verifications.back().reason = std::string(innovation ? "innovation" : "drift") + " gate: d² = " +
+                                        std::to_string(g.mahalanobis2) + " > " + std::to_string(g.threshold);
+      continue;
     }
     det.accepted.push_back(v.closure);
     loops_.push_back(v.closure);
@@ -387,7 +385,6 @@ void LoopDetector::verifyInto(const std::vector<LoopCandidate>& candidates, cons
 }
 
 std::vector<LoopClosure> LoopDetector::consistentLoops(const PoseList& estimate) const {
-  if (!config_.consistency.use_pairwise) return loops_;
   std::vector<LoopClosure> out;
   for (std::size_t i : consistentSubset(loops_, estimate, config_.consistency)) out.push_back(loops_[i]);
   return out;
@@ -403,7 +400,7 @@ bool LoopDetector::candidatePlausible(const LoopCandidate& cand, const PoseList&
   guess.to = cand.query;
   guess.T_from_to = cand.initial_guess;
   const double st = config_.candidates.constellation.inlier_distance;
-  const double sr = st / config_.candidates.constellation.min_pair_distance;
+  const double sr = st / kConstellationMinPairDistance;
   guess.covariance = (Vector6d() << st * st, st * st, st * st, sr * sr, sr * sr, sr * sr).finished().asDiagonal();
   const GateResult g = innovationGate(guess, estimate, relative_covariance_(cand.match, cand.query),
                                       config_.consistency.gate_probability);

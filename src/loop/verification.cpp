@@ -8,6 +8,16 @@
 
 namespace hazmap {
 
+// Internal acceptance thresholds of loop verification (issue 37: named constants, not keys; their
+// old keys name this file).
+/// m / rad; a loop whose ICP covariance has a larger standard deviation is too uncertain to pull
+/// the graph (≈ 2° in rotation).
+constexpr double kMaxTranslationSigma = 0.25;
+constexpr double kMaxRotationSigma = 0.035;
+/// m / rad; floors on a loop's standard deviations before inverting, so that no loop becomes rigid.
+constexpr double kMinTranslationSigma = 0.01;
+constexpr double kMinRotationSigma = 0.001;
+
 namespace {
 
 std::string fmt(double v) {
@@ -38,8 +48,8 @@ Matrix6d misfitTerm(const RegistrationResult& reg, const VerificationConfig& c) 
 
 Vector6d floorVariances(const VerificationConfig& c) {
   Vector6d floor;
-  floor << Eigen::Vector3d::Constant(c.min_translation_sigma * c.min_translation_sigma),
-      Eigen::Vector3d::Constant(c.min_rotation_sigma * c.min_rotation_sigma);
+  floor << Eigen::Vector3d::Constant(kMinTranslationSigma * kMinTranslationSigma),
+      Eigen::Vector3d::Constant(kMinRotationSigma * kMinRotationSigma);
   return floor;
 }
 
@@ -51,7 +61,7 @@ void setLoopCovariance(LoopClosure& closure, const Matrix6d& covariance) {
 
 Matrix6d honestyTerms(const RegistrationResult& reg, const VerificationConfig& c) {
   Matrix6d extra = misfitTerm(reg, c);
-  const double L = c.registration.degeneracy_length > 0.0 ? c.registration.degeneracy_length : 1.0;
+  const double L = c.icp().degeneracy_length > 0.0 ? c.icp().degeneracy_length : 1.0;
   for (const Vector6d& d : reg.label_only_directions) {
     // d is a unit vector in pose units; in the balanced space (rotation × L) σ is isotropic.
     Vector6d v = d;
@@ -109,11 +119,11 @@ VerificationResult evaluateRegistration(const LoopCandidate& cand, const Registr
     return reject(LoopRejection::CovarianceNotPositive, "covariance is not positive definite");
   const double st = largestSigma(cov.topLeftCorner<3, 3>());
   const double sr = largestSigma(cov.bottomRightCorner<3, 3>());
-  if (st > c.max_translation_sigma)
+  if (st > kMaxTranslationSigma)
     return reject(LoopRejection::UncertainTranslation,
-                  "translation sigma " + fmt(st) + " m > " + fmt(c.max_translation_sigma));
-  if (sr > c.max_rotation_sigma)
-    return reject(LoopRejection::UncertainRotation, "rotation sigma " + fmt(sr) + " rad > " + fmt(c.max_rotation_sigma));
+                  "translation sigma " + fmt(st) + " m > " + fmt(kMaxTranslationSigma));
+  if (sr > kMaxRotationSigma)
+    return reject(LoopRejection::UncertainRotation, "rotation sigma " + fmt(sr) + " rad > " + fmt(kMaxRotationSigma));
   cov += honestyTerms(reg, c);
   // Add the floor variances so the information stays finite and no loop becomes rigid.
   cov += floorVariances(c).asDiagonal();

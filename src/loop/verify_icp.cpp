@@ -14,6 +14,14 @@
 
 namespace hazmap {
 
+// Internal thresholds of the verification's shortcuts (issue 37: named constants, not keys).
+/// m; basin probes landing farther (RMS) from the result make the loop ambiguous: another basin
+/// fits as well (the neighbouring identical tank).
+constexpr double kMaxProbeSpread = 0.05;
+/// The guess check rejects below the coarse floor minus this: a candidate that far below at the
+/// guess never reached min_fitness in the measured runs (docs/loop_closure.md).
+constexpr double kGuessFitnessMargin = 0.25;
+
 namespace {
 
 // The basin probes (VerificationConfig::probe_distance): ICP from the result shifted along ±x, ±y
@@ -21,7 +29,7 @@ namespace {
 void widenByBasinProbes(VerificationResult& v, const LabeledCloud& query_cloud, const RegistrationTarget& target,
                         const ClassTable& classes, const VerificationConfig& c) {
   const Eigen::Isometry3d& result = v.closure.T_from_to;
-  RegistrationConfig probe = c.registration;
+  RegistrationConfig probe = c.icp();
   if (c.probe_coarse_points > 0) probe.coarse_source_points = c.probe_coarse_points;
   probe.translation_tolerance *= c.probe_tolerance_scale;
   probe.rotation_tolerance *= c.probe_tolerance_scale;
@@ -43,7 +51,7 @@ void widenByBasinProbes(VerificationResult& v, const LabeledCloud& query_cloud, 
     });
     for (int run = first; run < first + 2; ++run) spread += shift[run] * shift[run].transpose();
     const double rms = std::sqrt((spread / runs).topLeftCorner<3, 3>().trace());
-    if (c.max_probe_spread > 0.0 && rms > c.max_probe_spread) {
+    if (rms > kMaxProbeSpread) {
       v.accepted = false;
       v.rejection = LoopRejection::Ambiguous;
       v.reason = "basin probes landed " + std::string(first + 2 < runs ? "at least " : "") + std::to_string(rms) +
@@ -77,12 +85,12 @@ std::optional<VerificationResult> overlapAtGuess(const LoopCandidate& cand, cons
                                                  const RegistrationTarget& target, const ClassTable& classes,
                                                  const VerificationConfig& c) {
   if (c.guess_check_points == 0 || query_cloud.size() <= c.guess_check_points) return std::nullopt;
-  RegistrationConfig one = c.registration;
+  RegistrationConfig one = c.icp();
   one.max_source_points = c.guess_check_points;
   one.coarse_source_points = 0;
   one.max_iterations = 1;
   const RegistrationResult reg = registerClouds(query_cloud, target, cand.initial_guess, classes, one);
-  const double floor = coarseFloor(c) - c.guess_fitness_margin;
+  const double floor = coarseFloor(c) - kGuessFitnessMargin;
   if (!(reg.fitness < floor)) return std::nullopt;
   VerificationResult v = checkedAt(cand, reg);
   v.closure.T_from_to = cand.initial_guess;  // one search moves nothing: the guess is the pose
@@ -97,7 +105,7 @@ std::optional<VerificationResult> overlapAtGuess(const LoopCandidate& cand, cons
 VerificationResult coarseCheck(const LoopCandidate& cand, const LabeledCloud& query_cloud, const RegistrationTarget& target,
                                const ClassTable& classes, const VerificationConfig& c) {
   if (auto hopeless = overlapAtGuess(cand, query_cloud, target, classes, c)) return *hopeless;
-  RegistrationConfig coarse = c.registration;
+  RegistrationConfig coarse = c.icp();
   coarse.max_source_points = c.coarse_source_points;
   const RegistrationResult reg = registerClouds(query_cloud, target, cand.initial_guess, classes, coarse);
   VerificationResult v = checkedAt(cand, reg);
@@ -134,7 +142,7 @@ VerificationResult verifyCandidate(const LoopCandidate& cand, const LabeledCloud
                                    const VerificationConfig& c) {
   validate(c);
   if (query_cloud.empty() || match_cloud.empty()) return emptyCloudRejection(cand);
-  const RegistrationTarget target(match_cloud, classes, c.registration);
+  const RegistrationTarget target(match_cloud, classes, c.icp());
   return verifyCandidate(cand, query_cloud, target, classes, c);
 }
 
@@ -148,7 +156,7 @@ VerificationResult verifyCandidate(const LoopCandidate& cand, const LabeledCloud
     if (coarse.rejection == LoopRejection::LowFitness) return coarse;
     if (refinesCoarse(coarse.registration, cand.initial_guess, c)) start = coarse.registration.transform;
   }
-  const RegistrationResult reg = registerClouds(query_cloud, target, start, classes, c.registration);
+  const RegistrationResult reg = registerClouds(query_cloud, target, start, classes, c.icp());
   VerificationResult v = evaluateRegistration(cand, reg, c);
   if (v.accepted && c.probe_distance > 0.0) widenByBasinProbes(v, query_cloud, target, classes, c);
   return v;

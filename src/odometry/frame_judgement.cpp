@@ -42,26 +42,26 @@ std::string registrationFailure(const RegistrationResult& r, const Eigen::Isomet
 std::string suspicion(const RegistrationResult& r, const Eigen::Isometry3d& guess, bool has_prior,
                       double typical_rmse, const OdometryConfig& config, bool& only_weak_axis) {
   only_weak_axis = false;
-  if (!config.relocalise_suspect) return {};
+  if (!config.recovery.relocalise_suspect) return {};
   if (!has_prior) return "no motion prior";
   char buf[160];
   if (fitsWorseThanTracked(r, typical_rmse, config)) {
     std::snprintf(buf, sizeof buf, "poor fit: inlier RMSE %.3f m above %.1f x that of tracked frames (%.3f m)",
-                  r.inlier_rmse, config.relocalise_max_rmse_ratio, typical_rmse);
+                  r.inlier_rmse, kMaxRmseRatio, typical_rmse);
     return buf;
   }
-  if (r.fitness < config.suspect_fitness) {
-    std::snprintf(buf, sizeof buf, "poor fit: fitness %.3f below suspect_fitness %.3f", r.fitness,
-                  config.suspect_fitness);
+  if (r.fitness < kSuspectFitness) {
+    std::snprintf(buf, sizeof buf, "poor fit: fitness %.3f below the suspect threshold %.3f", r.fitness,
+                  kSuspectFitness);
     return buf;
   }
   const Vector6d correction = correctionOf(r, guess);
   const double dt = correction.head<3>().norm(), dr = correction.tail<3>().norm();
-  if (dt > config.suspect_correction_translation || dr > config.suspect_correction_rotation) {
+  if (dt > kSuspectCorrectionTranslation || dr > kSuspectCorrectionRotation) {
     std::snprintf(buf, sizeof buf, "far from the guess: %.3f m / %.2f deg", dt, dr * 180.0 / M_PI);
     return buf;
   }
-  if (const auto axis = weakHorizontalAxis(r, config.suspect_weak_axis_ratio)) {
+  if (const auto axis = weakHorizontalAxis(r, kSuspectWeakAxisRatio)) {
     std::snprintf(buf, sizeof buf, "weakly constrained along [%.2f %.2f %.2f]", (*axis)(0), (*axis)(1), (*axis)(2));
     only_weak_axis = true;
     return buf;
@@ -137,10 +137,8 @@ Estimate keepGuessAlong(const std::vector<Vector6d>& basis, const RegistrationRe
   return e;
 }
 
-// The directions along which the guess is kept: ICP's own (in its space), none unless
-// keep_guess_along_degenerate.
-std::vector<Vector6d> degenerateBasis(const RegistrationResult& r, const OdometryConfig& config) {
-  if (!config.keep_guess_along_degenerate) return {};
+// The directions along which the guess is kept: ICP's own (in its space).
+std::vector<Vector6d> degenerateBasis(const RegistrationResult& r, const OdometryConfig&) {
   return orthonormalBasis(r.degenerate_directions);
 }
 
@@ -150,8 +148,8 @@ namespace {
 // (a corridor: "no motion" fits as well as the true step), so such a frame is flagged, ICP's
 // answer kept, with the fallback covariance along the axis.
 void flagWeakAxis(OdometryFrame& f, const RegistrationResult& r, Estimate& estimate, const OdometryConfig& config) {
-  if (!config.relocalise_suspect || !config.flag_weak_axis) return;
-  const std::optional<Eigen::Vector3d> axis = weakHorizontalAxis(r, config.flag_weak_axis_ratio);
+  if (!config.recovery.relocalise_suspect) return;
+  const std::optional<Eigen::Vector3d> axis = weakHorizontalAxis(r, kFlagWeakAxisRatio);
   if (!axis) return;
   Vector6d b = Vector6d::Zero();
   b.head<3>() = *axis;
@@ -180,17 +178,17 @@ void labelledOrFlagged(OdometryFrame& f, const RegistrationResult& r, Estimate& 
 
 // With relocalise_suspect: the previous frame was flagged, so its pose is not known along its
 // weakest horizontal axis, and this frame's increment starts there. An answer farther from the
-// guess along that axis than flag_correction_after_flagged is that pose's error put right (or a
+// guess along that axis than kFlagCorrectionAfterFlagged is that pose's error put right (or a
 // slip of the encoders): the data cannot tell which, so the increment is not known either
 // (corridor worst day, seed 1: frame 35 beside the south heat panel put right frame 34, flagged
 // 0.40 m off, and was `tracked` 0.49 m off in its increment). A lost frame (fallback) that is
 // re-estimated later is left to reestimateLostFrames, which flags the frame after it when it stays lost.
 void flagAfterFlagged(OdometryFrame& f, const OdometryFrame& previous, const Eigen::Isometry3d& answer,
                       const Eigen::Isometry3d& guess, const Eigen::Isometry3d& W, const OdometryConfig& config) {
-  if (!config.relocalise_suspect || !(config.flag_correction_after_flagged > 0.0) || !isFlagged(previous.status)) return;
+  if (!config.recovery.relocalise_suspect || !(kFlagCorrectionAfterFlagged > 0.0) || !isFlagged(previous.status)) return;
   if (f.status != FrameStatus::Tracked && f.status != FrameStatus::Relocalised) return;
   const bool to_map = config.mode == OdometryMode::FrameToMap;
-  const bool lost_reestimated = previous.status == FrameStatus::Fallback && to_map && config.reestimate_lost_frames;
+  const bool lost_reestimated = previous.status == FrameStatus::Fallback && to_map && config.recovery.reestimate_lost_frames;
   if (lost_reestimated) return;
   Eigen::Vector3d delta = W.linear() * (answer.translation() - guess.translation());  // world
   delta.z() = 0.0;
@@ -198,7 +196,7 @@ void flagAfterFlagged(OdometryFrame& f, const OdometryFrame& previous, const Eig
   // Frame to map the previous registration's space is the world's: measure along its weakest axis.
   if (to_map && previous.status == FrameStatus::Degenerate)
     if (const auto axis = weakHorizontalAxis(previous.registration, 1.0)) along = std::abs(axis->dot(delta));
-  if (along <= config.flag_correction_after_flagged) return;
+  if (along <= kFlagCorrectionAfterFlagged) return;
   char buf[200];
   std::snprintf(buf, sizeof buf,
                 "%.2f m from the guess along the flagged frame %zu's weakest axis: its pose's error or a slip, "

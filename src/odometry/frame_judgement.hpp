@@ -20,7 +20,7 @@ struct Estimate {
 /// only trigger is a weakly constrained horizontal axis.
 std::string suspicion(const RegistrationResult& r, const Eigen::Isometry3d& guess, bool has_prior,
                       double typical_rmse, const OdometryConfig& config, bool& only_weak_axis);
-/// The directions along which a tracked frame keeps its guess (keep_guess_along_degenerate), and
+/// The directions along which a tracked frame keeps its guess (ICP's degenerate ones), and
 /// their description for the frame's reason.
 std::vector<Vector6d> degenerateBasis(const RegistrationResult& r, const OdometryConfig& config);
 std::string describeDegenerate(const std::vector<Vector6d>& basis);

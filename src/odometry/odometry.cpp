@@ -209,8 +209,8 @@ Odometry::Judgement Odometry::judge(OdometryFrame& f, const LabeledCloud& source
   bool relocalised = false;
   std::string failure = checkAndRecover(f, source, a.target, a.W, a.guess, a.has_prior, r, relocalised);
   if (config_.mode == OdometryMode::FrameToMap) map_target.reset();  // its lazy normals read the map, which changes
-  if (!failure.empty() && config_.relocalise && config_.whole_map_relocalise && !source.empty() &&
-      impl_->fallback_streak + 1 >= static_cast<std::size_t>(config_.whole_map_after)) {
+  if (!failure.empty() && config_.recovery.relocalise && config_.recovery.whole_map && !source.empty() &&
+      impl_->fallback_streak + 1 >= static_cast<std::size_t>(config_.recovery.whole_map_after)) {
     if (std::optional<RegistrationResult> g = relocaliseInWholeMap(f, source, a.prev_pose * f.guess)) {
       r = std::move(*g);
       const Matrix6d Ad = adjoint(a.W.inverse());  // world → W space (identity frame to map)
@@ -235,10 +235,10 @@ Odometry::Judgement Odometry::judge(OdometryFrame& f, const LabeledCloud& source
   } else {
     f.status = FrameStatus::Tracked;
   }
-  // A relocalised answer flagged only by the looser flag_weak_axis_ratio still levels the velocity.
+  // A relocalised answer flagged only by the looser kFlagWeakAxisRatio still levels the velocity.
   j.levels_velocity = f.status == FrameStatus::Relocalised &&
-                      !(config_.relocalise_suspect && config_.flag_weak_axis &&
-                        weakHorizontalAxis(r, config_.suspect_weak_axis_ratio));
+                      !(config_.recovery.relocalise_suspect &&
+                        weakHorizontalAxis(r, kSuspectWeakAxisRatio));
   if (f.status == FrameStatus::Tracked || f.status == FrameStatus::Relocalised)
     labelledOrFlagged(f, r, j.estimate, config_, impl_->label_note, impl_->label_precise, impl_->label_doubt);
   flagAfterFlagged(f, frames_.back(), j.estimate.pose, a.guess, a.W, config_);
@@ -280,9 +280,9 @@ std::string Odometry::checkAndRecover(OdometryFrame& f, const LabeledCloud& sour
                                                      only_weak_axis);
   // Suspect only for a weak axis: the labels may place the frame along it, leaving nothing to recover.
   if (only_weak_axis && target && labelsDecideAxes(config_) &&
-      placeAlongWeakAxis(source, *target, r, config_.suspect_weak_axis_ratio))
+      placeAlongWeakAxis(source, *target, r, kSuspectWeakAxisRatio))
     trigger.clear();
-  if (config_.relocalise && !trigger.empty() && target && !source.empty()) {
+  if (config_.recovery.relocalise && !trigger.empty() && target && !source.empty()) {
     f.global.trigger = trigger;
     std::optional<Recovery> recovered = recover(f, source, *target, W, r, failure.empty(), only_weak_axis);
     if (!recovered && failure.empty()) failure = f.global.outcome;  // ambiguous: flagged
@@ -292,11 +292,10 @@ std::string Odometry::checkAndRecover(OdometryFrame& f, const LabeledCloud& sour
       relocalised = true;
     }
   }
-  // ICP from the guess kept but weak along an axis (flag_weak_axis_ratio): the labels decide, or
+  // ICP from the guess kept but weak along an axis (kFlagWeakAxisRatio): the labels decide, or
   // judge() flags the frame.
-  if (failure.empty() && !relocalised && impl_->label_note.empty() && target && labelsDecideAxes(config_) &&
-      config_.flag_weak_axis)
-    placeAlongWeakAxis(source, *target, r, config_.flag_weak_axis_ratio);
+  if (failure.empty() && !relocalised && impl_->label_note.empty() && target && labelsDecideAxes(config_))
+    placeAlongWeakAxis(source, *target, r, kFlagWeakAxisRatio);
   return failure;
 }
 
@@ -322,7 +321,7 @@ void Odometry::prepareLabels(const LabeledCloud& scan) {
   impl_->scan_labels = labelledPointsOf(scan, config_, classes_);
   std::vector<std::pair<Eigen::Isometry3d, const LabeledCloud*>> placed;
   const Eigen::Vector3d here = frames_.back().pose.translation();
-  const double reach = config_.relocalise_map_radius + config_.label_axis_range;
+  const double reach = kRecoveryMapRadius + config_.label_axis.range;
   for (const auto& [index, labels] : impl_->frame_labels) {
     const OdometryFrame& k = frames_[index];
     // Not a fallback's guess; a flagged weak-axis frame's pose is ICP's (its labels starve the map
@@ -346,13 +345,13 @@ void Odometry::remember(OdometryFrame& f, const LabeledCloud& frame) {
     // scene in the map that the next frames then track against (issue 14, naraha seed 7), so its
     // scan waits outside the map (reestimate_lost_frames).
     LabeledCloud scan_world = frame.transformed(f.pose);
-    if (config_.reestimate_lost_frames) {
+    if (config_.recovery.reestimate_lost_frames) {
       if (f.status == FrameStatus::Fallback) {
         impl_->lost.push_back({f.index, frame, impl_->scan_labels});  // waits outside the map until a later frame is verified
         scan_world = LabeledCloud();
         // Lost for long (a corridor nothing can place along): the map must follow the robot, so the
         // oldest waiting scan enters at its guessed pose, as it would have without waiting.
-        if (impl_->lost.size() > static_cast<std::size_t>(config_.lost_frames_max)) {
+        if (impl_->lost.size() > static_cast<std::size_t>(config_.recovery.lost_frames_max)) {
           scan_world = impl_->lost.front().scan.transformed(frames_[impl_->lost.front().frame].pose);
           impl_->lost.erase(impl_->lost.begin());
         }

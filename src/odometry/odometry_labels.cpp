@@ -1,14 +1,14 @@
 // Labels decide along an axis the geometry cannot observe (issue 19; the paper's point): in a
 // corridor the walls fit as well a metre further along, but a heat panel or a puddle sits at one
-// place. The scan's labelled points (raw, at label_axis_voxel, isolated ones dropped) are slid
-// along the axis (±label_axis_range) and scored against the labelled points of the verified
+// place. The scan's labelled points (raw, at kLabelAxisVoxel, isolated ones dropped) are slid
+// along the axis (±label_axis.range) and scored against the labelled points of the verified
 // frames placed at their poses: the kernel correlation of every labelled pair, their distance
 // across the axis plus the paper's mismatch penalty α when the classes differ. A Gaussian of half
-// label_axis_gate in steps of a tenth of the gate finds the peak, one of label_axis_voxel in
-// centimetres refines it. The position is decided only when label_axis_min_support labelled
-// points agree there and no other peak label_axis_gate or more away scores label_axis_ambiguity ×
+// kLabelAxisGate in steps of a tenth of the gate finds the peak, one of kLabelAxisVoxel in
+// centimetres refines it. The position is decided only when kLabelAxisMinSupport labelled
+// points agree there and no other peak kLabelAxisGate or more away scores kLabelAxisAmbiguity ×
 // as much; it is precise when the two halves of the labelled points (alternate points) agree
-// within label_axis_consistency.
+// within kLabelAxisConsistency.
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -141,12 +141,12 @@ LabeledCloud labelledPointsOf(const LabeledCloud& scan, const OdometryConfig& co
     if (company >= 2) patch.push_back(i);
   }
   VoxelDownsampleConfig vd;
-  vd.voxel_size = config.label_axis_voxel;
+  vd.voxel_size = kLabelAxisVoxel;
   LabeledCloud out = voxelDownsample(scan.select(patch), vd, classes);
   if (out.empty()) return out;
-  // The unlabelled returns around the patches (cells of label_axis_context next to one holding a
+  // The unlabelled returns around the patches (cells of kLabelAxisContext next to one holding a
   // labelled point): where a panel ends, not where the view of it ends.
-  const double cell = config.label_axis_context;
+  const double cell = kLabelAxisContext;
   const auto key = [cell](const Eigen::Vector3f& p) {
     const auto q = [cell](float v) { return static_cast<std::int64_t>(std::floor(v / cell)) & 0x1fffff; };
     return (q(p.x()) << 42) | (q(p.y()) << 21) | q(p.z());
@@ -173,7 +173,7 @@ LabeledCloud labelMapOf(const std::vector<std::pair<Eigen::Isometry3d, const Lab
   std::vector<std::size_t> labelled, unlabelled;
   for (std::size_t i = 0; i < all.size(); ++i) (classes.isProperty(all.classes[i]) ? labelled : unlabelled).push_back(i);
   VoxelDownsampleConfig vd;
-  vd.voxel_size = config.label_axis_voxel;
+  vd.voxel_size = kLabelAxisVoxel;
   LabeledCloud out = voxelDownsample(all.select(labelled), vd, classes);
   out.append(voxelDownsample(all.select(unlabelled), vd, classes));
   return out;
@@ -190,11 +190,11 @@ LabelPlacement placeAlongAxisByLabels(const LabelView& view, const ClassTable& c
     return out;
   }
   const Eigen::Vector3f axis = axis_d.normalized().cast<float>();
-  const auto gate = static_cast<float>(config.label_axis_gate);
+  const auto gate = static_cast<float>(kLabelAxisGate);
   // The kernel: as wide as the labelled points' spacing (wider, the unlabelled returns next to a
   // panel's edge pay for its labelled points even at the right offset).
-  const auto sigma = static_cast<float>(config.label_axis_voxel), fine = sigma;
-  const auto range = static_cast<float>(config.label_axis_range);
+  const auto sigma = static_cast<float>(kLabelAxisVoxel), fine = sigma;
+  const auto range = static_cast<float>(config.label_axis.range);
   const std::vector<LabelPair> pairs =
       labelPairs(*view.scan, *view.map, classes, pose, axis, range + 3.0f * sigma, 9.0f * sigma * sigma);
   char buf[220];
@@ -209,8 +209,8 @@ LabelPlacement placeAlongAxisByLabels(const LabelView& view, const ClassTable& c
   // Mismatches make scores negative: peaks are compared above the profile's floor.
   const double floor = *std::min_element(score.begin(), score.end());
   out.second = (std::max(runnerUp(score, best, step, gate, floor), floor) - floor) / std::max(score[best] - floor, 1e-9);
-  out.decided = static_cast<double>(out.support) >= config.label_axis_min_support &&
-                score[best] > floor && out.second <= config.label_axis_ambiguity;
+  out.decided = static_cast<double>(out.support) >= kLabelAxisMinSupport &&
+                score[best] > floor && out.second <= kLabelAxisAmbiguity;
   if (!out.decided) {
     std::snprintf(buf, sizeof buf,
                   "labels undecided along the axis: %zu labelled points, %zu agree at %+.2f m, next peak %.0f %% of it",
@@ -223,7 +223,7 @@ LabelPlacement placeAlongAxisByLabels(const LabelView& view, const ClassTable& c
   const float even = refine(pairs, static_cast<float>(out.offset), 2.0f * sigma, fine, 0, nullptr);
   const float odd = refine(pairs, static_cast<float>(out.offset), 2.0f * sigma, fine, 1, nullptr);
   out.spread = std::abs(even - odd);
-  out.precise = out.spread <= config.label_axis_consistency;
+  out.precise = out.spread <= kLabelAxisConsistency;
   return out;
 }
 

@@ -31,9 +31,9 @@ std::string Odometry::placeLostFrameAlongAxis(const LabeledCloud& scan, const La
                                               const RegistrationTarget& target, RegistrationResult& r,
                                               Vector6d& correction, std::string& note, bool& precise) {
   std::string doubt;
-  const bool weak = weakHorizontalAxis(r, config_.flag_weak_axis_ratio).has_value();
+  const bool weak = weakHorizontalAxis(r, kFlagWeakAxisRatio).has_value();
   if (!weak) {
-    const double fit = surfaceFit(scan, target, r.transform, config_.relocalise_inlier_distance);
+    const double fit = surfaceFit(scan, target, r.transform, kSurfaceInlierDistance);
     doubt = ambiguousAlongWeakestAxis(scan, target, classes_, config_, seedConfigOf(config_), r, fit,
                                       "ICP from the interpolated pose");
   }
@@ -77,16 +77,16 @@ LabeledCloud Odometry::reestimateLostFrames(OdometryFrame& f, const LabeledCloud
     Vector6d correction = correctionOf(r, guess);
     std::string label_note;
     bool label_precise = true;
-    if (why.empty() && config_.relocalise_suspect)
+    if (why.empty() && config_.recovery.relocalise_suspect)
       why = placeLostFrameAlongAxis(l.scan, l.labels, target, r, correction, label_note, label_precise);
-    else if (why.empty() && weakHorizontalAxis(r, config_.suspect_weak_axis_ratio))
+    else if (why.empty() && weakHorizontalAxis(r, kSuspectWeakAxisRatio))
       why = "weakly constrained along an axis";
     if (why.empty() && fitsWorseThanTracked(r, impl_->typical_rmse, config_))
       why = "inlier RMSE above that of tracked frames";
     // Interpolated translation is close for a ground robot (a kick turns it, a lost scan is a
     // longer step at the same pace); an answer farther from it slid somewhere (a corridor, 1 m
     // along its axis: 13 of 99 frames silently wrong when such answers were used).
-    if (why.empty() && correction.head<3>().norm() > config_.suspect_correction_translation)
+    if (why.empty() && correction.head<3>().norm() > kSuspectCorrectionTranslation)
       why = "far from the interpolated pose";
     if (why.empty() && (!plausibleMotion(prev.inverse() * r.transform, config_) || !plausibleMotion(r.transform.inverse() * f.pose, config_)))
       why = "implausible motion";
@@ -123,7 +123,7 @@ LabeledCloud Odometry::reestimateLostFrames(OdometryFrame& f, const LabeledCloud
     f.reason += "increment from an interpolated pose (loose covariance)";
     // Its pose may be right, its increment is not known: flagged (with relocalise_suspect, whose
     // worst-day runs count such frames; corridor: 0.5 m off yet tracked).
-    if (config_.relocalise_suspect && (f.status == FrameStatus::Tracked || f.status == FrameStatus::Relocalised))
+    if (config_.recovery.relocalise_suspect && (f.status == FrameStatus::Tracked || f.status == FrameStatus::Relocalised))
       f.status = FrameStatus::Degenerate;
   }
   impl_->velocity = f.increment;  // the motion again, no longer the jump back from a wrong pose

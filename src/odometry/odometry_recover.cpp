@@ -81,7 +81,7 @@ LabeledCloud nearbyTarget(const LabeledCloud& cloud, const Eigen::Vector3d& cent
 
 bool distinct(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b, const OdometryConfig& c) {
   const Eigen::Isometry3d d = a.inverse() * b;
-  return translationNorm(d) > c.relocalise_distinct_translation || rotationAngle(d) > c.relocalise_distinct_rotation;
+  return translationNorm(d) > kDistinctTranslation || rotationAngle(d) > kDistinctRotation;
 }
 
 std::string describeAmbiguity(const Verified& a, const Verified& b) {
@@ -100,21 +100,21 @@ std::string describeNoGain(const Verified& v, double guess_fit) {
   return buf;
 }
 
-// The best fit wins; ICP from the guess gets relocalise_min_gain ahead (it is what tracking
+// The best fit wins; ICP from the guess gets kRecoveryMinGain ahead (it is what tracking
 // trusts when nothing is wrong). A probe along a weak axis wins only when it fits better than
-// that by relocalise_probe_gain (a slip along a corridor-like stretch the encoders lied about:
+// that by kProbeGain (a slip along a corridor-like stretch the encoders lied about:
 // naraha, ICP from the guess 0.55 on a surface, the probe 0.94). A distinct answer that fits as
 // well as the winner makes the frame ambiguous. Returns verified.size() when nothing is used.
 std::size_t pickAnswer(std::vector<Verified>& verified, const OdometryConfig& config, std::string& outcome,
                        const std::string& rejected, const LabelResolver& resolve) {
-  const auto rank = [&](const Verified& v) { return v.fit + (v.from_guess ? config.relocalise_min_gain : 0.0); };
+  const auto rank = [&](const Verified& v) { return v.fit + (v.from_guess ? kRecoveryMinGain : 0.0); };
   std::size_t best = verified.size(), probe = verified.size();
   for (std::size_t i = 0; i < verified.size(); ++i) {
     std::size_t& slot = verified[i].probe ? probe : best;
     if (slot == verified.size() || rank(verified[i]) > rank(verified[slot])) slot = i;
   }
   if (probe != verified.size() &&
-      (best == verified.size() || verified[probe].fit >= rank(verified[best]) + config.relocalise_probe_gain))
+      (best == verified.size() || verified[probe].fit >= rank(verified[best]) + kProbeGain))
     best = probe;
   if (best == verified.size()) {
     outcome += (outcome.empty() ? "" : "; ") + std::string("only probes verified (") + rejected + ")";
@@ -122,7 +122,7 @@ std::size_t pickAnswer(std::vector<Verified>& verified, const OdometryConfig& co
   }
   for (std::size_t i = 0; i < verified.size(); ++i)
     if (i != best && distinct(verified[i].registration.transform, verified[best].registration.transform, config) &&
-        verified[i].fit >= verified[best].fit - config.relocalise_ambiguity) {
+        verified[i].fit >= verified[best].fit - kRecoveryAmbiguity) {
       if (resolve && resolve(verified[best], verified[i])) continue;
       outcome = describeAmbiguity(verified[best], verified[i]);
       return verified.size();
@@ -138,13 +138,13 @@ namespace {
 // starts a step or two either way of the guess show whether another position fits as well.
 void addWeakAxisProbes(std::vector<Start>& starts, const RegistrationResult& from_guess, const Eigen::Isometry3d& guess,
                        const OdometryConfig& config) {
-  const auto axis = weakHorizontalAxis(from_guess, config.suspect_weak_axis_ratio);
+  const auto axis = weakHorizontalAxis(from_guess, kSuspectWeakAxisRatio);
   if (!axis) return;
   for (const double k : {-2.0, -1.0, 1.0, 2.0}) {
     Eigen::Isometry3d s = guess;
-    s.translation() += k * config.relocalise_axis_step * *axis;
+    s.translation() += k * kAxisProbeStep * *axis;
     char name[64];
-    std::snprintf(name, sizeof name, "guess %+.1f m along the weak axis", k * config.relocalise_axis_step);
+    std::snprintf(name, sizeof name, "guess %+.1f m along the weak axis", k * kAxisProbeStep);
     starts.push_back({s, name, /*probe=*/true});
   }
 }
@@ -162,7 +162,7 @@ std::string probeAnswerAlongWeakestAxis(const LabeledCloud& source, const Regist
 bool settleAlongWeakestAxis(const LabelView& view, const LabeledCloud& source, const RegistrationTarget& target,
                             const ClassTable& classes, const OdometryConfig& config, const OdometryConfig& seed_config,
                             Verified& answer, std::string& outcome) {
-  if (config.relocalise_suspect && !answer.from_guess && answer.label_note.empty()) {
+  if (config.recovery.relocalise_suspect && !answer.from_guess && answer.label_note.empty()) {
     std::string doubt = probeAnswerAlongWeakestAxis(source, target, classes, config, seed_config, answer);
     if (!placeByLabels(view, source, target, classes, config, answer.registration, doubt, answer.label_note,
                        answer.label_precise, nullptr)) {
@@ -185,7 +185,7 @@ bool settleAlongWeakestAxis(const LabelView& view, const LabeledCloud& source, c
 bool resolveByLabels(const LabelView& view, const LabeledCloud& source, const RegistrationTarget& target,
                      const ClassTable& classes, const OdometryConfig& config, Verified& best, const Verified& other) {
   const Eigen::Isometry3d d = best.registration.transform.inverse() * other.registration.transform;
-  if (rotationAngle(d) > config.relocalise_distinct_rotation) return false;
+  if (rotationAngle(d) > kDistinctRotation) return false;
   Eigen::Vector3d line = other.registration.transform.translation() - best.registration.transform.translation();
   line.z() = 0.0;
   if (line.norm() < 1e-6) return false;
@@ -197,7 +197,7 @@ bool resolveByLabels(const LabelView& view, const LabeledCloud& source, const Re
   best.label_note = describe(lp);
   best.label_precise = lp.precise;
   best.label_axis = line;
-  best.fit = surfaceFit(source, target, best.registration.transform, config.relocalise_inlier_distance);
+  best.fit = surfaceFit(source, target, best.registration.transform, kSurfaceInlierDistance);
   return true;
 }
 
@@ -217,13 +217,13 @@ std::string ambiguousAlongWeakestAxis(const LabeledCloud& source, const Registra
   const Eigen::Isometry3d& pose = answer.transform;
   for (const double k : {-2.0, -1.0, 1.0, 2.0}) {
     Eigen::Isometry3d s = pose;
-    s.translation() += k * config.relocalise_axis_step * *axis;
+    s.translation() += k * kAxisProbeStep * *axis;
     RegistrationResult r = registerClouds(source, target, s, classes, config.registration);
     if (!registrationFailure(r, s, seed_config).empty() || !distinct(r.transform, pose, config)) continue;
-    const double other_fit = surfaceFit(source, target, r.transform, config.relocalise_inlier_distance);
-    if (other_fit < fit - config.relocalise_ambiguity) continue;
+    const double other_fit = surfaceFit(source, target, r.transform, kSurfaceInlierDistance);
+    if (other_fit < fit - kRecoveryAmbiguity) continue;
     char name[64];
-    std::snprintf(name, sizeof name, "its answer %+.1f m along its weakest axis", k * config.relocalise_axis_step);
+    std::snprintf(name, sizeof name, "its answer %+.1f m along its weakest axis", k * kAxisProbeStep);
     return describeAmbiguity(Verified{answer, answer_name, false, fit, false, {}, false, {}},
                              Verified{std::move(r), name, false, other_fit, true, {}, false, {}});
   }
@@ -234,17 +234,17 @@ void applyLabelPlacement(RegistrationResult& r, const Eigen::Vector3d& axis, con
                          const OdometryConfig& config) {
   r.transform = shiftedAlong(r.transform, axis, placement.offset);
   const Eigen::Vector3d a = axis.normalized();
-  r.covariance.topLeftCorner<3, 3>() += config.label_axis_sigma * config.label_axis_sigma * a * a.transpose();
+  r.covariance.topLeftCorner<3, 3>() += kLabelAxisSigma * kLabelAxisSigma * a * a.transpose();
 }
 
 bool applyPlacementIfGeometryAllows(const LabeledCloud& source, const RegistrationTarget& target, RegistrationResult& r,
                                     const Eigen::Vector3d& axis, const LabelPlacement& placement,
                                     const OdometryConfig& config) {
-  if (std::abs(placement.offset) <= config.label_axis_confirm) return true;
-  const double before = surfaceFit(source, target, r.transform, config.relocalise_inlier_distance);
+  if (std::abs(placement.offset) <= kLabelAxisConfirm) return true;
+  const double before = surfaceFit(source, target, r.transform, kSurfaceInlierDistance);
   const double after = surfaceFit(source, target, shiftedAlong(r.transform, axis, placement.offset),
-                                  config.relocalise_inlier_distance);
-  if (after < before - config.relocalise_ambiguity) return false;
+                                  kSurfaceInlierDistance);
+  if (after < before - kRecoveryAmbiguity) return false;
   applyLabelPlacement(r, axis, placement, config);
   return true;
 }
@@ -254,13 +254,13 @@ std::string labelsContradict(const LabelView& view, const LabeledCloud& source, 
   const std::optional<Eigen::Vector3d> axis = weakHorizontalAxis(answer, 1.0);
   if (!axis) return {};
   const LabelPlacement lp = placeAlongAxisByLabels(view, classes, answer.transform, *axis, config);
-  if (!lp.decided || std::abs(lp.offset) <= config.relocalise_distinct_translation) return {};
+  if (!lp.decided || std::abs(lp.offset) <= kDistinctTranslation) return {};
   // Where the labels say, the scan must fit the geometry as well, or the labels are the wrong ones
   // (naraha frame 93: 27 of 36 labelled points agreed on a place 0.8 m off in a room).
-  const double here = surfaceFit(source, target, answer.transform, config.relocalise_inlier_distance);
+  const double here = surfaceFit(source, target, answer.transform, kSurfaceInlierDistance);
   const double there = surfaceFit(source, target, shiftedAlong(answer.transform, *axis, lp.offset),
-                                  config.relocalise_inlier_distance);
-  if (there < here - config.relocalise_ambiguity) return {};
+                                  kSurfaceInlierDistance);
+  if (there < here - kRecoveryAmbiguity) return {};
   char buf[240];
   std::snprintf(buf, sizeof buf, "the labels put it %+.2f m along its weakest axis (%zu of %zu labelled points agree): flagged",
                 lp.offset, lp.support, lp.labelled);
@@ -270,7 +270,7 @@ std::string labelsContradict(const LabelView& view, const LabeledCloud& source, 
 bool placeByLabels(const LabelView& view, const LabeledCloud& source, const RegistrationTarget& target,
                    const ClassTable& classes, const OdometryConfig& config, RegistrationResult& answer,
                    std::string& doubt, std::string& note, bool& precise, Eigen::Vector3d* placed_along) {
-  std::optional<Eigen::Vector3d> axis = weakHorizontalAxis(answer, config.flag_weak_axis_ratio);
+  std::optional<Eigen::Vector3d> axis = weakHorizontalAxis(answer, kFlagWeakAxisRatio);
   if (!axis && doubt.empty()) return true;
   if (!labelsDecideAxes(config)) return doubt.empty();
   if (!axis) axis = weakHorizontalAxis(answer, 1.0);
@@ -321,7 +321,7 @@ std::optional<Eigen::Isometry3d> Odometry::globalStart(OdometryFrame& f, const L
   // Target points near the sensor; the viewpoint orients the target's normals.
   const Eigen::Vector3d viewpoint = (W.inverse() * frames_.back().pose).translation();
   const GlobalRegistrationTarget prepared = prepareGlobalTarget(
-      nearbyTarget(target.cloud(), viewpoint, config_.relocalise_map_radius), classes_, gc, viewpoint.cast<float>());
+      nearbyTarget(target.cloud(), viewpoint, kRecoveryMapRadius), classes_, gc, viewpoint.cast<float>());
   const GlobalRegistrationResult g = registerGlobally(source, prepared, classes_, gc);
   f.global.tried = true;
   f.global.status = g.status;
@@ -353,7 +353,7 @@ std::optional<Odometry::Recovery> Odometry::recover(OdometryFrame& f, const Labe
                         "guess turned " + std::to_string(int(deg)) + " deg"});
     if (f.wheel_guess && frames_.size() >= 2) starts.push_back({prev * frames_.back().increment, "constant velocity"});
   }
-  if (config_.relocalise_suspect) addWeakAxisProbes(starts, from_guess, prev * f.guess, config_);
+  if (config_.recovery.relocalise_suspect) addWeakAxisProbes(starts, from_guess, prev * f.guess, config_);
 
   std::vector<Verified> verified;
   std::string rejected;
@@ -361,7 +361,7 @@ std::optional<Odometry::Recovery> Odometry::recover(OdometryFrame& f, const Labe
   const auto check = [&](RegistrationResult r, const Eigen::Isometry3d& start, const std::string& name, bool guess,
                          bool probe) {
     // A start other than the guess is only a seed: ICP may travel farther from it (up to
-    // relocalise_start_correction) — surface fit, RMSE, plausibility and ambiguity judge the answer.
+    // kStartCorrectionTranslation) — surface fit, RMSE, plausibility and ambiguity judge the answer.
     std::string why = registrationFailure(r, start, guess ? config_ : seed_config);
     const Eigen::Isometry3d increment = prev.inverse() * r.transform;
     char buf[96];
@@ -373,14 +373,14 @@ std::optional<Odometry::Recovery> Odometry::recover(OdometryFrame& f, const Labe
     } else if (why.empty() && fitsWorseThanTracked(r, impl_->typical_rmse, config_)) {
       std::snprintf(buf, sizeof buf, "inlier RMSE %.3f m", r.inlier_rmse);
       why = buf;
-    } else if (why.empty() && (translationNorm(increment) > config_.relocalise_max_translation ||
-                               rotationAngle(increment) > config_.relocalise_max_rotation)) {
+    } else if (why.empty() && (translationNorm(increment) > config_.recovery.max_translation ||
+                               rotationAngle(increment) > config_.recovery.max_rotation)) {
       std::snprintf(buf, sizeof buf, "implausible motion %.2f m / %.1f deg", translationNorm(increment),
                     rotationAngle(increment) * 180.0 / M_PI);
       why = buf;
     }
     if (why.empty()) {
-      const double fit = surfaceFit(source, target, r.transform, config_.relocalise_inlier_distance);
+      const double fit = surfaceFit(source, target, r.transform, kSurfaceInlierDistance);
       verified.push_back({std::move(r), name, guess, fit, probe, {}, false, Eigen::Vector3d::Zero()});
     }
     else rejected += (rejected.empty() ? "" : "; ") + name + ": " + why;
@@ -406,8 +406,8 @@ std::optional<Odometry::Recovery> Odometry::recover(OdometryFrame& f, const Labe
   // When ICP from the guess failed, the frame falls back to the guess itself: an answer must fit
   // clearly better than that pose does, or tracking keeps the guess (and flags the frame).
   if (!verified[best].from_guess && !guess_passed) {
-    const double guess_fit = surfaceFit(source, target, guess, config_.relocalise_inlier_distance);
-    if (verified[best].fit < guess_fit + config_.relocalise_min_gain) {
+    const double guess_fit = surfaceFit(source, target, guess, kSurfaceInlierDistance);
+    if (verified[best].fit < guess_fit + kRecoveryMinGain) {
       f.global.outcome = describeNoGain(verified[best], guess_fit);
       return std::nullopt;
     }

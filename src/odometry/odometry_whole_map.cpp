@@ -23,13 +23,13 @@ struct WholeMap {
 };
 
 void Odometry::keepKeyframe(const OdometryFrame& f, const LabeledCloud& frame) {
-  if (!config_.relocalise || !config_.whole_map_relocalise || frame.empty()) return;
+  if (!config_.recovery.relocalise || !config_.recovery.whole_map || frame.empty()) return;
   if (f.status != FrameStatus::First && f.status != FrameStatus::Tracked && f.status != FrameStatus::Relocalised)
     return;  // a flagged frame's pose is (partly) a guess
   auto& keyframes = impl_->keyframes;
   if (!keyframes.empty()) {
     const Eigen::Isometry3d d = frames_[keyframes.back().frame].pose.inverse() * f.pose;
-    if (translationNorm(d) < config_.keyframe_distance && rotationAngle(d) < config_.keyframe_rotation) return;
+    if (translationNorm(d) < config_.recovery.keyframe_distance && rotationAngle(d) < config_.recovery.keyframe_rotation) return;
   }
   keyframes.push_back({f.index, frame});
 }
@@ -60,10 +60,10 @@ static std::shared_ptr<const WholeMap> buildWholeMap(const Keyframes& keyframes,
   return map;
 }
 
-// whole_map_confirm: the previous frame's whole-map answer and this one are a plausible motion
-// apart. Remembers this answer for the next frame either way.
+// The previous frame's whole-map answer and this one are a plausible motion apart (a single scan
+// can look like another place: naraha without odometry, 27.8 m / 127 deg off with surface fit
+// 0.71). Remembers this answer for the next frame either way.
 bool Odometry::confirmed(const Eigen::Isometry3d& answer, std::size_t frame) {
-  if (!config_.whole_map_confirm) return true;
   const bool agrees = impl_->whole_map_candidate && impl_->whole_map_candidate_frame + 1 == frame &&
                       plausibleMotion(impl_->whole_map_candidate->inverse() * answer, config_);
   impl_->whole_map_candidate = answer;
@@ -102,15 +102,15 @@ std::optional<RegistrationResult> Odometry::relocaliseInWholeMap(OdometryFrame& 
   } else {
     RegistrationResult r = registerClouds(source, *map.icp, g.transform, classes_, config_.registration);
     std::string why = registrationFailure(r, g.transform, config_);
-    const double fit = surfaceFit(source, *map.icp, r.transform, config_.relocalise_inlier_distance);
-    const double guess_fit = surfaceFit(source, *map.icp, world_guess, config_.relocalise_inlier_distance);
+    const double fit = surfaceFit(source, *map.icp, r.transform, kSurfaceInlierDistance);
+    const double guess_fit = surfaceFit(source, *map.icp, world_guess, kSurfaceInlierDistance);
     if (why.empty() && !r.degenerate_directions.empty()) why = "degenerate";
     // Along a weakly constrained axis (a corridor) any place along it fits: no proof of where.
-    if (why.empty() && weakHorizontalAxis(r, config_.suspect_weak_axis_ratio)) why = "weakly constrained along an axis";
+    if (why.empty() && weakHorizontalAxis(r, kSuspectWeakAxisRatio)) why = "weakly constrained along an axis";
     if (why.empty() && fitsWorseThanTracked(r, impl_->typical_rmse, config_))
       why = "inlier RMSE above that of tracked frames";
-    if (why.empty() && fit < config_.whole_map_min_fit) why = "fits poorly";
-    if (why.empty() && fit < guess_fit + config_.relocalise_min_gain) why = "fits no better than the guess";
+    if (why.empty() && fit < kWholeMapMinFit) why = "fits poorly";
+    if (why.empty() && fit < guess_fit + kRecoveryMinGain) why = "fits no better than the guess";
     const Eigen::Isometry3d jump = world_guess.inverse() * r.transform;
     std::snprintf(buf, sizeof buf, "%s against %zu keyframes (surface fit %.3f, guess %.3f; %.2f m / %.1f deg from the guess)",
                   why.empty() ? "re-localised" : why.c_str(), map.keyframes, fit, guess_fit, translationNorm(jump),

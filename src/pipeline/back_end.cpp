@@ -44,12 +44,19 @@ bool BackEnd::isKeyframe(const Eigen::Isometry3d& pose) const {
   return translationNorm(since) >= config_.keyframe_distance || rotationAngle(since) >= config_.keyframe_angle;
 }
 
+// Frame-to-map tracking: the gravity priors' σ × this (issue 37: a constant, not a key). Scans
+// registered against the same map have anticorrelated increment errors (naraha: tracking's tilt
+// stays within ~0.05° over 160 frames), but the graph chains them as independent (0.5 mrad per
+// step, a random walk), so honest priors would outweigh the chain over a few metres and add their
+// own noise (docs/pose_graph.md, 2026-12-02 gravity section: σ × 1 makes naraha 2 and 7 worse, × 3 never).
+constexpr double kGravitySigmaScaleFrameToMap = 3.0;
+
 // Roll and pitch observed absolutely (PoseGraphConfig::gravity_prior), also where no loop reaches.
 void BackEnd::addGravityPrior(const Scan& scan) {
   if (!config_.graph.gravity_prior || !scan.gravity) return;
   double sigma = config_.graph.gravity_sigma_deg > 0.0 ? config_.graph.gravity_sigma_deg * M_PI / 180.0
                                                       : scan.gravity->sigmaRad();
-  if (config_.odometry.mode == OdometryMode::FrameToMap) sigma *= config_.graph.gravity_sigma_scale_frame_to_map;
+  if (config_.odometry.mode == OdometryMode::FrameToMap) sigma *= kGravitySigmaScaleFrameToMap;
   result_.graph.addGravityPrior(static_cast<int>(result_.frames.size() - 1), scan.gravity->down, sigma);
 }
 
@@ -153,11 +160,13 @@ std::string BackEnd::optimise() {
   return failure;
 }
 
-// A run that closed no loop is optimised with its gravity priors alone only frame to frame, or
-// where PoseGraphConfig::gravity_alone_frame_to_map says so.
+// A run that closed no loop is optimised with its gravity priors alone only frame to frame. Frame
+// to map the graph then holds nothing but tracking's own increments and priors noisier than
+// tracking's attitude (~0.05° against one 0.2° reading), so the solve would only add their noise
+// (corridor 4 icp+pgo: tilt error 0.046° → 0.052°, map 0.4955 → 0.5013 m; docs/pose_graph.md).
 bool BackEnd::gravityAloneHelps() const {
   if (result_.graph.gravity_priors.empty()) return false;
-  return config_.odometry.mode != OdometryMode::FrameToMap || config_.graph.gravity_alone_frame_to_map;
+  return config_.odometry.mode != OdometryMode::FrameToMap;
 }
 
 PoseList BackEnd::keyframeEstimate() const {

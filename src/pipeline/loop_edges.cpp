@@ -15,6 +15,8 @@ namespace hazmap::pipeline_detail {
 //   (the nearest-keyframe loops made the maps worse on all eight seeds).
 LoopClosureConfig loopClosureConfigFor(const SlamConfig& config) {
   LoopClosureConfig loop_config = config.loop_closure;
+  // Loop verification's ICP is tracking's with its overrides (issue 37: not a copy).
+  loop_config.verification.tracking_registration = config.odometry.registration;
   if (config.odometry.mode == OdometryMode::FrameToMap) return loop_config;
   loop_config.submap_keyframes = 0;
   loop_config.verification.misfit_scale = 0.0;

@@ -139,17 +139,17 @@ class SlamRun {
                           noise.information, EdgeKind::Odometry);
   }
 
-  /// Issue 19 (odometry.reestimate_lost_frames): once a frame is verified again the tracker
+  /// Issue 19 (odometry.recovery.reestimate_lost_frames): once a frame is verified again the tracker
   /// re-estimates the lost frames before it and the increments on both sides; those replace the
   /// recorded ones (record, odometry edge, tracked pose and graph node from the first changed frame
   /// on), as `hazmap odometry` writes them. Only with relocalise_suspect (the worst-day set-up):
   /// a normal run's graph stays bit for bit.
   void takeReestimatedLostFrames() {
-    if (!tracker_ || !usesIcp(config_.method) || !config_.odometry.relocalise_suspect ||
-        !config_.odometry.reestimate_lost_frames)
+    if (!tracker_ || !usesIcp(config_.method) || !config_.odometry.recovery.relocalise_suspect ||
+        !config_.odometry.recovery.reestimate_lost_frames)
       return;
     const std::vector<OdometryFrame>& tf = tracker_->frames();
-    const std::size_t n = result_.frames.size(), back = static_cast<std::size_t>(config_.odometry.lost_frames_max) + 2;
+    const std::size_t n = result_.frames.size(), back = static_cast<std::size_t>(config_.odometry.recovery.lost_frames_max) + 2;
     std::size_t first = n;
     for (std::size_t k = n > back ? n - back : 1; k < n && k < tf.size(); ++k) {
       FrameRecord& rec = result_.frames[k];

@@ -74,7 +74,6 @@ SlamConfig SlamConfig::forMethod(SlamMethod method) {
   SlamConfig c;
   c.method = method;
   c.odometry.registration.use_classes = usesClasses(method);
-  c.loop_closure.verification.registration.use_classes = usesClasses(method);
   c.loop_closure.method =
       usesClasses(method) ? CandidateMethod::Constellation : CandidateMethod::Distance;
   return c;

@@ -17,6 +17,12 @@
 namespace hazmap::global {
 namespace {
 
+// Internal thresholds of global registration (issue 37: named constants, not keys; their old
+// keys name this file). docs/registration.md, "Global registration".
+/// Neighbours per FPFH histogram, nearest first: enough for a stable histogram at 0.5 m voxels, bounded in time.
+constexpr int kMaxFeatureNeighbors = 40;
+
+
 int bin(float value, float lo, float hi) {
   const int b = static_cast<int>((value - lo) / (hi - lo) * kBins);
   return std::clamp(b, 0, kBins - 1);
@@ -68,7 +74,7 @@ Neighborhoods findNeighbors(FeatureCloud& fc, const GlobalRegistrationConfig& co
   const std::size_t n = fc.cloud.size();
   nb.of.resize(n);
   fc.normals.assign(n, Eigen::Vector3f::Zero());
-  const int k = std::max(config.max_feature_neighbors, config.normal_neighbors) + 1;
+  const int k = std::max(kMaxFeatureNeighbors, config.normal_neighbors) + 1;
   const float r2 = static_cast<float>(std::max(config.feature_radius * config.feature_radius,
                                                config.normal_radius * config.normal_radius));
   const float feature_r2 = static_cast<float>(config.feature_radius * config.feature_radius);
@@ -85,7 +91,7 @@ Neighborhoods findNeighbors(FeatureCloud& fc, const GlobalRegistrationConfig& co
       fc.normals[i] = planeNormal(fc.cloud.points[i], local, nc);
       auto& mine = nb.of[i];
       for (const auto& q : found)
-        if (q.index != i && q.distance2 < feature_r2 && static_cast<int>(mine.size()) < config.max_feature_neighbors)
+        if (q.index != i && q.distance2 < feature_r2 && static_cast<int>(mine.size()) < kMaxFeatureNeighbors)
           mine.push_back(q);
     }
   });

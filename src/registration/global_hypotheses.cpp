@@ -17,6 +17,16 @@
 namespace hazmap::global {
 namespace {
 
+// Internal thresholds of global registration (issue 37: named constants, not keys; their old
+// keys name this file). docs/registration.md, "Global registration".
+/// Pre-check: every edge-length ratio of a RANSAC triple >= this (a rigid motion keeps lengths; 10 % allows voxel noise).
+constexpr double kEdgeLengthSimilarity = 0.9;
+/// m; hypotheses farther apart are distinct (about two voxels of the downsampled clouds)…
+constexpr double kDistinctTranslation = 1.0;
+/// …or rotated more than this (degrees).
+constexpr double kDistinctRotationDeg = 10.0;
+
+
 // The rigid motion that maps triangle a onto triangle b, from the orthonormal frames the two
 // triangles span (first edge, normal, their cross product) — exact for a consistent pair, an
 // order of magnitude cheaper than an SVD; each hypothesis is re-fitted on its inliers later.
@@ -92,7 +102,7 @@ Compatibility compatibility(const std::vector<Eigen::Vector3f>& src, const std::
   c.words = (n + 63) / 64;
   c.bits.assign(n * c.words, 0);
   c.partners.resize(n);
-  const float sim = static_cast<float>(config.edge_length_similarity);
+  const float sim = static_cast<float>(kEdgeLengthSimilarity);
   const float min_edge = static_cast<float>(config.inlier_distance);
   tbb::parallel_for(std::size_t{0}, n, [&](std::size_t i) {
     for (std::size_t j = 0; j < n; ++j) {
@@ -196,7 +206,7 @@ Eigen::Isometry3d fitRigid(const std::vector<Eigen::Vector3f>& src, const std::v
 bool distinct(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b, const GlobalRegistrationConfig& config) {
   const Eigen::Isometry3d d = a.inverse() * b;
   const double angle = Eigen::AngleAxisd(d.linear()).angle() * 180.0 / std::numbers::pi;
-  return d.translation().norm() > config.distinct_translation || angle > config.distinct_rotation_deg;
+  return d.translation().norm() > kDistinctTranslation || angle > kDistinctRotationDeg;
 }
 
 std::vector<Hypothesis> ransacHypotheses(const std::vector<Eigen::Vector3f>& src,

@@ -9,6 +9,14 @@
 
 namespace hazmap::global {
 
+// Internal thresholds of global registration (issue 37: named constants, not keys; their old
+// keys name this file). docs/registration.md, "Global registration".
+/// m; same-class points closer than this are one landmark (a heat panel, a puddle).
+constexpr double kLandmarkClusterDistance = 1.0;
+/// Downsampled points a landmark needs: fewer is a stray label.
+constexpr std::size_t kLandmarkMinPoints = 3;
+
+
 std::vector<Landmark> clusterLandmarks(const LabeledCloud& cloud, const ClassTable& classes,
                                        const GlobalRegistrationConfig& config, std::vector<std::uint32_t>* members) {
   std::vector<std::uint32_t> labelled;
@@ -24,7 +32,7 @@ std::vector<Landmark> clusterLandmarks(const LabeledCloud& cloud, const ClassTab
     while (parent[i] != i) i = parent[i] = parent[parent[i]];
     return i;
   };
-  const float r2 = static_cast<float>(config.landmark_cluster_distance * config.landmark_cluster_distance);
+  const float r2 = static_cast<float>(kLandmarkClusterDistance * kLandmarkClusterDistance);
   for (std::uint32_t a = 0; a < labelled.size(); ++a)
     for (std::uint32_t b = a + 1; b < labelled.size(); ++b) {
       const auto i = labelled[a], j = labelled[b];
@@ -42,10 +50,10 @@ std::vector<Landmark> clusterLandmarks(const LabeledCloud& cloud, const ClassTab
   }
   if (members)
     for (std::uint32_t a = 0; a < labelled.size(); ++a)
-      if (sums[find(a)].points >= config.landmark_min_points) members->push_back(labelled[a]);
+      if (sums[find(a)].points >= kLandmarkMinPoints) members->push_back(labelled[a]);
   std::vector<Landmark> out;
   for (auto& l : sums) {
-    if (l.points < config.landmark_min_points) continue;
+    if (l.points < kLandmarkMinPoints) continue;
     l.centroid /= static_cast<float>(l.points);
     out.push_back(l);
   }

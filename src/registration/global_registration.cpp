@@ -16,6 +16,32 @@
 
 namespace hazmap {
 
+// Internal thresholds of global registration (issue 37: named constants, not keys; their old
+// keys name this file). docs/registration.md, "Global registration".
+/// Match at most this many source descriptors (even stride; labelled ones always): a dense scan has far more than RANSAC needs.
+constexpr std::size_t kMaxSourceFeatures = 3000;
+/// Keep only mutual nearest neighbours in descriptor space (when at least kMinCorrespondences).
+constexpr bool kMutualFilter = true;
+/// Mutual matches needed before the mutual filter is trusted.
+constexpr std::size_t kMinCorrespondences = 10;
+/// Score = (1 − share)·overlap + share·(labelled points on their class): the labels weigh as a whole, so a few property points break a symmetry thousands of geometric points cannot.
+constexpr double kLabelScoreShare = 0.3;
+/// Labelled source points (in landmarks) needed for the label term of the score.
+constexpr std::size_t kMinLabelledPoints = 3;
+/// A winner on which fewer labelled points land on their own class than this share matched the wrong place.
+constexpr double kMinLabelAgreement = 0.2;
+/// Downsampled source/target points needed: fewer cannot tell places apart.
+constexpr std::size_t kMinPoints = 50;
+/// Points with a descriptor needed.
+constexpr std::size_t kMinFeatures = 30;
+/// A distinct second hypothesis scoring >= this × the best makes the result ambiguous (not accepted).
+constexpr double kAmbiguityRatio = 0.9;
+/// Refuse a winner whose refinement ICP leaves directions unconstrained (a bare plane, a featureless corridor).
+constexpr bool kRejectDegenerate = true;
+/// Distinct hypotheses refined by ICP: the best and its rival (the ambiguity test needs both).
+constexpr int kCandidatesRefined = 2;
+
+
 GlobalRegistrationTarget::GlobalRegistrationTarget() : impl_(std::make_unique<Impl>()) {}
 GlobalRegistrationTarget::~GlobalRegistrationTarget() = default;
 GlobalRegistrationTarget::GlobalRegistrationTarget(GlobalRegistrationTarget&&) noexcept = default;
@@ -30,7 +56,7 @@ using Clock = std::chrono::steady_clock;
 double msSince(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
 RegistrationConfig refinementOf(const GlobalRegistrationConfig& config) {
-  RegistrationConfig r = config.refinement;
+  RegistrationConfig r = config.refinementIcp();
   r.use_classes = config.use_classes;
   r.threads = 0;  // runs inside the caller's arena
   return r;
@@ -59,9 +85,7 @@ void polish(GlobalRegistrationResult& r, const LabeledCloud& source, const Globa
 bool sameFeatures(const GlobalRegistrationConfig& a, const GlobalRegistrationConfig& b) {
   return a.voxel_size == b.voxel_size && a.normal_radius == b.normal_radius &&
          a.normal_neighbors == b.normal_neighbors && a.feature_radius == b.feature_radius &&
-         a.max_feature_neighbors == b.max_feature_neighbors && a.max_range == b.max_range &&
-         a.use_classes == b.use_classes && a.final_voxel_size == b.final_voxel_size &&
-         a.landmark_cluster_distance == b.landmark_cluster_distance && a.landmark_min_points == b.landmark_min_points;
+         a.max_range == b.max_range && a.use_classes == b.use_classes && a.final_voxel_size == b.final_voxel_size;
 }
 
 // Source descriptor → nearest target descriptor (own class for labelled points, property-aware);
@@ -79,7 +103,7 @@ std::vector<global::Match> matchDescriptors(const global::FeatureCloud& src, con
   std::vector<global::Match> all, mutual;
   for (std::size_t f = 0; f < n; ++f)
     if (forward[f] >= 0) all.push_back({src.feature_point[f], tf.feature_point[forward[f]]});
-  if (!config.mutual_filter) return all;
+  if (!kMutualFilter) return all;
   const global::DescriptorIndexes source_idx = global::indexDescriptors(src, classes, config.use_classes);
   std::vector<char> keep(n, 0);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 64), [&](const auto& r) {
@@ -93,15 +117,15 @@ std::vector<global::Match> matchDescriptors(const global::FeatureCloud& src, con
   for (std::size_t f = 0; f < n; ++f)
     if (keep[f]) mutual.push_back({src.feature_point[f], tf.feature_point[forward[f]]});
   // Too few mutual matches to trust: the one-way matches carry more inliers in absolute terms.
-  return mutual.size() >= config.min_correspondences ? mutual : all;
+  return mutual.size() >= kMinCorrespondences ? mutual : all;
 }
 
 // Keeps at most max_source_features descriptors: every labelled one (property-aware) and an even
 // stride over the rest.
 void thinSourceFeatures(global::FeatureCloud& src, const ClassTable& classes, const GlobalRegistrationConfig& config) {
   const std::size_t n = src.descriptors.size();
-  if (config.max_source_features == 0 || n <= config.max_source_features) return;
-  const double step = static_cast<double>(n) / static_cast<double>(config.max_source_features);
+  if (kMaxSourceFeatures == 0 || n <= kMaxSourceFeatures) return;
+  const double step = static_cast<double>(n) / static_cast<double>(kMaxSourceFeatures);
   double next = 0.0;
   std::size_t kept = 0;
   for (std::size_t f = 0; f < n; ++f) {
@@ -138,14 +162,14 @@ Score scoreOf(const Eigen::Isometry3d& T, const global::FeatureCloud& src, const
   Score s;
   s.overlap = static_cast<double>(hits) / static_cast<double>(std::max<std::size_t>(used, 1));
   s.weighted = s.overlap;
-  if (!config.use_classes || src.labelled.size() < config.min_labelled_points) return s;
+  if (!config.use_classes || src.labelled.size() < kMinLabelledPoints) return s;
   std::size_t on_class = 0;
   for (std::uint32_t i : src.labelled) {
     const auto it = tgt.class_points.find(src.cloud.classes[i]);
     on_class += it != tgt.class_points.end() && it->second->nearest(R * src.cloud.points[i] + t, d2, dist2) >= 0;
   }
   s.labels = static_cast<double>(on_class) / static_cast<double>(src.labelled.size());
-  s.weighted = (1.0 - config.label_score_share) * s.overlap + config.label_score_share * s.labels;
+  s.weighted = (1.0 - kLabelScoreShare) * s.overlap + kLabelScoreShare * s.labels;
   return s;
 }
 
@@ -236,7 +260,7 @@ std::vector<Candidate> refineCandidates(const std::vector<global::Hypothesis>& h
   });
   sortAndThin(scored, config);
   // Refine the best few; none that scores below half the best (ICP would not lift it to a rival).
-  std::size_t refine = std::min<std::size_t>(scored.size(), config.candidates_refined);
+  std::size_t refine = std::min<std::size_t>(scored.size(), kCandidatesRefined);
   while (refine > 1 && scored[refine - 1].score.weighted < 0.5 * scored[0].score.weighted) --refine;
   tbb::parallel_for(std::size_t{0}, refine, [&](std::size_t k) { refineOne(scored[k], src, tgt, classes, config); });
   sortAndThin(scored, config);
@@ -278,18 +302,18 @@ GlobalRegistrationResult decide(GlobalRegistrationResult r, const std::vector<Ca
                   100 * config.min_overlap);
     return failWith(std::move(r), GlobalStatus::PoorOverlap, text);
   }
-  if (r.second_best_score >= config.ambiguity_ratio * r.score) {
+  if (r.second_best_score >= kAmbiguityRatio * r.score) {
     r.ambiguous = true;
     std::snprintf(text, sizeof text, "two distinct hypotheses score %.3f and %.3f (ratio >= %.2f)", r.score,
-                  r.second_best_score, config.ambiguity_ratio);
+                  r.second_best_score, kAmbiguityRatio);
     return failWith(std::move(r), GlobalStatus::Ambiguous, text);
   }
-  if (r.label_agreement < config.min_label_agreement && c[0].score.weighted != c[0].score.overlap) {
+  if (r.label_agreement < kMinLabelAgreement && c[0].score.weighted != c[0].score.overlap) {
     std::snprintf(text, sizeof text, "the property labels disagree: %.0f %% of the labelled points land on their class (< %.0f %%)",
-                  100 * r.label_agreement, 100 * config.min_label_agreement);
+                  100 * r.label_agreement, 100 * kMinLabelAgreement);
     return failWith(std::move(r), GlobalStatus::LabelsDisagree, text);
   }
-  if (config.reject_degenerate && !r.refinement.degenerate_directions.empty()) {
+  if (kRejectDegenerate && !r.refinement.degenerate_directions.empty()) {
     std::snprintf(text, sizeof text, "the geometry leaves %zu direction(s) of the pose unconstrained",
                   r.refinement.degenerate_directions.size());
     return failWith(std::move(r), GlobalStatus::Degenerate, text);
@@ -308,14 +332,14 @@ GlobalRegistrationResult registerPrepared(const LabeledCloud& source, const Glob
   r.source_points = src.cloud.size();
   r.source_features = src.feature_point.size();
   r.timings.prepare_ms = msSince(t0);
-  if (src.cloud.size() < config.min_points)
-    return failWith(std::move(r), GlobalStatus::TooFewPoints, describeCounts("too few source points", src.cloud.size(), config.min_points));
-  if (tgt.features.cloud.size() < config.min_points)
-    return failWith(std::move(r), GlobalStatus::TooFewPoints, describeCounts("too few target points", tgt.features.cloud.size(), config.min_points));
-  if (r.source_features < config.min_features || tgt.features.feature_point.size() < config.min_features)
+  if (src.cloud.size() < kMinPoints)
+    return failWith(std::move(r), GlobalStatus::TooFewPoints, describeCounts("too few source points", src.cloud.size(), kMinPoints));
+  if (tgt.features.cloud.size() < kMinPoints)
+    return failWith(std::move(r), GlobalStatus::TooFewPoints, describeCounts("too few target points", tgt.features.cloud.size(), kMinPoints));
+  if (r.source_features < kMinFeatures || tgt.features.feature_point.size() < kMinFeatures)
     return failWith(std::move(r), GlobalStatus::TooFewFeatures,
                     describeCounts("too few features", std::min(r.source_features, tgt.features.feature_point.size()),
-                                   config.min_features));
+                                   kMinFeatures));
   t0 = Clock::now();
   thinSourceFeatures(src, classes, config);
   const std::vector<global::Match> matches = matchDescriptors(src, tgt, classes, config);

@@ -10,4 +10,8 @@ namespace hazmap::config_detail {
 /// for any other key.
 std::string retiredKeyNote(const std::string& path);
 
+/// Markdown for docs/configuration.md: the keys that moved (old → new path) and the keys that
+/// became named constants (key → file), from the same table the errors quote.
+std::string movedAndConstantKeysMarkdown();
+
 }  // namespace hazmap::config_detail

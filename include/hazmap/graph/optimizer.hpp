@@ -60,20 +60,10 @@ struct PoseGraphConfig {
   /// The SLAM run puts a gravity-direction prior (graph/gravity_prior.hpp) on every keyframe
   /// whose scan has an IMU gravity measurement (a sequence's gravity.txt); without data, none.
   bool gravity_prior = true;
-  /// ° per axis of those priors; 0 = the σ the recording states with each measurement.
+  /// ° per axis of those priors; 0 = the σ the recording states with each measurement. (How
+  /// frame-to-map runs scale them, and when a run without loops is optimised with them alone,
+  /// are constants in src/pipeline/back_end.cpp.)
   double gravity_sigma_deg = 0.0;
-  /// Frame-to-map tracking only: the priors' σ × this. Scans registered against the same map
-  /// have anticorrelated increment errors (naraha: tracking's tilt stays within ~0.05° over 160
-  /// frames), but the graph chains them as independent (0.5 mrad per step, a random walk), so
-  /// honest priors would outweigh the chain over a few metres and add their own noise
-  /// (docs/pose_graph.md, 2026-12-02 gravity section: σ × 1 makes naraha 2 and 7 worse, × 3 never).
-  double gravity_sigma_scale_frame_to_map = 3.0;
-  /// Frame-to-map tracking, a run without any loop: optimise with the priors alone. Off: there
-  /// the graph holds nothing but tracking's own increments and priors noisier than tracking's
-  /// attitude (~0.05° against one 0.2° reading), so the solve only adds their noise (corridor 4
-  /// icp+pgo: tilt error 0.046° → 0.052°, map 0.4955 → 0.5013 m; docs/pose_graph.md). With loops
-  /// the priors hold the attitude where the loops pull; frame to frame the priors alone help.
-  bool gravity_alone_frame_to_map = false;
 };
 
 /// The field table (keys, ranges, docs; core/config_fields.hpp, docs/configuration.md).

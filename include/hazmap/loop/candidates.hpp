@@ -25,44 +25,27 @@ enum class ConstellationModel {
   Full3D,  ///< 6-DoF from landmark triples (Kabsch); needs >= 3 non-collinear landmarks
 };
 
+/// m; landmark pairs closer than this give no reliable yaw and are not used as hypotheses (issue
+/// 37: a constant, not a key; also the lever of a constellation loop's rotation noise, loop_detector.cpp).
+constexpr double kConstellationMinPairDistance = 1.5;
+
+/// Constellation matching. Its internal gates and ranking (pair compatibility, hypotheses cap,
+/// negative evidence, overlap) are named constants in src/loop/candidates.cpp.
 struct ConstellationConfig {
   ConstellationModel model = ConstellationModel::Planar;
-  /// Two landmark pairs are compatible when their centroid distances differ by at most this (m).
-  /// Centroids of partly seen clusters move by a fraction of the cluster size between views.
-  double distance_tolerance = 0.8;
   /// A landmark is an inlier when, after the hypothesised transform, its centroid lies within
   /// this distance (m) of a same-class landmark of the other keyframe.
   double inlier_distance = 1.0;
   /// Minimum number of matched landmarks for a candidate. 3 makes the pose unique and a chance
   /// match among repeated classes unlikely; 2 is the planar minimum.
   std::size_t min_inliers = 2;
-  /// Landmark pairs closer than this (m) give no reliable yaw and are not used as hypotheses.
-  double min_pair_distance = 1.5;
-  /// Triples whose smallest triangle height is below this (m) are collinear for Full3D.
-  double min_triangle_height = 1.0;
-  /// Descriptor gates: largest principal extent ratio (>= 1; 0 = off). Loose, because a source
-  /// seen from another side or distance is only partly covered by the scan rings.
-  double max_extent_ratio = 4.0;
   /// Gate on the mean property value (e.g. temperature) when both landmarks have one (0 = off).
   double property_value_tolerance = 0.0;
-  /// Exhaustive search over all compatible pairs (triples) up to this many hypotheses; beyond it
-  /// a deterministic random sample of this size.
-  std::size_t max_hypotheses = 4000;
-  /// Negative evidence: under a hypothesis, an unmatched landmark that lands within this range
-  /// (m) of the other keyframe's sensor should have been seen there and counts as a miss
-  /// (0 = off). Keep it at the landmarks' max_range.
-  double visibility_range = 15.0;
-  /// Hypotheses are ranked by inliers − miss_penalty · misses.
-  double miss_penalty = 0.5;
-  /// A match needs overlap = 2·inliers / (2·inliers + misses) >= this: most landmarks both
-  /// keyframes should share must agree. Chance alignments of a few same-class sources leave
-  /// many landmarks unexplained.
-  double min_overlap = 0.7;
   /// Flat upright landmarks (wall panels) face the sensor that saw them; matched panels must
   /// face the same way within this angle (rad) under the hypothesis (0 = off). This breaks the
   /// 180° ambiguity of a pair of same-class sources.
   double facing_tolerance = 0.8;
-  std::uint64_t seed = 1;
+  std::uint64_t seed = 1;  ///< of the sample beyond the hypotheses cap
 };
 
 struct CandidateSearchConfig {

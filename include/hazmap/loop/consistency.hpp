@@ -21,17 +21,14 @@ namespace hazmap {
 
 struct ConsistencyConfig {
   /// Drift model of the pose estimate between two keyframes, as standard deviations per metre
-  /// of path travelled, plus floors. Defaults sized for the crawler's odometry (issue 3: ~5 %
-  /// distance error plus slips, ~0.25° yaw per metre): conservative, so that the gate rejects
-  /// only clearly impossible loops.
+  /// of path travelled, plus floors (constants in src/loop/consistency.cpp). Defaults sized for
+  /// the crawler's odometry (issue 3: ~5 % distance error plus slips, ~0.25° yaw per metre):
+  /// conservative, so that the gate rejects only clearly impossible loops. Every verified loop
+  /// is gated, and only the largest pairwise-consistent set is kept.
   double translation_drift_per_metre = 0.04;
   double rotation_drift_per_metre = 0.004;  ///< rad/m (≈ 0.23°/m)
-  double translation_sigma_floor = 0.1;      ///< m
-  double rotation_sigma_floor = 0.01;        ///< rad
   /// Probability of the χ² gates (6 degrees of freedom): 0.999 → d² ≤ 22.46.
   double gate_probability = 0.999;
-  bool use_drift_gate = true;
-  bool use_pairwise = true;
 };
 
 struct GateResult {

@@ -42,24 +42,17 @@ const char* toString(CandidateMethod method);
 ///     cross_check_query_keyframes: 6
 ///     landmarks:    {cluster_tolerance: 0.7, min_points: 8, max_range: 15, min_purity: 0.2}
 ///     candidates:   {min_index_gap: 15, search_radius: 3, max_candidates: 3,
-///                    constellation: {model: planar, distance_tolerance: 0.8, inlier_distance: 1,
-///                                    min_inliers: 2, min_pair_distance: 1.5,
-///                                    min_triangle_height: 1, max_extent_ratio: 4,
-///                                    property_value_tolerance: 0, max_hypotheses: 4000,
-///                                    visibility_range: 15, miss_penalty: 0.5, min_overlap: 0.7,
-///                                    facing_tolerance: 0.8, seed: 1}}
-///     verification: {min_fitness: 0.8, max_rmse: 0.4, max_translation_sigma: 0.25,
-///                    max_rotation_sigma: 0.035, reject_degenerate: true,
-///                    max_correction_translation: 2, max_correction_rotation: 0.35,
-///                    min_translation_sigma: 0.01, min_rotation_sigma: 0.001,
-///                    registration: {...}}  # the registration stage's keys
-///                                          # (docs/registration.md); defaults differ in
-///                                          # max_correspondence_distance 1.5, max_iterations 60,
-///                                          # max_source_points 6000, index kdtree,
-///                                          # coarse_source_points 0
+///                    constellation: {model: planar, inlier_distance: 1, min_inliers: 2,
+///                                    property_value_tolerance: 0, facing_tolerance: 0.8, seed: 1}}
+///     verification: {min_fitness: 0.8, max_rmse: 0.4, reject_degenerate: true,
+///                    max_correction_translation: 2, max_correction_rotation: 0.35, ...,
+///                    registration: {max_correspondence_distance: 1.5, max_iterations: 60,
+///                                   max_source_points: 6000, index: kdtree,
+///                                   coarse_source_points: 0}}  # overrides of tracking's ICP
+///                                   # (odometry.registration); the rest is tracking's
 ///     consistency:  {translation_drift_per_metre: 0.04, rotation_drift_per_metre: 0.004,
-///                    translation_sigma_floor: 0.1, rotation_sigma_floor: 0.01,
-///                    gate_probability: 0.999, use_drift_gate: true, use_pairwise: true}
+///                    gate_probability: 0.999}
+/// Internal thresholds are named constants in the files that use them (docs/configuration.md).
 struct LoopClosureConfig {
   CandidateMethod method = CandidateMethod::Constellation;
   /// Verified loops kept per query keyframe (best candidates first).
@@ -152,6 +145,7 @@ struct LoopClosureConfig {
 const ConfigFields<LandmarkConfig>& configFields(ConfigTag<LandmarkConfig>);
 const ConfigFields<ConstellationConfig>& configFields(ConfigTag<ConstellationConfig>);
 const ConfigFields<CandidateSearchConfig>& configFields(ConfigTag<CandidateSearchConfig>);
+const ConfigFields<VerificationIcpOverrides>& configFields(ConfigTag<VerificationIcpOverrides>);
 const ConfigFields<VerificationConfig>& configFields(ConfigTag<VerificationConfig>);
 const ConfigFields<ConsistencyConfig>& configFields(ConfigTag<ConsistencyConfig>);
 const ConfigFields<LoopClosureConfig>& configFields(ConfigTag<LoopClosureConfig>);

@@ -23,25 +23,36 @@ inline double poseChangeSize(const Eigen::Isometry3d& d) {
 
 class RegistrationTarget;
 
-struct VerificationConfig {
-  /// The ICP used for verification (property-aware by default; use_classes = false for the
-  /// conventional baselines). Loops start farther from the truth than odometry steps, so the
-  /// correspondence distance is wider than for frame-to-frame tracking.
+/// What loop verification's ICP changes from the tracking ICP (odometry.registration), and only
+/// that (issue 37: overrides, not a copy): every other setting — metric, robust kernel, labels,
+/// tolerances, use_classes — is tracking's.
+struct VerificationIcpOverrides {
+  /// Loops start farther from the truth than odometry steps: a wider correspondence distance.
+  double max_correspondence_distance = 1.5;
+  int max_iterations = 60;
   /// At most 6000 source points (evenly strided): enough to verify a loop and bounded in time.
-  RegistrationConfig registration = [] {
-    RegistrationConfig r;
-    r.max_correspondence_distance = 1.5;
-    r.max_iterations = 60;
-    r.max_source_points = 6000;
-    // Dense keyframes (0.15 m voxels) searched 1.5 m wide: a voxel hash with 1.5 m cells scans
-    // ~100 points per cell; the k-d tree verifies the same loops faster (docs/measurements.md).
-    r.index = SpatialIndexKind::KdTree;
-    // Single stage: the acceptance thresholds below were set on single-stage results, and a
-    // loop's larger initial error is where a 1000-point coarse stage could settle elsewhere
-    // (on naraha it accepted 18 loops instead of 16, map error +4 mm).
-    r.coarse_source_points = 0;
-    return r;
-  }();
+  std::size_t max_source_points = 6000;
+  /// Dense keyframes (0.15 m voxels) searched 1.5 m wide: a voxel hash with 1.5 m cells scans
+  /// ~100 points per cell; the k-d tree verifies the same loops faster (docs/measurements.md).
+  SpatialIndexKind index = SpatialIndexKind::KdTree;
+  /// Single stage: the acceptance thresholds below were set on single-stage results, and a
+  /// loop's larger initial error is where a 1000-point coarse stage could settle elsewhere
+  /// (on naraha it accepted 18 loops instead of 16, map error +4 mm).
+  std::size_t coarse_source_points = 0;
+  /// `tracking` with these fields replaced.
+  RegistrationConfig over(RegistrationConfig tracking) const;
+};
+
+struct VerificationConfig {
+  /// The verification ICP = tracking's with these overrides (property-aware by default;
+  /// tracking's use_classes = false for the conventional baselines).
+  VerificationIcpOverrides registration;
+  /// Not a key: the tracking ICP the overrides apply to. The pipeline sets it to
+  /// odometry.registration (loopClosureConfigFor); a standalone loop detector keeps the
+  /// default, which is tracking's default.
+  RegistrationConfig tracking_registration;
+  /// The ICP verification runs: tracking_registration with the overrides.
+  RegistrationConfig icp() const { return registration.over(tracking_registration); }
   /// Fraction of source points with a correspondence. Keyframes of one place from 1–3 m apart
   /// reach 0.93–1.0 on simulated VLP-16 data; wrong alignments often 0.7–0.9.
   double min_fitness = 0.8;
@@ -49,10 +60,6 @@ struct VerificationConfig {
   /// 0.25–0.4 m even when aligned (the rings hit different spots), so this only catches gross
   /// misalignment; the covariance and consistency checks do the rest.
   double max_rmse = 0.4;
-  /// Bounded uncertainty: the largest standard deviation of the translation (m) and rotation
-  /// (rad) blocks of the ICP covariance.
-  double max_translation_sigma = 0.25;
-  double max_rotation_sigma = 0.035;  ///< ≈ 2°
   /// Reject loops whose registration reported a degenerate direction (a corridor: the loop
   /// would constrain nothing along it and pull the graph by an arbitrary amount).
   bool reject_degenerate = true;
@@ -60,10 +67,6 @@ struct VerificationConfig {
   /// slid into another local minimum (e.g. the neighbouring identical tank).
   double max_correction_translation = 2.0;
   double max_correction_rotation = 0.35;
-  /// Floors on the standard deviations before inverting (m, rad): an over-confident ICP
-  /// covariance (identical points, noise-free data) must not make a loop edge rigid.
-  double min_translation_sigma = 0.01;
-  double min_rotation_sigma = 0.001;
   /// Calibration of the loop covariance against the simulator's truth (issue 14, NEES):
   /// Σ_loop = covariance_scale · Σ_ICP + diag(floor²). docs/pose_graph.md has the fit.
   double covariance_scale = 1.0;
@@ -102,10 +105,6 @@ struct VerificationConfig {
   /// lets ICP settle in a neighbouring basin with a sharp Hessian covariance; the probes expose
   /// that ambiguity, which the Hessian cannot. 0 = off.
   double probe_distance = 0.2;
-  /// A loop whose probes land farther than this from its result (RMS translation, m) is
-  /// ambiguous — ICP has several basins there — and rejected. 0 = keep it (the spread only widens
-  /// the covariance).
-  double max_probe_spread = 0.05;
   /// Coarse check before the full verification ICP: the same registration with at most this many
   /// source points; a candidate whose coarse fitness stays below min_fitness − coarse_fitness_margin
   /// is rejected (low fitness) without the full run. Most candidates are wrong places with
@@ -119,11 +118,10 @@ struct VerificationConfig {
   double coarse_fitness_margin = 0.04;
   /// Before the coarse check (online cost, issue 14): the fitness of this many source points at
   /// the candidate's guess, one correspondence search and no ICP; a candidate below the coarse
-  /// floor (min_fitness − coarse_fitness_margin) minus guess_fitness_margin is rejected (low
+  /// floor (min_fitness − coarse_fitness_margin) minus a margin (verify_icp.cpp) is rejected (low
   /// fitness) without the coarse ICP. ICP raised the fitness by at most 0.18 from the guess on
   /// naraha, corridor and tanks (seed 1, 233 candidates). 0 = off.
   std::size_t guess_check_points = 300;
-  double guess_fitness_margin = 0.25;
   /// Online cost (issue 14): the full verification ICP starts where the coarse check converged
   /// (its 1000-point answer) instead of at the candidate's guess again, so it only refines — but
   /// only when that answer lies within this distance of the guess (m, translation + 10 m ×
@@ -173,11 +171,11 @@ enum class LoopRejection {
   Degenerate,             ///< a degenerate direction (reject_degenerate)
   LargeCorrection,        ///< ICP moved beyond max_correction_* from the guess
   CovarianceNotPositive,  ///< the covariance is not positive definite
-  UncertainTranslation,   ///< translation sigma above max_translation_sigma
-  UncertainRotation,      ///< rotation sigma above max_rotation_sigma
+  UncertainTranslation,   ///< translation sigma above the bound (verification.cpp)
+  UncertainRotation,      ///< rotation sigma above the bound (verification.cpp)
   DriftGate,              ///< verified, then rejected by the drift gate (LoopDetector)
   InnovationGate,         ///< verified, then rejected by the calibrated χ² innovation gate
-  Ambiguous,              ///< basin probes landed elsewhere (VerificationConfig::max_probe_spread)
+  Ambiguous,              ///< basin probes landed elsewhere (verify_icp.cpp, kMaxProbeSpread)
   Inconsistent,           ///< not in the largest pairwise-consistent set
   OptimisationFailed,     ///< the graph with this loop could not be solved (previous estimate kept)
   OptimisationDiverged,   ///< the solution with this loop moved poses beyond belief (dropped)
@@ -204,7 +202,8 @@ VerificationResult evaluateRegistration(const LoopCandidate& candidate,
 Matrix6d honestyTerms(const RegistrationResult& registration, const VerificationConfig& config = {});
 /// The misfit part of honestyTerms alone: misfit_scale · inlier_rmse² · H⁻¹ (0 when off).
 Matrix6d misfitTerm(const RegistrationResult& registration, const VerificationConfig& config = {});
-/// The floor variances every loop covariance carries (min_translation_sigma², min_rotation_sigma²),
+/// The floor variances every loop covariance carries (verification.cpp: kMinTranslationSigma²,
+/// kMinRotationSigma²),
 /// so no loop becomes rigid. Translation first.
 Vector6d floorVariances(const VerificationConfig& config);
 /// Sets closure.covariance and its symmetrised inverse, closure.information.

@@ -30,6 +30,64 @@ namespace hazmap {
 enum class OdometryMode { FrameToFrame, FrameToMap };
 const char* toString(OdometryMode mode);
 
+/// Recovery when tracking fails (issue 19): a guess-free global registration against the local
+/// map or, for a kidnapped robot, the whole map, and lost frames re-estimated once tracking is
+/// back. Its internal thresholds (when a frame is suspect, how much better a recovered answer must
+/// fit, when two answers are ambiguous) are named constants in src/odometry/odometry_checks.hpp.
+struct RecoveryConfig {
+  /// On by default: a recovered answer is used only when it fits clearly better than what
+  /// tracking would otherwise use, so a frame where ICP from the guess passes is never touched
+  /// (relocalise_suspect off) and a failed one changes only for the better.
+  bool relocalise = true;  ///< try a guess-free global registration when ICP from the guess fails
+  /// Also try it when ICP from the guess passed its checks but is suspect (a poor fit, a large
+  /// correction, no motion prior, a weakly constrained horizontal axis). Off by default: a frame
+  /// that passes is then never re-examined, so a run where nothing fails costs and gives exactly
+  /// what it did before; on for a crawler's worst day (docs/registration.md). It also turns on
+  /// flagging weak-axis frames and the label-axis search (LabelAxisConfig).
+  bool relocalise_suspect = false;
+  /// A recovered increment must be plausible for the platform: at most this far (m) and this
+  /// much turned (rad) since the previous frame (a crawler's 2 m slip plus its frame; a car at
+  /// 10 Hz with frames dropped).
+  double max_translation = 4.0;
+  double max_rotation = 1.6;
+  /// Whole-map re-localisation (a kidnapped robot): after whole_map_after consecutive fallback
+  /// frames, the scan is registered globally against the keyframes (verified frames kept every
+  /// keyframe_distance / keyframe_rotation, placed at their current poses, which reanchor() moves
+  /// with the pose graph), with no plausibility bound on the motion; verified by the tracking ICP,
+  /// confirmed by the next frame, an ambiguous answer refused. Used: status relocalised,
+  /// GlobalAttempt::whole_map, and the local map is rebuilt from the keyframes. Needs relocalise.
+  bool whole_map = true;
+  int whole_map_after = 3;          ///< consecutive fallback frames before the whole map is tried
+  double keyframe_distance = 2.0;   ///< m; a verified frame this far from the last keyframe is one
+  double keyframe_rotation = 0.5;   ///< rad; …or turned this much
+  /// Frame to map: a fallback frame's scan (its pose an unverified guess) waits outside the local
+  /// map, so a lost frame cannot poison the map the next frames track against. Once a later frame
+  /// is verified, the waiting frames are re-registered against the recovered map, each from its
+  /// pose interpolated between the last frame before the gap and the verified one; an answer that
+  /// passes the tracking checks replaces the frame's pose (status relocalised) and its scan enters
+  /// the map; otherwise the interpolated pose is kept, flagged (fallback), and the scan stays out.
+  /// frames() holds the final values; addFrame()'s returned frame is the one at that time.
+  /// naraha worst day: docs/registration.md.
+  bool reestimate_lost_frames = true;
+  /// At most this many lost frames wait; when more are lost in a row the oldest enters the map at
+  /// its guessed pose (held out for longer, the corridor without odometry starved its map).
+  int lost_frames_max = 3;
+};
+
+/// With relocalise_suspect and property ICP: along a horizontal axis the geometry cannot observe
+/// (a corridor), the scan's labelled points decide. They are slid ±range along the axis and scored
+/// against the target's labelled points with the paper's rule (same class within its search
+/// radius, another class only with the penalty α); the best position is used when it is well
+/// supported and unambiguous, otherwise the frame is flagged. The heat panels and puddles of a
+/// corridor: docs/registration.md. Its thresholds are named constants in
+/// src/odometry/odometry_checks.hpp.
+struct LabelAxisConfig {
+  bool search = true;
+  double range = 2.5;  ///< m either way
+};
+
+/// Tracking (Fig. 1: prepare → guess → register → judge → integrate); recovery and the label-axis
+/// search have their own sections.
 struct OdometryConfig {
   OdometryMode mode = OdometryMode::FrameToMap;
   /// ICP settings (use_classes = property ICP or plain ICP); the same defaults as registerClouds'.
@@ -45,139 +103,12 @@ struct OdometryConfig {
   double min_fitness = 0.3;               ///< fraction of source points with a correspondence
   double max_correction_translation = 1.0;  ///< m; farther from the guess = diverged
   double max_correction_rotation = 0.2;     ///< rad
-  bool keep_guess_along_degenerate = true;  ///< replace ICP's degenerate directions by the guess
   /// Covariance given to a fallback increment (and along degenerate directions).
   double fallback_sigma_translation = 0.1;  ///< m
   double fallback_sigma_rotation = 0.02;    ///< rad
-  // --- global registration when tracking fails (issue 19) ---
-  /// On by default: a recovered answer is used only when it fits clearly better than what
-  /// tracking would otherwise use (relocalise_min_gain), so a frame where ICP from the guess
-  /// passes is never touched (relocalise_suspect off) and a failed one changes only for the better.
-  bool relocalise = true;  ///< try a guess-free global registration when a trigger below fires
-  /// Also try it when ICP from the guess passed its checks but is suspect (below, or no motion
-  /// prior: no wheel odometry and no verified last increment). Off by
-  /// default: a frame that passes is then never re-examined, so a run where nothing fails costs
-  /// and gives exactly what it did before; on for a crawler's worst day (docs/registration.md).
-  bool relocalise_suspect = false;
-  /// Suspect: ICP from the guess fits worse than this (fitness), or its inlier RMSE is above
-  /// relocalise_max_rmse_ratio × that of tracked frames…
-  double suspect_fitness = 0.5;
-  /// …or corrected the guess by more than this (m / rad), or there was no motion prior…
-  double suspect_correction_translation = 0.5;
-  double suspect_correction_rotation = 0.1;
-  /// …or is weakly constrained along a horizontal axis: the smallest eigenvalue of the ICP
-  /// Hessian's translation block (rotation marginalised) below this × the largest (a corridor
-  /// whose walls say nothing along it: "no motion" fits as well as the true step). Recovery then
-  /// also starts ICP at ±relocalise_axis_step and ±2×relocalise_axis_step along that axis; two
-  /// answers that fit alike make the frame ambiguous (flagged) instead of silently wrong.
-  double suspect_weak_axis_ratio = 0.15;
-  double relocalise_axis_step = 1.0;  ///< m
-  /// A probe's answer is used only when it fits better than the best other answer (ICP from the
-  /// guess with its relocalise_min_gain head start) by this much (1 = probes never used).
-  double relocalise_probe_gain = 0.2;
-  /// ICP from a recovery start other than the guess may end this far from that start (m / rad;
-  /// the tracking limits max_correction_* apply when larger): a start is a seed, not a prior.
-  double relocalise_start_correction = 2.0;
-  double relocalise_start_correction_rotation = 0.5;
-  /// A recovered answer replaces ICP from the guess (when that passed) or the guess itself (when
-  /// it failed) only when it fits better by at least this much: share of source points within
-  /// relocalise_inlier_distance of a target surface.
-  double relocalise_min_gain = 0.05;
-  /// m; a source point this close to a target surface (along its normal) fits (scores recovery).
-  double relocalise_inlier_distance = 0.1;
-  /// A recovered increment must be plausible for the platform: at most this far (m) and this
-  /// much turned (rad) since the previous frame (a crawler's 2 m slip plus its frame; a car at
-  /// 10 Hz with frames dropped).
-  double relocalise_max_translation = 4.0;
-  double relocalise_max_rotation = 1.6;
-  /// Two verified answers this far apart (m / rad) whose fitness differs by less than
-  /// relocalise_ambiguity (surface fit, as relocalise_min_gain) make the frame ambiguous:
-  /// flagged, not relocalised.
-  double relocalise_distinct_translation = 0.3;
-  double relocalise_distinct_rotation = 0.05;
-  double relocalise_ambiguity = 0.03;
-  /// A recovered answer whose inlier RMSE exceeds this × the running RMSE of tracked frames is
-  /// rejected (a wrong pose still finds partners in a dense map; it fits them worse).
-  double relocalise_max_rmse_ratio = 1.5;
-  /// The global registration's target: the local map within this radius (m) of the previous pose.
-  double relocalise_map_radius = 40.0;
-  GlobalRegistrationConfig global;  ///< the global registration (its use_classes follows registration's)
-  // --- whole-map re-localisation: a kidnapped robot (issue 19) ---
-  /// After whole_map_after consecutive fallback frames, the scan is registered globally against the
-  /// whole map: the keyframes (verified frames kept every keyframe_distance / keyframe_rotation,
-  /// their scans placed at their current poses, which reanchor() moves with the pose graph), with
-  /// no plausibility bound on the motion. The answer is verified by the tracking ICP against the
-  /// keyframes, must fit (surface fit) at least whole_map_min_fit and better than the guess by
-  /// relocalise_min_gain, and an ambiguous global registration is refused. Used: status
-  /// relocalised, GlobalAttempt::whole_map, and the local map is rebuilt from the keyframes (the
-  /// scans placed while lost are dropped). Needs relocalise; costs nothing until tracking fails.
-  bool whole_map_relocalise = true;
-  int whole_map_after = 3;           ///< consecutive fallback frames before the whole map is tried
-  double keyframe_distance = 2.0;    ///< m; a verified frame this far from the last keyframe is one
-  double keyframe_rotation = 0.5;    ///< rad; …or turned this much
-  double whole_map_min_fit = 0.5;    ///< share of source points on a keyframe surface
-  /// A whole-map answer is used only when the next frame's whole-map answer agrees with it (within
-  /// relocalise_max_translation / relocalise_max_rotation): a single scan can look like another
-  /// place (naraha without odometry: 27.8 m / 127 deg off with surface fit 0.71).
-  bool whole_map_confirm = true;
-  // --- lost frames (frame to map) ---
-  /// Frame to map: a fallback frame's scan (its pose an unverified guess) waits outside the local
-  /// map, so a lost frame cannot poison the map the next frames track against. Once a later frame
-  /// is verified (tracked, degenerate or relocalised against the map without them), the waiting
-  /// frames are re-registered against the recovered map, each from its pose interpolated between
-  /// the last frame before the gap and the verified one; an answer that passes the tracking checks
-  /// (and is horizontally constrained, fits like tracked frames, a plausible motion on both sides)
-  /// replaces the frame's pose (status relocalised) and its scan enters the map with the verified
-  /// frame's; otherwise the interpolated pose is kept, flagged (fallback), and the scan stays out.
-  /// The increments on both sides follow (frames() holds the final values; addFrame()'s returned
-  /// frame is the one at that time). After a whole-map re-localisation (a kidnapped robot) the
-  /// waiting frames keep their poses, flagged. naraha worst day: docs/registration.md.
-  bool reestimate_lost_frames = true;
-  /// At most this many lost frames wait; when more are lost in a row the oldest enters the map at
-  /// its guessed pose (the map follows the robot through a stretch nothing can verify: held out
-  /// for longer, the corridor without odometry starved its map, 1 -> 61 of 99 frames silently wrong).
-  int lost_frames_max = 3;
-  /// With relocalise_suspect: a frame whose ICP is weakly constrained along a horizontal axis
-  /// (suspect_weak_axis_ratio) and that recovery did not replace is flagged (status degenerate,
-  /// fallback covariance along the axis) instead of `tracked`: along that axis ICP cannot know the
-  /// motion (a corridor).
-  bool flag_weak_axis = true;
-  /// The weak-axis ratio that flags (as suspect_weak_axis_ratio, which triggers recovery): looser,
-  /// since flagging keeps ICP's answer. The corridor's frames sit at 0.15-0.25 and, at 0.15, some
-  /// stayed `tracked` 1 m wrong depending on the map's content.
-  double flag_weak_axis_ratio = 0.25;
-  /// With relocalise_suspect: a frame after a flagged one (degenerate; a fallback when lost frames
-  /// are not re-estimated) starts its increment from a pose not known along that frame's weakest
-  /// horizontal axis. When its answer lies more than this (m) from the guess along that axis, the
-  /// previous pose's error or a slip moved it, which nothing tells apart: flagged, not `tracked`
-  /// (corridor worst day: a frame beside a heat panel put right a previous frame 0.4 m off and
-  /// was 0.49 m off in its increment; 0 = off).
-  double flag_correction_after_flagged = 0.15;
-  /// With relocalise_suspect and property ICP: along a horizontal axis the geometry cannot observe
-  /// (weaker than flag_weak_axis_ratio, or another position along it fits as well), the scan's
-  /// labelled points decide. They are slid ±label_axis_range along the axis and scored against the
-  /// target's labelled points with the paper's rule (same class within its search radius, another
-  /// class only with the penalty α; a pair within label_axis_gate adds its class weight × (1 −
-  /// cost / gate²)); the best position is used when its score is at least label_axis_min_support
-  /// and no position label_axis_gate or more away scores label_axis_ambiguity × as much. Otherwise
-  /// (no labelled point in view, an even score) the frame is flagged as before. The heat panels and
-  /// puddles of a corridor: docs/registration.md.
-  bool label_axis_search = true;
-  double label_axis_range = 2.5;       ///< m either way
-  double label_axis_gate = 0.5;        ///< m
-  double label_axis_min_support = 3.0;  ///< label score (≈ well-matched labelled points)
-  double label_axis_ambiguity = 0.85;   ///< the next peak at most this × the best (above the profile's floor)
-  double label_axis_sigma = 0.05;      ///< m; variance added along the axis when labels placed it
-  double label_axis_voxel = 0.1;       ///< m; the labelled points' resolution for the search
-  /// m; labels placing the frame within this of ICP's answer confirm it (ICP's answer is kept: where
-  /// the geometry has anything to go by it is the finer of the two; naraha's weak-axis frames).
-  double label_axis_confirm = 0.1;
-  /// m; unlabelled returns this close to labelled ones take part too (a mismatch costs α): they
-  /// show where a panel ends, so a partial view cannot slide along it.
-  double label_axis_context = 0.5;
-  /// The two halves of the labelled points (alternate points) place the frame this close (m), or
-  /// the frame keeps the labels' position but stays flagged (far patches at a grazing angle).
-  double label_axis_consistency = 0.05;
+  RecoveryConfig recovery;
+  GlobalRegistrationConfig global;  ///< recovery's global registration (its use_classes follows registration's)
+  LabelAxisConfig label_axis;
 
   /// The defaults above (max correspondence 1 m, scan voxel 0.5 m, map voxel 1 m), set for the
   /// simulated 10 Hz VLP-16 of the paper's experiment.
@@ -188,6 +119,8 @@ struct OdometryConfig {
 /// Field tables (keys, ranges, docs; core/config_fields.hpp, docs/configuration.md).
 const ConfigFields<OdometryConfig>& configFields(ConfigTag<OdometryConfig>);
 const ConfigFields<LocalMapConfig>& configFields(ConfigTag<LocalMapConfig>);
+const ConfigFields<RecoveryConfig>& configFields(ConfigTag<RecoveryConfig>);
+const ConfigFields<LabelAxisConfig>& configFields(ConfigTag<LabelAxisConfig>);
 
 /// YAML: the keys of the field table, at top level or under `odometry:`; `map:` and
 /// `registration:` are nested sections. Unknown keys are errors naming the closest valid key.
@@ -319,7 +252,7 @@ class Odometry {
   /// Keyframes (odometry_whole_map.cpp): a verified frame far enough from the last one becomes
   /// one; after a whole-map re-localisation the local map is rebuilt from them.
   void keepKeyframe(const OdometryFrame& f, const LabeledCloud& frame);
-  /// whole_map_confirm: whether the previous frame's whole-map answer agrees with `answer`.
+  /// the whole-map confirmation: whether the previous frame's whole-map answer agrees with `answer`.
   bool confirmed(const Eigen::Isometry3d& answer, std::size_t frame);
   void rebuildLocalMapFromKeyframes(const Eigen::Isometry3d& pose);
   /// reestimate_lost_frames (odometry_lost.cpp): `f` (not yet in frames_) was verified; the

@@ -27,62 +27,56 @@
 
 namespace hazmap {
 
+/// What the global registration's refinement ICP changes from the tracking ICP
+/// (odometry.registration), and only that (issue 37: overrides, not a copy).
+struct RefinementIcpOverrides {
+  int max_iterations = 30;
+  /// Plenty to tell a right hypothesis from a wrong one, and to refine it.
+  std::size_t max_source_points = 1500;
+  std::size_t coarse_source_points = 0;  ///< the downsampled scan is small already
+  /// `tracking` with these fields replaced.
+  RegistrationConfig over(RegistrationConfig tracking) const;
+};
+
 struct GlobalRegistrationConfig {
+  // Internal thresholds (descriptor matching, hypothesis scoring, ambiguity) are named constants
+  // in src/registration/global_*.cpp (issue 37).
   // --- features ---
   double voxel_size = 0.5;        ///< m, both clouds are downsampled to this first
   double normal_radius = 1.0;     ///< m, neighbourhood of the normals
   int normal_neighbors = 20;      ///< k of the normals (>= 3)
   double feature_radius = 2.5;    ///< m, FPFH neighbourhood (≈ 5 voxels)
-  int max_feature_neighbors = 40; ///< neighbours per FPFH histogram (nearest first)
   double max_range = 0.0;         ///< m from the cloud's origin; farther points ignored (0 = all)
-  // --- correspondences ---
-  /// Match at most this many source descriptors (an even stride; labelled points always): a
-  /// dense scan has far more than RANSAC needs. 0 = all.
-  std::size_t max_source_features = 3000;
-  bool mutual_filter = true;  ///< keep only mutual nearest neighbours (if at least min_correspondences)
-  std::size_t min_correspondences = 10;
   // --- estimator ---
   int ransac_iterations = 5000;       ///< triples drawn (fixed count: deterministic)
-  double edge_length_similarity = 0.9;  ///< pre-check: every edge ratio of a triple >= this
   double inlier_distance = 0.75;      ///< m, a correspondence/point agrees within this
   std::uint64_t seed = 1;             ///< RANSAC seed (the result does not depend on threads)
-  // --- property-aware variant ---
-  bool use_classes = true;          ///< labelled points match their own class; constellations
-  /// Score = (1 − share)·overlap + share·(labelled source points landing on their own class /
-  /// labelled source points), when the source has >= min_labelled_points labelled points. The
-  /// labels weigh as a whole, not per point: a few property points must be able to break a
-  /// symmetry that thousands of geometric points cannot (a corridor, a rectangular room).
-  double label_score_share = 0.3;
-  std::size_t min_labelled_points = 3;
-  /// Property-aware: a winner on which fewer labelled source points (in landmarks) land on their
-  /// own class than this share is refused — the labels say the geometry matched the wrong place.
-  double min_label_agreement = 0.2;
-  double landmark_cluster_distance = 1.0;  ///< m, same-class points closer are one landmark
-  std::size_t landmark_min_points = 3;     ///< (downsampled) points for a landmark
+  /// Property-aware: labelled points match their own class, property-landmark constellations add
+  /// hypotheses, and labelled points landing on their own class score more.
+  bool use_classes = true;
   // --- verification ---
-  std::size_t min_points = 50;     ///< downsampled source/target points needed
-  std::size_t min_features = 30;   ///< points with a descriptor needed
   double min_overlap = 0.3;        ///< refined overlap (share of source points with a partner)
-  double ambiguity_ratio = 0.9;    ///< second distinct hypothesis >= this × best → ambiguous
-  double distinct_translation = 1.0;  ///< m, hypotheses farther apart are distinct …
-  double distinct_rotation_deg = 10.0;  ///< … or rotated more than this (degrees)
-  /// Refuse a winner whose refinement ICP finds directions the geometry does not constrain
-  /// (RegistrationResult::degenerate_directions: a bare plane, a featureless corridor).
-  bool reject_degenerate = true;
-  int candidates_refined = 2;      ///< distinct hypotheses refined by ICP (>= 1; 2 = best + its rival)
-  RegistrationConfig refinement = defaultRefinement();  ///< property ICP of the candidates
+  /// The property ICP of the candidates: tracking's with these overrides (its use_classes
+  /// follows use_classes above).
+  RefinementIcpOverrides refinement;
+  /// Not a key: the tracking ICP the refinement's overrides apply to. The odometry sets it to
+  /// odometry.registration (globalConfigOf); standalone (`hazmap register --global`) it keeps the
+  /// default, which is tracking's default.
+  RegistrationConfig tracking_registration;
   /// The winner is polished by the same ICP on clouds downsampled to this (m; finer than
   /// voxel_size: at 0.5 m a sparse scan has shallow local minima a few degrees wide). 0 = off.
   double final_voxel_size = 0.25;
   int threads = 0;  ///< 0 = TBB's default (or the surrounding tbb::global_control)
 
-  static RegistrationConfig defaultRefinement();
+  /// The refinement ICP: tracking_registration with the refinement's overrides.
+  RegistrationConfig refinementIcp() const { return refinement.over(tracking_registration); }
   /// Throws hazmap::Error naming the offending parameter ("global_registration.<key>: ...").
   void validate() const;
 };
 
 /// The field table (keys, ranges, docs; core/config_fields.hpp, docs/configuration.md).
 const ConfigFields<GlobalRegistrationConfig>& configFields(ConfigTag<GlobalRegistrationConfig>);
+const ConfigFields<RefinementIcpOverrides>& configFields(ConfigTag<RefinementIcpOverrides>);
 /// YAML at top level or under `global_registration:`; unknown keys are errors.
 GlobalRegistrationConfig globalRegistrationConfigFromYaml(const std::string& yaml, const std::string& where,
                                                           const GlobalRegistrationConfig& base = {});
