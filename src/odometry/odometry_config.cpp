@@ -140,6 +140,8 @@ const ConfigFields<OdometryConfig>& configFields(ConfigTag<OdometryConfig>) {
                   "A recovered answer fitting with an inlier RMSE above this × that of tracked frames is rejected")
           .number("relocalise_map_radius", &C::relocalise_map_radius, positive(),
                   "m; the global registration's target is the local map within this radius of the previous pose"))
+          .section("motion_hypotheses", &C::motion_hypotheses,
+                   "The guess after a sudden turn: motion hypotheses scored cheaply before ICP")
           .section("global_registration", &C::global,
                    "Used when relocalise triggers; use_classes applies only when registration.use_classes does")
           .rule("max_range", [](const C& c) { return c.max_range > c.min_range; }, "must be > min_range");

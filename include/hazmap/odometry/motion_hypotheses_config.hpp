@@ -1,0 +1,20 @@
+#pragma once
+// The user's choice for the tracking guess after a sudden turn (issue 35): several motion
+// hypotheses scored cheaply against the registration target before the full ICP.
+#include "hazmap/core/config_fwd.hpp"
+
+namespace hazmap {
+
+struct MotionHypothesisConfig {
+  /// Score the constant-velocity guess against the target; when it fits clearly worse than
+  /// the guesses of the frames before, also score zero motion, the wheel increment, the last
+  /// translation without its turn and a yaw sweep, and start ICP from the best.
+  bool enabled = true;
+  /// rad; the yaw sweep covers ± this around the best of the other hypotheses.
+  double yaw_range = 1.05;
+  void validate() const;
+};
+
+const ConfigFields<MotionHypothesisConfig>& configFields(ConfigTag<MotionHypothesisConfig>);
+
+}  // namespace hazmap

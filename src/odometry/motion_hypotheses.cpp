@@ -1,0 +1,163 @@
+#include "odometry/motion_hypotheses.hpp"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <vector>
+
+#include "hazmap/core/config_fields.hpp"
+
+namespace hazmap {
+namespace {
+
+/// Source points scored per hypothesis: enough that a turn's misfit shows above the ground's
+/// rotation-invariant share, few enough that an easy frame pays ~0.1 ms (bench_tracking_stress).
+constexpr std::size_t kScorePoints = 384;
+/// m; a sampled point this close to a target point fits. Half the default 1 m correspondence
+/// gate: a start within the gate but a few degrees off still scores below the right one.
+constexpr float kScoreGate = 0.5f;
+/// The guess is searched around when it scores below this × the running score of the starts
+/// before (a turn drops it to 0.3–0.6 ×; scene changes of easy frames stay above ~0.85 ×).
+constexpr double kPoorRatio = 0.8;
+/// Another start replaces the guess only when it scores this much higher: an easy frame whose
+/// guess is merely a bit worse keeps it (and its results) unchanged.
+constexpr double kMinGain = 0.05;
+/// rad; the sweep's steps: ICP from a start within half the coarse step converges on real
+/// scans (KITTI: within 5 deg at 1 m gate), the fine steps put it well inside.
+constexpr double kCoarseYawStep = 10.0 * M_PI / 180.0;
+constexpr double kFineYawSteps[] = {4.0 * M_PI / 180.0, 2.0 * M_PI / 180.0};
+/// Weight of a new frame in the running score.
+constexpr double kTypicalWeight = 0.2;
+
+struct Candidate {
+  Eigen::Isometry3d increment;
+  std::string name;
+  double score = 0.0;
+};
+
+Eigen::Isometry3d yawed(const Eigen::Isometry3d& increment, double yaw) {
+  Eigen::Isometry3d T = increment;
+  T.linear() = increment.linear() * Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  return T;
+}
+
+std::string sweepName(double yaw) {
+  char s[48];
+  std::snprintf(s, sizeof s, "yaw sweep %+.1f deg", yaw * 180.0 / M_PI);
+  return s;
+}
+
+LabeledCloud sampleOf(const LabeledCloud& source) {
+  const std::size_t stride = std::max<std::size_t>(1, (source.size() + kScorePoints - 1) / kScorePoints);
+  LabeledCloud out;
+  for (std::size_t i = 0; i < source.size(); i += stride) out.push_back(source.points[i], source.classes[i]);
+  return out;
+}
+
+// Scores every candidate (in parallel; each score is independent, so the result is deterministic).
+void scoreAll(std::vector<Candidate>& cands, std::size_t from, const LabeledCloud& sample,
+              const RegistrationTarget& target, const Eigen::Isometry3d& previous) {
+  tbb::parallel_for(from, cands.size(), [&](std::size_t i) {
+    cands[i].score = hypothesisScore(sample, target, previous * cands[i].increment);
+  });
+}
+
+std::size_t bestOf(const std::vector<Candidate>& cands) {
+  std::size_t best = 0;
+  for (std::size_t i = 1; i < cands.size(); ++i)
+    if (cands[i].score > cands[best].score) best = i;  // ties: the earlier (simpler) hypothesis
+  return best;
+}
+
+// The hypotheses besides the guess: zero motion, the last translation without its turn, the
+// constant velocity when the guess was the wheels', the IMU's rotation with the guess's translation.
+void addBaseHypotheses(std::vector<Candidate>& cands, const HypothesisInputs& in) {
+  cands.push_back({Eigen::Isometry3d::Identity(), "zero motion"});
+  if (in.last_increment) {
+    Eigen::Isometry3d straight = Eigen::Isometry3d::Identity();
+    straight.translation() = in.last_increment->translation();
+    cands.push_back({straight, "last translation, no turn"});
+  }
+  if (in.constant_velocity) cands.push_back({*in.constant_velocity, "constant velocity"});
+  if (in.imu_rotation) {
+    Eigen::Isometry3d imu = in.guess;
+    imu.linear() = in.imu_rotation->normalized().toRotationMatrix();
+    cands.push_back({imu, "IMU rotation"});
+  }
+}
+
+// A yaw sweep around `centre` (coarse steps over ±range), then finer steps around the best.
+void sweepYaw(std::vector<Candidate>& cands, const Candidate& centre, double range, const LabeledCloud& sample,
+              const RegistrationTarget& target, const Eigen::Isometry3d& previous) {
+  std::size_t from = cands.size();
+  for (double yaw = kCoarseYawStep; yaw <= range + 1e-9; yaw += kCoarseYawStep)
+    for (double s : {yaw, -yaw}) cands.push_back({yawed(centre.increment, s), sweepName(s)});
+  scoreAll(cands, from, sample, target, previous);
+  for (double step : kFineYawSteps) {
+    const Candidate best = cands[bestOf(cands)];
+    from = cands.size();
+    for (double s : {step, -step}) cands.push_back({yawed(best.increment, s), best.name + sweepName(s).substr(9)});
+    scoreAll(cands, from, sample, target, previous);
+  }
+}
+
+}  // namespace
+
+double hypothesisScore(const LabeledCloud& sample, const RegistrationTarget& target, const Eigen::Isometry3d& pose) {
+  if (sample.empty()) return 0.0;
+  const Eigen::Isometry3f T = pose.cast<float>();
+  const float gate2 = kScoreGate * kScoreGate;
+  double sum = 0.0;
+  for (std::size_t i = 0; i < sample.size(); ++i) {
+    const TargetMatch m = target.nearestAnyClass(T * sample.points[i], sample.classes[i], gate2);
+    if (m.index >= 0 && m.distance2 <= gate2) sum += 1.0 - m.distance2 / gate2;
+  }
+  return sum / static_cast<double>(sample.size());
+}
+
+HypothesisChoice MotionHypotheses::choose(const LabeledCloud& source, const RegistrationTarget& target,
+                                          const Eigen::Isometry3d& previous, const HypothesisInputs& in,
+                                          const MotionHypothesisConfig& config) {
+  const auto t0 = std::chrono::steady_clock::now();
+  HypothesisChoice out;
+  const LabeledCloud sample = sampleOf(source);
+  std::vector<Candidate> cands{{in.guess, in.guess_name, 0.0}};
+  cands[0].score = hypothesisScore(sample, target, previous * in.guess);
+  out.guess_score = cands[0].score;
+  std::size_t best = 0;
+  if (typical_ <= 0.0 || out.guess_score < kPoorRatio * typical_) {
+    out.searched = true;
+    addBaseHypotheses(cands, in);
+    scoreAll(cands, 1, sample, target, previous);
+    sweepYaw(cands, cands[bestOf(cands)], config.yaw_range, sample, target, previous);
+    best = bestOf(cands);
+    if (cands[best].score < out.guess_score + kMinGain) best = 0;
+  }
+  out.increment = cands[best].increment;
+  out.name = cands[best].name;
+  out.replaced = best != 0;
+  out.score = cands[best].score;
+  out.scored = static_cast<int>(cands.size());
+  typical_ = typical_ > 0.0 ? (1.0 - kTypicalWeight) * typical_ + kTypicalWeight * out.score : out.score;
+  out.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  return out;
+}
+
+const ConfigFields<MotionHypothesisConfig>& configFields(ConfigTag<MotionHypothesisConfig>) {
+  using C = MotionHypothesisConfig;
+  static const ConfigFields<C> fields =
+      ConfigFields<C>("The tracking guess after a sudden turn: motion hypotheses scored before ICP (issue 35).")
+          .flag("enabled", &C::enabled,
+                "Score the guess against the target; when it fits clearly worse than the frames before, also score "
+                "zero motion, the last translation without its turn, the wheel increment and a yaw sweep, and start "
+                "ICP from the best")
+          .number("yaw_range", &C::yaw_range, closed(0, M_PI), "rad; the yaw sweep covers +- this");
+  return fields;
+}
+
+void MotionHypothesisConfig::validate() const { validateConfig(*this, "odometry.motion_hypotheses"); }
+
+}  // namespace hazmap
