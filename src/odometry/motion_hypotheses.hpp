@@ -2,8 +2,9 @@
 // The tracking guess after a sudden turn (issue 35): the constant-velocity (or wheel) guess is
 // scored against the registration target with a few hundred source points; when it fits clearly
 // worse than the starts of the frames before, zero motion, the last translation without its turn,
-// the wheel increment, an IMU rotation (when one is given) and a yaw sweep around the best of
-// them are scored too, and ICP starts from the best. The score is geometric only (nearest target
+// constant velocity (when the guess is the wheels'), an IMU rotation (when one is given) and a yaw
+// sweep around the best of them are scored too, the best few refined by a short ICP of the sampled
+// points, and the full ICP starts from the best refined one when it fits clearly better. The score is geometric only (nearest target
 // point of any class): the labels act in the ICP that follows, so they can only help there.
 #include <Eigen/Geometry>
 #include <optional>
@@ -44,9 +45,11 @@ double hypothesisScore(const LabeledCloud& sample, const RegistrationTarget& tar
 
 class MotionHypotheses {
  public:
-  /// `previous` = registration space ← the previous frame. Deterministic.
+  /// `previous` = registration space ← the previous frame; `icp` the tracking ICP's settings
+  /// (the best starts are refined by a short ICP of the sampled points). Deterministic.
   HypothesisChoice choose(const LabeledCloud& source, const RegistrationTarget& target,
                           const Eigen::Isometry3d& previous, const HypothesisInputs& in,
+                          const ClassTable& classes, const RegistrationConfig& icp,
                           const MotionHypothesisConfig& config);
 
  private:

@@ -7,10 +7,11 @@ namespace hazmap {
 
 struct MotionHypothesisConfig {
   /// Score the constant-velocity guess against the target; when it fits clearly worse than
-  /// the guesses of the frames before, also score zero motion, the wheel increment, the last
-  /// translation without its turn and a yaw sweep, and start ICP from the best.
+  /// the guesses of the frames before, also score zero motion, the last translation without its
+  /// turn, constant velocity (when the guess is the wheels') and a yaw sweep, and start ICP from
+  /// the best. Off: the guess alone, as before issue 35.
   bool enabled = true;
-  /// rad; the yaw sweep covers ± this around the best of the other hypotheses.
+  /// rad; the yaw sweep covers ± this around the best of the other hypotheses (0 = no sweep).
   double yaw_range = 1.05;
   void validate() const;
 };
