@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "hazmap/core/config_fields.hpp"
+#include "hazmap/core/se3.hpp"
 #include "hazmap/registration/registration.hpp"
 
 namespace hazmap {
@@ -102,9 +103,10 @@ void sweepYaw(std::vector<Candidate>& cands, Candidate centre, double range) {  
 }
 
 // The guess and the kRefined best other candidates, each refined by a short ICP of the sample
-// (registration space ← previous frame `previous`), scored again; the best refined one.
-Candidate refineBest(std::vector<Candidate> cands, const LabeledCloud& sample, const RegistrationTarget& target,
-                     const Eigen::Isometry3d& previous, const ClassTable& classes, const RegistrationConfig& icp) {
+// (registration space ← previous frame `previous`) and scored again; the guess stays first.
+std::vector<Candidate> refineBest(std::vector<Candidate> cands, const LabeledCloud& sample,
+                                  const RegistrationTarget& target, const Eigen::Isometry3d& previous,
+                                  const ClassTable& classes, const RegistrationConfig& icp) {
   std::stable_sort(cands.begin() + 1, cands.end(), [](const Candidate& a, const Candidate& b) { return a.score > b.score; });
   cands.resize(std::min(cands.size(), kRefined + 1));
   RegistrationConfig rc = icp;
@@ -115,13 +117,27 @@ Candidate refineBest(std::vector<Candidate> cands, const LabeledCloud& sample, c
   tbb::parallel_for(std::size_t{0}, cands.size(), [&](std::size_t i) {
     const RegistrationResult r = registerClouds(sample, target, previous * cands[i].increment, classes, rc);
     if (r.termination != Termination::Converged && r.termination != Termination::MaxIterations) return;
-    const double score = hypothesisScore(sample, target, r.transform);
-    if (score <= cands[i].score) return;
     cands[i].increment = previous.inverse() * r.transform;
-    cands[i].score = score;
+    cands[i].score = hypothesisScore(sample, target, r.transform);
     cands[i].name += ", refined";
   });
-  return cands[bestOf(cands)];
+  return cands;
+}
+
+// The start the full ICP should use instead of the guess, or nothing (keep the guess): another
+// start whose refinement fits clearly better than the guess's own (the guess lies in a wrong
+// basin), or the guess's refinement when it moved beyond the tracking checks' correction limits
+// and fits clearly better than the guess (ICP from the guess would fail those checks: a dropped
+// frame with no motion known). A guess whose own basin is right is never replaced, so the
+// tracking prior kept along degenerate directions stays the wheels' or constant velocity's.
+const Candidate* pickStart(const Candidate& guess, const std::vector<Candidate>& refined,
+                           const HypothesisLimits& limits) {
+  const std::size_t best = bestOf(refined);
+  if (best != 0 && refined[best].score >= refined[0].score + kMinGain) return &refined[best];
+  const Eigen::Isometry3d moved = guess.increment.inverse() * refined[0].increment;
+  const bool beyond = translationNorm(moved) > limits.max_translation || rotationAngle(moved) > limits.max_rotation;
+  if (beyond && refined[0].score >= guess.score + kMinGain) return &refined[0];
+  return nullptr;
 }
 
 }  // namespace
@@ -141,7 +157,7 @@ double hypothesisScore(const LabeledCloud& sample, const RegistrationTarget& tar
 HypothesisChoice MotionHypotheses::choose(const LabeledCloud& source, const RegistrationTarget& target,
                                           const Eigen::Isometry3d& previous, const HypothesisInputs& in,
                                           const ClassTable& classes, const RegistrationConfig& icp,
-                                          const MotionHypothesisConfig& config) {
+                                          const HypothesisLimits& limits, const MotionHypothesisConfig& config) {
   const auto t0 = std::chrono::steady_clock::now();
   HypothesisChoice out;
   const LabeledCloud sample = sampleOf(source);
@@ -158,11 +174,12 @@ HypothesisChoice MotionHypotheses::choose(const LabeledCloud& source, const Regi
     sweepYaw(cands, cands[bestOf(cands)], config.yaw_range);
     scoreAll(cands, base, sample, target, previous);
     out.scored = static_cast<int>(cands.size());
-    const Candidate best = refineBest(std::move(cands), sample, target, previous, classes, icp);
-    if (best.score >= out.guess_score + kMinGain) {
-      out.increment = best.increment;
-      out.name = best.name;
-      out.score = best.score;
+    const Candidate guess = cands[0];
+    const std::vector<Candidate> refined = refineBest(std::move(cands), sample, target, previous, classes, icp);
+    if (const Candidate* start = pickStart(guess, refined, limits)) {
+      out.increment = start->increment;
+      out.name = start->name;
+      out.score = start->score;
       out.replaced = true;
     }
   }

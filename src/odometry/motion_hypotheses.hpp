@@ -3,8 +3,9 @@
 // scored against the registration target with a few hundred source points; when it fits clearly
 // worse than the starts of the frames before, zero motion, the last translation without its turn,
 // constant velocity (when the guess is the wheels'), an IMU rotation (when one is given) and a yaw
-// sweep around the best of them are scored too, the best few refined by a short ICP of the sampled
-// points, and the full ICP starts from the best refined one when it fits clearly better. The score is geometric only (nearest target
+// sweep around the best of them are scored too and the best few refined by a short ICP of the
+// sampled points. The full ICP starts from another start only when the guess lies in a wrong basin
+// (its own refinement fits clearly worse) or must travel beyond the tracking checks' limits. The score is geometric only (nearest target
 // point of any class): the labels act in the ICP that follows, so they can only help there.
 #include <Eigen/Geometry>
 #include <optional>
@@ -26,6 +27,13 @@ struct HypothesisInputs {
   /// previous ← current rotation integrated from an IMU. Nothing feeds it yet: the odometry
   /// receives no IMU; a source that has one passes it here and it competes like the others.
   std::optional<Eigen::Quaterniond> imu_rotation;
+};
+
+/// The tracking checks' correction limits (max_correction_*): ICP from the guess that must travel
+/// farther fails them.
+struct HypothesisLimits {
+  double max_translation = 1.0;  ///< m
+  double max_rotation = 0.2;     ///< rad
 };
 
 struct HypothesisChoice {
@@ -50,7 +58,7 @@ class MotionHypotheses {
   HypothesisChoice choose(const LabeledCloud& source, const RegistrationTarget& target,
                           const Eigen::Isometry3d& previous, const HypothesisInputs& in,
                           const ClassTable& classes, const RegistrationConfig& icp,
-                          const MotionHypothesisConfig& config);
+                          const HypothesisLimits& limits, const MotionHypothesisConfig& config);
 
  private:
   double typical_ = 0.0;  ///< running score of the chosen starts (0 = no frame yet)

@@ -212,8 +212,9 @@ void Odometry::seedFromHypotheses(OdometryFrame& f, Attempt& a, const LabeledClo
   if (impl_->has_velocity) in.last_increment = impl_->velocity;
   if (wheel_increment && impl_->has_velocity) in.constant_velocity = impl_->velocity;  // the guess is the wheels'
   const Eigen::Isometry3d previous = a.W.inverse() * a.prev_pose;
+  const HypothesisLimits limits{config_.max_correction_translation, config_.max_correction_rotation};
   const HypothesisChoice c = impl_->hypotheses.choose(source, *a.target, previous, in, classes_, config_.registration,
-                                                      config_.motion_hypotheses);
+                                                      limits, config_.motion_hypotheses);
   if (!c.replaced || !plausibleMotion(c.increment, config_)) return;
   f.guess = c.increment;
   f.guess_hypothesis = c.name;
