@@ -80,7 +80,7 @@ std::size_t bestOf(const std::vector<Candidate>& cands) {
 }
 
 // The hypotheses besides the guess: zero motion, the last translation without its turn, the
-// constant velocity when the guess was the wheels', the IMU's rotation with the guess's translation.
+// the IMU's rotation with the guess's translation.
 void addBaseHypotheses(std::vector<Candidate>& cands, const HypothesisInputs& in) {
   cands.push_back({Eigen::Isometry3d::Identity(), "zero motion"});
   if (in.last_increment) {
@@ -88,7 +88,6 @@ void addBaseHypotheses(std::vector<Candidate>& cands, const HypothesisInputs& in
     straight.translation() = in.last_increment->translation();
     cands.push_back({straight, "last translation, no turn"});
   }
-  if (in.constant_velocity) cands.push_back({*in.constant_velocity, "constant velocity"});
   if (in.imu_rotation) {
     Eigen::Isometry3d imu = in.guess;
     imu.linear() = in.imu_rotation->normalized().toRotationMatrix();
@@ -193,9 +192,9 @@ const ConfigFields<MotionHypothesisConfig>& configFields(ConfigTag<MotionHypothe
   static const ConfigFields<C> fields =
       ConfigFields<C>("Issue 35; docs/registration.md, 'Tracking through sudden turns'.")
           .flag("enabled", &C::enabled,
-                "Score the guess against the target; when it fits clearly worse than the frames before, also score "
-                "zero motion, the last translation without its turn, constant velocity (when the guess is the wheels') "
-                "and a yaw sweep, and start "
+                "Without wheel odometry: score the constant-velocity guess against the target; when it fits clearly "
+                "worse than the frames before, also score zero motion, the last translation without its turn and a yaw "
+                "sweep, and start "
                 "ICP from the best")
           .number("yaw_range", &C::yaw_range, closed(0, M_PI), "rad; the yaw sweep covers +- this around the best of the other hypotheses (0 = no sweep)");
   return fields;

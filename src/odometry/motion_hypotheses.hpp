@@ -1,8 +1,8 @@
 #pragma once
-// The tracking guess after a sudden turn (issue 35): the constant-velocity (or wheel) guess is
+// The tracking guess after a sudden turn (issue 35): the constant-velocity guess is
 // scored against the registration target with a few hundred source points; when it fits clearly
 // worse than the starts of the frames before, zero motion, the last translation without its turn,
-// constant velocity (when the guess is the wheels'), an IMU rotation (when one is given) and a yaw
+// an IMU rotation (when one is given) and a yaw
 // sweep around the best of them are scored too and the best few refined by a short ICP of the
 // sampled points. The full ICP starts from another start only when the guess lies in a wrong basin
 // (its own refinement fits clearly worse) or must travel beyond the tracking checks' limits. The score is geometric only (nearest target
@@ -21,8 +21,6 @@ namespace hazmap {
 struct HypothesisInputs {
   Eigen::Isometry3d guess = Eigen::Isometry3d::Identity();  ///< the odometry's own guess
   const char* guess_name = "constant velocity";
-  /// The last increment as a hypothesis of its own when the guess is something else (the wheels').
-  std::optional<Eigen::Isometry3d> constant_velocity;
   std::optional<Eigen::Isometry3d> last_increment;  ///< the last estimated increment
   /// previous ← current rotation integrated from an IMU. Nothing feeds it yet: the odometry
   /// receives no IMU; a source that has one passes it here and it competes like the others.

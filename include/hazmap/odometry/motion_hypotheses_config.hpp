@@ -6,10 +6,10 @@
 namespace hazmap {
 
 struct MotionHypothesisConfig {
-  /// Score the constant-velocity guess against the target; when it fits clearly worse than
-  /// the guesses of the frames before, also score zero motion, the last translation without its
-  /// turn, constant velocity (when the guess is the wheels') and a yaw sweep, and start ICP from
-  /// the best. Off: the guess alone, as before issue 35.
+  /// Without wheel odometry: score the constant-velocity guess against the target; when it fits
+  /// clearly worse than the guesses of the frames before, also score zero motion, the last
+  /// translation without its turn and a yaw sweep, and start ICP from the best. Off: the guess
+  /// alone, as before issue 35. With wheel odometry the wheels' guess is used as before.
   bool enabled = true;
   /// rad; the yaw sweep covers ± this around the best of the other hypotheses (0 = no sweep).
   double yaw_range = 1.05;

@@ -284,8 +284,7 @@ class Odometry {
   Attempt guess(OdometryFrame& f, const std::optional<Eigen::Isometry3d>& wheel_increment,
                 std::optional<RegistrationTarget>& map_target) const;
   /// Motion hypotheses (motion_hypotheses.cpp): may replace the guess by a better-fitting start.
-  void seedFromHypotheses(OdometryFrame& f, Attempt& a, const LabeledCloud& source,
-                          const std::optional<Eigen::Isometry3d>& wheel_increment);
+  void seedFromHypotheses(OdometryFrame& f, Attempt& a, const LabeledCloud& source);
   Judgement judge(OdometryFrame& f, const LabeledCloud& source, const Attempt& a,
                   std::optional<RegistrationTarget>& map_target, RegistrationResult& r);
   void place(OdometryFrame& f, const Attempt& a, const Judgement& j, RegistrationResult r);
