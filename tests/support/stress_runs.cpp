@@ -20,9 +20,9 @@ double TrackRun::worstOverMedian() const {
   for (std::size_t i = 1; i < ms.size(); ++i)  // the first scan registers nothing
     if (!lost[i]) kept.push_back(ms[i]);
   if (kept.size() < 2) return 1.0;
-  std::vector<double> sorted = kept;
-  std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
-  return *std::max_element(kept.begin(), kept.end()) / sorted[sorted.size() / 2];
+  const double worst = *std::max_element(kept.begin(), kept.end());
+  std::nth_element(kept.begin(), kept.begin() + kept.size() / 2, kept.end());
+  return worst / kept[kept.size() / 2];
 }
 
 TrackRun runHazmap(const Sequence& seq, const ClassTable& table, const OdometryConfig& config) {
