@@ -30,6 +30,9 @@ constexpr double kMinGain = 0.05;
 /// rad; the sweep's step: ICP from a start within half of it converges on real scans (KITTI:
 /// within 5 deg at the 1 m gate).
 constexpr double kCoarseYawStep = 10.0 * M_PI / 180.0;
+/// A scan with fewer points than this keeps its guess: too few to tell hypotheses apart (a
+/// 30-point scan was "tracked" from a refined start instead of recovered or flagged).
+constexpr std::size_t kMinScanPoints = 200;
 /// Weight of a new frame in the running score.
 constexpr double kTypicalWeight = 0.2;
 /// The best-scoring starts refined by a short ICP of the sampled points: a raw score ranks a
@@ -165,7 +168,7 @@ HypothesisChoice MotionHypotheses::choose(const LabeledCloud& source, const Regi
   out.guess_score = out.score = cands[0].score;
   out.increment = in.guess;
   out.name = in.guess_name;
-  if (typical_ <= 0.0 || out.guess_score < kPoorRatio * typical_) {
+  if (source.size() >= kMinScanPoints && (typical_ <= 0.0 || out.guess_score < kPoorRatio * typical_)) {
     out.searched = true;
     addBaseHypotheses(cands, in);
     scoreAll(cands, 1, sample, target, previous);
