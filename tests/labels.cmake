@@ -84,6 +84,8 @@ hazmap_label(test_properties unit
 hazmap_label(test_properties_loops scene)
 hazmap_label(test_properties_sim scene)
 hazmap_label(test_registration_real real-data)
+hazmap_label(test_tracking_stress real-data
+  unit "^TrackingStress\\.HypothesesAreNotARunKey$")
 hazmap_label(test_relocalise scene
   unit "^WorstDay\\.(PresetIsRead|KicksAreTrueMotion|NoOdometryFile)|^LabelAxis\\.NoLabelledPointInView"
   real-data "^Relocalise\\.(AScanWithTooFewPoints|OffLeavesAFailedFrame|KittiWith|OusterOs1128)")

@@ -14,6 +14,7 @@
 
 #include "hazmap/core/se3.hpp"
 #include "hazmap/odometry/odometry.hpp"
+#include "odometry/motion_hypotheses.hpp"
 
 namespace hazmap {
 
@@ -138,6 +139,7 @@ struct Odometry::Impl {
   LabeledCloud scan_labels;  ///< the current frame's
   LabeledCloud label_map;    ///< world
   LabelView labelView() const { return {&scan_labels, &label_map}; }
+  MotionHypotheses hypotheses;  ///< motion_hypotheses.cpp: the running score of the guesses
 };
 
 /// Why ICP's answer cannot be used (empty when it can): did not converge (stopping at the

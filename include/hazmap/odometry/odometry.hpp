@@ -22,6 +22,7 @@
 #include "hazmap/core/se3.hpp"
 #include "hazmap/io/trajectory.hpp"
 #include "hazmap/odometry/local_map.hpp"
+#include "hazmap/odometry/motion_hypotheses_config.hpp"
 #include "hazmap/registration/global_registration.hpp"
 #include "hazmap/registration/registration.hpp"
 
@@ -109,6 +110,8 @@ struct OdometryConfig {
   RecoveryConfig recovery;
   GlobalRegistrationConfig global;  ///< recovery's global registration (its use_classes follows registration's)
   LabelAxisConfig label_axis;
+  /// The guess after a sudden turn: motion hypotheses scored before ICP (issue 35).
+  MotionHypothesisConfig motion_hypotheses;
 
   /// The defaults above (max correspondence 1 m, scan voxel 0.5 m, map voxel 1 m), set for the
   /// simulated 10 Hz VLP-16 of the paper's experiment.
@@ -168,6 +171,8 @@ struct OdometryFrame {
   FrameStatus status = FrameStatus::First;
   std::string reason;  ///< why the frame fell back / was degenerate
   bool wheel_guess = false;  ///< the guess came from wheel odometry (else constant velocity)
+  /// The motion hypothesis ICP started from when it replaced the guess (motion_hypotheses), else empty.
+  std::string guess_hypothesis;
   RegistrationResult registration;  ///< the ICP whose answer was used (or the failed one)
   GlobalAttempt global;
   std::size_t scan_points = 0, source_points = 0, map_points = 0;
@@ -211,6 +216,8 @@ class Odometry {
   struct Judgement;
   Attempt guess(OdometryFrame& f, const std::optional<Eigen::Isometry3d>& wheel_increment,
                 std::optional<RegistrationTarget>& map_target) const;
+  /// Motion hypotheses (motion_hypotheses.cpp): may replace the guess by a better-fitting start.
+  void seedFromHypotheses(OdometryFrame& f, Attempt& a, const LabeledCloud& source);
   Judgement judge(OdometryFrame& f, const LabeledCloud& source, const Attempt& a,
                   std::optional<RegistrationTarget>& map_target, RegistrationResult& r);
   void place(OdometryFrame& f, const Attempt& a, const Judgement& j, RegistrationResult r);

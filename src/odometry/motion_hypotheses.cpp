@@ -1,0 +1,192 @@
+#include "odometry/motion_hypotheses.hpp"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <vector>
+
+#include "hazmap/core/se3.hpp"
+#include "hazmap/registration/registration.hpp"
+
+namespace hazmap {
+namespace {
+
+/// Source points scored per hypothesis: enough that a turn's misfit shows above the ground's
+/// rotation-invariant share, few enough that an easy frame pays ~0.1 ms (bench_tracking_stress).
+constexpr std::size_t kScorePoints = 384;
+/// m; a sampled point this close to a target point fits. Half the default 1 m correspondence
+/// gate: a start within the gate but a few degrees off still scores below the right one.
+constexpr float kScoreGate = 0.5f;
+/// The guess is searched around when it scores below this × the running score of the starts
+/// before (a turn drops it to 0.3–0.6 ×; scene changes of easy frames stay above ~0.85 ×).
+constexpr double kPoorRatio = 0.8;
+/// Another start replaces the guess only when it scores this much higher: an easy frame whose
+/// guess is merely a bit worse keeps it (and its results) unchanged.
+constexpr double kMinGain = 0.05;
+/// rad; the sweep's step: ICP from a start within half of it converges on real scans (KITTI:
+/// within 5 deg at the 1 m gate).
+constexpr double kCoarseYawStep = 10.0 * M_PI / 180.0;
+/// A scan with fewer points than this keeps its guess: too few to tell hypotheses apart (a
+/// 30-point scan was "tracked" from a refined start instead of recovered or flagged).
+constexpr std::size_t kMinScanPoints = 200;
+/// Weight of a new frame in the running score.
+constexpr double kTypicalWeight = 0.2;
+/// The best-scoring starts refined by a short ICP of the sampled points: a raw score ranks a
+/// start 14 deg off above the right one on a street whose walls run alike (KITTI turned 30 deg),
+/// and barely tells turns apart where the floor and ceiling dominate (the Ouster capture); after
+/// a few ICP steps the right basin fits clearly best.
+constexpr std::size_t kRefined = 3;
+constexpr int kRefineIterations = 15;
+
+struct Candidate {
+  Eigen::Isometry3d increment;
+  std::string name;
+  double score = 0.0;
+};
+
+Eigen::Isometry3d yawed(const Eigen::Isometry3d& increment, double yaw) {
+  Eigen::Isometry3d T = increment;
+  T.linear() = increment.linear() * Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  return T;
+}
+
+std::string sweepName(double yaw) {
+  char s[48];
+  std::snprintf(s, sizeof s, "yaw sweep %+.1f deg", yaw * 180.0 / M_PI);
+  return s;
+}
+
+LabeledCloud sampleOf(const LabeledCloud& source) {
+  const std::size_t stride = std::max<std::size_t>(1, (source.size() + kScorePoints - 1) / kScorePoints);
+  LabeledCloud out;
+  for (std::size_t i = 0; i < source.size(); i += stride) out.push_back(source.points[i], source.classes[i]);
+  return out;
+}
+
+// Scores every candidate (in parallel; each score is independent, so the result is deterministic).
+void scoreAll(std::vector<Candidate>& cands, std::size_t from, const LabeledCloud& sample,
+              const RegistrationTarget& target, const Eigen::Isometry3d& previous) {
+  tbb::parallel_for(from, cands.size(), [&](std::size_t i) {
+    cands[i].score = hypothesisScore(sample, target, previous * cands[i].increment);
+  });
+}
+
+std::size_t bestOf(const std::vector<Candidate>& cands) {
+  std::size_t best = 0;
+  for (std::size_t i = 1; i < cands.size(); ++i)
+    if (cands[i].score > cands[best].score) best = i;  // ties: the earlier (simpler) hypothesis
+  return best;
+}
+
+// The hypotheses besides the guess: zero motion, the last translation without its turn, the
+// the IMU's rotation with the guess's translation.
+void addBaseHypotheses(std::vector<Candidate>& cands, const HypothesisInputs& in) {
+  cands.push_back({Eigen::Isometry3d::Identity(), "zero motion"});
+  if (in.last_increment) {
+    Eigen::Isometry3d straight = Eigen::Isometry3d::Identity();
+    straight.translation() = in.last_increment->translation();
+    cands.push_back({straight, "last translation, no turn"});
+  }
+  if (in.imu_rotation) {
+    Eigen::Isometry3d imu = in.guess;
+    imu.linear() = in.imu_rotation->normalized().toRotationMatrix();
+    cands.push_back({imu, "IMU rotation"});
+  }
+}
+
+// A yaw sweep around `centre`, coarse steps over ±range.
+void sweepYaw(std::vector<Candidate>& cands, Candidate centre, double range) {  // a copy: cands grows
+  for (double yaw = kCoarseYawStep; yaw <= range + 1e-9; yaw += kCoarseYawStep)
+    for (double s : {yaw, -yaw}) cands.push_back({yawed(centre.increment, s), sweepName(s)});
+}
+
+// The guess and the kRefined best other candidates, each refined by a short ICP of the sample
+// (registration space ← previous frame `previous`) and scored again; the guess stays first.
+std::vector<Candidate> refineBest(std::vector<Candidate> cands, const LabeledCloud& sample,
+                                  const RegistrationTarget& target, const Eigen::Isometry3d& previous,
+                                  const ClassTable& classes, const RegistrationConfig& icp) {
+  std::stable_sort(cands.begin() + 1, cands.end(), [](const Candidate& a, const Candidate& b) { return a.score > b.score; });
+  cands.resize(std::min(cands.size(), kRefined + 1));
+  RegistrationConfig rc = icp;
+  rc.max_iterations = kRefineIterations;
+  rc.coarse_source_points = 0;
+  rc.max_source_points = 0;
+  rc.threads = 1;  // the candidates run in parallel
+  tbb::parallel_for(std::size_t{0}, cands.size(), [&](std::size_t i) {
+    const RegistrationResult r = registerClouds(sample, target, previous * cands[i].increment, classes, rc);
+    if (r.termination != Termination::Converged && r.termination != Termination::MaxIterations) return;
+    cands[i].increment = previous.inverse() * r.transform;
+    cands[i].score = hypothesisScore(sample, target, r.transform);
+    cands[i].name += ", refined";
+  });
+  return cands;
+}
+
+// The start the full ICP should use instead of the guess, or nothing (keep the guess): another
+// start whose refinement fits clearly better than the guess's own (the guess lies in a wrong
+// basin), or the guess's refinement when it moved beyond the tracking checks' correction limits
+// and fits clearly better than the guess (ICP from the guess would fail those checks: a dropped
+// frame with no motion known). A guess whose own basin is right is never replaced, so the
+// tracking prior kept along degenerate directions stays the wheels' or constant velocity's.
+const Candidate* pickStart(const Candidate& guess, const std::vector<Candidate>& refined,
+                           const HypothesisLimits& limits) {
+  const std::size_t best = bestOf(refined);
+  if (best != 0 && refined[best].score >= refined[0].score + kMinGain) return &refined[best];
+  const Eigen::Isometry3d moved = guess.increment.inverse() * refined[0].increment;
+  const bool beyond = translationNorm(moved) > limits.max_translation || rotationAngle(moved) > limits.max_rotation;
+  if (beyond && refined[0].score >= guess.score + kMinGain) return &refined[0];
+  return nullptr;
+}
+
+}  // namespace
+
+double hypothesisScore(const LabeledCloud& sample, const RegistrationTarget& target, const Eigen::Isometry3d& pose) {
+  if (sample.empty()) return 0.0;
+  const Eigen::Isometry3f T = pose.cast<float>();
+  const float gate2 = kScoreGate * kScoreGate;
+  double sum = 0.0;
+  for (std::size_t i = 0; i < sample.size(); ++i) {
+    const TargetMatch m = target.nearestAnyClass(T * sample.points[i], sample.classes[i], gate2);
+    if (m.index >= 0 && m.distance2 <= gate2) sum += 1.0 - m.distance2 / gate2;
+  }
+  return sum / static_cast<double>(sample.size());
+}
+
+HypothesisChoice MotionHypotheses::choose(const LabeledCloud& source, const RegistrationTarget& target,
+                                          const Eigen::Isometry3d& previous, const HypothesisInputs& in,
+                                          const ClassTable& classes, const RegistrationConfig& icp,
+                                          const HypothesisLimits& limits, const MotionHypothesisConfig& config) {
+  const auto t0 = std::chrono::steady_clock::now();
+  HypothesisChoice out;
+  const LabeledCloud sample = sampleOf(source);
+  std::vector<Candidate> cands{{in.guess, in.guess_name, 0.0}};
+  cands[0].score = hypothesisScore(sample, target, previous * in.guess);
+  out.guess_score = out.score = cands[0].score;
+  out.increment = in.guess;
+  out.name = in.guess_name;
+  if (source.size() >= kMinScanPoints && (typical_ <= 0.0 || out.guess_score < kPoorRatio * typical_)) {
+    out.searched = true;
+    addBaseHypotheses(cands, in);
+    scoreAll(cands, 1, sample, target, previous);
+    const std::size_t base = cands.size();
+    sweepYaw(cands, cands[bestOf(cands)], config.yaw_range);
+    scoreAll(cands, base, sample, target, previous);
+    out.scored = static_cast<int>(cands.size());
+    const Candidate guess = cands[0];
+    const std::vector<Candidate> refined = refineBest(std::move(cands), sample, target, previous, classes, icp);
+    if (const Candidate* start = pickStart(guess, refined, limits)) {
+      out.increment = start->increment;
+      out.name = start->name;
+      out.score = start->score;
+      out.replaced = true;
+    }
+  }
+  typical_ = typical_ > 0.0 ? (1.0 - kTypicalWeight) * typical_ + kTypicalWeight * out.score : out.score;
+  out.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  return out;
+}
+
+}  // namespace hazmap
