@@ -93,6 +93,7 @@ void run(const RunOptions& o, const ParameterOptions& params) {
   const auto second_pass = openScanSource(input, o.source.options(table));
   OutputConfig outputs;
   outputs.write_viewer = !o.no_viewer;
+  outputs.channel_cameras = labels.channel_cameras;
   const RunSummary summary = writeRunOutputs(*second_pass, result, config, outputs, o.out);
   if (!o.cameras.empty()) {
     // run.json gains the labelling's report: images missing (counted skips), observed shares.

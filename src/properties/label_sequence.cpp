@@ -321,6 +321,9 @@ LabelReport labelSequence(const fs::path& sequence_dir, const fs::path& out_arg,
 
   LabelReport report;
   report.channels = labeler.channels();
+  for (std::size_t c = 0; c < labeler.cameras().size(); ++c)
+    report.channel_cameras[labeler.channels()[static_cast<std::size_t>(labeler.cameraChannel(c))]].push_back(
+        labeler.cameras()[c].camera.name);
   report.truth_source = truthSource(sequence_dir);
   TemporaryFolder tmp{temporarySibling(out)};
   fs::create_directories(tmp.path);
@@ -382,6 +385,7 @@ std::string labelReportJson(const LabelReport& r) {
   j["frames"] = r.frames;
   j["points"] = r.points;
   j["channels"] = r.channels;
+  j["channel_cameras"] = r.channel_cameras;
   j["in_view_fraction"] = opt(ratio(r.projection.in_view, r.points));
   j["observed_fraction"] = opt(ratio(r.projection.observed, r.points));
   j["occluded"] = r.projection.occluded;

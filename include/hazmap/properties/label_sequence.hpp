@@ -53,6 +53,8 @@ struct ClassLabelMetrics {
 struct LabelReport {
   std::size_t frames = 0, points = 0;
   std::vector<std::string> channels;
+  /// Per channel, the cameras (camera_name of each calibration) that gave it, in order.
+  std::map<std::string, std::vector<std::string>> channel_cameras;
   ProjectionStats projection;
   std::size_t images_missing = 0;  ///< (frame, camera) pairs without an image within the tolerance
   std::size_t valued = 0;          ///< points with a value after view fusion (= observed without it)
