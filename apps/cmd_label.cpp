@@ -72,7 +72,7 @@ void label(const LabelCliOptions& o) {
   const auto pct = [](std::size_t a, std::size_t b) { return b ? 100.0 * double(a) / double(b) : 0.0; };
   std::cout << fmt::format("labelled {} frames ({} points) into {} in {:.1f} s: {:.1f} % in view, {:.1f} % observed, "
                            "{} occluded, {} missing images\n",
-                           r.frames, r.points, o.out, r.seconds, pct(r.projection.in_view, r.points),
+                           r.frames, r.points, o.out, r.seconds, pct(r.in_view_points, r.points),
                            pct(r.projection.observed, r.points), r.projection.occluded, r.images_missing);
   if (r.truth_source.empty()) return;
   std::cout << fmt::format("against {}/ (inside the cameras' view):\n", r.truth_source);

@@ -231,6 +231,7 @@ struct FrameSink {
       });
     }
     for (std::size_t k = 0; k < scan.size(); ++k) report.valued += observedByAnyChannel(l, k);
+    for (std::uint8_t v : l.in_view) report.in_view_points += v;
     PropertyLabeler::apply(l, scan);
     writer.addFrame(scan);
     report.points += scan.size();
@@ -386,7 +387,7 @@ std::string labelReportJson(const LabelReport& r) {
   j["points"] = r.points;
   j["channels"] = r.channels;
   j["channel_cameras"] = r.channel_cameras;
-  j["in_view_fraction"] = opt(ratio(r.projection.in_view, r.points));
+  j["in_view_fraction"] = opt(ratio(r.in_view_points, r.points));  // any camera's image
   j["observed_fraction"] = opt(ratio(r.projection.observed, r.points));
   j["occluded"] = r.projection.occluded;
   j["images_missing"] = r.images_missing;

@@ -56,6 +56,7 @@ struct LabelReport {
   /// Per channel, the cameras (camera_name of each calibration) that gave it, in order.
   std::map<std::string, std::vector<std::string>> channel_cameras;
   ProjectionStats projection;
+  std::size_t in_view_points = 0;  ///< points inside at least one camera's image (stats count per camera)
   std::size_t images_missing = 0;  ///< (frame, camera) pairs without an image within the tolerance
   std::size_t valued = 0;          ///< points with a value after view fusion (= observed without it)
   bool fused = false;              ///< view fusion was applied

@@ -16,13 +16,14 @@
 #include "hazmap/core/labeled_cloud.hpp"
 #include "hazmap/io/trajectory.hpp"
 #include "hazmap/preprocess/normals.hpp"
-#include "hazmap/preprocess/spatial_index.hpp"
 #include "hazmap/properties/camera.hpp"
 #include "hazmap/properties/projection.hpp"
 #include "hazmap/properties/property_image.hpp"
 #include "hazmap/properties/rules.hpp"
 
 namespace hazmap {
+
+class VoxelHashIndex;  // preprocess/spatial_index.hpp (normals of the footprints)
 
 /// Where a camera's images come from (a folder, a bag topic, memory).
 class ImageSource {
