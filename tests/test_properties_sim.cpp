@@ -10,6 +10,7 @@
 
 #include "hazmap/io/atomic_file.hpp"
 #include "hazmap/io/sequence.hpp"
+#include "hazmap/properties/camera.hpp"
 #include "test_helpers.hpp"
 
 namespace hazmap {
@@ -262,6 +263,28 @@ TEST(PropertiesSim, RigFromCompressedBagImagesLabelsLikeTheFolder) {
   EXPECT_EQ(hazards["channels"][0]["cameras"], nlohmann::json({"thermal_front", "thermal_rear"}));
   const std::string ply = readTextFile(dir / "run/map.ply");
   EXPECT_NE(ply.substr(0, ply.find("end_header")).find("property float temperature"), std::string::npos);
+}
+
+TEST(PropertiesSim, CameraRigFromAYamlFile) {
+  const fs::path dir = test::scratchDir();
+  writeTextAtomically(dir / "rig.yaml", "rig:\n  - {name: ahead, yaw_deg: 0}\n  - {name: back, yaw_deg: 180, hfov_deg: 70}\n");
+  auto r = test::runCli("simulate --frames 2 --cameras thermal --camera-rig " + (dir / "rig.yaml").string() + " --out " +
+                        (dir / "seq").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_TRUE(fs::exists(dir / "seq/cameras/thermal_ahead/000001.png"));
+  const CameraCalibration back = readCameraYaml(dir / "seq/cameras/thermal_back/camera.yaml");
+  // Looking back: the optical axis (camera z) is the LiDAR's −x; 70° gives fx = 320 / tan 35°.
+  EXPECT_LT((back.T_camera_lidar.inverse().linear().col(2) - Eigen::Vector3d(-1, 0, 0)).norm(), 1e-9);
+  EXPECT_NEAR(back.model.intrinsics().fx, 320.0 / std::tan(35.0 * M_PI / 180.0), 1e-9);
+  EXPECT_NE(readTextFile(dir / "seq/simulation.yaml").find("name: back"), std::string::npos);
+  // A rig file with a typo: one line naming the file and the key, nothing written.
+  writeTextAtomically(dir / "bad.yaml", "rig:\n  - {name: back, yaw: 180}\n");
+  r = test::runCli("simulate --frames 2 --cameras thermal --camera-rig " + (dir / "bad.yaml").string() + " --out " +
+                   (dir / "none").string());
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("bad.yaml"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("yaw"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(dir / "none"));
 }
 
 TEST(PropertiesSim, CamerasFromTheSimulatorConfig) {

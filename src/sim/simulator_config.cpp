@@ -126,7 +126,7 @@ const ConfigFields<CameraSimConfig>& configFields(ConfigTag<CameraSimConfig>) {
       ConfigFields<C>("Property cameras rendered per frame (hazmap simulate --cameras), docs/properties.md.")
           .custom({"list", "list",
                    "Cameras in order: a name (thermal | nir | gamma) or a mapping with `name` and any of the camera "
-                   "fields (width, height, hfov_deg, k1, k2, position, pitch_deg, background, region_value, "
+                   "fields (kind, width, height, hfov_deg, k1, k2, position, pitch_deg, yaw_deg, background, region_value, "
                    "noise_sigma, blur)",
                    "[name | {name: ..., ...}]", {},
                    // Documented with the thermal camera's defaults (nir and gamma have their own).
