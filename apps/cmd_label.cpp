@@ -17,7 +17,7 @@ namespace {
 
 struct LabelCliOptions {
   std::string sequence, out, rules;
-  std::vector<std::string> cameras;
+  std::vector<std::string> cameras, image_topics;
   double time_tolerance = 0.1;
   ProjectionConfig projection;
   bool no_motion_compensation = false;
@@ -51,6 +51,8 @@ void label(const LabelCliOptions& o) {
     options.image_bag = o.sequence;
   }
   for (const auto& c : o.cameras) options.cameras.emplace_back(c);
+  options.image_topics = o.image_topics;
+  if (!o.image_topics.empty() && options.image_bag.empty()) fail("--image-topic", "needs a bag as input, not a folder");
   options.rules = o.rules;
   options.labeler.time_tolerance = o.time_tolerance;
   options.labeler.projection = o.projection;
@@ -70,7 +72,7 @@ void label(const LabelCliOptions& o) {
   const auto pct = [](std::size_t a, std::size_t b) { return b ? 100.0 * double(a) / double(b) : 0.0; };
   std::cout << fmt::format("labelled {} frames ({} points) into {} in {:.1f} s: {:.1f} % in view, {:.1f} % observed, "
                            "{} occluded, {} missing images\n",
-                           r.frames, r.points, o.out, r.seconds, pct(r.projection.in_view, r.points),
+                           r.frames, r.points, o.out, r.seconds, pct(r.in_view_points, r.points),
                            pct(r.projection.observed, r.points), r.projection.occluded, r.images_missing);
   if (r.truth_source.empty()) return;
   std::cout << fmt::format("against {}/ (inside the cameras' view):\n", r.truth_source);
@@ -87,8 +89,12 @@ const RegisterCommand registration{{
       auto o = std::make_shared<LabelCliOptions>();
       app.add_option("sequence", o->sequence, "Sequence directory (velodyne/, times.txt, poses.txt or odometry.txt) or a bag with image topics")
           ->required();
-      app.add_option("--camera", o->cameras, "camera.yaml (ROS camera_info + T_camera_lidar, time_offset, channel); repeatable")
+      app.add_option("--camera", o->cameras, "camera.yaml (ROS camera_info + T_camera_lidar, time_offset, channel) or a rig YAML "
+                     "(cameras: [files]); repeatable")
           ->required();
+      app.add_option("--image-topic", o->image_topics,
+                     "With a bag: the image topic of each --camera, in order (sensor_msgs/Image or CompressedImage); "
+                     "default: the camera YAML's topic:");
       app.add_option("--rules", o->rules, "Class rules YAML (e.g. 'heat: temperature >= 60'); default: built-in rules");
       app.add_option("--out", o->out, "Output sequence folder")->required();
       app.add_option("--time-tolerance", o->time_tolerance, "Largest |image time - scan time| used (s)");

@@ -29,7 +29,8 @@ struct RunOptions {
   bool quiet = false;
   SourceFlags source;
   bool no_viewer = false;
-  std::vector<std::string> cameras;  ///< camera.yaml files: label from cameras first
+  std::vector<std::string> cameras;  ///< camera.yaml (or rig) files: label from cameras first
+  std::vector<std::string> image_topics;  ///< with a bag: one per camera
   std::string rules;
 };
 
@@ -38,11 +39,12 @@ struct RunOptions {
 /// <out>/recording_sequence, and cameras with a `topic:` read their images from it.
 std::string labelFromCameras(const RunOptions& o, LabelReport& report) {
   if (o.cameras.empty()) {
-    if (!o.rules.empty()) fail("run", "--rules needs --camera");
+    if (!o.rules.empty() || !o.image_topics.empty()) fail("run", "--rules and --image-topic need --camera");
     return o.sequence;
   }
   LabelOptions options;
   for (const auto& c : o.cameras) options.cameras.emplace_back(c);
+  options.image_topics = o.image_topics;
   options.rules = o.rules;
   options.overwrite = true;
   const std::filesystem::path out(o.out);
@@ -53,6 +55,8 @@ std::string labelFromCameras(const RunOptions& o, LabelReport& report) {
     std::filesystem::remove_all(input);  // a previous run's
     convertRecording(o.sequence, input, o.source, true);
     options.image_bag = o.sequence;
+  } else if (!o.image_topics.empty()) {
+    fail("--image-topic", "needs a bag as input, not a folder");
   }
   const std::filesystem::path dir = out / "labelled_sequence";
   report = labelSequence(input, dir, options);
@@ -89,6 +93,7 @@ void run(const RunOptions& o, const ParameterOptions& params) {
   const auto second_pass = openScanSource(input, o.source.options(table));
   OutputConfig outputs;
   outputs.write_viewer = !o.no_viewer;
+  outputs.channel_cameras = labels.channel_cameras;
   const RunSummary summary = writeRunOutputs(*second_pass, result, config, outputs, o.out);
   if (!o.cameras.empty()) {
     // run.json gains the labelling's report: images missing (counted skips), observed shares.
@@ -125,6 +130,8 @@ const RegisterCommand registration{{
       app.add_flag("--no-viewer", o->no_viewer, "Do not write viewer.html (the map in 3D in a browser)");
       app.add_option("--camera", o->cameras,
                      "Label the scans from this calibrated camera first (camera.yaml; repeatable; see hazmap label)");
+      app.add_option("--image-topic", o->image_topics,
+                     "With a bag: the image topic of each --camera, in order (default: the camera YAML's topic:)");
       app.add_option("--rules", o->rules, "Class rules YAML for --camera (default: built-in rules)");
       auto params = addParameterOptions(app, "keys as in --config, e.g. odometry.registration.max_iterations=30");
       app.callback([o, params] { run(*o, *params); });

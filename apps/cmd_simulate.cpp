@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "command.hpp"
+#include "hazmap/core/config_fields.hpp"
 #include "hazmap/core/error.hpp"
 #include "hazmap/io/ply.hpp"
 #include "hazmap/io/sequence.hpp"
@@ -73,28 +74,35 @@ struct SimulateOptions {
   double time_offset = 0.0;
   bool camera_blur = false;
   std::string camera_size;
+  std::string camera_rig;
+  std::string image_format = "mono16";
   bool worst_day = false;
   bool no_odometry = false;
 };
 
 /// --format mcap: the sequence is simulated into a temporary folder next to the bag, then written
 /// as a ROS 2 MCAP bag (sources/mcap_export.hpp) and the folder removed.
-/// Each simulated camera's images as sensor_msgs/Image (mono16, its 16-bit PNGs' raw counts) on
-/// /<name>/image_raw, stamped with its times.txt; `yamls` receives each camera.yaml's text
-/// pointing at that topic instead of the folder.
+/// Each simulated camera's images on /<name>/image_raw, stamped with its times.txt: as
+/// sensor_msgs/Image (mono16, its 16-bit PNGs' raw counts) or, with `png`, as
+/// sensor_msgs/CompressedImage holding the 16-bit PNG itself; `yamls` receives each
+/// camera.yaml's text pointing at that topic instead of the folder.
 std::vector<McapExtraTopic> cameraTopics(const std::filesystem::path& folder, const sim::CameraSimConfig& cameras,
-                                         std::vector<std::pair<std::string, std::string>>& yamls) {
+                                         bool png, std::vector<std::pair<std::string, std::string>>& yamls) {
   std::vector<McapExtraTopic> topics;
-  for (const auto& c : cameras.cameras) {
+  for (const auto& c : cameras.placedCameras()) {
     const std::filesystem::path dir = folder / "cameras" / c.name;
     CameraCalibration cal = readCameraYaml(dir / "camera.yaml");
     cal.topic = "/" + c.name + "/image_raw";
     yamls.emplace_back(c.name, cameraYaml(cal, ""));
     const ImageFolder images(dir);
-    McapExtraTopic t{cal.topic, "sensor_msgs/msg/Image", images.stamps(), {}};
-    t.message = [dir, stamps = images.stamps(), name = c.name](std::size_t i) {
+    McapExtraTopic t{cal.topic, png ? "sensor_msgs/msg/CompressedImage" : "sensor_msgs/msg/Image", images.stamps(), {}};
+    t.message = [dir, png, stamps = images.stamps(), name = c.name](std::size_t i) {
       char file[32];
       std::snprintf(file, sizeof file, "%06zu.png", i);
+      if (png) {
+        const std::string bytes = readTextFile(dir / file);
+        return encodeCompressedImage({{stamps[i], name}, "mono16; png compressed", {bytes.begin(), bytes.end()}});
+      }
       const Gray16 raw = readGray16(dir / file);
       ImageMsg msg;
       msg.header = {stamps[i], name};
@@ -114,7 +122,8 @@ std::vector<McapExtraTopic> cameraTopics(const std::filesystem::path& folder, co
   return topics;
 }
 
-void writeSimulationAsMcap(const sim::SimulatorConfig& config, const std::filesystem::path& bag, bool overwrite) {
+void writeSimulationAsMcap(const sim::SimulatorConfig& config, const std::filesystem::path& bag, bool overwrite,
+                           bool png_images) {
   namespace fs = std::filesystem;
   std::error_code ec;
   if (fs::exists(bag, ec) && !overwrite) fail(bag.string(), "exists (pass --overwrite to replace it)");
@@ -132,7 +141,7 @@ void writeSimulationAsMcap(const sim::SimulatorConfig& config, const std::filesy
   const auto summary = sim::writeSimulation(config, folder, /*overwrite=*/false);
   const auto scans = sequenceScanSource(Sequence::open(folder));
   std::vector<std::pair<std::string, std::string>> yamls;
-  const auto cameras = cameraTopics(folder, config.cameras, yamls);
+  const auto cameras = cameraTopics(folder, config.cameras, png_images, yamls);
   const McapExportSummary written = writeScansAsMcap(*scans, bag, cameras);
   std::cout << fmt::format("wrote {}: {} frames ({} PointCloud2 on /velodyne_points, {} Odometry on /odom, {} "
                            "PoseStamped on /ground_truth), {:.1f} m route\n",
@@ -144,18 +153,42 @@ void writeSimulationAsMcap(const sim::SimulatorConfig& config, const std::filesy
     writeTextAtomically(yaml, yamls[k].second);
     std::cout << fmt::format("  {} images on {}; calibration {}\n", cameras[k].stamps.size(), cameras[k].topic, yaml.string());
   }
+  if (config.cameras.rig.empty()) return;
+  std::string rig = "# the simulated camera rig: hazmap label BAG --camera BAG_STEM.rig.yaml\ncameras:\n";
+  for (const auto& [name, text] : yamls) rig += "  - " + absolute.stem().string() + "." + name + ".yaml\n";
+  const fs::path rig_yaml = absolute.parent_path() / (absolute.stem().string() + ".rig.yaml");
+  writeTextAtomically(rig_yaml, rig);
+  std::cout << fmt::format("  camera rig {}\n", rig_yaml.string());
 }
 
+
+/// --camera-rig: a preset name (ring4, front-rear) or a YAML file with `rig: [{name, yaw_deg,
+/// hfov_deg}, …]` (or the list at top level), read by the simulator config's own `rig` field.
+std::vector<sim::RigPlacement> readCameraRig(const std::string& arg) {
+  if (!std::filesystem::exists(arg) && arg.find_first_of("./") == std::string::npos)
+    return sim::CameraSimConfig::rigPreset(arg);
+  YAML::Node root = parseConfigYaml(readTextFile(arg), arg);
+  if (root.IsMap() && root["rig"]) root = root["rig"];
+  YAML::Node wrapped(YAML::NodeType::Map);
+  wrapped["rig"] = root;
+  sim::CameraSimConfig cameras;
+  fieldsOf<sim::CameraSimConfig>().read(cameras, wrapped, ConfigPlace{arg, ""});
+  fieldsOf<sim::CameraSimConfig>().check(cameras, ConfigPlace{arg, ""});
+  if (cameras.rig.empty()) fail(arg, "rig lists no placement");
+  return cameras.rig;
+}
 
 /// The --cameras family of options into the simulator config (over the config file's
 /// `cameras:`; --cameras replaces its list, the others apply to the list in force).
 void applyCameraOptions(const SimulateOptions& o, sim::CameraSimConfig& cameras) {
   if (!o.cameras.empty()) cameras.cameras = sim::CameraSimConfig::parseList(o.cameras);
   if (cameras.cameras.empty()) {
-    if (!o.calibration_error.empty() || o.time_offset != 0.0 || o.camera_blur || !o.camera_size.empty())
-      fail("simulate", "--calibration-error, --time-offset, --camera-blur and --camera-size need --cameras");
+    if (!o.calibration_error.empty() || o.time_offset != 0.0 || o.camera_blur || !o.camera_size.empty() ||
+        !o.camera_rig.empty())
+      fail("simulate", "--calibration-error, --time-offset, --camera-blur, --camera-size and --camera-rig need --cameras");
     return;
   }
+  if (!o.camera_rig.empty()) cameras.rig = readCameraRig(o.camera_rig);
   if (!o.calibration_error.empty()) cameras.parseCalibrationError(o.calibration_error);
   if (o.time_offset != 0.0) cameras.time_offset = o.time_offset;
   for (auto& c : cameras.cameras) {
@@ -202,6 +235,12 @@ void setupSimulate(CLI::App& app) {
   app.add_option("--time-offset", opt->time_offset, "Error (s) of the time_offset written to camera.yaml");
   app.add_flag("--camera-blur", opt->camera_blur, "Blur camera images by about one pixel");
   app.add_option("--camera-size", opt->camera_size, "Camera resolution WIDTHxHEIGHT (default 640x512, 50 deg HFOV)");
+  app.add_option("--camera-rig", opt->camera_rig,
+                 "Place every --cameras camera on a rig: ring4 (four 90 deg cameras, 360 deg), front-rear, or a "
+                 "rig YAML (rig: [{name, yaw_deg, hfov_deg}]); cameras/<kind>_<place>/ and cameras/rig.yaml");
+  app.add_option("--image-format", opt->image_format,
+                 "--format mcap: cameras as sensor_msgs/Image mono16 (default) or sensor_msgs/CompressedImage png")
+      ->check(CLI::IsMember({"mono16", "png"}));
   app.add_flag("--worst-day", opt->worst_day,
                "The crawler's worst day (preset worst-day): track slips up to 2 m, yaw kicks up to 45 deg, "
                "lost scans; --config keys override it");
@@ -218,9 +257,10 @@ void setupSimulate(CLI::App& app) {
     if (regions->count()) config.regions_file = opt->regions;
     if (temperature->count()) config.temperature.enabled = opt->temperature;
     applyCameraOptions(*opt, config.cameras);
+    if (opt->image_format != "mono16" && opt->format != "mcap") fail("--image-format", "is for --format mcap");
     if (opt->format == "mcap") {
       if (opt->png) fail("--png", "renders a sequence folder; not with --format mcap");
-      writeSimulationAsMcap(config, opt->out, opt->overwrite);
+      writeSimulationAsMcap(config, opt->out, opt->overwrite, opt->image_format == "png");
       return;
     }
     const auto summary = sim::writeSimulation(config, opt->out, opt->overwrite);
@@ -238,7 +278,7 @@ void setupSimulate(CLI::App& app) {
         summary.drift.slips);
     if (!config.cameras.empty()) {
       std::string names;
-      for (const auto& c : config.cameras.cameras) names += (names.empty() ? "" : ",") + c.name;
+      for (const auto& c : config.cameras.placedCameras()) names += (names.empty() ? "" : ",") + c.name;
       std::cout << fmt::format("  cameras ({}): {:.2f} s\n", names, summary.camera_seconds);
     }
     if (opt->png) {

@@ -81,6 +81,8 @@ hazmap_label(test_preprocess real-data
   unit "^Preprocess\\.CropAndDownsampleRejectsBadConfig$")
 hazmap_label(test_properties unit
   real-data "^BagImages\\.")
+hazmap_label(test_camera_rigs unit)
+hazmap_label(test_camera_real_frame real-data)
 hazmap_label(test_properties_loops scene)
 hazmap_label(test_properties_sim scene)
 hazmap_label(test_registration_real real-data)

@@ -309,8 +309,28 @@ TEST(PropertyImages, ConvertsRosImageEncodings) {
   EXPECT_NEAR(img.values[0], 0.2, 1e-6);
   EXPECT_NEAR(img.values[1], 1.0, 1e-6);
 
-  msg.encoding = "rgb8";
-  EXPECT_THROW(imageFromMessage(msg, cam, "bag"), Error);
+  // Colour stands in through its luminance (Rec. 601), as an 8-bit count.
+  msg.encoding = "bgr8";
+  msg.step = 6;
+  msg.data = {0, 0, 255, 255, 255, 255};  // pure red, white
+  img = imageFromMessage(msg, nir, "bag");
+  EXPECT_NEAR(img.values[0], 0.299, 1e-6);
+  EXPECT_NEAR(img.values[1], 1.0, 1e-6);
+  msg.encoding = "16SC1";
+  msg.step = 4;
+  msg.data = {0xFF, 0xFF, 0x02, 0x00};  // -1, 2
+  img = imageFromMessage(msg, smallCamera(2, 1), "bag");
+  EXPECT_NEAR(img.values[0], -0.01 - 273.15, 1e-4);
+  EXPECT_NEAR(img.values[1], 0.02 - 273.15, 1e-4);
+  // An encoding hazmap cannot read: one line naming where (bag: topic message) and the encoding.
+  msg.encoding = "yuv422";
+  try {
+    (void)imageFromMessage(msg, cam, "bag.mcap: /thermal/image_raw message 0");
+    ADD_FAILURE() << "yuv422 accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("/thermal/image_raw message 0: image encoding 'yuv422' is not supported"),
+              std::string::npos) << e.what();
+  }
   msg.encoding = "mono16";
   msg.step = 4;
   msg.data.resize(3);

@@ -5,10 +5,12 @@
 #include <nlohmann/json.hpp>
 
 #include <cmath>
+#include <cstring>
 #include <fstream>
 
 #include "hazmap/io/atomic_file.hpp"
 #include "hazmap/io/sequence.hpp"
+#include "hazmap/properties/camera.hpp"
 #include "test_helpers.hpp"
 
 namespace hazmap {
@@ -188,6 +190,100 @@ TEST(PropertiesSim, BagImagesLabelLikeTheFolderAndMissingImagesAreCountedInRunJs
                    (dir / "none").string());
   EXPECT_NE(r.exit_code, 0);
   EXPECT_NE(r.output.find("sim.mcap: has no topic /nir/image_raw"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(dir / "none"));
+}
+
+// Issue 36: a camera rig (forward + rear thermal) written into an MCAP as CompressedImage PNGs
+// labels exactly as its folder; --image-topic overrides a YAML's topic:; the run's map stores
+// the channel and hazards.json names the cameras that gave it.
+TEST(PropertiesSim, RigFromCompressedBagImagesLabelsLikeTheFolder) {
+  const fs::path dir = test::scratchDir();
+  const std::string sim = "simulate --frames 10 --cameras thermal --camera-rig front-rear ";
+  auto r = test::runCli(sim + "--out " + (dir / "seq").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  ASSERT_TRUE(fs::exists(dir / "seq/cameras/thermal_rear/000009.png"));
+  r = test::runCli(sim + "--format mcap --image-format png --out " + (dir / "sim.mcap").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  ASSERT_TRUE(fs::exists(dir / "sim.rig.yaml")) << r.output;
+  const auto from_folder = test::runCli("label " + (dir / "seq").string() + " --camera " +
+                                        (dir / "seq/cameras/rig.yaml").string() + " --out " + (dir / "folder").string());
+  ASSERT_EQ(from_folder.exit_code, 0) << from_folder.output;
+  const auto from_bag = test::runCli("label " + (dir / "sim.mcap").string() + " --camera " + (dir / "sim.rig.yaml").string() +
+                                     " --out " + (dir / "bag").string());
+  ASSERT_EQ(from_bag.exit_code, 0) << from_bag.output;
+  // The rear camera's topic given on the command line instead of its YAML.
+  std::string rear = readTextFile(dir / "sim.thermal_rear.yaml");
+  rear.replace(rear.find("topic: /thermal_rear/image_raw"), 30, "topic: /nowhere");
+  writeTextAtomically(dir / "rear.yaml", rear);
+  const auto by_topic = test::runCli("label " + (dir / "sim.mcap").string() + " --camera " +
+                                     (dir / "sim.thermal_front.yaml").string() + " --camera " + (dir / "rear.yaml").string() +
+                                     " --image-topic /thermal_front/image_raw --image-topic /thermal_rear/image_raw --out " +
+                                     (dir / "topic").string());
+  ASSERT_EQ(by_topic.exit_code, 0) << by_topic.output;
+  std::size_t hot = 0, valued = 0;
+  for (int i = 0; i < 10; ++i) {
+    char label[32], value[32];
+    std::snprintf(label, sizeof label, "labels/%06d.label", i);
+    std::snprintf(value, sizeof value, "temperature/%06d.bin", i);
+    const std::string a = readTextFile(dir / "folder" / label);
+    EXPECT_EQ(a, readTextFile(dir / "bag" / label)) << label;
+    EXPECT_EQ(a, readTextFile(dir / "topic" / label)) << label;
+    const std::string v = readTextFile(dir / "folder" / value);  // 16-bit PNG counts kept exactly
+    EXPECT_EQ(v, readTextFile(dir / "bag" / value)) << value;
+    for (std::size_t k = 0; k + 4 <= a.size(); k += 4) hot += a[k] == 1;
+    for (std::size_t k = 0; k + 4 <= v.size(); k += 4) {
+      float x;
+      std::memcpy(&x, v.data() + k, 4);
+      valued += std::isfinite(x);
+    }
+  }
+  EXPECT_GT(hot, 100u);
+  EXPECT_GT(valued, hot);  // the cameras see more than the heat
+  const auto json = nlohmann::json::parse(readTextFile(dir / "folder/labels.json"));
+  EXPECT_EQ(json["channel_cameras"]["temperature"], nlohmann::json({"thermal_front", "thermal_rear"}));
+  // The forward and the rear camera together see more than the forward one alone.
+  const auto front = test::runCli("label " + (dir / "seq").string() + " --camera " +
+                                  (dir / "seq/cameras/thermal_front/camera.yaml").string() + " --json --out " +
+                                  (dir / "front").string());
+  ASSERT_EQ(front.exit_code, 0) << front.output;
+  EXPECT_GT(json["valued_fraction"].get<double>(), 1.3 * nlohmann::json::parse(front.output)["valued_fraction"].get<double>());
+  // Bad input: a topic count that does not match, a topic for a rig file.
+  r = test::runCli("label " + (dir / "sim.mcap").string() + " --camera " + (dir / "sim.rig.yaml").string() +
+                   " --image-topic /a --image-topic /b --out " + (dir / "none").string());
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("--image-topic: give one per --camera (1 cameras, 2 topics)"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(dir / "none"));
+  // hazmap run on the bag with the rig: the map stores the channel, hazards.json names the cameras.
+  r = test::runCli("run " + (dir / "sim.mcap").string() + " --method odometry --quiet --no-viewer --camera " +
+                   (dir / "sim.rig.yaml").string() + " --out " + (dir / "run").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const auto hazards = nlohmann::json::parse(readTextFile(dir / "run/hazards.json"));
+  ASSERT_EQ(hazards["channels"].size(), 1u) << hazards.dump();
+  EXPECT_EQ(hazards["channels"][0]["name"], "temperature");
+  EXPECT_EQ(hazards["channels"][0]["cameras"], nlohmann::json({"thermal_front", "thermal_rear"}));
+  const std::string ply = readTextFile(dir / "run/map.ply");
+  EXPECT_NE(ply.substr(0, ply.find("end_header")).find("property float temperature"), std::string::npos);
+}
+
+TEST(PropertiesSim, CameraRigFromAYamlFile) {
+  const fs::path dir = test::scratchDir();
+  writeTextAtomically(dir / "rig.yaml", "rig:\n  - {name: ahead, yaw_deg: 0}\n  - {name: back, yaw_deg: 180, hfov_deg: 70}\n");
+  auto r = test::runCli("simulate --frames 2 --cameras thermal --camera-rig " + (dir / "rig.yaml").string() + " --out " +
+                        (dir / "seq").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_TRUE(fs::exists(dir / "seq/cameras/thermal_ahead/000001.png"));
+  const CameraCalibration back = readCameraYaml(dir / "seq/cameras/thermal_back/camera.yaml");
+  // Looking back: the optical axis (camera z) is the LiDAR's −x; 70° gives fx = 320 / tan 35°.
+  EXPECT_LT((back.T_camera_lidar.inverse().linear().col(2) - Eigen::Vector3d(-1, 0, 0)).norm(), 1e-9);
+  EXPECT_NEAR(back.model.intrinsics().fx, 320.0 / std::tan(35.0 * M_PI / 180.0), 1e-9);
+  EXPECT_NE(readTextFile(dir / "seq/simulation.yaml").find("name: back"), std::string::npos);
+  // A rig file with a typo: one line naming the file and the key, nothing written.
+  writeTextAtomically(dir / "bad.yaml", "rig:\n  - {name: back, yaw: 180}\n");
+  r = test::runCli("simulate --frames 2 --cameras thermal --camera-rig " + (dir / "bad.yaml").string() + " --out " +
+                   (dir / "none").string());
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("bad.yaml"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("yaw"), std::string::npos) << r.output;
   EXPECT_FALSE(fs::exists(dir / "none"));
 }
 

@@ -368,6 +368,11 @@ void writePly(const std::filesystem::path& path, const LabeledCloud& cloud, cons
   if (ht) head += "property double timestamp\n";
   if (hp) head += "property float property\n";
   if (hc) head += "property uchar red\nproperty uchar green\nproperty uchar blue\n";
+  for (const auto& [name, values] : options.fields) {
+    if (values.size() != n || name.empty() || name.find_first_of(" \t\n") != std::string::npos)
+      fail(path.string(), "field '" + name + "' needs a name without spaces and one value per point");
+    head += "property float " + name + "\n";
+  }
   head += "end_header\n";
   PlyWriter w(options.binary);
   w.body() = std::move(head);
@@ -383,6 +388,7 @@ void writePly(const std::filesystem::path& path, const LabeledCloud& cloud, cons
     if (hp) w.put(cloud.property[i]);
     if (hc)
       for (int c = 0; c < 3; ++c) w.put(options.colors[i][c]);
+    for (const auto& field : options.fields) w.put(field.second[i]);
     w.endRow();
   }
   writeTextAtomically(path, w.body());

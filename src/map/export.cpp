@@ -59,11 +59,12 @@ std::vector<Rgb> mapColors(const LabeledCloud& cloud, const ClassTable& table, c
 }
 
 void writeMapPly(const std::filesystem::path& path, const LabeledCloud& map, const ClassTable& table,
-                 const MapColorConfig& config) {
+                 const MapColorConfig& config, std::vector<std::pair<std::string, std::vector<float>>> fields) {
   map.checkConsistent(path.string());
   PlyWriteOptions options;
   options.binary = true;
   options.colors = mapColors(map, table, config);
+  options.fields = std::move(fields);
   writePly(path, map, options);
 }
 

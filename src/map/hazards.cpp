@@ -139,7 +139,8 @@ std::vector<Hazard> findHazards(const GlobalMap& map, const HazardConfig& config
   return out;
 }
 
-std::string hazardsJson(const std::vector<Hazard>& hazards, double voxel_size, int indent) {
+std::string hazardsJson(const std::vector<Hazard>& hazards, double voxel_size, int indent,
+                        const std::vector<HazardChannelInfo>& channel_info) {
   const auto vec = [](const Eigen::Vector3d& p) { return nlohmann::json::array({p.x(), p.y(), p.z()}); };
   nlohmann::json list = nlohmann::json::array();
   for (const auto& h : hazards) {
@@ -167,12 +168,17 @@ std::string hazardsJson(const std::vector<Hazard>& hazards, double voxel_size, i
                     {"channels", channels}});
   }
   nlohmann::json j{{"voxel_size", voxel_size}, {"count", hazards.size()}, {"hazards", list}};
+  if (!channel_info.empty()) {
+    nlohmann::json channels = nlohmann::json::array();
+    for (const auto& c : channel_info) channels.push_back({{"name", c.name}, {"cameras", c.cameras}});
+    j["channels"] = channels;
+  }
   return j.dump(indent);
 }
 
 void writeHazardsJson(const std::filesystem::path& path, const std::vector<Hazard>& hazards,
-                      double voxel_size) {
-  writeTextAtomically(path, hazardsJson(hazards, voxel_size) + "\n");
+                      double voxel_size, const std::vector<HazardChannelInfo>& channels) {
+  writeTextAtomically(path, hazardsJson(hazards, voxel_size, 2, channels) + "\n");
 }
 
 void writeHazardsCsv(const std::filesystem::path& path, const std::vector<Hazard>& hazards) {

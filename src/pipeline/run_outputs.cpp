@@ -220,6 +220,7 @@ RunSummary writeRunOutputs(ScanSource& scans, const SlamResult& result, const Sl
   files.top_down = output.top_down;
   files.write_pngs = output.write_pngs;
   files.write_viewer = output.write_viewer;
+  files.channel_cameras = output.channel_cameras;
   if (output.render_clip_above_sensor > 0 && !files.top_down.clip_above) {
     double z = 0;
     for (const auto& p : result.estimate.poses) z += p.translation().z();

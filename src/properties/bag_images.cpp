@@ -16,15 +16,18 @@ std::shared_ptr<MemoryImages> readBagImages(const std::filesystem::path& bag, co
   const auto& topics = reader->topics();
   const auto it = std::find_if(topics.begin(), topics.end(), [&](const TopicInfo& t) { return t.name == topic; });
   if (it == topics.end()) fail(bag.string(), "has no topic " + topic);
-  if (it->type != "sensor_msgs/msg/Image")
-    fail(bag.string(), "topic " + topic + " is " + it->type + ", not sensor_msgs/msg/Image");
+  const bool compressed = it->type == "sensor_msgs/msg/CompressedImage";
+  if (it->type != "sensor_msgs/msg/Image" && !compressed)
+    fail(bag.string(), "topic " + topic + " is " + it->type + ", not sensor_msgs/msg/Image or CompressedImage");
   reader->selectTopics({topic});
   // Messages come in log-time order; header stamps may not: sort by stamp.
   std::vector<PropertyImage> images;
   BagMessage msg;
   while (reader->next(msg)) {
     const std::string where = bag.string() + ": " + topic + " message " + std::to_string(images.size());
-    images.push_back(imageFromMessage(decodeImage(msg.data, msg.topic->serialization, where), camera, where));
+    const auto s = msg.topic->serialization;
+    images.push_back(compressed ? imageFromCompressed(decodeCompressedImage(msg.data, s, where), camera, where)
+                                : imageFromMessage(decodeImage(msg.data, s, where), camera, where));
   }
   std::stable_sort(images.begin(), images.end(), [](const auto& a, const auto& b) { return a.stamp < b.stamp; });
   auto out = std::make_shared<MemoryImages>();

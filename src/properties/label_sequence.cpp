@@ -14,6 +14,7 @@
 #include "hazmap/io/kitti.hpp"
 #include "hazmap/io/temporary_folder.hpp"
 #include "hazmap/properties/bag_images.hpp"
+#include "hazmap/properties/camera_rig.hpp"
 #include "hazmap/properties/overlay.hpp"
 
 namespace hazmap {
@@ -47,15 +48,42 @@ std::optional<double> ClassLabelMetrics::precision() const { return ratio(true_p
 std::optional<double> ClassLabelMetrics::recall() const { return ratio(true_positive, true_positive + false_negative); }
 std::optional<double> ClassLabelMetrics::observedFraction() const { return ratio(observed, true_points); }
 
+namespace {
+
+/// The camera files with rigs expanded, each with its --image-topic (empty = the YAML's topic:).
+std::vector<std::pair<fs::path, std::string>> cameraFiles(const std::vector<fs::path>& cameras,
+                                                          const std::vector<std::string>& topics) {
+  if (!topics.empty() && topics.size() != cameras.size())
+    fail("--image-topic", "give one per --camera (" + std::to_string(cameras.size()) + " cameras, " +
+                              std::to_string(topics.size()) + " topics)");
+  std::vector<std::pair<fs::path, std::string>> out;
+  for (std::size_t k = 0; k < cameras.size(); ++k) {
+    const std::string topic = topics.empty() ? std::string() : topics[k];
+    const std::vector<fs::path> files = expandCameraFiles({cameras[k]});
+    if (!topic.empty() && (files.size() != 1 || files.front() != cameras[k]))
+      fail(cameras[k].string(), "is a camera rig: its cameras name their own topic: (no --image-topic)");
+    for (const fs::path& f : files) out.emplace_back(f, topic);
+  }
+  std::vector<fs::path> all;
+  for (const auto& [f, t] : out) all.push_back(f);
+  (void)expandCameraFiles(all);  // a camera given twice, also across rigs
+  return out;
+}
+
+}  // namespace
+
 PropertyLabeler makeLabeler(const std::vector<fs::path>& cameras, const fs::path& rules, const ClassTable& table,
-                            const LabelerConfig& config, const fs::path& image_bag) {
+                            const LabelerConfig& config, const fs::path& image_bag,
+                            const std::vector<std::string>& image_topics) {
   if (cameras.empty()) fail("label", "no camera given (--camera CAM.yaml)");
   std::vector<CameraInput> inputs;
   std::vector<std::string> channels;
-  for (const fs::path& path : cameras) {
+  for (const auto& [path, topic] : cameraFiles(cameras, image_topics)) {
     CameraInput in;
     in.camera = readCameraYaml(path);
-    if (!image_bag.empty() && !in.camera.topic.empty() && in.camera.images.empty()) {
+    if (!topic.empty() && image_bag.empty()) fail("--image-topic", topic + ": images from a topic need a bag as input");
+    if (!topic.empty()) in.camera.topic = topic;
+    if (!image_bag.empty() && !in.camera.topic.empty() && (in.camera.images.empty() || !topic.empty())) {
       in.images = readBagImages(image_bag, in.camera);
     } else {
       const fs::path images = in.camera.images.empty() ? fs::absolute(path).parent_path() : in.camera.images;
@@ -203,6 +231,7 @@ struct FrameSink {
       });
     }
     for (std::size_t k = 0; k < scan.size(); ++k) report.valued += observedByAnyChannel(l, k);
+    for (std::uint8_t v : l.in_view) report.in_view_points += v;
     PropertyLabeler::apply(l, scan);
     writer.addFrame(scan);
     report.points += scan.size();
@@ -276,7 +305,7 @@ LabelReport labelSequence(const fs::path& sequence_dir, const fs::path& out_arg,
   LabelerConfig labeler_config = options.labeler;
   labeler_config.footprints = options.fuse_views;
   const PropertyLabeler labeler =
-      makeLabeler(options.cameras, options.rules, seq.classTable(), labeler_config, options.image_bag);
+      makeLabeler(options.cameras, options.rules, seq.classTable(), labeler_config, options.image_bag, options.image_topics);
   if (out_arg.empty()) fail("label", "no output folder given (--out)");
   options.fusion.validate("label");
   fs::path out = fs::absolute(out_arg).lexically_normal();
@@ -293,6 +322,9 @@ LabelReport labelSequence(const fs::path& sequence_dir, const fs::path& out_arg,
 
   LabelReport report;
   report.channels = labeler.channels();
+  for (std::size_t c = 0; c < labeler.cameras().size(); ++c)
+    report.channel_cameras[labeler.channels()[static_cast<std::size_t>(labeler.cameraChannel(c))]].push_back(
+        labeler.cameras()[c].camera.name);
   report.truth_source = truthSource(sequence_dir);
   TemporaryFolder tmp{temporarySibling(out)};
   fs::create_directories(tmp.path);
@@ -328,7 +360,7 @@ void writeLabelOverlays(const fs::path& labelled_dir, const std::vector<fs::path
   const double t = readScanTimes(seq).at(frame);
   const LabeledCloud scan = seq.frame(frame);
   fs::create_directories(labelled_dir / "overlays");
-  for (const fs::path& path : cameras) {
+  for (const fs::path& path : expandCameraFiles(cameras)) {
     const CameraCalibration cam = readCameraYaml(path);
     const FolderImages images(cam.images.empty() ? fs::absolute(path).parent_path() : cam.images);
     const auto& stamps = images.stamps();
@@ -354,7 +386,8 @@ std::string labelReportJson(const LabelReport& r) {
   j["frames"] = r.frames;
   j["points"] = r.points;
   j["channels"] = r.channels;
-  j["in_view_fraction"] = opt(ratio(r.projection.in_view, r.points));
+  j["channel_cameras"] = r.channel_cameras;
+  j["in_view_fraction"] = opt(ratio(r.in_view_points, r.points));  // any camera's image
   j["observed_fraction"] = opt(ratio(r.projection.observed, r.points));
   j["occluded"] = r.projection.occluded;
   j["images_missing"] = r.images_missing;

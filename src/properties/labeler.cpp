@@ -114,8 +114,7 @@ ScanLabels PropertyLabeler::observe(const LabeledCloud& scan, double time, const
   const std::vector<float> nan_row(n, std::numeric_limits<float>::quiet_NaN());
   out.channels.assign(channels_.size(), nan_row);
   out.in_view.assign(n, 0);
-  const bool guard = config_.projection.edge_guard_px > 0;
-  if (guard) out.low = out.high = out.channels;
+  if (config_.projection.edge_guard_px > 0) out.low = out.high = out.channels;
   if (config_.footprints) {
     out.footprint = out.channels;
     out.normals.assign(n, Eigen::Vector3f::Zero());
@@ -139,15 +138,51 @@ ScanLabels PropertyLabeler::observe(const LabeledCloud& scan, double time, const
       if (const auto T_world_image = pose_at(t_image)) T_camera_scan = cam.T_camera_lidar * T_world_image->inverse() * *T_world_scan;
     }
     out.T_camera_scan.back() = T_camera_scan;
-    const int ch = camera_channel_[c];
-    out.projection += projectIntoImage(scan.points, T_camera_scan, cam.model, image, config_.projection, out.channels[ch],
-                                       out.in_view, &scratch, guard ? std::span<float>(out.low[ch]) : std::span<float>(),
-                                       guard ? std::span<float>(out.high[ch]) : std::span<float>());
-    if (config_.footprints) addFootprints(scan, T_camera_scan, out.channels[ch], config_.normals, index, out.footprint[ch],
-                                            out.normals);
+    observeCamera(c, scan, image, T_camera_scan, scratch, index, out);
     ++out.images_used;
   }
   return out;
+}
+
+std::size_t PropertyLabeler::camerasOfChannel(std::size_t ch) const {
+  return static_cast<std::size_t>(std::count(camera_channel_.begin(), camera_channel_.end(), static_cast<int>(ch)));
+}
+
+void PropertyLabeler::observeCamera(std::size_t c, const LabeledCloud& scan, const PropertyImage& image,
+                                    const Eigen::Isometry3d& T_camera_scan, ProjectionScratch& scratch,
+                                    std::unique_ptr<VoxelHashIndex>& index, ScanLabels& out) const {
+  const CameraCalibration& cam = cameras_[c].camera;
+  const int ch = camera_channel_[c];
+  const bool guard = out.low.size() == channels_.size();
+  const auto span = [](std::vector<std::vector<float>>& rows, int k, bool on) {
+    return on ? std::span<float>(rows[static_cast<std::size_t>(k)]) : std::span<float>();
+  };
+  if (camerasOfChannel(static_cast<std::size_t>(ch)) == 1) {  // the channel's own camera: straight in
+    out.projection += projectIntoImage(scan.points, T_camera_scan, cam.model, image, config_.projection, out.channels[ch],
+                                       out.in_view, &scratch, span(out.low, ch, guard), span(out.high, ch, guard));
+    if (config_.footprints)
+      addFootprints(scan, T_camera_scan, out.channels[ch], config_.normals, index, out.footprint[ch], out.normals);
+    return;
+  }
+  // A rig: this camera's view into rows of its own, then per point the camera whose view has the
+  // smallest footprint (view fusion's cost within one scan), else the first camera that saw it.
+  const std::size_t n = scan.size();
+  if (out.source_camera.size() != channels_.size()) out.source_camera.resize(channels_.size());
+  auto& source = out.source_camera[static_cast<std::size_t>(ch)];
+  if (source.empty()) source.assign(n, 0);
+  std::vector<std::vector<float>> rows(4, std::vector<float>(n, std::numeric_limits<float>::quiet_NaN()));
+  out.projection += projectIntoImage(scan.points, T_camera_scan, cam.model, image, config_.projection, rows[0],
+                                     out.in_view, &scratch, span(rows, 1, guard), span(rows, 2, guard));
+  if (config_.footprints) addFootprints(scan, T_camera_scan, rows[0], config_.normals, index, rows[3], out.normals);
+  for (std::size_t i = 0; i < n; ++i) {
+    if (std::isnan(rows[0][i])) continue;
+    const bool empty = std::isnan(out.channels[ch][i]);
+    if (!empty && !(config_.footprints && rows[3][i] < out.footprint[ch][i])) continue;
+    out.channels[ch][i] = rows[0][i];
+    if (guard) out.low[ch][i] = rows[1][i], out.high[ch][i] = rows[2][i];
+    if (config_.footprints) out.footprint[ch][i] = rows[3][i];
+    source[i] = static_cast<std::uint8_t>(c);
+  }
 }
 
 void PropertyLabeler::classify(const LabeledCloud& scan, const std::optional<Eigen::Isometry3d>& T_world_scan,

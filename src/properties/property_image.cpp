@@ -4,6 +4,7 @@
 #include <bit>
 #include <cmath>
 #include <cstring>
+#include <optional>
 #include <sstream>
 
 #include "hazmap/core/error.hpp"
@@ -47,17 +48,74 @@ Raw sampleAt(const std::uint8_t* p, bool big_endian) {
 
 }  // namespace
 
+namespace {
+
+enum class SampleType { U8, U16, S16, F32, F64 };
+
+/// How a sensor_msgs/Image encoding is laid out: sample type and channels (3–4 = colour,
+/// turned into luminance; `bgr` = blue first).
+struct EncodingLayout {
+  SampleType type = SampleType::U8;
+  int channels = 1;
+  bool bgr = false;
+  int sampleBytes() const {
+    switch (type) {
+      case SampleType::U8: return 1;
+      case SampleType::U16: case SampleType::S16: return 2;
+      case SampleType::F32: return 4;
+      case SampleType::F64: return 8;
+    }
+    return 1;
+  }
+  bool floating() const { return type == SampleType::F32 || type == SampleType::F64; }
+};
+
+constexpr const char* kEncodings = "mono16, 16UC1, 16SC1, mono8, 8UC1, 32FC1, 64FC1, rgb8, bgr8, rgba8, bgra8";
+
+std::optional<EncodingLayout> layoutOf(const std::string& e) {
+  if (e == "mono16" || e == "16UC1") return EncodingLayout{SampleType::U16};
+  if (e == "16SC1") return EncodingLayout{SampleType::S16};
+  if (e == "mono8" || e == "8UC1") return EncodingLayout{SampleType::U8};
+  if (e == "32FC1") return EncodingLayout{SampleType::F32};
+  if (e == "64FC1") return EncodingLayout{SampleType::F64};
+  if (e == "rgb8" || e == "8UC3") return EncodingLayout{SampleType::U8, 3};
+  if (e == "bgr8") return EncodingLayout{SampleType::U8, 3, true};
+  if (e == "rgba8" || e == "8UC4") return EncodingLayout{SampleType::U8, 4};
+  if (e == "bgra8") return EncodingLayout{SampleType::U8, 4, true};
+  return std::nullopt;
+}
+
+/// One pixel in the channel's units: integers through scale and offset, floats through
+/// float_offset, colour through its Rec. 601 luminance (0..255) as an 8-bit value.
+float pixelValue(const std::uint8_t* p, const EncodingLayout& l, bool big_endian, const PropertyChannel& ch) {
+  double raw = 0.0;
+  if (l.channels >= 3) {
+    const double r = p[l.bgr ? 2 : 0], g = p[1], b = p[l.bgr ? 0 : 2];
+    raw = 0.299 * r + 0.587 * g + 0.114 * b;
+  } else {
+    switch (l.type) {
+      case SampleType::U8: raw = p[0]; break;
+      case SampleType::U16: raw = sampleAt<std::uint16_t>(p, big_endian); break;
+      case SampleType::S16: raw = sampleAt<std::int16_t>(p, big_endian); break;
+      case SampleType::F32: raw = sampleAt<float>(p, big_endian); break;
+      case SampleType::F64: raw = sampleAt<double>(p, big_endian); break;
+    }
+  }
+  if (l.floating()) return std::isfinite(raw) ? static_cast<float>(raw + ch.float_offset) : NAN;
+  return static_cast<float>(raw * ch.scale + ch.offset);
+}
+
+}  // namespace
+
 PropertyImage imageFromMessage(const ImageMsg& msg, const CameraCalibration& camera, const std::string& where) {
+  const std::optional<EncodingLayout> layout = layoutOf(msg.encoding);
+  if (!layout)
+    fail(where, "image encoding '" + msg.encoding + "' is not supported (" + kEncodings + ")");
   checkSize(static_cast<int>(msg.width), static_cast<int>(msg.height), camera, where);
-  int bytes = 0;
-  const std::string& e = msg.encoding;
-  if (e == "mono16" || e == "16UC1") bytes = 2;
-  else if (e == "mono8" || e == "8UC1") bytes = 1;
-  else if (e == "32FC1") bytes = 4;
-  else fail(where, "image encoding '" + e + "' is not supported (mono16, 16UC1, mono8, 8UC1, 32FC1)");
-  const std::size_t row = static_cast<std::size_t>(msg.width) * bytes;
+  const std::size_t pixel = static_cast<std::size_t>(layout->sampleBytes()) * layout->channels;
+  const std::size_t row = static_cast<std::size_t>(msg.width) * pixel;
   if (msg.step < row) fail(where, "image step " + std::to_string(msg.step) + " is shorter than a row");
-  if (msg.data.size() < static_cast<std::size_t>(msg.step) * (msg.height - 1) + row || msg.height == 0)
+  if (msg.height == 0 || msg.data.size() < static_cast<std::size_t>(msg.step) * (msg.height - 1) + row)
     fail(where, "image data has " + std::to_string(msg.data.size()) + " bytes, step·height needs " +
                     std::to_string(static_cast<std::size_t>(msg.step) * msg.height));
   PropertyImage img;
@@ -65,20 +123,10 @@ PropertyImage imageFromMessage(const ImageMsg& msg, const CameraCalibration& cam
   img.height = static_cast<int>(msg.height);
   img.stamp = msg.header.stamp;
   img.values.resize(static_cast<std::size_t>(img.width) * img.height);
-  const PropertyChannel& ch = camera.channel;
   for (std::uint32_t y = 0; y < msg.height; ++y) {
     const std::uint8_t* r = msg.data.data() + static_cast<std::size_t>(y) * msg.step;
     float* out = img.values.data() + static_cast<std::size_t>(y) * msg.width;
-    for (std::uint32_t x = 0; x < msg.width; ++x) {
-      if (bytes == 4) {
-        const float v = sampleAt<float>(r + 4 * x, msg.is_bigendian);
-        out[x] = std::isfinite(v) ? static_cast<float>(v + ch.float_offset) : NAN;
-      } else if (bytes == 2) {
-        out[x] = static_cast<float>(sampleAt<std::uint16_t>(r + 2 * x, msg.is_bigendian) * ch.scale + ch.offset);
-      } else {
-        out[x] = static_cast<float>(r[x] * ch.scale + ch.offset);
-      }
-    }
+    for (std::uint32_t x = 0; x < msg.width; ++x) out[x] = pixelValue(r + pixel * x, *layout, msg.is_bigendian, camera.channel);
   }
   return img;
 }

@@ -53,6 +53,14 @@ void ViewFusion::add(std::size_t frame, const LabeledCloud& scan, const Eigen::I
     fail("view fusion", "labels need one channel and one footprint row per channel, and normals");
   frames_.push_back({T_world_scan, travelled, labels.image_index, labels.T_camera_scan});
   const Eigen::Matrix3d R = T_world_scan.linear();
+  // The camera of each channel's view: its only camera, or per point the rig's (source_camera).
+  std::vector<std::uint8_t> first_camera(channels, 0);
+  for (std::size_t c = labeler_.cameras().size(); c-- > 0;)
+    first_camera[static_cast<std::size_t>(labeler_.cameraChannel(c))] = static_cast<std::uint8_t>(c);
+  const auto cameraOf = [&](std::size_t ch, std::size_t i) {
+    return ch < labels.source_camera.size() && !labels.source_camera[ch].empty() ? labels.source_camera[ch][i]
+                                                                                 : first_camera[ch];
+  };
   for (std::size_t i = 0; i < scan.size(); ++i) {
     std::uint64_t k = 0;
     bool keyed = false;
@@ -61,7 +69,8 @@ void ViewFusion::add(std::size_t frame, const LabeledCloud& scan, const Eigen::I
       if (!keyed && !(keyed = key(T_world_scan * scan.points[i].cast<double>(), k))) break;
       const float fp = labels.footprint[c][i];
       views_[k].push_back({static_cast<float>(travelled), std::isnan(fp) ? std::numeric_limits<float>::max() : fp,
-                           static_cast<std::uint32_t>(frame), static_cast<std::uint16_t>(c), facing(labels.normals[i], R)});
+                           static_cast<std::uint32_t>(frame), static_cast<std::uint16_t>(c), facing(labels.normals[i], R),
+                           cameraOf(c, i)});
       ++observations_;
     }
   }
@@ -69,6 +78,7 @@ void ViewFusion::add(std::size_t frame, const LabeledCloud& scan, const Eigen::I
 
 std::vector<std::int32_t> ViewFusion::bestFrames(std::size_t frame, const LabeledCloud& scan) const {
   const std::size_t channels = labeler_.channels().size();
+  const auto cameras = static_cast<std::uint32_t>(labeler_.cameras().size());
   const Placement& here = frames_.at(frame);
   const float window = static_cast<float>(config_.window), at = static_cast<float>(here.travelled);
   const std::vector<Eigen::Vector3f> normals = estimateNormals(scan, config_.normals);
@@ -94,7 +104,7 @@ std::vector<std::int32_t> ViewFusion::bestFrames(std::size_t frame, const Labele
         const float cost = v.footprint * angle + drift * travel;
         if (cost < best_cost) {
           best_cost = cost;
-          pick = static_cast<std::int32_t>(v.frame);
+          pick = static_cast<std::int32_t>(v.frame * cameras + v.camera);
         }
       }
       best[i * channels + ch] = pick;
@@ -136,16 +146,23 @@ void ViewFusion::fuse(std::size_t frame, const LabeledCloud& scan, const std::ve
   if (best.size() != scan.size() * channels) fail("view fusion", "best views need one entry per point and channel");
   const Placement& here = frames_[frame];
   const float nan = std::numeric_limits<float>::quiet_NaN();
+  const std::int32_t cameras = static_cast<std::int32_t>(labeler_.cameras().size());
   for (std::size_t i = 0; i < scan.size(); ++i)
     for (std::size_t ch = 0; ch < channels; ++ch) {
-      const std::int32_t f = best[i * channels + ch];
-      if (f == static_cast<std::int32_t>(frame)) continue;  // its own scan's view is the best: kept
+      const std::int32_t view = best[i * channels + ch];
+      const std::int32_t f = view < 0 ? -1 : view / cameras;
+      // Its own scan's view is the best: kept (observe chose the same camera, by the same cost).
+      if (f == static_cast<std::int32_t>(frame)) continue;
       float value = nan, low = nan, high = nan;
       if (f >= 0) {
         const Eigen::Vector3d world = here.T_world_scan * scan.points[i].cast<double>();
-        for (std::size_t c = 0; c < labeler_.cameras().size(); ++c)  // the channel's first camera that sees it
-          if (static_cast<std::size_t>(labeler_.cameraChannel(c)) == ch && sample(c, frames_[f], world, value, low, high))
-            break;
+        // The view's camera, else the channel's first other camera of that scan that sees it.
+        const std::size_t picked = static_cast<std::size_t>(view % cameras);
+        if (!sample(picked, frames_[f], world, value, low, high))
+          for (std::size_t c = 0; c < labeler_.cameras().size(); ++c)
+            if (c != picked && static_cast<std::size_t>(labeler_.cameraChannel(c)) == ch &&
+                sample(c, frames_[f], world, value, low, high))
+              break;
       }
       labels.channels[ch][i] = value;
       if (guard) {

@@ -46,13 +46,19 @@ SimCameraConfig SimCameraConfig::forName(const std::string& name) {
 }
 
 PropertyChannel SimCameraConfig::channel() const {
+  const std::string& name = kindName();
   if (name == "nir") return defaultChannel("nir_reflectance");
   if (name == "gamma") return defaultChannel("dose_rate");
   return defaultChannel("temperature");
 }
 
 void SimCameraConfig::validate(const std::string& where) const {
-  if (name != "thermal" && name != "nir" && name != "gamma") fail(where, "unknown camera '" + name + "'");
+  const std::string& k = kindName();
+  if (k != "thermal" && k != "nir" && k != "gamma") fail(where, "unknown camera kind '" + k + "'");
+  if (name.empty() || name.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_-") !=
+                          std::string::npos)
+    fail(where, "camera name '" + name + "' must be letters, digits, - and _ (it names a folder)");
+  if (!(std::abs(yaw_deg) <= 360)) fail(where, "camera yaw_deg must be in [-360, 360]");
   if (width < 2 || height < 2 || width > 8192 || height > 8192) fail(where, "camera size must be 2..8192 pixels");
   if (!(hfov_deg > 1 && hfov_deg < 170)) fail(where, "camera hfov_deg must be in (1, 170)");
   if (!(noise_sigma >= 0) || !std::isfinite(background) || !std::isfinite(region_value) || !position.allFinite())
@@ -77,15 +83,46 @@ Eigen::Isometry3d SimCameraConfig::cameraFromLidar() const {
   const Eigen::Matrix3d pitch = Eigen::AngleAxisd(pitch_deg * M_PI / 180.0, Eigen::Vector3d::UnitY()).toRotationMatrix();
   Eigen::Isometry3d T_lidar_camera = Eigen::Isometry3d::Identity();
   T_lidar_camera.linear() = pitch * optical;
+  // Yaw only when set: an identity product could still round the forward camera's matrix.
+  if (yaw_deg != 0.0) T_lidar_camera.linear() = Eigen::AngleAxisd(yaw_deg * M_PI / 180.0, Eigen::Vector3d::UnitZ()) * T_lidar_camera.linear();
   T_lidar_camera.translation() = position;
   return T_lidar_camera.inverse();
 }
 
+std::vector<RigPlacement> CameraSimConfig::rigPreset(const std::string& name) {
+  if (name == "ring4") return {{"front", 0, 90}, {"left", 90, 90}, {"rear", 180, 90}, {"right", -90, 90}};
+  if (name == "front-rear") return {{"front", 0, 0}, {"rear", 180, 0}};
+  fail("--camera-rig", "unknown rig '" + name + "' (known: ring4, front-rear, or a rig YAML)");
+}
+
+std::vector<SimCameraConfig> CameraSimConfig::placedCameras() const {
+  if (rig.empty()) return cameras;
+  std::vector<SimCameraConfig> out;
+  for (const SimCameraConfig& c : cameras)
+    for (const RigPlacement& r : rig) {
+      SimCameraConfig placed = c;
+      placed.kind = c.kindName();
+      placed.name = c.name + "_" + r.name;
+      placed.yaw_deg = c.yaw_deg + r.yaw_deg;
+      if (r.hfov_deg > 0) placed.hfov_deg = r.hfov_deg;
+      // The mount turns with the camera (a ring of cameras around the LiDAR's mast).
+      placed.position = Eigen::AngleAxisd(r.yaw_deg * M_PI / 180.0, Eigen::Vector3d::UnitZ()) * c.position;
+      out.push_back(std::move(placed));
+    }
+  return out;
+}
+
 void CameraSimConfig::validate(const std::string& where) const {
-  for (const auto& c : cameras) c.validate(where);
-  for (std::size_t i = 0; i < cameras.size(); ++i)
+  for (const RigPlacement& r : rig)
+    if (r.name.empty() || !(std::abs(r.yaw_deg) <= 360) || !(r.hfov_deg >= 0 && r.hfov_deg < 170))
+      fail(where, "rig placement '" + r.name + "' needs a name, yaw_deg in [-360, 360], hfov_deg in [0, 170)");
+  const std::vector<SimCameraConfig> placed = placedCameras();
+  // Each camera's noise stream is frame·8 + its index (RngStream::Camera).
+  if (placed.size() > 8) fail(where, std::to_string(placed.size()) + " cameras placed; at most 8");
+  for (const auto& c : placed) c.validate(where);
+  for (std::size_t i = 0; i < placed.size(); ++i)
     for (std::size_t j = 0; j < i; ++j)
-      if (cameras[i].name == cameras[j].name) fail(where, "camera '" + cameras[i].name + "' given twice");
+      if (placed[i].name == placed[j].name) fail(where, "camera '" + placed[i].name + "' given twice");
   if (!(calibration_error_deg >= 0 && calibration_error_m >= 0 && std::isfinite(time_offset)) ||
       calibration_error_deg > 45 || calibration_error_m > 1)
     fail(where, "calibration error must be in [0, 45] deg and [0, 1] m; time offset finite");
@@ -152,8 +189,8 @@ CameraRenderer::CameraRenderer(const Simulator& sim, SimCameraConfig camera, std
   for (int y = 0; y < camera_.height; ++y)
     for (int x = 0; x < camera_.width; ++x)
       rays_[static_cast<std::size_t>(y) * camera_.width + x] = model.unproject(Eigen::Vector2d(x, y)).cast<float>();
-  const PropertyKind kind = camera_.name == "thermal" ? PropertyKind::Heat
-                            : camera_.name == "nir"   ? PropertyKind::Water
+  const PropertyKind kind = camera_.kindName() == "thermal" ? PropertyKind::Heat
+                            : camera_.kindName() == "nir"   ? PropertyKind::Water
                                                       : PropertyKind::Radiation;
   for (ClassId id : sim.classTable().ids())
     if (sim.classTable().at(id).kind == kind) region_classes_.push_back(id);
@@ -217,8 +254,9 @@ void writeCameraImages(const Simulator& sim, const CameraSimConfig& config, cons
   std::ostringstream times;
   times.precision(9);
   for (std::size_t i = 0; i < sim.frames(); ++i) times << sim.samples()[i].time << "\n";
-  for (std::size_t c = 0; c < config.cameras.size(); ++c) {
-    const SimCameraConfig& cam = config.cameras[c];
+  const std::vector<SimCameraConfig> placed = config.placedCameras();
+  for (std::size_t c = 0; c < placed.size(); ++c) {
+    const SimCameraConfig& cam = placed[c];
     const fs::path folder = dir / "cameras" / cam.name;
     fs::create_directories(folder);
     const CameraRenderer renderer(sim, cam, c);
@@ -230,6 +268,10 @@ void writeCameraImages(const Simulator& sim, const CameraSimConfig& config, cons
     writeTextAtomically(folder / "times.txt", times.str());
     writeTextAtomically(folder / "camera.yaml", cameraYaml(writtenCalibration(cam, config, sim.config().seed, c), "."));
   }
+  if (config.rig.empty()) return;
+  std::string rig = "# the simulated camera rig: hazmap label SEQ --camera cameras/rig.yaml\ncameras:\n";
+  for (const SimCameraConfig& cam : placed) rig += "  - " + cam.name + "/camera.yaml\n";
+  writeTextAtomically(dir / "cameras" / "rig.yaml", rig);
 }
 
 }  // namespace hazmap::sim

@@ -83,7 +83,9 @@ const ConfigFields<SimCameraConfig>& configFields(ConfigTag<SimCameraConfig>) {
   using C = SimCameraConfig;
   static const ConfigFields<C> fields =
       ConfigFields<C>("One simulated property camera; `name` picks its channel and the defaults of the others.")
-          .text("name", &C::name, "thermal (temperature) | nir (nir_reflectance) | gamma (dose_rate)")
+          .text("name", &C::name, "thermal (temperature) | nir (nir_reflectance) | gamma (dose_rate), or any folder name with `kind`")
+          .text("kind", &C::kind, "thermal | nir | gamma when the name is not one of them (e.g. several thermal cameras)")
+          .writeIf([](const C& c) { return !c.kind.empty(); })
           .integer("width", &C::width, closed(2, 16384), "pixels")
           .integer("height", &C::height, closed(2, 16384), "pixels")
           .number("hfov_deg", &C::hfov_deg, openClosed(0, 170), "° horizontal field of view")
@@ -99,10 +101,22 @@ const ConfigFields<SimCameraConfig>& configFields(ConfigTag<SimCameraConfig>) {
                     if (!c.position.allFinite()) p.fail("must be finite");
                   })
           .number("pitch_deg", &C::pitch_deg, closed(-90, 90), "° down from looking forward along LiDAR x")
+          .number("yaw_deg", &C::yaw_deg, closed(-360, 360), "° turned left about LiDAR z (180 = looking back)")
+          .writeIf([](const C& c) { return c.yaw_deg != 0.0; })
           .number("background", &C::background, anyNumber(), "value outside regions of the camera's kind")
           .number("region_value", &C::region_value, anyNumber(), "value inside regions of the camera's kind")
           .number("noise_sigma", &C::noise_sigma, nonNegative(), "per-pixel Gaussian noise (thermal: NETD)")
           .flag("blur", &C::blur, "3×3 binomial blur (about one pixel)");
+  return fields;
+}
+
+const ConfigFields<RigPlacement>& configFields(ConfigTag<RigPlacement>) {
+  using C = RigPlacement;
+  static const ConfigFields<C> fields =
+      ConfigFields<C>("One place of a camera rig: each listed camera is mounted there as well.")
+          .text("name", &C::name, "suffix of the cameras placed here (<kind>_<name>): letters, digits, - and _")
+          .number("yaw_deg", &C::yaw_deg, closed(-360, 360), "° turned left about LiDAR z (180 = looking back)")
+          .number("hfov_deg", &C::hfov_deg, closedOpen(0, 170), "° horizontal field of view; 0 = the camera's own");
   return fields;
 }
 
@@ -112,7 +126,7 @@ const ConfigFields<CameraSimConfig>& configFields(ConfigTag<CameraSimConfig>) {
       ConfigFields<C>("Property cameras rendered per frame (hazmap simulate --cameras), docs/properties.md.")
           .custom({"list", "list",
                    "Cameras in order: a name (thermal | nir | gamma) or a mapping with `name` and any of the camera "
-                   "fields (width, height, hfov_deg, k1, k2, position, pitch_deg, background, region_value, "
+                   "fields (kind, width, height, hfov_deg, k1, k2, position, pitch_deg, yaw_deg, background, region_value, "
                    "noise_sigma, blur)",
                    "[name | {name: ..., ...}]", {},
                    // Documented with the thermal camera's defaults (nir and gamma have their own).
@@ -126,11 +140,13 @@ const ConfigFields<CameraSimConfig>& configFields(ConfigTag<CameraSimConfig>) {
                       if (!item.IsMap() && !item.IsScalar()) at.fail("must be a camera name or a mapping");
                       const YAML::Node name_node = item.IsMap() ? item["name"] : item;
                       if (!name_node) at.fail("needs a name (thermal, nir or gamma)");
-                      const std::string name = config_detail::readString(name_node, at.child("name"));
+                      const bool has_kind = item.IsMap() && item["kind"];
+                      const std::string key = has_kind ? "kind" : "name";
+                      const std::string kind = config_detail::readString(has_kind ? item["kind"] : name_node, at.child(key));
                       try {
-                        c.cameras.push_back(SimCameraConfig::forName(name));
+                        c.cameras.push_back(SimCameraConfig::forName(kind));
                       } catch (const Error&) {
-                        at.child("name").fail("must be thermal, nir or gamma, got '" + name + "'");
+                        at.child(key).fail("must be thermal, nir or gamma, got '" + kind + "'");
                       }
                       if (item.IsMap()) fieldsOf<SimCameraConfig>().read(c.cameras.back(), item, at);
                     }
@@ -144,6 +160,39 @@ const ConfigFields<CameraSimConfig>& configFields(ConfigTag<CameraSimConfig>) {
                     for (std::size_t k = 0; k < c.cameras.size(); ++k)
                       fieldsOf<SimCameraConfig>().check(c.cameras[k], p.child(std::to_string(k)));
                   })
+          .custom({"rig", "list",
+                   "Camera rig: ring4 (four 90° cameras at 0/90/180/270°), front-rear, or a list of placements "
+                   "{name, yaw_deg, hfov_deg}; every camera of `list` is placed at each (<kind>_<name>)",
+                   "[]", {}, fieldsOf<RigPlacement>().describe(RigPlacement{})},
+                  [](C& c, const YAML::Node& n, const ConfigPlace& p) {
+                    if (n.IsScalar()) {
+                      const std::string name = config_detail::readString(n, p);
+                      try {
+                        c.rig = CameraSimConfig::rigPreset(name);
+                      } catch (const Error&) {
+                        p.fail("must be ring4, front-rear or a list of placements, got '" + name + "'");
+                      }
+                      return;
+                    }
+                    if (!n.IsSequence()) p.fail("must be a preset name or a list of placements");
+                    c.rig.clear();
+                    for (std::size_t k = 0; k < n.size(); ++k) {
+                      const ConfigPlace at = p.child(std::to_string(k));
+                      if (!n[k].IsMap() || !n[k]["name"]) at.fail("must be a mapping with a name");
+                      c.rig.emplace_back();
+                      fieldsOf<RigPlacement>().read(c.rig.back(), n[k], at);
+                    }
+                  },
+                  [](const C& c) {
+                    nlohmann::json j = nlohmann::json::array();
+                    for (const auto& r : c.rig) j.push_back(fieldsOf<RigPlacement>().write(r));
+                    return j;
+                  },
+                  [](const C& c, const ConfigPlace& p) {
+                    for (std::size_t k = 0; k < c.rig.size(); ++k)
+                      fieldsOf<RigPlacement>().check(c.rig[k], p.child(std::to_string(k)));
+                  })
+          .writeIf([](const C& c) { return !c.rig.empty(); })
           .number("calibration_error_deg", &C::calibration_error_deg, closed(0, 45),
                   "° rotation error (random axis) of the written T_camera_lidar")
           .number("calibration_error_m", &C::calibration_error_m, closed(0, 1),

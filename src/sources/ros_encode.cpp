@@ -107,6 +107,14 @@ std::vector<std::uint8_t> encodeImage(const ImageMsg& msg, bool big_endian) {
   return w.take();
 }
 
+std::vector<std::uint8_t> encodeCompressedImage(const CompressedImageMsg& msg, bool big_endian) {
+  CdrWriter w(big_endian);
+  w.header(msg.header);
+  w.string(msg.format);
+  w.bytes(msg.data);
+  return w.take();
+}
+
 std::vector<std::uint8_t> encodePoseStamped(const RosHeader& header, const Eigen::Isometry3d& pose,
                                             bool big_endian) {
   CdrWriter w(big_endian);

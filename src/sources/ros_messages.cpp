@@ -87,6 +87,16 @@ ImageMsg decodeImage(std::span<const std::uint8_t> bytes, Serialization s, const
   return msg;
 }
 
+CompressedImageMsg decodeCompressedImage(std::span<const std::uint8_t> bytes, Serialization s, const std::string& where) {
+  RosReader r(bytes, s, where);
+  CompressedImageMsg msg;
+  msg.header = r.header();
+  msg.format = r.string();
+  const auto data = r.byteSequence("CompressedImage data");
+  msg.data.assign(data.begin(), data.end());
+  return msg;
+}
+
 VelodyneScanMsg decodeVelodyneScan(std::span<const std::uint8_t> bytes, Serialization s,
                                    const std::string& where) {
   RosReader r(bytes, s, where);

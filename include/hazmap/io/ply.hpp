@@ -16,6 +16,9 @@ struct PlyWriteOptions {
   bool binary = true;
   /// Per-point colours (size() entries) written as red/green/blue; empty = no colour.
   std::vector<Rgb> colors;
+  /// Further per-point float properties (name, size() values), written after the colours:
+  /// e.g. a map's value of each camera channel (temperature, nir_reflectance; NaN = none).
+  std::vector<std::pair<std::string, std::vector<float>>> fields;
 };
 
 LabeledCloud readPly(const std::filesystem::path& path, const ClassTable& table = ClassTable::defaults(),

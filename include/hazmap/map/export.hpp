@@ -33,8 +33,10 @@ std::vector<Rgb> mapColors(const LabeledCloud& cloud, const ClassTable& table,
                            const MapColorConfig& config = {});
 
 /// map.ply: binary PLY with x y z, label (class), red green blue [, property].
+/// `fields`: further per-point float properties (PlyWriteOptions::fields).
 void writeMapPly(const std::filesystem::path& path, const LabeledCloud& map, const ClassTable& table,
-                 const MapColorConfig& config = {});
+                 const MapColorConfig& config = {},
+                 std::vector<std::pair<std::string, std::vector<float>>> fields = {});
 /// map.pcd: binary PCD v0.7 with x y z label [property].
 void writeMapPcd(const std::filesystem::path& path, const LabeledCloud& map);
 

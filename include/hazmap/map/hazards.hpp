@@ -64,12 +64,21 @@ std::vector<Hazard> findHazards(const GlobalMap& map, const HazardConfig& config
 /// hazards.json: {"voxel_size", "count", "hazards": [{id, class, kind, centroid[3], min[3],
 /// max[3], extent[3], area_m2, cells, points, mean_property|null, max_property|null, frame_count,
 /// frames: [[first, last], …], channels: {NAME: {mean|null, max|null, samples}, …}}]}. Atomic.
+/// A named channel of the map and the cameras that measured it (hazards.json's `channels`).
+struct HazardChannelInfo {
+  std::string name;
+  std::vector<std::string> cameras;  ///< empty when not known (a sequence's own channel)
+};
+
+/// `channels` (when any): top-level "channels": [{"name", "cameras"}], which channels the map
+/// stores per cell and per hazard, and which cameras gave them.
 void writeHazardsJson(const std::filesystem::path& path, const std::vector<Hazard>& hazards,
-                      double voxel_size);
+                      double voxel_size, const std::vector<HazardChannelInfo>& channels = {});
 /// hazards.csv: one row per hazard; frames as "first-last;first-last"; after max_property, two
 /// columns per named channel, NAME_mean and NAME_max (empty when no value). Atomic.
 void writeHazardsCsv(const std::filesystem::path& path, const std::vector<Hazard>& hazards);
-std::string hazardsJson(const std::vector<Hazard>& hazards, double voxel_size, int indent = 2);
+std::string hazardsJson(const std::vector<Hazard>& hazards, double voxel_size, int indent = 2,
+                        const std::vector<HazardChannelInfo>& channels = {});
 /// Reads hazards.json back (the fields above; frames are kept as ranges). Throws hazmap::Error
 /// naming the file on a missing file, broken JSON or a missing field.
 std::vector<Hazard> readHazardsJson(const std::filesystem::path& path);

@@ -2,6 +2,7 @@
 // Everything a run writes about its map, in one call: map.ply, map.pcd, hazards.json,
 // hazards.csv, map_top.png, trajectory.png and viewer.html (all atomic), so `hazmap run`,
 // `hazmap demo` and library users produce the same files.
+#include <map>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -26,6 +27,9 @@ struct MapOutputConfig {
   bool write_viewer = false;
   ViewerConfig viewer;
   std::string viewer_title;  ///< empty = top_down.title
+  /// Per camera channel, the cameras that gave it (hazards.json's `channels`); channels of
+  /// the map not listed here are reported without cameras.
+  std::map<std::string, std::vector<std::string>> channel_cameras;
 };
 
 struct MapOutputs {

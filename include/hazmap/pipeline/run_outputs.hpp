@@ -5,6 +5,7 @@
 //   run.json.
 // The map is assembled in a second pass over the scans with the final poses; when the recording
 // has ground truth the same pass measures the paper's map error (Table 2) and the ATE.
+#include <map>
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -30,6 +31,8 @@ struct OutputConfig {
   double render_clip_above_sensor = 1.5;
   bool write_pngs = true;
   bool write_viewer = true;  ///< viewer.html, the map in 3D in a browser (`hazmap view`)
+  /// Per camera channel, the cameras that gave it (hazards.json's `channels`; hazmap run --camera).
+  std::map<std::string, std::vector<std::string>> channel_cameras;
 };
 
 struct RunSummary {

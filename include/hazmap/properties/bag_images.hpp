@@ -1,5 +1,5 @@
 #pragma once
-// Property images from a bag's sensor_msgs/Image topic (MCAP, rosbag2, ROS 1), decoded into the
+// Property images from a bag's sensor_msgs/Image or CompressedImage topic (MCAP, rosbag2, ROS 1), decoded into the
 // camera's channel units; stamps are the messages' header stamps (the camera's clock).
 #include <filesystem>
 #include <memory>

@@ -15,7 +15,11 @@
 namespace hazmap {
 
 struct LabelOptions {
-  std::vector<std::filesystem::path> cameras;  ///< camera.yaml files (images next to them or `images:`)
+  /// camera.yaml files (images next to them or `images:`) or rig files listing several
+  std::vector<std::filesystem::path> cameras;
+  /// With image_bag: one topic per entry of `cameras` (not for rig files), over the YAML's
+  /// `topic:`; empty = each camera's own `topic:`.
+  std::vector<std::string> image_topics;
   std::filesystem::path rules;                 ///< empty = built-in rules for the cameras' channels
   /// A bag whose image topics feed the cameras that name a `topic:` and no `images:` folder.
   std::filesystem::path image_bag;
@@ -49,7 +53,10 @@ struct ClassLabelMetrics {
 struct LabelReport {
   std::size_t frames = 0, points = 0;
   std::vector<std::string> channels;
+  /// Per channel, the cameras (camera_name of each calibration) that gave it, in order.
+  std::map<std::string, std::vector<std::string>> channel_cameras;
   ProjectionStats projection;
+  std::size_t in_view_points = 0;  ///< points inside at least one camera's image (stats count per camera)
   std::size_t images_missing = 0;  ///< (frame, camera) pairs without an image within the tolerance
   std::size_t valued = 0;          ///< points with a value after view fusion (= observed without it)
   bool fused = false;              ///< view fusion was applied
@@ -63,7 +70,8 @@ struct LabelReport {
 /// topic for a camera with `topic:` and no `images:`.
 PropertyLabeler makeLabeler(const std::vector<std::filesystem::path>& cameras, const std::filesystem::path& rules,
                             const ClassTable& table, const LabelerConfig& config,
-                            const std::filesystem::path& image_bag = {});
+                            const std::filesystem::path& image_bag = {},
+                            const std::vector<std::string>& image_topics = {});
 /// Scan times of a sequence: times.txt (one per scan). Throws naming the file if missing/short.
 std::vector<double> readScanTimes(const Sequence& sequence);
 /// Labels every frame of `sequence_dir` and writes the labelled sequence to `out_dir`

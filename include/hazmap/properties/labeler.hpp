@@ -23,6 +23,8 @@
 
 namespace hazmap {
 
+class VoxelHashIndex;  // preprocess/spatial_index.hpp (normals of the footprints)
+
 /// Where a camera's images come from (a folder, a bag topic, memory).
 class ImageSource {
  public:
@@ -87,6 +89,10 @@ struct ScanLabels {
   std::vector<std::vector<float>> footprint;
   /// With footprints: each observed point's PCA normal (LiDAR frame; zero = none).
   std::vector<Eigen::Vector3f> normals;
+  /// Per channel shared by several cameras (a rig): the camera whose value each point took
+  /// (the smallest footprint with footprints on, else the first camera that saw it); empty
+  /// for a channel with one camera.
+  std::vector<std::vector<std::uint8_t>> source_camera;
   std::vector<ClassId> classes;
   std::vector<std::uint8_t> in_view;  ///< 1 where the point lies inside some camera's image
   /// Per camera: the image used (-1 = none within the tolerance) and where it was taken.
@@ -105,6 +111,8 @@ class PropertyLabeler {
   const std::vector<std::string>& channels() const { return channels_; }
   /// Index into channels() of camera c's channel.
   int cameraChannel(std::size_t c) const { return camera_channel_.at(c); }
+  /// How many cameras give channel ch.
+  std::size_t camerasOfChannel(std::size_t ch) const;
   const std::vector<CameraInput>& cameras() const { return cameras_; }
   const PropertyRules& rules() const { return rules_; }
   const LabelerConfig& config() const { return config_; }
@@ -125,6 +133,9 @@ class PropertyLabeler {
   std::vector<int> camera_channel_;  ///< per camera: index into channels_
   std::vector<std::string> channels_;
   PropertyRules rules_;
+  void observeCamera(std::size_t c, const LabeledCloud& scan, const PropertyImage& image,
+                     const Eigen::Isometry3d& T_camera_scan, ProjectionScratch& scratch,
+                     std::unique_ptr<VoxelHashIndex>& index, ScanLabels& out) const;
   LabelerConfig config_;
 };
 

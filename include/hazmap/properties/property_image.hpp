@@ -37,10 +37,18 @@ Gray16 decodeGray16(const std::vector<std::uint8_t>& bytes, const std::string& w
 
 /// Raw pixels → channel values (integer encoding: raw · scale + offset).
 PropertyImage toPropertyImage(const Gray16& raw, const PropertyChannel& channel, double stamp);
-/// A sensor_msgs/Image in the channel's units: mono16/16UC1 and mono8/8UC1 through scale and
-/// offset, 32FC1 through float_offset. Throws hazmap::Error naming `where` for an unsupported
-/// encoding, a size other than the camera's, or a data length that does not match step·height.
+/// A sensor_msgs/Image in the channel's units: mono16/16UC1/16SC1 and mono8/8UC1 through scale
+/// and offset, 32FC1/64FC1 through float_offset, rgb8/bgr8/rgba8/bgra8 as their luminance
+/// (0..255, Rec. 601) through scale and offset. Throws hazmap::Error naming `where` for an
+/// unsupported encoding (naming it), a size other than the camera's, or a data length that
+/// does not match step·height.
 PropertyImage imageFromMessage(const ImageMsg& msg, const CameraCalibration& camera, const std::string& where);
+/// A sensor_msgs/CompressedImage: PNG (16-bit grayscale keeps its counts, through scale and
+/// offset like mono16; 8-bit like mono8) or JPEG (8-bit; colour as its luminance). Throws
+/// naming `where` for another format (naming it), bytes that are not the format said, a
+/// size other than the camera's.
+PropertyImage imageFromCompressed(const CompressedImageMsg& msg, const CameraCalibration& camera,
+                                  const std::string& where);
 
 /// A folder of NNNNNN.png (or .tif/.tiff) with times.txt (one stamp per image, sorted by name).
 class ImageFolder {

@@ -10,6 +10,8 @@
 // and every point of the voxel is sampled in that view's image at its own position. Views are
 // shared within a voxel only between points whose normals face the same way (the dominant axis
 // of the world normal), so a wall does not borrow the view of the panel's side on it.
+// With a camera rig (several cameras of one channel) a view is a (scan, camera) pair, so a
+// point several cameras see takes the one with the smallest footprint, in its own scan or not.
 //
 // The same pass gives values to points the current image does not cover but a nearby scan's
 // image did: the camera looks forward, and what the robot passes was in front of it a few
@@ -48,8 +50,9 @@ class ViewFusion {
   /// Frames are added in increasing order.
   void add(std::size_t frame, const LabeledCloud& scan, const Eigen::Isometry3d& T_world_scan, double travelled,
            const ScanLabels& labels);
-  /// After all frames were added: per point and channel (index i·channels + c) the frame whose
-  /// view of the point's voxel is best within the window, -1 for none. Thread-safe.
+  /// After all frames were added: per point and channel (index i·channels + c) the view of
+  /// the point's voxel that is best within the window, frame · cameras + camera (cameras =
+  /// the labeler's camera count), -1 for none. Thread-safe.
   std::vector<std::int32_t> bestFrames(std::size_t frame, const LabeledCloud& scan) const;
   /// Replaces the channel values (and edge-guard ranges) of every point of scan `frame`
   /// (`labels` as observed for it) by samples in its best view's image; a point no view within
@@ -63,6 +66,7 @@ class ViewFusion {
     std::uint32_t frame;
     std::uint16_t channel;
     std::uint8_t facing;
+    std::uint8_t camera;  ///< the camera of the rig that gave this view
   };
   struct Placement {
     Eigen::Isometry3d T_world_scan;

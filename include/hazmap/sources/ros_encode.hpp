@@ -14,6 +14,7 @@ namespace hazmap {
 std::vector<std::uint8_t> encodePointCloud2(const PointCloud2& msg, bool big_endian = false);
 std::vector<std::uint8_t> encodeOdometry(const OdometryMsg& msg, bool big_endian = false);
 std::vector<std::uint8_t> encodeImage(const ImageMsg& msg, bool big_endian = false);
+std::vector<std::uint8_t> encodeCompressedImage(const CompressedImageMsg& msg, bool big_endian = false);
 /// geometry_msgs/msg/PoseStamped.
 std::vector<std::uint8_t> encodePoseStamped(const RosHeader& header, const Eigen::Isometry3d& pose,
                                             bool big_endian = false);

@@ -51,6 +51,14 @@ struct ImageMsg {
   std::vector<std::uint8_t> data;
 };
 
+/// sensor_msgs/CompressedImage: `format` as image_transport writes it ("png", "jpeg",
+/// "mono16; png compressed", "bgr8; jpeg compressed bgr8"), `data` the encoded file.
+struct CompressedImageMsg {
+  RosHeader header;
+  std::string format;
+  std::vector<std::uint8_t> data;
+};
+
 /// One raw UDP payload of a Velodyne (velodyne_msgs/VelodynePacket) or an Ouster
 /// (ouster_ros/PacketMsg) sensor.
 struct LidarPacket {
@@ -68,6 +76,7 @@ PointCloud2 decodePointCloud2(std::span<const std::uint8_t> bytes, Serialization
 OdometryMsg decodeOdometry(std::span<const std::uint8_t> bytes, Serialization s,
                            const std::string& where);
 ImageMsg decodeImage(std::span<const std::uint8_t> bytes, Serialization s, const std::string& where);
+CompressedImageMsg decodeCompressedImage(std::span<const std::uint8_t> bytes, Serialization s, const std::string& where);
 VelodyneScanMsg decodeVelodyneScan(std::span<const std::uint8_t> bytes, Serialization s,
                                    const std::string& where);
 /// pandar_msgs/msg/PandarScan (the Hesai drivers' packet topic): header, PandarPacket[] with
