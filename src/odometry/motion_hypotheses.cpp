@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "hazmap/core/se3.hpp"
+#include "hazmap/core/stable_sort.hpp"
 #include "hazmap/registration/registration.hpp"
 
 namespace hazmap {
@@ -108,7 +109,12 @@ void sweepYaw(std::vector<Candidate>& cands, Candidate centre, double range) {  
 std::vector<Candidate> refineBest(std::vector<Candidate> cands, const LabeledCloud& sample,
                                   const RegistrationTarget& target, const Eigen::Isometry3d& previous,
                                   const ClassTable& classes, const RegistrationConfig& icp) {
-  std::stable_sort(cands.begin() + 1, cands.end(), [](const Candidate& a, const Candidate& b) { return a.score > b.score; });
+  // Candidate holds an Isometry3d: not std::stable_sort (its scratch buffer is under-aligned for
+  // -march=native Eigen; include/hazmap/core/stable_sort.hpp). The guess stays first.
+  const Candidate guess = cands.front();
+  cands.erase(cands.begin());
+  stableSortAligned(cands, [](const Candidate& a, const Candidate& b) { return a.score > b.score; });
+  cands.insert(cands.begin(), guess);
   cands.resize(std::min(cands.size(), kRefined + 1));
   RegistrationConfig rc = icp;
   rc.max_iterations = kRefineIterations;
