@@ -4,14 +4,13 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <fstream>
 #include <numbers>
 #include <random>
-#include <sstream>
 
 #include "hazmap/core/config_fields.hpp"
 #include "hazmap/core/error.hpp"
 #include "hazmap/io/pcd.hpp"
+#include "hazmap/io/trajectory.hpp"
 #include "hazmap/registration/global_registration.hpp"
 #include "hazmap/sources/scan_source.hpp"
 #include "hazmap/io/transform_file.hpp"
@@ -152,14 +151,6 @@ std::vector<LabeledCloud> readScans(const std::filesystem::path& path) {
   return out;
 }
 
-Eigen::Isometry3d kittiPoseRow(const std::string& line) {
-  std::istringstream in(line);
-  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 4; ++c) in >> T.matrix()(r, c);
-  return T;
-}
-
 }  // namespace
 
 TEST(GlobalRegistration, RealVlp16ScansRecoverJumps) {
@@ -181,9 +172,7 @@ TEST(GlobalRegistration, RealOusterScansMatchTheSdkPoses) {
   const auto dir = hazmap::test::sharedData("sensors/ouster-os1-128");
   const auto scans = readScans(dir / "OS-1-128_v2.3.0_1024x10_lb_n3.pcap");
   ASSERT_EQ(scans.size(), 3u);
-  std::ifstream in(dir / "OS-1-128_v2.3.0_1024x10_lb_n3_poses_kitti.txt");
-  std::vector<Eigen::Isometry3d> poses;
-  for (std::string line; std::getline(in, line);) poses.push_back(kittiPoseRow(line));
+  const auto poses = readKittiTrajectory(dir / "OS-1-128_v2.3.0_1024x10_lb_n3_poses_kitti.txt").poses;
   ASSERT_EQ(poses.size(), 3u);
   const Eigen::Isometry3d reference = poses[0].inverse() * poses[2];
   const ClassTable table = ClassTable::defaults();

@@ -2,12 +2,11 @@
 
 #include <cmath>
 #include <cstdio>
-#include <fstream>
-#include <sstream>
 
 #include "hazmap/core/error.hpp"
 #include "hazmap/core/se3.hpp"
 #include "hazmap/io/kitti.hpp"
+#include "hazmap/io/trajectory.hpp"
 #include "hazmap/registration/registration.hpp"
 #include "hazmap/sources/scan_source.hpp"
 
@@ -43,14 +42,6 @@ std::vector<Eigen::Isometry3d> fineChain(const std::vector<LabeledCloud>& scans,
   return poses;
 }
 
-Eigen::Isometry3d kittiRow(const std::string& line) {
-  std::istringstream in(line);
-  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 4; ++c) in >> T.matrix()(r, c);
-  return T;
-}
-
 }  // namespace
 
 Sequence kittiSequence(const std::filesystem::path& data, const ClassTable& table, int first, int count) {
@@ -75,9 +66,8 @@ Sequence ousterSequence(const std::filesystem::path& data) {
   const auto dir = data / "sensors" / "ouster-os1-128";
   auto src = openScanSource(dir / "OS-1-128_v2.3.0_1024x10_lb_n3.pcap");
   while (auto scan = src->next()) s.scans.push_back(std::move(scan->cloud));
-  std::ifstream in(dir / "OS-1-128_v2.3.0_1024x10_lb_n3_poses_kitti.txt");
-  for (std::string line; std::getline(in, line);)
-    if (!line.empty()) s.poses.push_back(kittiRow(line));
+  const Trajectory sdk = readKittiTrajectory(dir / "OS-1-128_v2.3.0_1024x10_lb_n3_poses_kitti.txt");
+  s.poses.assign(sdk.poses.begin(), sdk.poses.end());
   if (s.poses.size() != s.scans.size()) fail(dir.string(), "poses and scans differ in number");
   s.reference = "ouster-sdk's poses";
   return s;
