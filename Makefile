@@ -47,5 +47,12 @@ native: deps
 	@cmake --build build-native -j $(JOBS)
 	@cd build-native && ctest --output-on-failure -j $(JOBS)
 
+# libFuzzer with ASan + UBSan (clang, a build folder of its own): each target a few seconds
+# (HAZMAP_FUZZ_SECONDS) on the seed corpus of the real shared data. `make test` replays the same
+# targets' seeds and mutants in the normal build (fuzz/replay) instead.
+fuzz: configure
+	@bash scripts/install-deps.sh --fuzz
+	@bash scripts/fuzz-smoke.sh $(CURDIR) $(abspath $(BUILD_DIR))
+
 clean:
 	rm -rf $(BUILD_DIR) build-asan build-native

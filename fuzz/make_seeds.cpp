@@ -7,6 +7,8 @@
 #include <fstream>
 #include <iostream>
 
+#include "hazmap/core/config_fields.hpp"
+#include "hazmap/core/property_icp_config.hpp"
 #include "hazmap/io/atomic_file.hpp"
 #include "hazmap/io/kitti.hpp"
 #include "hazmap/io/pcd.hpp"
@@ -54,7 +56,7 @@ int main(int argc, char** argv) {
   }
   const fs::path data = argv[1], source = argv[2], out = argv[3];
   try {
-    for (const char* d : {"pcd", "ply", "kitti", "trajectory", "class_table", "hazards_json"})
+    for (const char* d : {"pcd", "ply", "kitti", "trajectory", "class_table", "hazards_json", "config"})
       fs::create_directories(out / d);
     const auto scan = readKittiScan(data / "kitti-semantic-sample/velodyne/000000.bin",
                                     data / "kitti-semantic-sample/labels/000000.label", ClassTable::defaults());
@@ -125,6 +127,13 @@ int main(int argc, char** argv) {
 
     for (const auto& e : fs::directory_iterator(source / "config/classes"))
       fs::copy_file(e.path(), out / "class_table" / e.path().filename(), fs::copy_options::overwrite_existing);
+    // fuzz_config: the property_icp section as the config mechanism writes it, bare and under
+    // its section key, with the class-radius map filled.
+    PropertyIcpConfig icp;
+    icp.mismatch_penalty = 0.5;
+    icp.class_radius = {{"wall", 0.3}, {"hot", 1.2}};
+    writeTextAtomically(out / "config/defaults.yaml", configToYaml(PropertyIcpConfig{}));
+    writeTextAtomically(out / "config/section.yaml", configToYaml(icp, "property_icp"));
     // hazards.json as `hazmap run` writes it (two hazards of the demo's map).
     writeTextAtomically(out / "hazards_json/hazards.json", R"({"count": 2, "voxel_size": 0.1, "hazards": [
  {"id": 1, "class": "heat", "class_id": 1, "kind": "heat", "centroid": [12.59, 1.39, 0.21],

@@ -111,7 +111,7 @@ int main(int argc, char** argv) {
 
   std::ifstream json(data / "ouster-os1-128/OS-1-128_v2.3.0_1024x10.json");
   std::string text((std::istreambuf_iterator<char>(json)), std::istreambuf_iterator<char>());
-  Bytes meta{0};
+  Bytes meta(1, 0);
   meta.insert(meta.end(), text.begin(), text.end());
   write(out / "ouster/os1-128-metadata", meta);
   std::uint8_t mode = 1;

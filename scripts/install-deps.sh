@@ -2,13 +2,14 @@
 # Installs the Debian 12 packages hazmap needs. A no-op when they are all present.
 #   scripts/install-deps.sh          build + test dependencies
 #   scripts/install-deps.sh --peers  also PCL and Open3D (benchmarks only)
+#   scripts/install-deps.sh --fuzz   also clang and its libFuzzer runtime (`make fuzz` only)
 set -euo pipefail
 packages=(
   build-essential cmake pkg-config ninja-build
   libeigen3-dev libtbb-dev libceres-dev libsuitesparse-dev libnanoflann-dev
   libcli11-dev libyaml-cpp-dev libfmt-dev libspdlog-dev libstb-dev libembree-dev
   nlohmann-json3-dev libgtest-dev libgmock-dev libbenchmark-dev robin-map-dev
-  pcl-tools clang libclang-rt-14-dev
+  pcl-tools
   libsqlite3-dev libzstd-dev liblz4-dev libbz2-dev zlib1g-dev
   libpcap-dev
   libcairo2-dev fonts-dejavu-core libjs-three chromium
@@ -16,6 +17,8 @@ packages=(
 )
 if [[ "${1:-}" == "--peers" ]]; then
   packages+=(libpcl-dev libopen3d-dev)
+elif [[ "${1:-}" == "--fuzz" ]]; then
+  packages+=(clang libclang-rt-14-dev)
 fi
 missing=()
 for p in "${packages[@]}"; do

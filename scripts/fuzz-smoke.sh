@@ -1,9 +1,11 @@
 #!/usr/bin/env bash
-# CI-sized fuzz smoke run: builds the libFuzzer targets (fuzz/) with clang in a separate build
+# `make fuzz`: builds the libFuzzer targets (fuzz/) with clang, ASan and UBSan in a separate build
 # folder and runs each for a few seconds on a seed corpus made from the real shared data.
-# Skips (passes with a message) when clang or its fuzzer runtime is missing.
-# Args: SOURCE_DIR BINARY_DIR HAZMAP_CLI. Env: HAZMAP_FUZZ_SECONDS (per target, default 5),
-# HAZMAP_SHARED_DATA_DIR (CTest sets it; default SOURCE_DIR/../shared/data).
+# Skips (passes with a message) when clang or its fuzzer runtime is missing
+# (`scripts/install-deps.sh --fuzz` installs them). `make test` runs the same targets without
+# clang: fuzz/replay (seeds and deterministic mutants, in the normal build).
+# Args: SOURCE_DIR BINARY_DIR. Env: HAZMAP_FUZZ_SECONDS (per target, default 5),
+# HAZMAP_SHARED_DATA_DIR (default SOURCE_DIR/../shared/data).
 set -euo pipefail
 src=$1; bin=$2
 data=${HAZMAP_SHARED_DATA_DIR:-$src/../shared/data}
