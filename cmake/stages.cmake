@@ -42,7 +42,7 @@ set(HAZMAP_STAGE_LINKS_properties preprocess)
 # Third-party libraries: private to the stages (a static library passes them on as link-only).
 set(HAZMAP_STAGE_THIRD_PARTY TBB::tbb Ceres::ceres yaml-cpp fmt::fmt spdlog::spdlog embree nanoflann::nanoflann
   nlohmann_json::nlohmann_json ${STB_LIBRARY} ${CAIRO_LIBRARY} SQLite::SQLite3 PkgConfig::ZSTD
-  PkgConfig::LZ4 BZip2::BZip2 ZLIB::ZLIB ${PCAP_LIBRARY})
+  PkgConfig::LZ4 BZip2::BZip2 ZLIB::ZLIB ${PCAP_LIBRARY} ${CIVETWEB_LIBRARY})
 
 # A symbolic link `link` -> `target`, replacing whatever `link` was.
 function(hazmap_stage_link target link)
@@ -108,7 +108,7 @@ foreach(stage ${HAZMAP_STAGES})
   hazmap_stage_tree(${stage} tree)
   target_include_directories(hazmap_${stage}
     PUBLIC $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}>
-    PRIVATE ${tree}/include ${tree}/src ${STB_INCLUDE_DIR} ${CAIRO_INCLUDE_DIR} ${PCAP_INCLUDE_DIR})
+    PRIVATE ${tree}/include ${tree}/src ${STB_INCLUDE_DIR} ${CAIRO_INCLUDE_DIR} ${PCAP_INCLUDE_DIR} ${CIVETWEB_INCLUDE_DIR})
   set(links)
   foreach(used ${HAZMAP_STAGE_USES_${stage}} ${HAZMAP_STAGE_LINKS_${stage}})
     list(APPEND links hazmap_${used})

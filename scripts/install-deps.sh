@@ -11,7 +11,7 @@ packages=(
   nlohmann-json3-dev libgtest-dev libgmock-dev libbenchmark-dev robin-map-dev
   pcl-tools
   libsqlite3-dev libzstd-dev liblz4-dev libbz2-dev zlib1g-dev
-  libpcap-dev
+  libpcap-dev libcivetweb-dev
   libcairo2-dev fonts-dejavu-core libjs-three chromium
   python3-dev python3-pybind11 python3-pytest python3-numpy python3-dask python3-distributed
 )
