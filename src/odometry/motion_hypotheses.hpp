@@ -28,10 +28,13 @@ struct HypothesisInputs {
 };
 
 /// The tracking checks' correction limits (max_correction_*): ICP from the guess that must travel
-/// farther fails them.
+/// farther fails them; and the platform's plausible motion per frame (recovery.max_*), which
+/// bounds the starts tried.
 struct HypothesisLimits {
   double max_translation = 1.0;  ///< m
   double max_rotation = 0.2;     ///< rad
+  double plausible_translation = 4.0;  ///< m
+  double plausible_rotation = 1.6;     ///< rad
 };
 
 struct HypothesisChoice {
@@ -42,6 +45,9 @@ struct HypothesisChoice {
   double guess_score = 0.0;    ///< the guess's score (share of sampled points near a target point)
   double score = 0.0;          ///< the chosen start's
   int scored = 0;              ///< hypotheses scored
+  /// Nearest-target searches made (each scored or refined sample point once per pass): the work,
+  /// independent of the machine (tests/test_tracking_stress.cpp compares it across frames).
+  std::size_t searches = 0;
   double ms = 0.0;
 };
 

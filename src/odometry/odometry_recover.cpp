@@ -391,8 +391,11 @@ std::optional<Odometry::Recovery> Odometry::recover(OdometryFrame& f, const Labe
   // ends 1.0003 m from the guess: beyond the tracking limit, well within a seed's; naraha s1).
   else
     check(from_guess, guess, "ICP from the guess as a seed", false, false);
-  for (const Start& s : starts)
-    check(registerClouds(source, target, s.pose, classes_, config_.registration), s.pose, s.name, false, s.probe);
+  for (const Start& s : starts) {
+    RegistrationResult r = registerClouds(source, target, s.pose, classes_, config_.registration);
+    f.searches += icpSearches(r, config_.registration);
+    check(std::move(r), s.pose, s.name, false, s.probe);
+  }
   f.global.milliseconds = msSince(t);
   if (verified.empty()) {
     f.global.outcome += (f.global.outcome.empty() ? "" : "; ") + std::string("nothing verified (") + rejected + ")";
