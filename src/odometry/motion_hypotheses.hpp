@@ -2,11 +2,13 @@
 // The tracking guess after a sudden turn (issue 35): the constant-velocity guess is
 // scored against the registration target with a few hundred source points; when it fits clearly
 // worse than the starts of the frames before, zero motion, the last translation without its turn,
-// an IMU rotation (when one is given) and a yaw
-// sweep around the best of them are scored too and the best few refined by a short ICP of the
-// sampled points. The full ICP starts from another start only when the guess lies in a wrong basin
-// (its own refinement fits clearly worse) or must travel beyond the tracking checks' limits. The score is geometric only (nearest target
-// point of any class): the labels act in the ICP that follows, so they can only help there.
+// an IMU rotation (when one is given), a yaw sweep over the plausible turn around the best of
+// them, the last increment repeated (frames dropped) or, with no motion known yet, a grid of
+// horizontal steps are scored too and the best few refined by a short ICP of the sampled points.
+// The full ICP starts from another start only when the guess lies in a wrong basin (its own
+// refinement fits clearly worse) or must travel beyond the tracking checks' limits. The score is
+// geometric only (nearest target point of any class): the labels act in the ICP that follows,
+// so they can only help there.
 #include <Eigen/Geometry>
 #include <optional>
 #include <string>
