@@ -21,6 +21,8 @@ static void show(const stress::Sequence& seq) {
     std::printf("  step %zu turns %5.1f deg: hazmap %6.3f m %6.3f deg %7.0f ms [%s] | KISS %6.3f m %6.3f deg\n", i + 1,
                 eh[i].reference_yaw_deg, eh[i].translation, eh[i].rotation_deg, h.ms[i + 1], h.notes[i + 1].c_str(),
                 ek[i].translation, ek[i].rotation_deg);
+  for (std::size_t i = 1; i < h.details.size(); ++i)
+    if (!h.details[i].empty()) std::printf("  scan %zu recovery: %s\n", i, h.details[i].c_str());
 }
 
 int main(int argc, char** argv) {

@@ -33,6 +33,11 @@ constexpr double kCoarseYawStep = 10.0 * M_PI / 180.0;
 /// A scan with fewer points than this keeps its guess: too few to tell hypotheses apart (a
 /// 30-point scan was "tracked" from a refined start instead of recovered or flagged).
 constexpr std::size_t kMinScanPoints = 200;
+/// m; the translation grid's step when no motion is known yet (the first step, frames dropped
+/// before it): a start within half a diagonal (0.7 m) of the right one converges in the refinement.
+constexpr double kGridStep = 1.0;
+/// Frames dropped in a row that constant velocity is repeated for (within the plausible travel).
+constexpr int kMaxRepeats = 8;
 /// Weight of a new frame in the running score.
 constexpr double kTypicalWeight = 0.2;
 /// The best-scoring starts refined by a short ICP of the sampled points: a raw score ranks a
@@ -82,8 +87,22 @@ std::size_t bestOf(const std::vector<Candidate>& cands) {
   return best;
 }
 
+// Frames dropped since the last one: the last increment repeated n times, while that stays a
+// plausible motion (a still carrier's repeats are no hypothesis; a turn's are a spin).
+void addRepeats(std::vector<Candidate>& cands, const Eigen::Isometry3d& last, const HypothesisLimits& limits) {
+  if (translationNorm(last) < 0.5 * kGridStep) return;
+  Eigen::Isometry3d T = last;
+  for (int n = 2; n <= kMaxRepeats; ++n) {
+    T = T * last;
+    if (translationNorm(T) > limits.plausible_translation || n * rotationAngle(last) > limits.plausible_rotation) return;
+    char s[48];
+    std::snprintf(s, sizeof s, "last increment x%d (frames dropped)", n);
+    cands.push_back({T, s});
+  }
+}
+
 // The hypotheses besides the guess: zero motion, the last translation without its turn, the
-// the IMU's rotation with the guess's translation.
+// IMU's rotation with the guess's translation.
 void addBaseHypotheses(std::vector<Candidate>& cands, const HypothesisInputs& in) {
   cands.push_back({Eigen::Isometry3d::Identity(), "zero motion"});
   if (in.last_increment) {
@@ -104,11 +123,27 @@ void sweepYaw(std::vector<Candidate>& cands, Candidate centre, double range) {  
     for (double s : {yaw, -yaw}) cands.push_back({yawed(centre.increment, s), sweepName(s)});
 }
 
+// No motion known yet: horizontal steps of kGridStep within the plausible travel around `centre`
+// (at its turn), in the previous frame.
+void addTranslationGrid(std::vector<Candidate>& cands, Candidate centre, double reach) {  // a copy: cands grows
+  const int n = static_cast<int>(std::floor(reach / kGridStep));
+  for (int i = -n; i <= n; ++i)
+    for (int j = -n; j <= n; ++j) {
+      const Eigen::Vector3d step(i * kGridStep, j * kGridStep, 0.0);
+      if ((i == 0 && j == 0) || step.norm() > reach) continue;
+      Eigen::Isometry3d T = centre.increment;
+      T.translation() += step;
+      char s[64];
+      std::snprintf(s, sizeof s, "translation grid %+.0f %+.0f m", step.x(), step.y());
+      cands.push_back({T, s});
+    }
+}
+
 // The guess and the kRefined best other candidates, each refined by a short ICP of the sample
 // (registration space ← previous frame `previous`) and scored again; the guess stays first.
 std::vector<Candidate> refineBest(std::vector<Candidate> cands, const LabeledCloud& sample,
                                   const RegistrationTarget& target, const Eigen::Isometry3d& previous,
-                                  const ClassTable& classes, const RegistrationConfig& icp) {
+                                  const ClassTable& classes, const RegistrationConfig& icp, std::size_t& searches) {
   // Candidate holds an Isometry3d: not std::stable_sort (its scratch buffer is under-aligned for
   // -march=native Eigen; include/hazmap/core/stable_sort.hpp). The guess stays first.
   const Candidate guess = cands.front();
@@ -121,13 +156,17 @@ std::vector<Candidate> refineBest(std::vector<Candidate> cands, const LabeledClo
   rc.coarse_source_points = 0;
   rc.max_source_points = 0;
   rc.threads = 1;  // the candidates run in parallel
+  std::vector<int> passes(cands.size(), 0);
   tbb::parallel_for(std::size_t{0}, cands.size(), [&](std::size_t i) {
     const RegistrationResult r = registerClouds(sample, target, previous * cands[i].increment, classes, rc);
+    passes[i] = r.iterations;
     if (r.termination != Termination::Converged && r.termination != Termination::MaxIterations) return;
+    ++passes[i];  // scored again
     cands[i].increment = previous.inverse() * r.transform;
     cands[i].score = hypothesisScore(sample, target, r.transform);
     cands[i].name += ", refined";
   });
+  for (const int p : passes) searches += static_cast<std::size_t>(p) * sample.size();
   return cands;
 }
 
@@ -178,11 +217,19 @@ HypothesisChoice MotionHypotheses::choose(const LabeledCloud& source, const Regi
     addBaseHypotheses(cands, in);
     scoreAll(cands, 1, sample, target, previous);
     const std::size_t base = cands.size();
-    sweepYaw(cands, cands[bestOf(cands)], config.yaw_range);
+    sweepYaw(cands, cands[bestOf(cands)], std::min(config.yaw_range, limits.plausible_rotation));
     scoreAll(cands, base, sample, target, previous);
+    // Frames dropped: not a centre for the sweep (along a street a step farther scores nearly as
+    // well, and a turn swept there started ICP 2.7 m off: KITTI turned 30 deg).
+    const std::size_t swept = cands.size();
+    if (in.last_increment) addRepeats(cands, *in.last_increment, limits);
+    else addTranslationGrid(cands, cands[bestOf(cands)], limits.plausible_translation);
+    scoreAll(cands, swept, sample, target, previous);
     out.scored = static_cast<int>(cands.size());
+    out.searches = cands.size() * sample.size();
     const Candidate guess = cands[0];
-    const std::vector<Candidate> refined = refineBest(std::move(cands), sample, target, previous, classes, icp);
+    const std::vector<Candidate> refined =
+        refineBest(std::move(cands), sample, target, previous, classes, icp, out.searches);
     if (const Candidate* start = pickStart(guess, refined, limits)) {
       out.increment = start->increment;
       out.name = start->name;
@@ -190,6 +237,7 @@ HypothesisChoice MotionHypotheses::choose(const LabeledCloud& source, const Regi
       out.replaced = true;
     }
   }
+  if (!out.searched) out.searches = sample.size();
   typical_ = typical_ > 0.0 ? (1.0 - kTypicalWeight) * typical_ + kTypicalWeight * out.score : out.score;
   out.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   return out;

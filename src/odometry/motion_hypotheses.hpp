@@ -2,11 +2,13 @@
 // The tracking guess after a sudden turn (issue 35): the constant-velocity guess is
 // scored against the registration target with a few hundred source points; when it fits clearly
 // worse than the starts of the frames before, zero motion, the last translation without its turn,
-// an IMU rotation (when one is given) and a yaw
-// sweep around the best of them are scored too and the best few refined by a short ICP of the
-// sampled points. The full ICP starts from another start only when the guess lies in a wrong basin
-// (its own refinement fits clearly worse) or must travel beyond the tracking checks' limits. The score is geometric only (nearest target
-// point of any class): the labels act in the ICP that follows, so they can only help there.
+// an IMU rotation (when one is given), a yaw sweep over the plausible turn around the best of
+// them, the last increment repeated (frames dropped) or, with no motion known yet, a grid of
+// horizontal steps are scored too and the best few refined by a short ICP of the sampled points.
+// The full ICP starts from another start only when the guess lies in a wrong basin (its own
+// refinement fits clearly worse) or must travel beyond the tracking checks' limits. The score is
+// geometric only (nearest target point of any class): the labels act in the ICP that follows,
+// so they can only help there.
 #include <Eigen/Geometry>
 #include <optional>
 #include <string>
@@ -28,10 +30,13 @@ struct HypothesisInputs {
 };
 
 /// The tracking checks' correction limits (max_correction_*): ICP from the guess that must travel
-/// farther fails them.
+/// farther fails them; and the platform's plausible motion per frame (recovery.max_*), which
+/// bounds the starts tried.
 struct HypothesisLimits {
   double max_translation = 1.0;  ///< m
   double max_rotation = 0.2;     ///< rad
+  double plausible_translation = 4.0;  ///< m
+  double plausible_rotation = 1.6;     ///< rad
 };
 
 struct HypothesisChoice {
@@ -42,6 +47,9 @@ struct HypothesisChoice {
   double guess_score = 0.0;    ///< the guess's score (share of sampled points near a target point)
   double score = 0.0;          ///< the chosen start's
   int scored = 0;              ///< hypotheses scored
+  /// Nearest-target searches made (each scored or refined sample point once per pass): the work,
+  /// independent of the machine (tests/test_tracking_stress.cpp compares it across frames).
+  std::size_t searches = 0;
   double ms = 0.0;
 };
 

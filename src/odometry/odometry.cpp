@@ -174,6 +174,7 @@ const OdometryFrame& Odometry::addFrame(const LabeledCloud& scan,
     if (a.target && config_.motion_hypotheses.enabled && !wheel_increment) seedFromHypotheses(f, a, prepared.source());
     RegistrationResult r = a.target ? registerClouds(prepared.source(), *a.target, a.guess, classes_, config_.registration)
                                     : unregistered("no previous scan to register against");  // 3. register (eq. 2)
+    f.searches += icpSearches(r, config_.registration);
     const Judgement j = judge(f, prepared.source(), a, map_target, r);  // 4. judge: checks, recovery
     place(f, a, j, std::move(r));
   }
@@ -212,9 +213,11 @@ void Odometry::seedFromHypotheses(OdometryFrame& f, Attempt& a, const LabeledClo
   in.guess = f.guess;
   if (impl_->has_velocity) in.last_increment = impl_->velocity;
   const Eigen::Isometry3d previous = a.W.inverse() * a.prev_pose;
-  const HypothesisLimits limits{config_.max_correction_translation, config_.max_correction_rotation};
+  const HypothesisLimits limits{config_.max_correction_translation, config_.max_correction_rotation,
+                                config_.recovery.max_translation, config_.recovery.max_rotation};
   const HypothesisChoice c = impl_->hypotheses.choose(source, *a.target, previous, in, classes_, config_.registration,
                                                       limits, config_.motion_hypotheses);
+  f.searches += c.searches;
   if (!c.replaced || !plausibleMotion(c.increment, config_)) return;
   f.guess = c.increment;
   f.guess_hypothesis = c.name;

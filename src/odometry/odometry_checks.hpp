@@ -164,6 +164,13 @@ inline bool plausibleMotion(const Eigen::Isometry3d& motion, const OdometryConfi
          rotationAngle(motion) <= config.recovery.max_rotation;
 }
 
+/// Nearest-target searches an ICP made (OdometryFrame::searches): each pass of each stage
+/// searches every source point it uses.
+inline std::size_t icpSearches(const RegistrationResult& r, const RegistrationConfig& c) {
+  return static_cast<std::size_t>(r.iterations) * r.stats.source_points +
+         static_cast<std::size_t>(r.coarse_iterations) * c.coarse_source_points;
+}
+
 /// The odometry's global registration settings: its use_classes follows the registration's.
 inline GlobalRegistrationConfig globalConfigOf(const OdometryConfig& config) {
   GlobalRegistrationConfig gc = config.global;

@@ -79,6 +79,12 @@ LabeledCloud nearbyTarget(const LabeledCloud& cloud, const Eigen::Vector3d& cent
   return keep.size() == cloud.size() ? cloud : cloud.select(keep);
 }
 
+// An ICP's answer, its searches added to the frame's work.
+RegistrationResult counted(RegistrationResult r, const OdometryConfig& config, OdometryFrame& f) {
+  f.searches += icpSearches(r, config.registration);
+  return r;
+}
+
 bool distinct(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b, const OdometryConfig& c) {
   const Eigen::Isometry3d d = a.inverse() * b;
   return translationNorm(d) > kDistinctTranslation || rotationAngle(d) > kDistinctRotation;
@@ -389,10 +395,10 @@ std::optional<Odometry::Recovery> Odometry::recover(OdometryFrame& f, const Labe
   if (guess_passed) check(from_guess, guess, "ICP from the guess", true, false);
   // Failed, ICP from the guess is still a seed's answer like the others (a 2 m step guessed as 1 m
   // ends 1.0003 m from the guess: beyond the tracking limit, well within a seed's; naraha s1).
-  else
-    check(from_guess, guess, "ICP from the guess as a seed", false, false);
+  else check(from_guess, guess, "ICP from the guess as a seed", false, false);
   for (const Start& s : starts)
-    check(registerClouds(source, target, s.pose, classes_, config_.registration), s.pose, s.name, false, s.probe);
+    check(counted(registerClouds(source, target, s.pose, classes_, config_.registration), config_, f), s.pose, s.name,
+          false, s.probe);
   f.global.milliseconds = msSince(t);
   if (verified.empty()) {
     f.global.outcome += (f.global.outcome.empty() ? "" : "; ") + std::string("nothing verified (") + rejected + ")";

@@ -34,6 +34,10 @@ TrackRun runHazmap(const Sequence& seq, const ClassTable& table, const OdometryC
     run.ms.push_back(msSince(t));
     run.lost.push_back(f.status == FrameStatus::Fallback);
     run.notes.push_back(std::string(toString(f.status)) + (f.guess_hypothesis.empty() ? "" : ", from " + f.guess_hypothesis));
+    run.searches.push_back(f.searches);
+    run.recovered.push_back(!f.global.trigger.empty());
+    run.details.push_back(f.global.trigger.empty() ? "" : f.global.trigger + " -> " + f.global.outcome + " (" +
+                                                              std::to_string(static_cast<int>(f.global.milliseconds)) + " ms)");
   }
   for (const OdometryFrame& f : odo.frames()) run.poses.push_back(f.pose);  // final values (lost frames re-estimated)
   return run;
@@ -48,6 +52,7 @@ TrackRun runKiss(const Sequence& seq, const baseline::KissIcpConfig& config) {
     run.ms.push_back(msSince(t));
     run.lost.push_back(0);
     run.notes.push_back("");
+    run.details.push_back("");
   }
   return run;
 }

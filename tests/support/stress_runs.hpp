@@ -15,6 +15,9 @@ struct TrackRun {
   std::vector<double> ms;                ///< wall time per scan
   std::vector<char> lost;                ///< the tracker said so (hazmap: fallback); the baseline never does
   std::vector<std::string> notes;        ///< hazmap: status, the hypothesis ICP started from
+  std::vector<std::string> details;      ///< hazmap: a recovery's trigger, outcome and milliseconds
+  std::vector<std::size_t> searches;     ///< hazmap: the frame's work (OdometryFrame::searches)
+  std::vector<char> recovered;           ///< hazmap: the recovery ran (a trigger fired)
   double meanMs() const;
   /// The slowest scan the tracker did not call lost, over the median of those (1 when < 2).
   double worstOverMedian() const;

@@ -11,8 +11,9 @@ struct MotionHypothesisConfig {
   /// translation without its turn and a yaw sweep, and start ICP from the best. Off: the guess
   /// alone, as before issue 35. With wheel odometry the wheels' guess is used as before.
   bool enabled = true;
-  /// rad; the yaw sweep covers ± this around the best of the other hypotheses (0 = no sweep).
-  double yaw_range = 1.05;
+  /// rad; the yaw sweep covers ± this around the best of the other hypotheses (0 = no sweep),
+  /// at most the plausible turn per frame (recovery.max_rotation): a start beyond it is refused.
+  double yaw_range = 3.15;
 };
 
 }  // namespace hazmap

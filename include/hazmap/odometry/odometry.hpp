@@ -180,6 +180,10 @@ struct OdometryFrame {
   /// local map's target build); registration = the rest of the frame (target, ICP, checks, map
   /// update) = total − preprocess.
   double preprocess_ms = 0.0, registration_ms = 0.0, total_ms = 0.0;
+  /// The frame's work, independent of the machine: nearest-target searches of the motion
+  /// hypotheses and of every ICP run for it (tracking and the recovery's starts; a global
+  /// registration's feature work is not counted: global.tried says it ran).
+  std::size_t searches = 0;
 };
 
 /// A scan as tracking enters it into the local map (and registers it, unless source_voxel_size
