@@ -26,7 +26,7 @@ struct LiveOptions {
   std::string sensor;
   int port = -1;  ///< -1: the sensor's standard port
   std::string sensor_metadata, calibration, method = "property-icp+pgo", config, classes, out;
-  double autosave_every = 60.0;
+  double autosave_every = 60.0, queue_mb = 256.0;
   int threads = 0;
   bool no_deskew = false, quiet = false, no_viewer = false;
 };
@@ -106,6 +106,7 @@ void writeLiveRun(LiveScanSource& source, const SlamResult& result, const SlamCo
 void live(const LiveOptions& o, const ParameterOptions& params) {
   const LiveSensor sensor = liveSensorNamed(o.sensor);
   if (o.port < -1 || o.port > 65535) fail("--port", std::to_string(o.port) + " is no UDP port (0-65535)");
+  if (!(o.queue_mb >= 0.01 && o.queue_mb <= 65536)) fail("--queue-mb", "must be in [0.01, 65536] MiB");
   if (!(o.autosave_every >= 0)) fail("--autosave-every", "must be >= 0 seconds (0: no autosave)");
   const SlamConfig config = liveConfig(o, params);
   config.validate();
@@ -116,6 +117,7 @@ void live(const LiveOptions& o, const ParameterOptions& params) {
   if (o.port >= 0) live.port = static_cast<std::uint16_t>(o.port);
   live.spool = out / "live.pcap";
   live.stop = &g_stop;
+  live.queue_bytes = static_cast<std::size_t>(o.queue_mb * 1024 * 1024);
   const auto source = openLiveSource(live, sourceOptions(o, sensor));
   if (!o.sensor_metadata.empty())  // beside the spool, so `hazmap run DIR/live.pcap` finds it
     std::filesystem::copy_file(o.sensor_metadata, out / "live.json", std::filesystem::copy_options::overwrite_existing);
@@ -162,6 +164,8 @@ const RegisterCommand registration{{
       app.add_option("--out", o->out, "Output folder (created if missing)")->required();
       app.add_option("--autosave-every", o->autosave_every,
                      "Write the run folder every this many seconds while running (0: never)");
+      app.add_option("--queue-mb", o->queue_mb,
+                     "Datagrams waiting for the decoder, at most (MiB): beyond it they are dropped and counted");
       app.add_option("--threads", o->threads, "Worker threads (0 = all cores)");
       app.add_flag("--no-deskew", o->no_deskew, "Do not motion-compensate scans with per-point times");
       app.add_flag("--no-viewer", o->no_viewer, "Do not write viewer.html");

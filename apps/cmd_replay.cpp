@@ -9,6 +9,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <filesystem>
 #include <algorithm>
 #include <cerrno>
 #include <cstring>
@@ -101,10 +102,11 @@ void replayOnce(const ReplayOptions& o, int socket, sockaddr_in address, double 
 }
 
 void replay(const ReplayOptions& o) {
+  const double rate = parseRate(o.rate);
+  if (!std::filesystem::exists(o.capture)) fail(o.capture, "no such file");
   if (!isPcap(o.capture))
     fail(o.capture, "hazmap replay reads packet captures (.pcap, .pcapng); bags are not replayed yet");
   if (o.port < -1 || o.port > 65534) fail("--port", std::to_string(o.port) + " is no UDP port (0-65534)");
-  const double rate = parseRate(o.rate);
   const std::uint16_t data_port = dataPort(o.capture);
   const sockaddr_in address = resolve(o.to);
   const int s = ::socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);

@@ -102,3 +102,5 @@ hazmap_label(test_velodyne real-data
 hazmap_label(test_viewer unit
   browser "^ViewerBrowser\\.ShowsTheMap"
   "browser,scene" "^ViewerBrowser\\.RunWritesAViewer")
+hazmap_label(test_live real-data
+  unit "^LiveSpool\\.WriterRoundTrips|^LiveErrors\\.")

@@ -23,7 +23,11 @@ class NetworkFeed final : public DatagramFeed {
     }
     // Short waits: a stop request is seen within one.
     current_ = receiver_.pop(std::chrono::milliseconds(stopped_ ? 0 : 100));
-    if (!current_) return stopped_ ? FeedItem::End : FeedItem::Idle;
+    if (!current_) {
+      if (!stopped_) return FeedItem::Idle;
+      item.lost_before = receiver_.lostAfterLast();
+      return FeedItem::End;
+    }
     item.time_ns = current_->time_ns;
     item.port = current_->port;
     item.lost_before = current_->lost_before;
@@ -61,6 +65,7 @@ class SpoolFeed final : public DatagramFeed {
       item.payload = packet.payload;
       return FeedItem::Datagram;
     }
+    item.lost_before = lost;
     return FeedItem::End;
   }
   std::string where() const override { return reader_.name(); }

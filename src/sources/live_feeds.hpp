@@ -24,7 +24,8 @@ struct FeedItem {
 class DatagramFeed {
  public:
   virtual ~DatagramFeed() = default;
-  /// Datagram: `item` holds one. Idle: none for a while (the network is quiet). End: no more.
+  /// Datagram: `item` holds one. Idle: none for a while (the network is quiet). End: no more;
+  /// item.lost_before then counts datagrams lost after the last one.
   virtual FeedItem::Got next(FeedItem& item) = 0;
   virtual std::string where() const = 0;
   virtual UdpReceiverStats receiverStats() const { return {}; }

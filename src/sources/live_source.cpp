@@ -61,7 +61,7 @@ class LiveStream final : public LiveScanSource {
       FeedItem item;
       switch (feed_->next(item)) {
         case FeedItem::Idle: watchSilence(); break;
-        case FeedItem::End: end(); break;
+        case FeedItem::End: end(item); break;
         case FeedItem::Datagram: take(item); break;
       }
     }
@@ -92,34 +92,43 @@ class LiveStream final : public LiveScanSource {
 
  private:
   /// One datagram: into the spool (after a mark of what was lost before it), then the decoder.
-  /// The first scan completed after a loss holds the hole: it is skipped.
   void take(const FeedItem& item) {
     heard();
-    if (item.lost_before > 0) {
-      stats_.lost += item.lost_before;
-      damaged_ = true;
-      if (spool_) {
-        std::uint8_t mark[8];
-        std::memcpy(mark, &item.lost_before, sizeof mark);
-        spool_->write(item.time_ns, kSpoolLossPort, mark);
-      }
-    }
+    markLoss(item.lost_before, item.time_ns);
+    last_time_ns_ = item.time_ns;
     if (spool_) spool_->write(item.time_ns, item.port, item.payload);
     const std::size_t before = pending_.size();
     assembler_->addPacket(item.payload, seconds(item.time_ns),
                           feed_->where() + ": datagram " + std::to_string(datagrams_++), pending_);
+    // A scan cut by the first datagram after a loss ends where the loss began, so the loss may
+    // have taken the cut too: the scan starting here then lacks its head and is skipped as well.
+    if (item.lost_before > 0 && pending_.size() > before) skip_ = 2;
     skipDamaged(before);
   }
 
-  void skipDamaged(std::size_t before) {
-    if (!damaged_ || pending_.size() == before) return;
-    pending_.erase(pending_.begin() + static_cast<std::ptrdiff_t>(before));
-    ++stats_.scans_skipped;
-    damaged_ = false;
+  void markLoss(std::uint64_t lost, std::int64_t time_ns) {
+    if (lost == 0) return;
+    stats_.lost += lost;
+    skip_ = std::max<std::size_t>(skip_, 1);
+    if (!spool_) return;
+    std::uint8_t mark[8];
+    std::memcpy(mark, &lost, sizeof mark);
+    spool_->write(time_ns, kSpoolLossPort, mark);
   }
 
-  void end() {
+  /// The scans a loss fell into are skipped, not passed on with a hole.
+  void skipDamaged(std::size_t before) {
+    while (skip_ > 0 && pending_.size() > before) {
+      pending_.erase(pending_.begin() + static_cast<std::ptrdiff_t>(before));
+      ++stats_.scans_skipped;
+      --skip_;
+    }
+  }
+
+  /// The scan being assembled, unless datagrams were lost after the last one.
+  void end(const FeedItem& item) {
     ended_ = true;
+    markLoss(item.lost_before, last_time_ns_);
     const std::size_t before = pending_.size();
     for (const auto& line : assembler_->flush(feed_->where(), pending_)) notice(line);
     skipDamaged(before);
@@ -155,9 +164,11 @@ class LiveStream final : public LiveScanSource {
   LiveStats stats_;
   double silence_seconds_;
   SteadyClock::time_point last_heard_;
-  bool waiting_ = false, damaged_ = false, ended_ = false;
+  bool waiting_ = false, ended_ = false;
+  std::size_t skip_ = 0;  // scans still to skip after a loss
   std::size_t next_index_ = 0;
   std::uint64_t datagrams_ = 0;
+  std::int64_t last_time_ns_ = 0;
 };
 
 }  // namespace

@@ -1,6 +1,7 @@
 #include "hazmap/sources/udp_receiver.hpp"
 
 #include <arpa/inet.h>
+#include <linux/sock_diag.h>
 #include <netinet/in.h>
 #include <poll.h>
 #include <sys/socket.h>
@@ -81,9 +82,29 @@ void UdpReceiver::receiveLoop() {
     for (std::size_t i = 0; i < fds.size(); ++i)
       if (fds[i].revents & POLLIN) receiveOne(i, buffer);
   }
-  for (std::size_t i = 0; i < sockets_.size(); ++i)
+  for (std::size_t i = 0; i < sockets_.size(); ++i) {
     while (receiveOne(i, buffer)) {
     }
+    countLastDrops(i);
+  }
+}
+
+/// SO_RXQ_OVFL tells drops only with the next datagram; drops after the last one are in the
+/// socket's memory info.
+void UdpReceiver::countLastDrops(std::size_t i) {
+  std::uint32_t info[SK_MEMINFO_VARS] = {};
+  socklen_t length = sizeof info;
+  if (::getsockopt(sockets_[i], SOL_SOCKET, SO_MEMINFO, info, &length) != 0 || length <= SK_MEMINFO_DROPS * 4) return;
+  std::lock_guard lock(mutex_);
+  const std::uint32_t dropped = info[SK_MEMINFO_DROPS] - last_overflow_[i];
+  stats_.kernel_dropped += dropped;
+  lost_since_queued_ += dropped;
+  last_overflow_[i] = info[SK_MEMINFO_DROPS];
+}
+
+std::uint64_t UdpReceiver::lostAfterLast() const {
+  std::lock_guard lock(mutex_);
+  return lost_since_queued_;
 }
 
 bool UdpReceiver::receiveOne(std::size_t i, std::vector<std::uint8_t>& buffer) {

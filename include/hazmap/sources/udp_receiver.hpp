@@ -46,12 +46,15 @@ class UdpReceiver {
   /// The next datagram, waiting at most `timeout`; nullopt when none came.
   std::optional<ReceivedDatagram> pop(std::chrono::milliseconds timeout);
   UdpReceiverStats stats() const;
+  /// Datagrams dropped after the last one queued (after stop(): the stream's lost tail).
+  std::uint64_t lostAfterLast() const;
   std::uint16_t port(std::size_t i) const { return ports_.at(i); }  ///< as bound
 
  private:
   void receiveLoop();
   /// False when the socket had nothing to read.
   bool receiveOne(std::size_t socket_index, std::vector<std::uint8_t>& buffer);
+  void countLastDrops(std::size_t socket_index);
 
   std::vector<int> sockets_;
   std::vector<std::uint16_t> ports_;
