@@ -1,6 +1,7 @@
-// hazmap replay CAPTURE.pcap --to HOST [--rate 1|2|max] [--loop] [--port N]: sends each UDP
-// payload of a capture to its original port on HOST, paced by the capture's clock, so `hazmap
-// live` (or a sensor driver) receives what the sensor sent. Plain POSIX sockets: one socket,
+// hazmap replay CAPTURE.pcap|BAG --to HOST [--rate 1|2|max] [--loop] [--port N]: sends each UDP
+// payload of a capture to its original port on HOST (a bag's LiDAR packets to the sensor's
+// standard port), paced by the recording's clock, so `hazmap live` (or a sensor driver)
+// receives what the sensor sent. Plain POSIX sockets: one socket,
 // sendto per datagram, nothing Asio would add.
 #include <arpa/inet.h>
 #include <fmt/format.h>
@@ -21,7 +22,7 @@
 
 #include "command.hpp"
 #include "hazmap/core/error.hpp"
-#include "hazmap/sources/pcap_reader.hpp"
+#include "replay_datagrams.hpp"
 
 namespace hazmap::cli {
 namespace {
@@ -35,12 +36,12 @@ struct ReplayOptions {
 /// The capture's LiDAR data port: a sensor's standard one (2368, 7502) if present, else the
 /// port that received the most bytes among the first datagrams.
 std::uint16_t dataPort(const std::string& capture) {
-  PcapReader reader(capture);
+  const auto datagrams = openReplayDatagrams(capture);
   std::map<std::uint16_t, std::size_t> bytes;
-  UdpPacket packet;
-  for (int i = 0; i < 2000 && reader.next(packet); ++i) {
-    if (packet.destination_port == 2368 || packet.destination_port == 7502) return packet.destination_port;
-    bytes[packet.destination_port] += packet.payload.size();
+  ReplayDatagram packet;
+  for (int i = 0; i < 2000 && datagrams->next(packet); ++i) {
+    if (packet.port == 2368 || packet.port == 7502) return packet.port;
+    bytes[packet.port] += packet.payload.size();
   }
   if (bytes.empty()) fail(capture, "capture holds no UDP datagram");
   return std::max_element(bytes.begin(), bytes.end(), [](auto& a, auto& b) { return a.second < b.second; })->first;
@@ -78,16 +79,16 @@ struct Sent {
 /// One pass over the capture; `start` and `origin` map capture time to wall time.
 void replayOnce(const ReplayOptions& o, int socket, sockaddr_in address, double rate, std::uint16_t data_port,
                 Sent& sent) {
-  PcapReader reader(o.capture);
-  UdpPacket packet;
+  const auto datagrams = openReplayDatagrams(o.capture);
+  ReplayDatagram packet;
   std::optional<std::int64_t> origin;
   const auto start = std::chrono::steady_clock::now();
-  while (reader.next(packet)) {
+  while (datagrams->next(packet)) {
     if (!origin) origin = packet.time_ns;
     if (rate > 0)
       std::this_thread::sleep_until(start + std::chrono::nanoseconds(static_cast<std::int64_t>(
                                                 static_cast<double>(packet.time_ns - *origin) / rate)));
-    std::uint16_t port = packet.destination_port;
+    std::uint16_t port = packet.port;
     if (o.port >= 0) port = static_cast<std::uint16_t>(port == data_port ? o.port : o.port + 1);
     address.sin_port = htons(port);
     if (::sendto(socket, packet.payload.data(), packet.payload.size(), 0, reinterpret_cast<sockaddr*>(&address),
@@ -103,9 +104,6 @@ void replayOnce(const ReplayOptions& o, int socket, sockaddr_in address, double 
 
 void replay(const ReplayOptions& o) {
   const double rate = parseRate(o.rate);
-  if (!std::filesystem::exists(o.capture)) fail(o.capture, "no such file");
-  if (!isPcap(o.capture))
-    fail(o.capture, "hazmap replay reads packet captures (.pcap, .pcapng); bags are not replayed yet");
   if (o.port < -1 || o.port > 65534) fail("--port", std::to_string(o.port) + " is no UDP port (0-65534)");
   const std::uint16_t data_port = dataPort(o.capture);
   const sockaddr_in address = resolve(o.to);
@@ -124,10 +122,10 @@ void replay(const ReplayOptions& o) {
 
 const RegisterCommand registration{{
     "replay",
-    "Send a capture's UDP payloads to their ports on a host, paced by the capture's clock (for hazmap live)",
+    "Send a capture's UDP payloads (or a bag's LiDAR packets) to their ports on a host, paced by the recording's clock (for hazmap live)",
     [](CLI::App& app) {
       auto o = std::make_shared<ReplayOptions>();
-      app.add_option("capture", o->capture, "Packet capture (.pcap, .pcapng)")->required();
+      app.add_option("capture", o->capture, "Packet capture (.pcap, .pcapng) or bag with LiDAR packet topics")->required();
       app.add_option("--to", o->to, "Host to send to");
       app.add_option("--rate", o->rate, "Speed-up over the capture's clock: 1, 2, 0.5, … or max (no pacing)");
       app.add_flag("--loop", o->loop, "Start over at the end, until interrupted");

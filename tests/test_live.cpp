@@ -206,6 +206,15 @@ TEST(LiveReplay, OusterCaptureWithImuPacketsAtOneGivesTheRunsFramesAndPoses) {
   EXPECT_EQ(live.at("state").get<std::string>(), "stopped by SIGTERM");
 }
 
+TEST(LiveReplay, VelodyneBagPacketsGoToTheDataPortAndGiveTheRunsPoses) {
+  // A rosbag2 of VelodyneScan messages: each packet is sent on its own at its own stamp.
+  const std::string bag = sharedData("sensors/velodyne-vlp16").string();
+  const ReplayRun r = replayAgainstRun(bag, "--sensor VLP-16", "1", SIGINT);
+  ASSERT_EQ(r.live_exit, 0) << r.live_log;
+  expectSamePoses(r.run_dir, r.live_dir);
+  EXPECT_EQ(liveSection(r.live_dir).at("lost").get<std::size_t>(), 0u);
+}
+
 TEST(LiveReplay, RateMaxCountsWhatItLosesAndSkipsThoseScans) {
   const std::string capture = sharedData(kOuster).string();
   const std::string meta = sharedData(kOusterMeta).string();
@@ -331,6 +340,10 @@ TEST(LiveErrors, PortInUseUnknownSensorAndOusterWithoutMetadata) {
   EXPECT_NE(r.output.find("missing.pcap"), std::string::npos) << r.output;
   r = runCli("replay '" + sourceDir("tests/labels.cmake").string() + "' --rate fast");
   EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("--rate: 'fast' is no rate"), std::string::npos) << r.output;
+  r = runCli("replay '" + sourceDir("tests/labels.cmake").string() + "'");
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("labels.cmake: is neither a packet capture"), std::string::npos) << r.output;
 }
 
 }  // namespace
