@@ -101,6 +101,14 @@ class LiveProcess {
     }
     return false;
   }
+  /// Waits (at most 20 s) for `text` in the output.
+  bool waitFor(const std::string& text) {
+    for (int i = 0; i < 400; ++i) {
+      if (readAll(log_).find(text) != std::string::npos) return true;
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    }
+    return false;
+  }
   /// Sends `signal` and waits for the exit (a SIGKILL after 25 s); the exit code.
   int stop(int signal) {
     ::kill(pid_, signal);
@@ -155,8 +163,9 @@ struct ReplayRun {
   std::string live_log;
 };
 
+/// `silent_first`: the replay starts only once live reported the sensor silent.
 ReplayRun replayAgainstRun(const std::string& capture, const std::string& live_args, const std::string& rate,
-                           int signal) {
+                           int signal, bool silent_first = false) {
   ReplayRun r;
   const fs::path dir = scratchDir();
   r.run_dir = dir / "run";
@@ -168,6 +177,7 @@ ReplayRun replayAgainstRun(const std::string& capture, const std::string& live_a
                        "'",
                    dir / "live.log");
   EXPECT_TRUE(live.waitListening()) << live.log();
+  if (silent_first) EXPECT_TRUE(live.waitFor("waiting for sensor on UDP port")) << live.log();
   const auto replay = runCli("replay '" + capture + "' --to 127.0.0.1 --port " + std::to_string(port) +
                              " --rate " + rate);
   EXPECT_EQ(replay.exit_code, 0) << replay.output;
@@ -209,10 +219,13 @@ TEST(LiveReplay, OusterCaptureWithImuPacketsAtOneGivesTheRunsFramesAndPoses) {
 TEST(LiveReplay, VelodyneBagPacketsGoToTheDataPortAndGiveTheRunsPoses) {
   // A rosbag2 of VelodyneScan messages: each packet is sent on its own at its own stamp.
   const std::string bag = sharedData("sensors/velodyne-vlp16").string();
-  const ReplayRun r = replayAgainstRun(bag, "--sensor VLP-16", "1", SIGINT);
+  // The sensor is silent first: live says so once and takes the stream when it comes.
+  const ReplayRun r = replayAgainstRun(bag, "--sensor VLP-16", "1", SIGINT, true);
   ASSERT_EQ(r.live_exit, 0) << r.live_log;
   expectSamePoses(r.run_dir, r.live_dir);
   EXPECT_EQ(liveSection(r.live_dir).at("lost").get<std::size_t>(), 0u);
+  EXPECT_EQ(liveSection(r.live_dir).at("silences").get<std::size_t>(), 1u);
+  EXPECT_NE(r.live_log.find("sensor back on UDP port"), std::string::npos) << r.live_log;
 }
 
 TEST(LiveReplay, RateMaxCountsWhatItLosesAndSkipsThoseScans) {
