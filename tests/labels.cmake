@@ -103,4 +103,5 @@ hazmap_label(test_viewer unit
   browser "^ViewerBrowser\\.ShowsTheMap"
   "browser,scene" "^ViewerBrowser\\.RunWritesAViewer")
 hazmap_label(test_live real-data
-  unit "^LiveSpool\\.WriterRoundTrips|^LiveErrors\\.")
+  unit "^LiveSpool\\.WriterRoundTrips|^LiveErrors\\."
+  scene "^LiveSimulated\\.")

@@ -165,12 +165,12 @@ struct ReplayRun {
 
 /// `silent_first`: the replay starts only once live reported the sensor silent.
 ReplayRun replayAgainstRun(const std::string& capture, const std::string& live_args, const std::string& rate,
-                           int signal, bool silent_first = false) {
+                           int signal, bool silent_first = false, const std::string& run_args = "") {
   ReplayRun r;
   const fs::path dir = scratchDir();
   r.run_dir = dir / "run";
   r.live_dir = dir / "live";
-  const auto run = runCli("run '" + capture + "' --quiet --no-viewer --out '" + r.run_dir.string() + "'");
+  const auto run = runCli("run '" + capture + "' --quiet --no-viewer " + run_args + " --out '" + r.run_dir.string() + "'");
   EXPECT_EQ(run.exit_code, 0) << run.output;
   const std::uint16_t port = freePortPair();
   LiveProcess live(live_args + " --port " + std::to_string(port) + " --no-viewer --out '" + r.live_dir.string() +
@@ -226,6 +226,25 @@ TEST(LiveReplay, VelodyneBagPacketsGoToTheDataPortAndGiveTheRunsPoses) {
   EXPECT_EQ(liveSection(r.live_dir).at("lost").get<std::size_t>(), 0u);
   EXPECT_EQ(liveSection(r.live_dir).at("silences").get<std::size_t>(), 1u);
   EXPECT_NE(r.live_log.find("sensor back on UDP port"), std::string::npos) << r.live_log;
+}
+
+TEST(LiveSimulated, NarahaAsVelodynePacketsReplayedLiveGivesTheRunsPoses) {
+  // simulate --format pcap: the simulated VLP-16 as Velodyne packets, frames 10 s apart, replayed
+  // at 50× (the run takes seconds). The simulated scans are instantaneous, so neither run
+  // deskews: compressing the capture's clock would otherwise change the per-point times.
+  // Beside the test's folder: replayAgainstRun makes that folder afresh.
+  const std::string capture = (scratchDir().parent_path() / "LiveSimulated.naraha.pcap").string();
+  const auto sim = runCli("simulate --frames 12 --format pcap --overwrite --out '" + capture + "'");
+  ASSERT_EQ(sim.exit_code, 0) << sim.output;
+  ScanSourceOptions options;
+  std::size_t points = 0, frames = 0;
+  for (auto s = openScanSource(capture, options); auto scan = s->next(); ++frames) points += scan->cloud.size();
+  EXPECT_EQ(frames, 12u);
+  EXPECT_GT(points, 12u * 20000u);  // the simulated VLP-16's returns come back from the packets
+  const ReplayRun r = replayAgainstRun(capture, "--sensor velodyne --no-deskew", "50", SIGINT, false, "--no-deskew");
+  ASSERT_EQ(r.live_exit, 0) << r.live_log;
+  expectSamePoses(r.run_dir, r.live_dir);
+  EXPECT_EQ(liveSection(r.live_dir).at("lost").get<std::size_t>(), 0u);
 }
 
 TEST(LiveReplay, RateMaxCountsWhatItLosesAndSkipsThoseScans) {
