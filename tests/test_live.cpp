@@ -247,6 +247,14 @@ TEST(LiveSimulated, NarahaAsVelodynePacketsReplayedLiveGivesTheRunsPoses) {
   EXPECT_EQ(liveSection(r.live_dir).at("lost").get<std::size_t>(), 0u);
 }
 
+TEST(LiveReplay, HesaiBagPacketsGiveTheRunsFramesAndPoses) {
+  const std::string bag = sharedData("sensors/hesai-pandar64/1673403880599376836").string();
+  const ReplayRun r = replayAgainstRun(bag, "--sensor hesai", "1", SIGINT);
+  ASSERT_EQ(r.live_exit, 0) << r.live_log;
+  expectSamePoses(r.run_dir, r.live_dir);
+  EXPECT_EQ(liveSection(r.live_dir).at("lost").get<std::size_t>(), 0u);
+}
+
 TEST(LiveReplay, RateMaxCountsWhatItLosesAndSkipsThoseScans) {
   const std::string capture = sharedData(kOuster).string();
   const std::string meta = sharedData(kOusterMeta).string();
