@@ -5,7 +5,9 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <atomic>
+#include <cctype>
 #include <chrono>
 #include <csignal>
 #include <iostream>
@@ -66,7 +68,9 @@ ScanSourceOptions sourceOptions(const LiveOptions& o, LiveSensor sensor) {
   if (sensor == LiveSensor::Hesai) s.hesai_calibration = o.calibration;
   // A model name (VLP-16, Pandar64) is passed on: packets of another model are then counted.
   const std::string family = toString(sensor);
-  if (o.sensor.size() != family.size()) s.sensor = o.sensor;
+  const bool named_family = std::equal(o.sensor.begin(), o.sensor.end(), family.begin(), family.end(),
+                                       [](char a, char b) { return std::tolower(static_cast<unsigned char>(a)) == b; });
+  if (!named_family) s.sensor = o.sensor;
   if (!o.classes.empty()) s.class_table = ClassTable::load(o.classes);
   s.notice = [](const std::string& line) { std::cerr << "notice: " << line << "\n"; };
   return s;
