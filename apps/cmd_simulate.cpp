@@ -13,6 +13,8 @@
 #include "hazmap/map/render.hpp"
 #include "hazmap/preprocess/voxel_downsample.hpp"
 #include "hazmap/sim/simulator.hpp"
+#include "hazmap/sim/velodyne_packets.hpp"
+#include "hazmap/sources/pcap_writer.hpp"
 #include "hazmap/io/atomic_file.hpp"
 #include "hazmap/properties/camera.hpp"
 #include "hazmap/properties/property_image.hpp"
@@ -122,6 +124,44 @@ std::vector<McapExtraTopic> cameraTopics(const std::filesystem::path& folder, co
   return topics;
 }
 
+/// --format pcap: the sequence simulated into a temporary folder, each scan written as the VLP-16's
+/// data packets to port 2368 (sim/velodyne_packets.hpp) into a capture renamed into place at the
+/// end. Packets carry no class, odometry or truth: a run on the capture is geometry alone.
+void writeSimulationAsPcap(const sim::SimulatorConfig& config, const std::filesystem::path& capture, bool overwrite) {
+  namespace fs = std::filesystem;
+  sim::checkVlp16Layout(config.sensor, "--format pcap");
+  std::error_code ec;
+  if (fs::exists(capture, ec) && !overwrite) fail(capture.string(), "exists (pass --overwrite to replace it)");
+  if (fs::is_directory(capture, ec)) fail(capture.string(), "is a folder; --format pcap writes one .pcap file");
+  const fs::path absolute = fs::absolute(capture);
+  const std::string tag = std::to_string(std::random_device{}() % 1000000);
+  const fs::path folder = absolute.parent_path() / ("." + absolute.filename().string() + ".sequence-" + tag);
+  const fs::path partial = absolute.parent_path() / ("." + absolute.filename().string() + ".tmp-" + tag);
+  struct Remove {
+    fs::path a, b;
+    ~Remove() {
+      std::error_code ignored;
+      fs::remove_all(a, ignored);
+      fs::remove(b, ignored);
+    }
+  } cleanup{folder, partial};
+  const auto summary = sim::writeSimulation(config, folder, /*overwrite=*/false);
+  const auto scans = sequenceScanSource(Sequence::open(folder));
+  std::size_t frames = 0, packets = 0;
+  {
+    PcapWriter writer(partial);
+    while (const auto scan = scans->next()) {
+      for (const auto& p : sim::vlp16Packets(scan->cloud, config.sensor, scan->stamp)) writer.write(p.time_ns, 2368, p.bytes, 2368);
+      ++frames;
+    }
+    packets = writer.datagrams();
+    writer.flush();
+  }
+  fs::rename(partial, absolute);
+  std::cout << fmt::format("wrote {}: {} frames as {} VLP-16 data packets (port 2368), {:.1f} m route\n",
+                           capture.string(), frames, packets, summary.route_length);
+}
+
 void writeSimulationAsMcap(const sim::SimulatorConfig& config, const std::filesystem::path& bag, bool overwrite,
                            bool png_images) {
   namespace fs = std::filesystem;
@@ -223,8 +263,9 @@ void setupSimulate(CLI::App& app) {
                                    "Also write the temperature channel (temperature/*.bin)");
   app.add_option("--format", opt->format,
                  "folder: a sequence folder; mcap: a ROS 2 MCAP bag (PointCloud2 with a class field, "
-                 "Odometry, PoseStamped ground truth on /ground_truth) at --out")
-      ->check(CLI::IsMember({"folder", "mcap"}));
+                 "Odometry, PoseStamped ground truth on /ground_truth) at --out; pcap: the VLP-16's data packets "
+                 "(geometry only: no classes, odometry or truth) at --out")
+      ->check(CLI::IsMember({"folder", "mcap", "pcap"}));
   app.add_flag("--png", opt->png,
                "Also render reference_map.png and odometry_map.png (top-down, classes coloured)");
   app.add_option("--cameras", opt->cameras,
@@ -258,6 +299,11 @@ void setupSimulate(CLI::App& app) {
     if (temperature->count()) config.temperature.enabled = opt->temperature;
     applyCameraOptions(*opt, config.cameras);
     if (opt->image_format != "mono16" && opt->format != "mcap") fail("--image-format", "is for --format mcap");
+    if (opt->format == "pcap") {
+      if (opt->png) fail("--png", "renders a sequence folder; not with --format pcap");
+      writeSimulationAsPcap(config, opt->out, opt->overwrite);
+      return;
+    }
     if (opt->format == "mcap") {
       if (opt->png) fail("--png", "renders a sequence folder; not with --format mcap");
       writeSimulationAsMcap(config, opt->out, opt->overwrite, opt->image_format == "png");

@@ -103,3 +103,6 @@ hazmap_label(test_velodyne real-data
 hazmap_label(test_viewer unit
   browser "^ViewerBrowser\\.ShowsTheMap"
   "browser,scene" "^ViewerBrowser\\.RunWritesAViewer")
+hazmap_label(test_live real-data
+  unit "^LiveSpool\\.WriterRoundTrips|^LiveErrors\\."
+  scene "^LiveSimulated\\.")

@@ -48,6 +48,17 @@ class SlamRun {
 
   std::size_t frames() const { return result_.frames.size(); }
 
+  /// The result so far, between two scans (nothing runs beside tracking then).
+  SlamResult snapshot() const {
+    SlamResult s = result_;
+    s.source = source_.describe();
+    s.tracked = trajectoryOf(tracked_);
+    s.estimate = back_end_ ? trajectoryOf(result_.graph.poses)
+                 : config_.method == SlamMethod::Odometry ? s.odometry_only
+                                                          : s.tracked;
+    return s;
+  }
+
   SlamResult finish() {
     runPendingLoops();
     result_.source = source_.describe();  // after the scans: a decoder knows its sensor by then
@@ -214,6 +225,11 @@ class SlamRun {
 }  // namespace
 
 SlamResult runSlam(ScanSource& source, const SlamConfig& config, const FrameProgress& progress) {
+  return runSlam(source, config, progress, SlamSnapshots{});
+}
+
+SlamResult runSlam(ScanSource& source, const SlamConfig& config, const FrameProgress& progress,
+                   const SlamSnapshots& snapshots) {
   config.validate();
   std::optional<tbb::global_control> threads;
   if (config.threads > 0)
@@ -224,6 +240,7 @@ SlamResult runSlam(ScanSource& source, const SlamConfig& config, const FrameProg
   while (std::optional<Scan> scan = source.next()) {
     run.addScan(std::move(*scan));
     if (progress) progress(run.frames(), total);
+    if (snapshots.due && snapshots.take && snapshots.due()) snapshots.take(run.snapshot());
   }
   if (run.frames() == 0) fail(source.describe(), "has no scans");
   SlamResult result = run.finish();

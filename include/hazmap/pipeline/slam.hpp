@@ -184,6 +184,15 @@ using FrameProgress = std::function<void(std::size_t done, std::size_t total)>;
 /// in the paper), else its wheel odometry, else identity. Throws hazmap::Error naming the source
 /// on unusable input (e.g. the odometry method without wheel odometry).
 SlamResult runSlam(ScanSource& source, const SlamConfig& config, const FrameProgress& progress = {});
+/// Copies of a running SLAM's result (what `hazmap live` autosaves): `due` is asked after each
+/// frame; when it answers yes, `take` gets the result so far as the end of the run would give it,
+/// without the final optimisation (the graph as optimised online so far).
+struct SlamSnapshots {
+  std::function<bool()> due;
+  std::function<void(const SlamResult&)> take;
+};
+SlamResult runSlam(ScanSource& source, const SlamConfig& config, const FrameProgress& progress,
+                   const SlamSnapshots& snapshots);
 /// The same over a sequence folder.
 SlamResult runSlam(const Sequence& sequence, const SlamConfig& config,
                    const FrameProgress& progress = {});

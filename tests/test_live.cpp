@@ -1,0 +1,390 @@
+// hazmap live and hazmap replay over loopback (issue 33): a real capture replayed at 1× gives the
+// frames and poses of `hazmap run` on the same capture; --rate max counts its losses and skips
+// the scans they fell into; SIGINT/SIGTERM write a complete run folder, kill -9 leaves the last
+// autosave; the spool re-reads as the live stream read; bad set-ups are one-line errors.
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/socket.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <sstream>
+#include <thread>
+
+#include "hazmap/io/atomic_file.hpp"
+#include "hazmap/io/trajectory.hpp"
+#include "hazmap/sources/live_source.hpp"
+#include "hazmap/sources/pcap_reader.hpp"
+#include "hazmap/sources/pcap_writer.hpp"
+#include "test_helpers.hpp"
+
+extern char** environ;
+
+namespace hazmap::test {
+namespace {
+
+namespace fs = std::filesystem;
+
+const char* kVlp16 = "sensors/velodyne-vlp16-pcap/velodyne_vlp16.pcap";
+const char* kOuster = "sensors/ouster-os1-128/OS-1-128_v2.3.0_1024x10_lb_n3.pcap";
+const char* kOusterMeta = "sensors/ouster-os1-128/OS-1-128_v2.3.0_1024x10.json";
+
+int bindUdp(std::uint16_t port) {
+  const int s = ::socket(AF_INET, SOCK_DGRAM, 0);
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_addr.s_addr = htonl(INADDR_ANY);
+  a.sin_port = htons(port);
+  if (::bind(s, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0) {
+    ::close(s);
+    return -1;
+  }
+  return s;
+}
+
+std::uint16_t boundPort(int s) {
+  sockaddr_in a{};
+  socklen_t n = sizeof a;
+  ::getsockname(s, reinterpret_cast<sockaddr*>(&a), &n);
+  return ntohs(a.sin_port);
+}
+
+/// A free UDP port P with P + 1 free too (live's auxiliary port): the kernel picks P.
+std::uint16_t freePortPair() {
+  for (int attempt = 0; attempt < 100; ++attempt) {
+    const int a = bindUdp(0);
+    const std::uint16_t p = boundPort(a);
+    const int b = p < 65535 ? bindUdp(static_cast<std::uint16_t>(p + 1)) : -1;
+    ::close(a);
+    if (b >= 0) {
+      ::close(b);
+      return p;
+    }
+  }
+  ADD_FAILURE() << "no free UDP port pair";
+  return 0;
+}
+
+std::string readAll(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+/// `hazmap live …` in the background, its output in a log file.
+class LiveProcess {
+ public:
+  LiveProcess(const std::string& args, fs::path log) : log_(std::move(log)) {
+    const std::string command = "exec " + cliPath() + " live " + args + " > '" + log_.string() + "' 2>&1";
+    const char* argv[] = {"/bin/sh", "-c", command.c_str(), nullptr};
+    if (::posix_spawn(&pid_, "/bin/sh", nullptr, nullptr, const_cast<char**>(argv), environ) != 0) pid_ = -1;
+  }
+  ~LiveProcess() {
+    if (pid_ > 0 && !exited_) {
+      ::kill(pid_, SIGKILL);
+      ::waitpid(pid_, nullptr, 0);
+    }
+  }
+  /// Waits (at most 20 s) for the "listening" line; false if the process ended or never said it.
+  bool waitListening() {
+    for (int i = 0; i < 400; ++i) {
+      if (readAll(log_).find("listening on UDP port") != std::string::npos) return true;
+      if (::waitpid(pid_, &status_, WNOHANG) == pid_) return exited_ = true, false;
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    }
+    return false;
+  }
+  /// Waits (at most 20 s) for `text` in the output.
+  bool waitFor(const std::string& text) {
+    for (int i = 0; i < 400; ++i) {
+      if (readAll(log_).find(text) != std::string::npos) return true;
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    }
+    return false;
+  }
+  /// Sends `signal` and waits for the exit (a SIGKILL after 25 s); the exit code.
+  int stop(int signal) {
+    ::kill(pid_, signal);
+    for (int i = 0; i < 500 && !exited_; ++i) {
+      if (::waitpid(pid_, &status_, WNOHANG) == pid_) exited_ = true;
+      else std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    }
+    if (!exited_) {
+      ::kill(pid_, SIGKILL);
+      ::waitpid(pid_, &status_, 0);
+      exited_ = true;
+    }
+    return WIFEXITED(status_) ? WEXITSTATUS(status_) : 128 + WTERMSIG(status_);
+  }
+  std::string log() const { return readAll(log_); }
+
+ private:
+  fs::path log_;
+  pid_t pid_ = -1;
+  int status_ = 0;
+  bool exited_ = false;
+};
+
+std::size_t datagramsIn(const fs::path& capture) {
+  PcapReader reader(capture);
+  UdpPacket p;
+  std::size_t n = 0;
+  while (reader.next(p)) ++n;
+  return n;
+}
+
+/// Every pose of `live` within 1 mm and 0.01° of `run`'s, and as many.
+void expectSamePoses(const fs::path& run, const fs::path& live) {
+  const Trajectory a = readKittiTrajectory(run / "trajectory.kitti");
+  const Trajectory b = readKittiTrajectory(live / "trajectory.kitti");
+  ASSERT_EQ(a.size(), b.size()) << "frames of hazmap run vs hazmap live";
+  ASSERT_GT(a.size(), 1u);
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    EXPECT_LT(transErr(a.poses[i], b.poses[i]), 1e-3) << "frame " << i;
+    EXPECT_LT(rotErrDeg(a.poses[i], b.poses[i]), 0.01) << "frame " << i;
+  }
+}
+
+nlohmann::json liveSection(const fs::path& dir) {
+  return nlohmann::json::parse(readTextFile(dir / "run.json")).at("live");
+}
+
+/// `hazmap run` on the capture, then live + replay at `rate`, stopped by `signal`.
+struct ReplayRun {
+  fs::path run_dir, live_dir;
+  int live_exit = -1;
+  std::string live_log;
+};
+
+/// `silent_first`: the replay starts only once live reported the sensor silent.
+ReplayRun replayAgainstRun(const std::string& capture, const std::string& live_args, const std::string& rate,
+                           int signal, bool silent_first = false, const std::string& run_args = "") {
+  ReplayRun r;
+  const fs::path dir = scratchDir();
+  r.run_dir = dir / "run";
+  r.live_dir = dir / "live";
+  const auto run = runCli("run '" + capture + "' --quiet --no-viewer " + run_args + " --out '" + r.run_dir.string() + "'");
+  EXPECT_EQ(run.exit_code, 0) << run.output;
+  const std::uint16_t port = freePortPair();
+  LiveProcess live(live_args + " --port " + std::to_string(port) + " --no-viewer --out '" + r.live_dir.string() +
+                       "'",
+                   dir / "live.log");
+  EXPECT_TRUE(live.waitListening()) << live.log();
+  if (silent_first) EXPECT_TRUE(live.waitFor("waiting for sensor on UDP port")) << live.log();
+  const auto replay = runCli("replay '" + capture + "' --to 127.0.0.1 --port " + std::to_string(port) +
+                             " --rate " + rate);
+  EXPECT_EQ(replay.exit_code, 0) << replay.output;
+  r.live_exit = live.stop(signal);
+  r.live_log = live.log();
+  return r;
+}
+
+TEST(LiveReplay, VelodyneCaptureAtOneGivesTheRunsFramesAndPoses) {
+  const std::string capture = sharedData(kVlp16).string();
+  const ReplayRun r = replayAgainstRun(capture, "--sensor velodyne", "1", SIGINT);
+  ASSERT_EQ(r.live_exit, 0) << r.live_log;
+  expectSamePoses(r.run_dir, r.live_dir);
+  const auto live = liveSection(r.live_dir);
+  EXPECT_EQ(live.at("received").get<std::size_t>(), datagramsIn(capture));
+  EXPECT_EQ(live.at("lost").get<std::size_t>(), 0u);
+  EXPECT_EQ(live.at("state").get<std::string>(), "stopped by SIGINT");
+  // The run folder is one `hazmap eval` and `hazmap view` take.
+  const auto eval = runCli("eval --gt '" + (r.run_dir / "trajectory.kitti").string() + "' --est '" +
+                           (r.live_dir / "trajectory.kitti").string() + "' --align none --delta 1 --delta-unit frames");
+  EXPECT_EQ(eval.exit_code, 0) << eval.output;
+  const auto view = runCli("view '" + r.live_dir.string() + "'");
+  EXPECT_EQ(view.exit_code, 0) << view.output;
+  EXPECT_TRUE(fs::exists(r.live_dir / "viewer.html"));
+}
+
+TEST(LiveReplay, OusterCaptureWithImuPacketsAtOneGivesTheRunsFramesAndPoses) {
+  const std::string capture = sharedData(kOuster).string();
+  const std::string meta = sharedData(kOusterMeta).string();
+  const ReplayRun r = replayAgainstRun(capture, "--sensor ouster --sensor-metadata '" + meta + "'", "1", SIGTERM);
+  ASSERT_EQ(r.live_exit, 0) << r.live_log;
+  expectSamePoses(r.run_dir, r.live_dir);
+  const auto live = liveSection(r.live_dir);
+  EXPECT_EQ(live.at("received").get<std::size_t>(), datagramsIn(capture));  // the IMU's too, on port + 1
+  EXPECT_EQ(live.at("lost").get<std::size_t>(), 0u);
+  EXPECT_EQ(live.at("state").get<std::string>(), "stopped by SIGTERM");
+}
+
+TEST(LiveReplay, VelodyneBagPacketsGoToTheDataPortAndGiveTheRunsPoses) {
+  // A rosbag2 of VelodyneScan messages: each packet is sent on its own at its own stamp.
+  const std::string bag = sharedData("sensors/velodyne-vlp16").string();
+  // The sensor is silent first: live says so once and takes the stream when it comes.
+  const ReplayRun r = replayAgainstRun(bag, "--sensor VLP-16", "1", SIGINT, true);
+  ASSERT_EQ(r.live_exit, 0) << r.live_log;
+  expectSamePoses(r.run_dir, r.live_dir);
+  EXPECT_EQ(liveSection(r.live_dir).at("lost").get<std::size_t>(), 0u);
+  EXPECT_EQ(liveSection(r.live_dir).at("silences").get<std::size_t>(), 1u);
+  EXPECT_NE(r.live_log.find("sensor back on UDP port"), std::string::npos) << r.live_log;
+}
+
+TEST(LiveSimulated, NarahaAsVelodynePacketsReplayedLiveGivesTheRunsPoses) {
+  // simulate --format pcap: the simulated VLP-16 as Velodyne packets, frames 10 s apart, replayed
+  // at 50× (the run takes seconds). The simulated scans are instantaneous, so neither run
+  // deskews: compressing the capture's clock would otherwise change the per-point times.
+  // Beside the test's folder: replayAgainstRun makes that folder afresh.
+  const std::string capture = (scratchDir().parent_path() / "LiveSimulated.naraha.pcap").string();
+  const auto sim = runCli("simulate --frames 12 --format pcap --overwrite --out '" + capture + "'");
+  ASSERT_EQ(sim.exit_code, 0) << sim.output;
+  ScanSourceOptions options;
+  std::size_t points = 0, frames = 0;
+  for (auto s = openScanSource(capture, options); auto scan = s->next(); ++frames) points += scan->cloud.size();
+  EXPECT_EQ(frames, 12u);
+  EXPECT_GT(points, 12u * 20000u);  // the simulated VLP-16's returns come back from the packets
+  const ReplayRun r = replayAgainstRun(capture, "--sensor velodyne --no-deskew", "50", SIGINT, false, "--no-deskew");
+  ASSERT_EQ(r.live_exit, 0) << r.live_log;
+  expectSamePoses(r.run_dir, r.live_dir);
+  EXPECT_EQ(liveSection(r.live_dir).at("lost").get<std::size_t>(), 0u);
+}
+
+TEST(LiveReplay, HesaiBagPacketsGiveTheRunsFramesAndPoses) {
+  const std::string bag = sharedData("sensors/hesai-pandar64/1673403880599376836").string();
+  const ReplayRun r = replayAgainstRun(bag, "--sensor hesai", "1", SIGINT);
+  ASSERT_EQ(r.live_exit, 0) << r.live_log;
+  expectSamePoses(r.run_dir, r.live_dir);
+  EXPECT_EQ(liveSection(r.live_dir).at("lost").get<std::size_t>(), 0u);
+}
+
+TEST(LiveReplay, RateMaxCountsWhatItLosesAndSkipsThoseScans) {
+  const std::string capture = sharedData(kOuster).string();
+  const std::string meta = sharedData(kOusterMeta).string();
+  // A queue of 1 MiB holds some 40 of the 192 lidar packets while the first scan is tracked.
+  const ReplayRun r =
+      replayAgainstRun(capture, "--sensor ouster --queue-mb 1 --sensor-metadata '" + meta + "'", "max", SIGINT);
+  ASSERT_EQ(r.live_exit, 0) << r.live_log;
+  const auto live = liveSection(r.live_dir);
+  const auto lost = live.at("lost").get<std::size_t>();
+  EXPECT_EQ(lost, live.at("kernel_dropped").get<std::size_t>() + live.at("queue_dropped").get<std::size_t>() +
+                      live.at("truncated").get<std::size_t>());
+  EXPECT_EQ(live.at("received").get<std::size_t>() + live.at("kernel_dropped").get<std::size_t>(),
+            datagramsIn(capture));
+  EXPECT_GT(live.at("queue_dropped").get<std::size_t>(), 0u);
+  // Every scan kept is one the capture holds whole (same point count), none with a hole.
+  ScanSourceOptions options;
+  options.sensor_metadata = sharedData(kOusterMeta);
+  std::set<std::size_t> whole;
+  for (auto s = openScanSource(capture, options); auto scan = s->next();) whole.insert(scan->cloud.size());
+  std::size_t kept = 0;
+  for (auto s = openLiveSpool(r.live_dir / "live.pcap", LiveSensor::Ouster, options); auto scan = s->next(); ++kept)
+    EXPECT_TRUE(whole.count(scan->cloud.size())) << "scan " << kept << " has " << scan->cloud.size() << " points";
+  EXPECT_EQ(readKittiTrajectory(r.live_dir / "trajectory.kitti").size(), kept);
+  EXPECT_LE(kept + live.at("scans_skipped").get<std::size_t>(), whole.size());
+}
+
+TEST(LiveReplay, KillNineLeavesTheLastAutosaveReadable) {
+  const fs::path dir = scratchDir();
+  const std::uint16_t port = freePortPair();
+  LiveProcess live("--sensor velodyne --autosave-every 0.2 --no-viewer --port " + std::to_string(port) +
+                       " --out '" + (dir / "live").string() + "'",
+                   dir / "live.log");
+  ASSERT_TRUE(live.waitListening()) << live.log();
+  const std::string replay = "exec " + cliPath() + " replay '" + sharedData(kVlp16).string() +
+                             "' --loop --quiet --port " + std::to_string(port);
+  const char* argv[] = {"/bin/sh", "-c", replay.c_str(), nullptr};
+  pid_t sender = -1;
+  ASSERT_EQ(::posix_spawn(&sender, "/bin/sh", nullptr, nullptr, const_cast<char**>(argv), environ), 0);
+  bool saved = false;
+  for (int i = 0; i < 400 && !saved; ++i) {  // at most 20 s
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    saved = live.log().find("autosaved") != std::string::npos;
+  }
+  EXPECT_EQ(live.stop(SIGKILL), 128 + SIGKILL);
+  ::kill(sender, SIGTERM);
+  ::waitpid(sender, nullptr, 0);
+  ASSERT_TRUE(saved) << live.log();
+  const Trajectory t = readKittiTrajectory(dir / "live" / "trajectory.kitti");
+  EXPECT_GT(t.size(), 0u);
+  const auto j = nlohmann::json::parse(readTextFile(dir / "live" / "run.json"));
+  EXPECT_EQ(j.at("frames").get<std::size_t>(), t.size());
+  EXPECT_EQ(j.at("live").at("state").get<std::string>(), "autosave while running");
+}
+
+TEST(LiveSpool, ALossMarkSkipsTheScanItFellInto) {
+  const fs::path dir = scratchDir();
+  const fs::path capture = sharedData(kVlp16);
+  ScanSourceOptions options;
+  std::size_t whole = 0;
+  for (auto s = openScanSource(capture, options); s->next();) ++whole;
+  // The capture as a spool, a datagram inside the last scan lost on the way.
+  const std::size_t lost_at = datagramsIn(capture) * 3 / 4;
+  {
+    PcapWriter spool(dir / "live.pcap");
+    PcapReader reader(capture);
+    UdpPacket p;
+    for (std::size_t i = 0; reader.next(p); ++i) {
+      if (i == lost_at) {
+        const std::uint64_t one = 1;
+        spool.write(p.time_ns, kSpoolLossPort, {reinterpret_cast<const std::uint8_t*>(&one), sizeof one});
+        continue;
+      }
+      spool.write(p.time_ns, p.destination_port, p.payload);
+    }
+  }
+  std::size_t kept = 0;
+  for (auto s = openLiveSpool(dir / "live.pcap", LiveSensor::Velodyne, options); s->next();) ++kept;
+  EXPECT_GE(whole, 2u);
+  EXPECT_EQ(kept, whole - 1);
+}
+
+TEST(LiveSpool, WriterRoundTripsTimesPortsAndPayloads) {
+  const fs::path path = scratchDir() / "w.pcap";
+  const std::vector<std::uint8_t> a(1206, 7), b(33000, 9);
+  {
+    PcapWriter w(path);
+    w.write(1'650'410'295'398'681'123, 2368, a);
+    w.write(1'650'410'295'500'000'001, 7503, b, 7502);
+    EXPECT_EQ(w.datagrams(), 2u);
+    EXPECT_NE(errorOf([&] { w.write(0, 1, std::vector<std::uint8_t>(70000)); }), "");
+  }
+  PcapReader r(path);
+  UdpPacket p;
+  ASSERT_TRUE(r.next(p));
+  EXPECT_EQ(p.time_ns, 1'650'410'295'398'681'123);
+  EXPECT_EQ(p.destination_port, 2368);
+  EXPECT_EQ(std::vector<std::uint8_t>(p.payload.begin(), p.payload.end()), a);
+  ASSERT_TRUE(r.next(p));
+  EXPECT_EQ(p.destination_port, 7503);
+  EXPECT_EQ(p.source_port, 7502);
+  EXPECT_EQ(p.payload.size(), b.size());
+  EXPECT_FALSE(r.next(p));
+  EXPECT_FALSE(r.loss().anyLost());
+}
+
+TEST(LiveErrors, PortInUseUnknownSensorAndOusterWithoutMetadata) {
+  const fs::path dir = scratchDir();
+  const int taken = bindUdp(0);
+  const std::uint16_t port = boundPort(taken);
+  auto r = runCli("live --sensor velodyne --port " + std::to_string(port) + " --out '" + (dir / "a").string() + "'");
+  ::close(taken);
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("UDP port " + std::to_string(port) + ": already in use"), std::string::npos) << r.output;
+  r = runCli("live --sensor lidar9000 --out '" + (dir / "b").string() + "'");
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("--sensor: 'lidar9000' is no sensor"), std::string::npos) << r.output;
+  r = runCli("live --sensor ouster --port 0 --out '" + (dir / "c").string() + "'");
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("--sensor-metadata: an Ouster sensor needs its metadata JSON"), std::string::npos)
+      << r.output;
+  r = runCli("replay '" + (dir / "missing.pcap").string() + "' --rate 1");
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("missing.pcap"), std::string::npos) << r.output;
+  r = runCli("replay '" + sourceDir("tests/labels.cmake").string() + "' --rate fast");
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("--rate: 'fast' is no rate"), std::string::npos) << r.output;
+  r = runCli("replay '" + sourceDir("tests/labels.cmake").string() + "'");
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("labels.cmake: is neither a packet capture"), std::string::npos) << r.output;
+}
+
+}  // namespace
+}  // namespace hazmap::test
