@@ -78,6 +78,7 @@ struct SimulateOptions {
   std::string image_format = "mono16";
   bool worst_day = false;
   bool no_odometry = false;
+  double imu_rate = 0.0;
 };
 
 /// --format mcap: the sequence is simulated into a temporary folder next to the bag, then written
@@ -245,11 +246,15 @@ void setupSimulate(CLI::App& app) {
                "The crawler's worst day (preset worst-day): track slips up to 2 m, yaw kicks up to 45 deg, "
                "lost scans; --config keys override it");
   app.add_flag("--no-odometry", opt->no_odometry, "Write no odometry.txt (a run without wheel odometry)");
+  app.add_option("--imu-rate", opt->imu_rate,
+                 "Also write imu.txt: gyro + accelerometer samples at this rate (Hz, e.g. 200; noise: imu.* keys)")
+      ->check(CLI::Range(1.0, 2000.0));
   app.callback([opt, scenario, seed, frames, scene, regions, temperature]() {
     sim::SimulatorConfig config;
     if (opt->worst_day) config = sim::SimulatorConfig::withPreset("worst-day", config, "--worst-day");
     if (!opt->config.empty()) config = sim::SimulatorConfig::fromYamlFile(opt->config, config);
     if (opt->no_odometry) config.wheel_odometry = false;
+    if (opt->imu_rate > 0.0) config.imu.rate_hz = opt->imu_rate;
     if (scenario->count() || opt->config.empty()) config.scenario = opt->scenario;
     if (seed->count()) config.seed = opt->seed;
     if (frames->count()) config.max_frames = opt->frames;

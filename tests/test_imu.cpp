@@ -1,0 +1,302 @@
+// The IMU stream (issue 36 part 2): imu.txt (reader errors, round trip, cleaning, spans), Ouster
+// IMU packets in the real OS-1-128 capture, and Scan::imu from a sequence folder and a capture.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+
+#include "hazmap/core/error.hpp"
+#include "hazmap/io/imu.hpp"
+#include "hazmap/io/trajectory.hpp"
+#include "hazmap/odometry/odometry.hpp"
+#include "hazmap/preprocess/deskew.hpp"
+#include "hazmap/preprocess/imu_motion.hpp"
+#include "hazmap/sim/simulator.hpp"
+#include "hazmap/sources/ouster.hpp"
+#include "hazmap/sources/scan_source.hpp"
+#include "test_helpers.hpp"
+
+using namespace hazmap;
+namespace fs = std::filesystem;
+
+namespace {
+
+void writeText(const fs::path& path, const std::string& text) {
+  std::ofstream out(path);
+  out << text;
+}
+
+std::vector<ImuSample> evenSamples(double t0, double rate, std::size_t n) {
+  std::vector<ImuSample> out(n);
+  for (std::size_t i = 0; i < n; ++i) out[i].time = t0 + static_cast<double>(i) / rate;
+  return out;
+}
+
+fs::path os128Pcap() { return test::sharedData("sensors/ouster-os1-128/OS-1-128_v2.3.0_1024x10_lb_n3.pcap"); }
+
+}  // namespace
+
+TEST(ImuFile, RoundTripIsExact) {
+  const fs::path path = test::scratchDir() / "imu_roundtrip.txt";
+  std::vector<ImuSample> samples = evenSamples(12.25, 200.0, 50);
+  for (std::size_t i = 0; i < samples.size(); ++i) {
+    samples[i].gyro = Eigen::Vector3d(0.1 * i, -1e-7 * i, std::sin(i));
+    samples[i].accel = Eigen::Vector3d(0.01, 9.80665 + 1e-9 * i, -std::cos(i));
+  }
+  writeImuFile(path, samples);
+  const auto back = readImuFile(path);
+  ASSERT_EQ(back.size(), samples.size());
+  for (std::size_t i = 0; i < back.size(); ++i) {
+    EXPECT_EQ(back[i].time, samples[i].time);
+    EXPECT_EQ(back[i].gyro, samples[i].gyro);
+    EXPECT_EQ(back[i].accel, samples[i].accel);
+  }
+}
+
+TEST(ImuFile, BadLinesNameTheFileAndLine) {
+  const fs::path path = test::scratchDir() / "imu_bad.txt";
+  writeText(path, "# header\n0 0 0 0 0 0 9.8\n0.01 0 0 0 0 9.8\n");
+  EXPECT_NE(test::errorOf([&] { readImuFile(path); }).find("imu_bad.txt:3"), std::string::npos);
+  writeText(path, "0 0 0 nan 0 0 9.8\n");
+  EXPECT_NE(test::errorOf([&] { readImuFile(path); }).find("non-finite"), std::string::npos);
+  writeText(path, "0 0 0 x 0 0 9.8\n");
+  EXPECT_NE(test::errorOf([&] { readImuFile(path); }).find("imu_bad.txt:1"), std::string::npos);
+  EXPECT_NE(test::errorOf([&] { readImuFile(test::scratchDir() / "no_such_imu.txt"); }).find("no_such_imu.txt"),
+            std::string::npos);
+}
+
+TEST(ImuStream, OutOfOrderSamplesDroppedAndGapsCounted) {
+  std::vector<ImuSample> s = evenSamples(0.0, 100.0, 10);
+  s[4].time = s[2].time;         // a duplicate
+  s[7].time = s[9].time + 0.5;   // jumps ahead, so 8 and 9 are out of order
+  const ImuStreamReport report = cleanImuStream(s, kImuMaxGap);
+  EXPECT_EQ(report.out_of_order, 3u);
+  EXPECT_EQ(report.gaps, 1u);
+  EXPECT_NEAR(report.longest_gap, 0.59 - 0.06, 1e-9);
+  for (std::size_t i = 1; i < s.size(); ++i) EXPECT_GT(s[i].time, s[i - 1].time);
+  EXPECT_NE(describe(report, "imu.txt").find("imu.txt: 3 IMU samples"), std::string::npos);
+  EXPECT_TRUE(describe(ImuStreamReport{}, "imu.txt").empty());
+}
+
+TEST(ImuStream, SpanCoversItsEndsOrIsEmpty) {
+  const std::vector<ImuSample> s = evenSamples(0.0, 100.0, 101);  // 0 … 1 s
+  const auto span = imuSpan(s, 0.305, 0.4);
+  ASSERT_FALSE(span.empty());
+  EXPECT_LE(span.front().time, 0.305);
+  EXPECT_GE(span.back().time, 0.4);
+  EXPECT_EQ(span.size(), 11u);  // 0.30 … 0.40
+  EXPECT_TRUE(imuSpan(s, -0.1, 0.2).empty());  // starts before the stream
+  EXPECT_TRUE(imuSpan(s, 0.9, 1.2).empty());   // ends after it
+  std::vector<ImuSample> gap = s;
+  gap.erase(gap.begin() + 40, gap.begin() + 50);  // 0.1 s without a sample
+  EXPECT_TRUE(imuSpan(gap, 0.3, 0.6).empty());
+  EXPECT_FALSE(imuSpan(gap, 0.5, 0.6).empty());
+  // Below the scan rate (a sample every 0.2 s): nothing is integrated as measured.
+  EXPECT_TRUE(imuSpan(evenSamples(0.0, 5.0, 10), 0.3, 0.4).empty());
+}
+
+TEST(OusterImu, RealCaptureSamplesAtTheSensorsRateAndSeeGravity) {
+  const OusterMetadata meta = readOusterMetadata(test::sharedData("sensors/ouster-os1-128/OS-1-128_v2.3.0_1024x10.json"));
+  auto source = openScanSource(os128Pcap());
+  std::vector<Scan> scans;
+  while (auto s = source->next()) scans.push_back(std::move(*s));
+  ASSERT_EQ(scans.size(), 3u);
+  std::vector<ImuSample> all;
+  for (const Scan& scan : scans) {
+    const auto [lo, hi] = std::minmax_element(scan.cloud.timestamps.begin(), scan.cloud.timestamps.end());
+    if (scan.imu.empty()) continue;
+    // The span reaches from the previous scan's stamp (or the first point) to the last point.
+    EXPECT_LE(scan.imu.front().time, scan.index == 0 ? *lo : scans[scan.index - 1].stamp);
+    EXPECT_GE(scan.imu.back().time, *hi);
+    for (const auto& s : scan.imu)
+      if (all.empty() || s.time > all.back().time) all.push_back(s);
+  }
+  // 30 IMU packets over 0.29 s; the first scan starts before the first IMU packet.
+  ASSERT_GE(all.size(), 20u);
+  const double rate = static_cast<double>(all.size() - 1) / (all.back().time - all.front().time);
+  EXPECT_NEAR(rate, 100.0, 5.0);  // the OS-1's IMU rate
+  Eigen::Vector3d mean_accel = Eigen::Vector3d::Zero();
+  double max_gyro = 0.0;
+  for (const auto& s : all) mean_accel += s.accel / static_cast<double>(all.size()), max_gyro = std::max(max_gyro, s.gyro.norm());
+  // Hand-held, slowly moving: the mean specific force is gravity, the rotation rate a few °/s.
+  EXPECT_NEAR(mean_accel.norm(), 9.81, 1.2);
+  EXPECT_LT(max_gyro, 20.0 * M_PI / 180.0);
+  EXPECT_GT(max_gyro, 0.0);
+  // In the sensor frame: gravity mostly along the sensor's z (the OS-1 stands upright), up.
+  EXPECT_GT(mean_accel.z(), 0.8 * mean_accel.norm());
+  (void)meta;
+}
+
+TEST(OusterImu, PacketDecodingRotatesIntoTheSensorFrame) {
+  OusterMetadata meta;
+  meta.imu_to_sensor.topLeftCorner<3, 3>() = Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  std::vector<std::uint8_t> p(kOusterImuPacketSize, 0);
+  const std::uint64_t t = 123456789;
+  const float values[6] = {1.0f, 0.0f, 0.0f, 0.0f, 90.0f, 0.0f};  // 1 g along x, 90 °/s about y
+  std::memcpy(p.data() + 16, &t, 8);
+  std::memcpy(p.data() + 24, values, sizeof values);
+  const auto d = decodeOusterImuPacket(p, meta);
+  ASSERT_TRUE(d);
+  EXPECT_EQ(d->gyro_time_ns, t);
+  EXPECT_NEAR((d->sample.accel - Eigen::Vector3d(0, 9.80665, 0)).norm(), 0.0, 1e-6);
+  EXPECT_NEAR((d->sample.gyro - Eigen::Vector3d(-M_PI / 2, 0, 0)).norm(), 0.0, 1e-6);
+  p.pop_back();
+  EXPECT_FALSE(decodeOusterImuPacket(p, meta));
+  p.push_back(0);
+  const float nan = std::nanf("");
+  std::memcpy(p.data() + 40, &nan, 4);
+  EXPECT_FALSE(decodeOusterImuPacket(p, meta));
+}
+
+// ---------------------------------------------------------------------------------------------
+// The simulated IMU (issue 36 part 3).
+
+namespace {
+
+sim::Simulator shortCorridor(double rate_hz, const std::string& preset = "none") {
+  sim::SimulatorConfig c;
+  c.scenario = "corridor";
+  c.max_frames = 40;
+  c.imu.rate_hz = rate_hz;
+  return sim::Simulator(sim::SimulatorConfig::withPreset(preset, c, "test"));
+}
+
+std::vector<double> frameTimes(const sim::Simulator& s) {
+  std::vector<double> t;
+  for (const auto& r : s.samples()) t.push_back(r.time);
+  return t;
+}
+
+}  // namespace
+
+TEST(SimImu, GyroIntegratesToTheTrueIncrementsAndNoiseHasTheDatasheetLevel) {
+  const sim::Simulator s = shortCorridor(200.0, "worst-day");  // yaw kicks up to 45°
+  const auto times = frameTimes(s);
+  const auto noisy = sim::simulateImuStream(s.worldPoses(), times, s.config().imu, 1);
+  sim::ImuConfig clean = s.config().imu;
+  clean.gyro_noise_density = clean.accel_noise_density = clean.gyro_bias_sigma = 0.0;
+  clean.gyro_bias_walk = clean.accel_bias_walk = 0.0;
+  const auto exact = sim::simulateImuStream(s.worldPoses(), times, clean, 1);
+  ASSERT_EQ(noisy.size(), exact.size());
+  EXPECT_NEAR(static_cast<double>(noisy.size()), (times.back() - times.front()) * 200.0, 1.5);
+  // White noise: σ = density · √rate (BMI088: 0.014 °/s/√Hz → 0.198 °/s at 200 Hz), after the
+  // bias (mean) is taken out over a short stretch.
+  double sum = 0.0, sum2 = 0.0;
+  const std::size_t n = 400;
+  for (std::size_t k = 0; k < n; ++k) {
+    const double d = noisy[k].gyro.x() - exact[k].gyro.x();
+    sum += d, sum2 += d * d;
+  }
+  const double sd = std::sqrt(sum2 / n - (sum / n) * (sum / n)) * 180.0 / M_PI;
+  EXPECT_NEAR(sd, 0.014 * std::sqrt(200.0), 0.03);
+  // Integrated between frames, the noisy gyro gives every true rotation increment (kicks too)
+  // within 0.1°; with the IMU in the sensor frame.
+  std::size_t kicks = 0;
+  for (std::size_t i = 1; i < times.size(); ++i) {
+    const GyroAttitude attitude(imuSpan(noisy, times[i - 1], times[i]), Eigen::Vector3d::Zero());
+    const Eigen::Matrix3d truth = s.worldPoses()[i - 1].linear().transpose() * s.worldPoses()[i].linear();
+    const double error = Eigen::AngleAxisd(attitude.between(times[i - 1], times[i]).transpose() * truth).angle();
+    EXPECT_LT(error * 180.0 / M_PI, 0.1) << "frame " << i;
+    kicks += Eigen::AngleAxisd(truth).angle() > 10.0 * M_PI / 180.0;
+  }
+  EXPECT_GT(kicks, 0u);
+  // The accelerometer: gravity, up in the sensor frame, plus the crawler's small accelerations.
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const auto& x : noisy) mean += x.accel / static_cast<double>(noisy.size());
+  EXPECT_NEAR(mean.z(), 9.80665, 0.05);
+  EXPECT_LT(mean.head<2>().norm(), 0.05);
+}
+
+TEST(SimImu, OwnRandomStreamAndWrittenOnlyWhenAsked) {
+  const sim::Simulator with = shortCorridor(200.0), without = shortCorridor(0.0);
+  for (std::size_t i : {0u, 7u, 39u}) {
+    EXPECT_EQ(with.scan(i).points, without.scan(i).points);
+    EXPECT_TRUE(with.odometry()[i].isApprox(without.odometry()[i], 0.0));
+  }
+  const auto a = sim::simulateImuStream(with.worldPoses(), frameTimes(with), with.config().imu, 5);
+  const auto b = sim::simulateImuStream(with.worldPoses(), frameTimes(with), with.config().imu, 5);
+  const auto c = sim::simulateImuStream(with.worldPoses(), frameTimes(with), with.config().imu, 6);
+  EXPECT_EQ(a[100].gyro, b[100].gyro);
+  EXPECT_NE(a[100].gyro, c[100].gyro);
+  EXPECT_TRUE(sim::simulateImuStream(without.worldPoses(), frameTimes(without), without.config().imu, 5).empty());
+  // simulation.yaml names the IMU stream's keys only when it is written.
+  EXPECT_NE(with.config().toYamlString().find("gyro_noise_density"), std::string::npos);
+  EXPECT_EQ(without.config().toYamlString().find("gyro_noise_density"), std::string::npos);
+}
+
+TEST(SimImu, SequenceFolderCarriesImuTxtToEveryScan) {
+  const fs::path dir = test::scratchDir() / "imu_corridor";
+  fs::remove_all(dir);
+  const auto r = test::runCli("simulate --scenario corridor --frames 6 --imu-rate 200 --out " + dir.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  ASSERT_TRUE(fs::exists(dir / "imu.txt"));
+  auto source = openScanSource(dir);
+  std::size_t with_imu = 0;
+  std::optional<double> previous;
+  while (auto scan = source->next()) {
+    if (previous) {
+      ASSERT_FALSE(scan->imu.empty()) << "scan " << scan->index;
+      EXPECT_LE(scan->imu.front().time, *previous);
+      EXPECT_GE(scan->imu.back().time, scan->stamp);
+      ++with_imu;
+    }
+    previous = scan->stamp;
+  }
+  EXPECT_EQ(with_imu, 5u);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Using it: the real OS-1-128 capture (hand-held at ~2.5 m/s, turning a few °/s) tracked with the
+// IMU's rotation (deskew + guess) and with constant-velocity deskewing, against ouster-sdk's own
+// SLAM poses of the same scans. The IMU's must do at least as well.
+
+namespace {
+
+struct OusterTrack {
+  std::vector<Eigen::Isometry3d> increments;
+  std::vector<double> rmse;
+};
+
+OusterTrack trackOuster(bool use_imu) {
+  auto source = openScanSource(os128Pcap());
+  OdometryConfig config = OdometryConfig::defaults();
+  config.registration.use_classes = false;
+  Odometry odo(source->classTable(), config);
+  StreamDeskewer deskewer(DeskewConfig{});
+  ImuStreamMotion imu;
+  OusterTrack out;
+  while (auto scan = source->next()) {
+    if (!use_imu) scan->imu.clear();
+    const auto motion = imu.next(scan->imu, scan->stamp);
+    if (use_imu && scan->index > 0) EXPECT_TRUE(motion.rotation) << "scan " << scan->index;
+    deskewer.apply(scan->cloud, scan->stamp, std::nullopt, motion.attitudePtr());
+    const OdometryFrame& f = odo.addFrame(scan->cloud, std::nullopt, scan->stamp, motion.rotation);
+    deskewer.tracked(f.increment);
+    imu.tracked(verifiedRotation(f));
+    if (scan->index > 0) out.increments.push_back(f.increment), out.rmse.push_back(f.rmse);
+  }
+  return out;
+}
+
+}  // namespace
+
+TEST(ImuRun, OusterImuDeskewRegistersAtLeastAsWellAsConstantVelocity) {
+  const Trajectory sdk = readKittiTrajectory(
+      test::sharedData("sensors/ouster-os1-128/OS-1-128_v2.3.0_1024x10_lb_n3_poses_kitti.txt"));
+  ASSERT_EQ(sdk.poses.size(), 3u);
+  const OusterTrack imu = trackOuster(true), cv = trackOuster(false);
+  ASSERT_EQ(imu.increments.size(), 2u);
+  ASSERT_EQ(cv.increments.size(), 2u);
+  for (std::size_t i = 0; i < 2; ++i) {
+    const Eigen::Isometry3d truth = sdk.poses[i].inverse() * sdk.poses[i + 1];
+    const double t_imu = test::transErr(imu.increments[i], truth), t_cv = test::transErr(cv.increments[i], truth);
+    const double r_imu = test::rotErrDeg(imu.increments[i], truth), r_cv = test::rotErrDeg(cv.increments[i], truth);
+    std::printf("OS-1-128 increment %zu vs ouster-sdk: IMU %.4f m %.3f deg rmse %.4f; constant velocity %.4f m %.3f deg rmse %.4f\n",
+                i, t_imu, r_imu, imu.rmse[i], t_cv, r_cv, cv.rmse[i]);
+    // At least as well: within a millimetre / a hundredth of a degree of constant velocity, or better.
+    EXPECT_LE(t_imu, t_cv + 1e-3) << "increment " << i;
+    EXPECT_LE(r_imu, r_cv + 0.01) << "increment " << i;
+    EXPECT_LE(imu.rmse[i], cv.rmse[i] * 1.01) << "increment " << i;
+  }
+}
