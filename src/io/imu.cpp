@@ -85,11 +85,13 @@ void writeImuFile(const std::filesystem::path& path, const std::vector<ImuSample
 }
 
 std::vector<ImuSample> imuSpan(const std::vector<ImuSample>& samples, double t0, double t1) {
-  const auto byTime = [](const ImuSample& s, double t) { return s.time < t; };
-  auto first = std::lower_bound(samples.begin(), samples.end(), t0, byTime);
-  auto last = std::lower_bound(first, samples.end(), t1, byTime);
-  if (first != samples.begin()) --first;
-  if (last != samples.end()) ++last;
+  const auto before = [](const ImuSample& s, double t) { return s.time < t; };
+  const auto after = [](double t, const ImuSample& s) { return t < s.time; };
+  auto first = std::lower_bound(samples.begin(), samples.end(), t0, before);
+  auto last = std::upper_bound(first, samples.end(), t1, after);
+  // One sample beyond an end that falls between two samples, none when one sits on it.
+  if (first != samples.begin() && (first == samples.end() || first->time > t0)) --first;
+  if (last != samples.end() && (last == samples.begin() || std::prev(last)->time < t1)) ++last;
   if (first == last || first->time > t0 || std::prev(last)->time < t1) return {};
   for (auto it = first; std::next(it) != last; ++it)
     if (std::next(it)->time - it->time > kImuMaxGap) return {};

@@ -202,9 +202,13 @@ Odometry::Attempt Odometry::guess(OdometryFrame& f, const std::optional<Eigen::I
   f.wheel_guess = wheel_increment.has_value();
   f.guess = wheel_increment ? *wheel_increment
                             : (impl_->has_velocity ? impl_->velocity : Eigen::Isometry3d::Identity());
-  // The gyro measures the turn; the wheels' turn slips with the tracks and a constant velocity
-  // misses every change.
-  if (imu_rotation) f.guess.linear() = *imu_rotation, f.imu_guess = true;
+  // The gyro measures the turn: it replaces a constant velocity's (which misses every change)
+  // and the wheels' where they disagree by more than the gyro's own error over a frame (a kick or
+  // a spin the tracks did not report); where they agree the wheels' turn has no bias to learn.
+  constexpr double kWheelGyroDisagreement = 2.0 * M_PI / 180.0;
+  if (imu_rotation && (!wheel_increment || Eigen::AngleAxisd(wheel_increment->linear().transpose() * *imu_rotation).angle() >
+                                               kWheelGyroDisagreement))
+    f.guess.linear() = *imu_rotation, f.imu_guess = true;
   const bool to_map = config_.mode == OdometryMode::FrameToMap;
   a.W = to_map ? Eigen::Isometry3d::Identity() : impl_->previous_pose;
   a.guess = a.W.inverse() * a.prev_pose * f.guess;

@@ -52,11 +52,13 @@ std::size_t deskewScanWithGyro(LabeledCloud& cloud, const GyroAttitude& attitude
 }
 
 void GyroBiasEstimator::update(const Eigen::Matrix3d& R_gyro, const Eigen::Matrix3d& R_tracked, double dt) {
-  constexpr double kGain = 0.1;                      // ~10 increments' memory
-  constexpr double kLargest = 1.0 * M_PI / 180.0;    // rad/s
-  if (!(dt > 0.0) || dt > 1.0) return;
-  const Eigen::Vector3d residual = so3Log(R_gyro.transpose() * R_tracked) / dt;
-  if (!residual.allFinite() || residual.norm() > kLargest) return;
+  constexpr double kGain = 0.1;                          // ~10 increments' memory
+  constexpr double kLargestRate = 1.0 * M_PI / 180.0;    // rad/s: a MEMS gyro's bias is far below
+  constexpr double kLargestAngle = 3.0 * M_PI / 180.0;   // rad: beyond, the registration is wrong
+  if (!(dt > 0.0)) return;
+  const Eigen::Vector3d angle = so3Log(R_gyro.transpose() * R_tracked);
+  const Eigen::Vector3d residual = angle / dt;
+  if (!residual.allFinite() || residual.norm() > kLargestRate || angle.norm() > kLargestAngle) return;
   // Measured rate = true + bias: integrating with too small a bias turns the gyro too far, and
   // the residual (tracked − gyro) is minus the bias left.
   bias_ -= kGain * residual;

@@ -201,7 +201,8 @@ class Odometry {
   /// odometry, if available. Throws hazmap::Error for a class missing from the table (when
   /// classes are used) or a non-finite wheel increment; an empty scan falls back.
   /// `imu_rotation`: previous ← current rotation the gyro measured; it replaces the guess's
-  /// rotation (the wheels' turn or constant velocity's), the translation stays theirs.
+  /// rotation (constant velocity's, or the wheels' turn where it differs by more than 2°), the
+  /// translation stays theirs.
   const OdometryFrame& addFrame(const LabeledCloud& scan,
                                 const std::optional<Eigen::Isometry3d>& wheel_increment = std::nullopt,
                                 double stamp = -1.0,

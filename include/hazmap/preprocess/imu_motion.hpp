@@ -41,7 +41,7 @@ class GyroBiasEstimator {
  public:
   const Eigen::Vector3d& bias() const { return bias_; }
   /// `R_gyro` integrated with bias() over `dt` s, `R_tracked` the verified increment's rotation.
-  /// A difference above 1 °/s is a registration's error or a slip, not a bias: ignored.
+  /// A difference above 1 °/s or 3° is a registration's error or a slip, not a bias: ignored.
   void update(const Eigen::Matrix3d& R_gyro, const Eigen::Matrix3d& R_tracked, double dt);
 
  private:
