@@ -381,3 +381,40 @@ TEST(OusterImu, RealRos1BagImuPacketsDecode) {
   }
   EXPECT_EQ(scans, 1u);
 }
+
+TEST(SimImu, McapCarriesTheImuAndReadsBackPerScan) {
+  const fs::path bag = test::scratchDir() / "imu_corridor.mcap";
+  fs::remove(bag);
+  const auto r = test::runCli("simulate --scenario corridor --frames 5 --imu-rate 200 --format mcap --overwrite --out " +
+                              bag.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  auto source = openScanSource(bag);
+  std::size_t scans = 0, with_imu = 0;
+  while (auto scan = source->next()) {
+    ++scans;
+    if (scan->index == 0 || scan->imu.empty()) continue;
+    ++with_imu;
+    EXPECT_NEAR(scan->imu.front().accel.z(), 9.81, 0.1);
+  }
+  EXPECT_EQ(scans, 5u);
+  EXPECT_EQ(with_imu, 4u);
+}
+
+TEST(ImuStream, PoorStreamIsWarnedAndBridgedNeverFatal) {
+  const fs::path dir = test::scratchDir() / "imu_poor";
+  fs::remove_all(dir);
+  ASSERT_EQ(test::runCli("simulate --scenario corridor --frames 5 --imu-rate 200 --out " + dir.string()).exit_code, 0);
+  std::vector<ImuSample> s = readImuFile(dir / "imu.txt");
+  ASSERT_GT(s.size(), 6000u);
+  s.erase(s.begin() + 3000, s.begin() + 3400);  // a 2-s gap inside the third increment
+  s.insert(s.begin() + 5000, s[4990]);           // out of order
+  writeImuFile(dir / "imu.txt", s);
+  const auto r = test::runCli("odometry " + dir.string() + " --out " + (dir / "odo").string());
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("1 IMU samples out of time order dropped; 1 gaps in the IMU stream"), std::string::npos)
+      << r.output;
+  auto source = openScanSource(dir);
+  std::vector<bool> covered;
+  while (auto scan = source->next()) covered.push_back(!scan->imu.empty());
+  EXPECT_EQ(covered, (std::vector<bool>{true, true, false, true, true}));  // the gap's increment: none
+}
