@@ -86,6 +86,7 @@ void run(const OdometryOptions& o, const ParameterOptions& params) {
   DeskewConfig deskew;
   deskew.enabled = !o.source.no_deskew;
   StreamDeskewer deskewer(deskew);
+  ImuStreamMotion imu;  // does nothing without IMU samples
 
   std::filesystem::create_directories(o.out);
   Odometry odo(params.propertyIcp().applyTo(scans->classTable()), cfg);
@@ -108,9 +109,11 @@ void run(const OdometryOptions& o, const ParameterOptions& params) {
     std::optional<Eigen::Isometry3d> inc;
     if (use_wheel && prev_wheel) inc = prev_wheel->inverse() * *scan->odometry;
     if (use_wheel) prev_wheel = scan->odometry;
-    deskewer.apply(scan->cloud, scan->stamp, inc);
-    const OdometryFrame& f = odo.addFrame(scan->cloud, inc, scan->stamp);
+    const ImuStreamMotion::Motion imu_motion = imu.next(scan->imu, scan->stamp);
+    deskewer.apply(scan->cloud, scan->stamp, inc, imu_motion.attitudePtr());
+    const OdometryFrame& f = odo.addFrame(scan->cloud, inc, scan->stamp, imu_motion.rotation);
     deskewer.tracked(f.increment);
+    imu.tracked(verifiedRotation(f));
     if (!o.quiet && f.status == FrameStatus::Fallback)
       std::fprintf(stderr, "frame %zu: fell back to the %s guess (flagged): %s\n", i,
                    f.wheel_guess ? "wheel-odometry" : "constant-velocity", f.reason.c_str());

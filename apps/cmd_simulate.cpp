@@ -2,12 +2,14 @@
 #include <fmt/format.h>
 
 #include <iostream>
+#include <memory>
 #include <random>
 #include <sstream>
 
 #include "command.hpp"
 #include "hazmap/core/config_fields.hpp"
 #include "hazmap/core/error.hpp"
+#include "hazmap/io/imu.hpp"
 #include "hazmap/io/ply.hpp"
 #include "hazmap/io/sequence.hpp"
 #include "hazmap/map/render.hpp"
@@ -80,6 +82,7 @@ struct SimulateOptions {
   std::string image_format = "mono16";
   bool worst_day = false;
   bool no_odometry = false;
+  double imu_rate = 0.0;
 };
 
 /// --format mcap: the sequence is simulated into a temporary folder next to the bag, then written
@@ -162,6 +165,18 @@ void writeSimulationAsPcap(const sim::SimulatorConfig& config, const std::filesy
                            capture.string(), frames, packets, summary.route_length);
 }
 
+/// The simulated imu.txt as sensor_msgs/Imu on /imu (sensor frame: frame_id velodyne).
+McapExtraTopic imuTopic(const std::filesystem::path& imu_txt) {
+  auto samples = std::make_shared<std::vector<ImuSample>>(readImuFile(imu_txt));
+  McapExtraTopic t{"/imu", "sensor_msgs/msg/Imu", {}, {}};
+  for (const auto& s : *samples) t.stamps.push_back(s.time);
+  t.message = [samples](std::size_t i) {
+    const ImuSample& s = (*samples)[i];
+    return encodeImu({{s.time, "velodyne"}, s.gyro, s.accel});
+  };
+  return t;
+}
+
 void writeSimulationAsMcap(const sim::SimulatorConfig& config, const std::filesystem::path& bag, bool overwrite,
                            bool png_images) {
   namespace fs = std::filesystem;
@@ -181,8 +196,9 @@ void writeSimulationAsMcap(const sim::SimulatorConfig& config, const std::filesy
   const auto summary = sim::writeSimulation(config, folder, /*overwrite=*/false);
   const auto scans = sequenceScanSource(Sequence::open(folder));
   std::vector<std::pair<std::string, std::string>> yamls;
-  const auto cameras = cameraTopics(folder, config.cameras, png_images, yamls);
-  const McapExportSummary written = writeScansAsMcap(*scans, bag, cameras);
+  auto extra = cameraTopics(folder, config.cameras, png_images, yamls);
+  if (fs::exists(folder / "imu.txt", ec)) extra.push_back(imuTopic(folder / "imu.txt"));
+  const McapExportSummary written = writeScansAsMcap(*scans, bag, extra);
   std::cout << fmt::format("wrote {}: {} frames ({} PointCloud2 on /velodyne_points, {} Odometry on /odom, {} "
                            "PoseStamped on /ground_truth), {:.1f} m route\n",
                            bag.string(), written.scans, written.scans, written.odometry, written.ground_truth,
@@ -191,7 +207,7 @@ void writeSimulationAsMcap(const sim::SimulatorConfig& config, const std::filesy
   for (std::size_t k = 0; k < yamls.size(); ++k) {
     const fs::path yaml = absolute.parent_path() / (absolute.stem().string() + "." + yamls[k].first + ".yaml");
     writeTextAtomically(yaml, yamls[k].second);
-    std::cout << fmt::format("  {} images on {}; calibration {}\n", cameras[k].stamps.size(), cameras[k].topic, yaml.string());
+    std::cout << fmt::format("  {} images on {}; calibration {}\n", extra[k].stamps.size(), extra[k].topic, yaml.string());
   }
   if (config.cameras.rig.empty()) return;
   std::string rig = "# the simulated camera rig: hazmap label BAG --camera BAG_STEM.rig.yaml\ncameras:\n";
@@ -286,11 +302,15 @@ void setupSimulate(CLI::App& app) {
                "The crawler's worst day (preset worst-day): track slips up to 2 m, yaw kicks up to 45 deg, "
                "lost scans; --config keys override it");
   app.add_flag("--no-odometry", opt->no_odometry, "Write no odometry.txt (a run without wheel odometry)");
+  app.add_option("--imu-rate", opt->imu_rate,
+                 "Also write imu.txt: gyro + accelerometer samples at this rate (Hz, e.g. 200; noise: imu.* keys)")
+      ->check(CLI::Range(1.0, 2000.0));
   app.callback([opt, scenario, seed, frames, scene, regions, temperature]() {
     sim::SimulatorConfig config;
     if (opt->worst_day) config = sim::SimulatorConfig::withPreset("worst-day", config, "--worst-day");
     if (!opt->config.empty()) config = sim::SimulatorConfig::fromYamlFile(opt->config, config);
     if (opt->no_odometry) config.wheel_odometry = false;
+    if (opt->imu_rate > 0.0) config.imu.rate_hz = opt->imu_rate;
     if (scenario->count() || opt->config.empty()) config.scenario = opt->scenario;
     if (seed->count()) config.seed = opt->seed;
     if (frames->count()) config.max_frames = opt->frames;

@@ -108,12 +108,30 @@ int main(int argc, char** argv) {
   write(out / "pcap/os1-64.pcap", os64);
   write(out / "pcap/os1-64-fragments.pcap", fragmented(os64));
   write(out / "pcap/os1-128.pcap", head(data / "ouster-os1-128/OS-1-128_v2.3.0_1024x10_lb_n3.pcap", 5));
+  const Bytes os128 = head(data / "ouster-os1-128/OS-1-128_v2.3.0_1024x10_lb_n3.pcap", 1000);
 
   std::ifstream json(data / "ouster-os1-128/OS-1-128_v2.3.0_1024x10.json");
   std::string text((std::istreambuf_iterator<char>(json)), std::istreambuf_iterator<char>());
   Bytes meta(1, 0);
   meta.insert(meta.end(), text.begin(), text.end());
   write(out / "ouster/os1-128-metadata", meta);
+  // fuzz_imu: the capture's real IMU packets (odd first byte) and an imu.txt (even).
+  fs::create_directories(out / "imu");
+  Bytes imu_packets(1, 1);
+  for (std::size_t at = 24; at + 16 <= os128.size();) {
+    std::uint32_t caplen;
+    std::memcpy(&caplen, &os128[at + 8], 4);
+    const std::size_t payload = at + 16 + 42;  // Ethernet 14 + IPv4 20 + UDP 8
+    if (caplen == 42 + hazmap::kOusterImuPacketSize && payload + hazmap::kOusterImuPacketSize <= os128.size())
+      imu_packets.insert(imu_packets.end(), os128.begin() + static_cast<long>(payload),
+                         os128.begin() + static_cast<long>(payload + hazmap::kOusterImuPacketSize));
+    at += 16 + caplen;
+  }
+  write(out / "imu/os1-128-packets", imu_packets);
+  const std::string imu_txt = "# time wx wy wz ax ay az\n0 0.01 -0.02 0.003 0.1 0.2 9.8\n0.005 0.011 -0.02 0.003 0.1 0.2 9.81\n";
+  Bytes imu_file{0};
+  imu_file.insert(imu_file.end(), imu_txt.begin(), imu_txt.end());
+  write(out / "imu/imu-txt", imu_file);
   std::uint8_t mode = 1;
   for (const auto& m : hazmap::fuzz::fuzzOusterSensors()) {
     Bytes seed{mode};

@@ -57,6 +57,9 @@ hazmap_label(test_graph unit
 hazmap_label(test_graph_datasets real-data)
 hazmap_label(test_gravity unit
   scene "^GravityNeverWorse\\.")
+hazmap_label(test_imu unit
+  real-data "^OusterImu\\.Real|^ImuRun\\."
+  scene "^SimImu\\.SequenceFolder")
 hazmap_label(test_io unit
   real-data "^IoRealData\\.|RealScanThroughCompressedPcd|SequenceWriterThenSequence")
 hazmap_label(test_io_errors unit

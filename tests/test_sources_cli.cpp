@@ -88,8 +88,10 @@ TEST(OdometryOnRecording, Os1128AgreesWithOusterSdkPosesWithin5cmAndHalfADegree)
     EXPECT_LT(rotationAngle(error), 0.5 * M_PI / 180) << "scan " << i;
     EXPECT_GT(translationNorm(sdk_motion), 0.2);  // the sensor moves ~2.5 m/s: a real test
   }
-  // Deskewing was applied from the third scan on (the first motion estimate is the first two).
-  EXPECT_TRUE(ours.poses[1].isApprox(raw.poses[1], 1e-12));
+  // Deskewing was applied from the second scan on: the capture's IMU packets cover it (the first
+  // starts before the first IMU sample); without an IMU only from the third (the first motion
+  // estimate is the first two), tests/test_imu.cpp compares both.
+  EXPECT_GT((ours.poses[1].translation() - raw.poses[1].translation()).norm(), 1e-3);
   EXPECT_GT((ours.poses[2].translation() - raw.poses[2].translation()).norm(), 1e-3);
 }
 

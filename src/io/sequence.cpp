@@ -171,6 +171,10 @@ Sequence Sequence::open(const fs::path& dir, const std::optional<ClassTable>& ta
   seq.ground_truth_ = readOptionalTrajectory(dir / "poses.txt", seq.scans_.size());
   seq.odometry_ = readOptionalTrajectory(dir / "odometry.txt", seq.scans_.size());
   if (fs::exists(dir / "gravity.txt", ec)) seq.gravity_ = readGravityFile(dir / "gravity.txt", seq.scans_.size());
+  if (fs::exists(dir / "imu.txt", ec)) {
+    seq.imu_ = readImuFile(dir / "imu.txt");
+    seq.imu_note_ = describe(cleanImuStream(seq.imu_, kImuMaxGap), (dir / "imu.txt").string());
+  }
   return seq;
 }
 

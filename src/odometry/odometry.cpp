@@ -146,12 +146,13 @@ struct Odometry::Judgement {
 // map from the wheel-odometry guess, check the result, then update the map.
 const OdometryFrame& Odometry::addFrame(const LabeledCloud& scan,
                                         const std::optional<Eigen::Isometry3d>& wheel_increment,
-                                        double stamp) {
+                                        double stamp, const std::optional<Eigen::Matrix3d>& imu_rotation) {
   const auto t_start = Clock::now();
   OdometryFrame f;
   f.index = frames_.size();
   const std::string where = "odometry frame " + std::to_string(f.index);
   if (wheel_increment && !isFinite(*wheel_increment)) fail(where, "wheel odometry increment is not finite");
+  if (imu_rotation && !imu_rotation->allFinite()) fail(where, "IMU rotation is not finite");
   scan.checkConsistent(where);
   if (config_.registration.use_classes) classes_.checkCloud(scan, where);
   f.stamp = stamp >= 0.0 ? stamp : static_cast<double>(f.index);
@@ -170,7 +171,7 @@ const OdometryFrame& Odometry::addFrame(const LabeledCloud& scan,
     if (labelsDecideAxes(config_)) impl_->scan_labels = labelledPointsOf(scan, config_, classes_);
   } else {
     if (labelsDecideAxes(config_)) prepareLabels(scan);
-    Attempt a = guess(f, wheel_increment, map_target);  // 2. guess
+    Attempt a = guess(f, wheel_increment, imu_rotation, map_target);  // 2. guess
     if (a.target && config_.motion_hypotheses.enabled && !wheel_increment) seedFromHypotheses(f, a, prepared.source());
     RegistrationResult r = a.target ? registerClouds(prepared.source(), *a.target, a.guess, classes_, config_.registration)
                                     : unregistered("no previous scan to register against");  // 3. register (eq. 2)
@@ -187,14 +188,28 @@ const OdometryFrame& Odometry::addFrame(const LabeledCloud& scan,
   return frames_.back();
 }
 
-// The wheel increment, else constant velocity (identity before the first increment).
+std::optional<Eigen::Matrix3d> verifiedRotation(const OdometryFrame& f) {
+  if (f.status != FrameStatus::Tracked) return std::nullopt;
+  return f.increment.linear();
+}
+
+// The wheel increment, else constant velocity (identity before the first increment); the gyro's
+// rotation when there is an IMU.
 Odometry::Attempt Odometry::guess(OdometryFrame& f, const std::optional<Eigen::Isometry3d>& wheel_increment,
+                                  const std::optional<Eigen::Matrix3d>& imu_rotation,
                                   std::optional<RegistrationTarget>& map_target) const {
   Attempt a;
   a.prev_pose = frames_.back().pose;
   f.wheel_guess = wheel_increment.has_value();
   f.guess = wheel_increment ? *wheel_increment
                             : (impl_->has_velocity ? impl_->velocity : Eigen::Isometry3d::Identity());
+  // The gyro measures the turn: it replaces a constant velocity's (which misses every change)
+  // and the wheels' where they disagree by more than the gyro's own error over a frame (a kick or
+  // a spin the tracks did not report); where they agree the wheels' turn has no bias to learn.
+  constexpr double kWheelGyroDisagreement = 2.0 * M_PI / 180.0;
+  if (imu_rotation && (!wheel_increment || Eigen::AngleAxisd(wheel_increment->linear().transpose() * *imu_rotation).angle() >
+                                               kWheelGyroDisagreement))
+    f.guess.linear() = *imu_rotation, f.imu_guess = true;
   const bool to_map = config_.mode == OdometryMode::FrameToMap;
   a.W = to_map ? Eigen::Isometry3d::Identity() : impl_->previous_pose;
   a.guess = a.W.inverse() * a.prev_pose * f.guess;

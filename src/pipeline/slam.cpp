@@ -117,9 +117,11 @@ class SlamRun {
     if (!usesIcp(config_.method)) {
       if (wheel_increment) rec.T_prev_curr = *wheel_increment;
     } else {
-      rec.deskew_velocity = deskewer_.apply(scan.cloud, scan.stamp, wheel_increment);
-      const OdometryFrame& f = tracker_->addFrame(scan.cloud, wheel_increment, scan.stamp);
+      const ImuStreamMotion::Motion imu = imu_.next(scan.imu, scan.stamp);
+      rec.deskew_velocity = deskewer_.apply(scan.cloud, scan.stamp, wheel_increment, imu.attitudePtr());
+      const OdometryFrame& f = tracker_->addFrame(scan.cloud, wheel_increment, scan.stamp, imu.rotation);
       deskewer_.tracked(f.increment);
+      imu_.tracked(verifiedRotation(f));
       recordTracking(rec, f, config_.odometry.mode);
     }
     rec.milliseconds = 1e3 * secondsSince(t_frame);
@@ -212,6 +214,7 @@ class SlamRun {
   bool has_odometry_ = false;
   Eigen::Isometry3d T_start_odom0_ = Eigen::Isometry3d::Identity();
   StreamDeskewer deskewer_;
+  ImuStreamMotion imu_;
   std::optional<Odometry> tracker_;
   std::vector<Eigen::Isometry3d> tracked_;
   std::optional<BackEnd> back_end_;  // PGO methods only

@@ -2,6 +2,7 @@
 
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "hazmap/core/error.hpp"
@@ -31,8 +32,27 @@ std::size_t deskewScan(LabeledCloud& cloud, const Vector6d& velocity, double ref
   return cloud.size();
 }
 
+std::optional<Vector6d> StreamDeskewer::applyGyro(LabeledCloud& cloud, double stamp, std::optional<double> before,
+                                                  const std::optional<Eigen::Isometry3d>& wheel_increment,
+                                                  const GyroAttitude& gyro) const {
+  Eigen::Vector3d linear = Eigen::Vector3d::Zero();
+  if (before && config_.motion == DeskewMotion::WheelOdometry && wheel_increment && stamp - *before > 0.0 &&
+      stamp - *before <= config_.max_increment_gap)
+    linear = velocityOfIncrement(*wheel_increment, stamp - *before).head<3>();
+  else if (last_increment_ && *last_increment_dt_ > 0.0 && *last_increment_dt_ <= config_.max_increment_gap)
+    linear = velocityOfIncrement(*last_increment_, *last_increment_dt_).head<3>();
+  const auto [lo, hi] = std::minmax_element(cloud.timestamps.begin(), cloud.timestamps.end());
+  if (deskewScanWithGyro(cloud, gyro, linear, stamp) == 0) return std::nullopt;
+  Vector6d velocity;
+  const Eigen::Vector3d angular =
+      *hi > *lo ? Eigen::Vector3d(so3Log(gyro.between(*lo, *hi)) / (*hi - *lo)) : Eigen::Vector3d::Zero();
+  velocity << linear, angular;
+  return velocity;
+}
+
 std::optional<Vector6d> StreamDeskewer::apply(LabeledCloud& cloud, double stamp,
-                                              const std::optional<Eigen::Isometry3d>& wheel_increment) {
+                                              const std::optional<Eigen::Isometry3d>& wheel_increment,
+                                              const GyroAttitude* gyro) {
   // The last tracked increment spans the two scans before this one.
   if (pending_increment_ && prev_stamp_ && stamp_) {
     last_increment_ = pending_increment_;
@@ -42,7 +62,10 @@ std::optional<Vector6d> StreamDeskewer::apply(LabeledCloud& cloud, double stamp,
   const std::optional<double> before = stamp_;
   prev_stamp_ = stamp_;
   stamp_ = stamp;
-  if (!config_.enabled || !cloud.hasTimestamps() || !before) return std::nullopt;
+  if (!config_.enabled || !cloud.hasTimestamps()) return std::nullopt;
+  if (gyro && !gyro->empty())
+    if (auto v = applyGyro(cloud, stamp, before, wheel_increment, *gyro)) return v;
+  if (!before) return std::nullopt;
   std::optional<Eigen::Isometry3d> increment;
   double dt = 0.0;
   if (config_.motion == DeskewMotion::WheelOdometry && wheel_increment) {

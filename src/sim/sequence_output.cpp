@@ -132,6 +132,11 @@ void writeTrajectories(const Simulator& sim, SequenceWriter& writer, const fs::p
     for (std::size_t i = 0; i < sim.frames(); ++i) gravity.push_back(sim.gravity(i));
     writeGravityFile(dir / "gravity.txt", gravity);
   }
+  if (sim.config().imu.rate_hz > 0.0) {
+    std::vector<double> frame_times;
+    for (const auto& s : sim.samples()) frame_times.push_back(s.time);
+    writeImuFile(dir / "imu.txt", simulateImuStream(sim.worldPoses(), frame_times, sim.config().imu, sim.config().seed));
+  }
 }
 
 /// reference_map.ply: the reference cloud downsampled, majority class per voxel, coloured.

@@ -223,7 +223,20 @@ const ConfigFields<ImuConfig>& configFields(ConfigTag<ImuConfig>) {
                       "and pitch (docs/formats.md).")
           .flag("enabled", &C::enabled, "Write gravity.txt (false: a sequence without IMU)")
           .number("gravity_sigma_deg", &C::gravity_sigma_deg, openClosed(0, 45),
-                  "° per axis, noise of the gravity direction (an industrial AHRS's roll/pitch: 0.1–0.3°)");
+                  "° per axis, noise of the gravity direction (an industrial AHRS's roll/pitch: 0.1–0.3°)")
+          // The raw stream's keys appear in simulation.yaml only when it is written (as before otherwise).
+          .number("rate_hz", &C::rate_hz, closed(0, 2000), "Hz, imu.txt's gyro + accelerometer samples (0: no imu.txt; 200 a MEMS IMU's usual)")
+          .writeIf([](const C& c) { return c.rate_hz > 0; })
+          .number("gyro_noise_density", &C::gyro_noise_density, closed(0, 10), "°/s/√Hz, gyro white noise (Bosch BMI088 datasheet: 0.014)")
+          .writeIf([](const C& c) { return c.rate_hz > 0; })
+          .number("accel_noise_density", &C::accel_noise_density, closed(0, 1e5), "µg/√Hz, accelerometer white noise (BMI088 datasheet: 175)")
+          .writeIf([](const C& c) { return c.rate_hz > 0; })
+          .number("gyro_bias_sigma", &C::gyro_bias_sigma, closed(0, 10), "°/s, the gyro's turn-on bias after a calibration at rest (the BMI088's raw zero-rate offset: ±1)")
+          .writeIf([](const C& c) { return c.rate_hz > 0; })
+          .number("gyro_bias_walk", &C::gyro_bias_walk, closed(0, 1), "rad/s²/√Hz, gyro bias random walk (Kalibr's EuRoC ADIS16448: 1.9393e-5)")
+          .writeIf([](const C& c) { return c.rate_hz > 0; })
+          .number("accel_bias_walk", &C::accel_bias_walk, closed(0, 1), "m/s³/√Hz, accelerometer bias random walk (Kalibr's EuRoC ADIS16448: 3e-3)")
+          .writeIf([](const C& c) { return c.rate_hz > 0; });
   return fields;
 }
 

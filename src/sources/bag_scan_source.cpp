@@ -2,6 +2,7 @@
 // odometry (and ground truth) topics, which arrive at their own rate, are interpolated at each
 // scan's time. Scans wait in a short queue until the poses around their time have arrived. Times
 // are the messages' header stamps (the time of the data, as tf uses them), never the log times.
+#include <algorithm>
 #include <deque>
 #include <fstream>
 
@@ -11,6 +12,7 @@
 #include "hazmap/sources/ros_messages.hpp"
 #include "hazmap/sources/scan_source.hpp"
 #include "io/io_detail.hpp"
+#include "sources/imu_attach.hpp"
 #include "sources/packet_decoders.hpp"
 #include "sources/scan_assembler.hpp"
 #include "sources/topic_selection.hpp"
@@ -47,7 +49,8 @@ class BagScanSource final : public ScanSource {
 
   std::optional<Scan> next() override {
     while (true) {
-      if (!pending_.empty() && (exhausted_ || posesCover(pending_.front().stamp))) return attachPoses();
+      if (!pending_.empty() && (exhausted_ || (posesCover(pending_.front().stamp) && imuCovers(pending_.front()))))
+        return attachPoses();
       if (exhausted_) return std::nullopt;
       readMessage();
     }
@@ -96,16 +99,22 @@ class BagScanSource final : public ScanSource {
     if (!reader_->next(m)) {
       exhausted_ = true;
       for (const auto& line : assembler_->flush(path_.string() + ": " + topics_.lidar->name, pending_)) notice(line);
+      imu_.append(assembler_->takeImu());
       for (const auto& line : reader_->loss().notices) notice(line);
+      if (topics_.imu)
+        if (const std::string line = imu_.notice(path_.string() + ": " + topics_.imu->name); !line.empty()) notice(line);
       return;
     }
     const std::string where = path_.string() + ": " + m.topic->name;
     if (m.topic->name == topics_.lidar->name) {
       assembler_->addMessage(m, where, pending_);
+      imu_.append(assembler_->takeImu());
     } else if (topics_.odometry && m.topic->name == topics_.odometry->name) {
       const OdometryMsg o = decodeOdometry(m.data, m.topic->serialization, where);
       if (!odometry_.push(o.header.stamp, o.pose))
         notice(m.topic->name + ": odometry message older than the previous one skipped");
+    } else if (topics_.imu && m.topic->name == topics_.imu->name) {
+      readImu(m, where);
     } else if (topics_.ground_truth && m.topic->name == topics_.ground_truth->name) {
       const bool pose_stamped = m.topic->type == kPoseStampedType;
       const PoseStampedMsg p = pose_stamped ? decodePoseStamped(m.data, m.topic->serialization, where)
@@ -114,6 +123,27 @@ class BagScanSource final : public ScanSource {
       const double stamp = pose_stamped ? p.header.stamp : o.header.stamp;
       truth_.push(stamp, pose_stamped ? p.pose : o.pose);
     }
+  }
+
+  /// sensor_msgs/Imu samples are taken in the LiDAR's frame (no tf lookup, as for the odometry);
+  /// Ouster IMU packets go through the packet decoder, which rotates them by the metadata.
+  void readImu(const BagMessage& m, const std::string& where) {
+    if (topics_.imu_packets) {
+      const LidarPacket p = decodeOusterPacket(m.data, m.topic->serialization, where);
+      assembler_->addPacket(p.data, p.stamp > 0 ? p.stamp : static_cast<double>(m.log_time_ns) * 1e-9, where, pending_);
+      imu_.append(assembler_->takeImu());
+    } else {
+      const ImuMsg msg = decodeImu(m.data, m.topic->serialization, where);
+      imu_.append({ImuSample{msg.header.stamp, msg.angular_velocity, msg.linear_acceleration}});
+    }
+  }
+
+  /// With an IMU topic, a scan also waits for the samples past its last point (a few scans at
+  /// most: an IMU that stopped must not hold the recording in memory).
+  bool imuCovers(const RawScan& raw) const {
+    if (!topics_.imu || imu_.empty() || pending_.size() > 3) return true;
+    const auto& t = raw.cloud.timestamps;
+    return imu_.reaches(t.empty() ? raw.stamp : *std::max_element(t.begin(), t.end()));
   }
 
   Scan attachPoses() {
@@ -136,6 +166,8 @@ class BagScanSource final : public ScanSource {
       scan.ground_truth = truth_.at(scan.stamp);
       truth_.dropBefore(scan.stamp);
     }
+    if (!imu_.empty()) imu_.attach(scan, previous_stamp_);
+    previous_stamp_ = scan.stamp;
     return scan;
   }
 
@@ -150,6 +182,8 @@ class BagScanSource final : public ScanSource {
   bool exhausted_ = false;
   std::size_t next_index_ = 0;
   int warned_clamp_ = 0;
+  ImuBuffer imu_;
+  std::optional<double> previous_stamp_;
 };
 
 }  // namespace

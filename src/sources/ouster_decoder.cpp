@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 
 #include <deque>
+#include <utility>
 
 #include "hazmap/core/error.hpp"
 #include "hazmap/sources/ouster.hpp"
@@ -14,7 +15,7 @@
 namespace hazmap {
 namespace {
 
-constexpr std::size_t kImuPacketSize = 48;  // IMU packets share the capture's stream: not odd
+constexpr std::size_t kImuPacketSize = kOusterImuPacketSize;  // IMU packets share the stream: not odd
 constexpr std::uint64_t kYear2001Ns = 978'307'200ull * 1'000'000'000ull;
 enum class ColumnState : std::uint8_t { Missing, Valid, Invalid };
 
@@ -37,6 +38,8 @@ struct OusterDecoder::Impl {
   std::uint32_t columns_received = 0;
   std::uint32_t columns_skipped = 0;  // odd columns of this frame (DecoderQuirks)
   double clock_offset = 0.0;  // seconds added to the sensor's timestamps
+  bool clock_known = false;   // clock_offset set by a lidar packet
+  std::vector<ImuSample> imu;
 
   std::deque<DecodedScan> ready;
   OusterDecoderStats stats;
@@ -63,6 +66,7 @@ struct OusterDecoder::Impl {
   }
 
   void add(std::span<const std::uint8_t> payload, double packet_time, const std::string& where) {
+    if (payload.size() == kImuPacketSize && layout.packet_size != kImuPacketSize) addImu(payload, packet_time, where);
     if (payload.size() != layout.packet_size || layout.packetType(payload.data()) != 1) {
       ++stats.other_packets;
       stats.last_other_size = payload.size();
@@ -90,6 +94,27 @@ struct OusterDecoder::Impl {
     for (std::size_t i = 0; i < layout.columns; ++i) addColumn(layout.column(packet, i), where);
   }
 
+  /// The IMU's clock is the lidar's: its time gets the lidar columns' offset (its own packet's
+  /// before the first lidar packet).
+  void addImu(std::span<const std::uint8_t> payload, double packet_time, const std::string& where) {
+    const auto packet = decodeOusterImuPacket(payload, meta);
+    if (!packet) {
+      quirks.note("Ouster IMU packets with non-finite values skipped", where);
+      return;
+    }
+    const double sensor_time = static_cast<double>(packet->gyro_time_ns) * 1e-9;
+    double offset = clock_offset;
+    if (!clock_known) {
+      bool sensor_clock = options.clock == OusterDecoderOptions::Clock::Sensor;
+      if (options.clock == OusterDecoderOptions::Clock::Auto) sensor_clock = packet->gyro_time_ns >= kYear2001Ns;
+      offset = sensor_clock ? 0.0 : packet_time - sensor_time;
+    }
+    ImuSample sample = packet->sample;
+    sample.time = sensor_time + offset;
+    imu.push_back(sample);
+    ++stats.imu_packets;
+  }
+
   void startFrame(std::uint16_t f_id, const std::uint8_t* packet, double packet_time) {
     frame_id = f_id;
     std::fill(state.begin(), state.end(), ColumnState::Missing);
@@ -100,6 +125,7 @@ struct OusterDecoder::Impl {
     if (options.clock == OusterDecoderOptions::Clock::Auto) sensor_clock = last_ts >= kYear2001Ns;
     // A packet leaves the sensor right after its last column is measured.
     clock_offset = sensor_clock ? 0.0 : packet_time - static_cast<double>(last_ts) * 1e-9;
+    clock_known = true;
   }
 
   void addColumn(const std::uint8_t* col, const std::string& where) {
@@ -193,6 +219,8 @@ std::optional<DecodedScan> OusterDecoder::flush() {
   impl_->finishFrame();
   return takeScan();
 }
+
+std::vector<ImuSample> OusterDecoder::takeImu() { return std::exchange(impl_->imu, {}); }
 
 std::string OusterDecoder::describe() const { return impl_->meta.describe(); }
 

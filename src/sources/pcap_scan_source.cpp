@@ -3,6 +3,7 @@
 // 2368 too) start with 0xEEFF (0xFFEE on the Pandar40P) and have their model's size, Ouster lidar packets go to
 // port 7502 by default and need the sensor's metadata JSON (by default the .json next to the
 // capture) to be decoded.
+#include <algorithm>
 #include <fstream>
 
 #include "hazmap/core/error.hpp"
@@ -11,6 +12,7 @@
 #include "hazmap/sources/pcap_reader.hpp"
 #include "hazmap/sources/scan_source.hpp"
 #include "hazmap/sources/velodyne.hpp"
+#include "sources/imu_attach.hpp"
 #include "sources/packet_decoders.hpp"
 #include "sources/scan_assembler.hpp"
 
@@ -77,17 +79,20 @@ class PcapScanSource final : public ScanSource {
   }
 
   std::optional<Scan> next() override {
-    while (pending_.empty() && !exhausted_) {
+    while (!exhausted_ && (pending_.empty() || !imuReady())) {
       UdpPacket packet;
       if (reader_.next(packet)) {
         assembler_->addPacket(packet.payload, packet.time, path_.string() + ": datagram " +
                                                                std::to_string(packet.frame_index),
                               pending_);
+        imu_.append(assembler_->takeImu());
         continue;
       }
       exhausted_ = true;
       for (const auto& line : assembler_->flush(path_.string(), pending_)) notice(line);
+      imu_.append(assembler_->takeImu());
       for (const auto& line : reader_.loss().notices) notice(line);
+      if (const std::string line = imu_.notice(path_.string()); !line.empty()) notice(line);
     }
     if (pending_.empty()) return std::nullopt;
     Scan scan;
@@ -96,6 +101,8 @@ class PcapScanSource final : public ScanSource {
     scan.cloud = std::move(pending_.front().cloud);
     scan.cloud.classes.resize(scan.cloud.size(), 0);
     pending_.pop_front();
+    if (!imu_.empty()) imu_.attach(scan, previous_stamp_);
+    previous_stamp_ = scan.stamp;
     return scan;
   }
   std::optional<std::size_t> size() const override { return std::nullopt; }
@@ -103,6 +110,13 @@ class PcapScanSource final : public ScanSource {
   std::string describe() const override { return path_.string() + " (" + assembler_->describe() + ")"; }
 
  private:
+  /// With an IMU stream, a scan waits for the samples past its last point (or for the next scan).
+  bool imuReady() const {
+    if (imu_.empty() || pending_.size() >= 2) return true;
+    const auto& t = pending_.front().cloud.timestamps;
+    return imu_.reaches(t.empty() ? pending_.front().stamp : *std::max_element(t.begin(), t.end()));
+  }
+
   void notice(const std::string& line) const {
     if (options_.notice) options_.notice(line.rfind(path_.string(), 0) == 0 ? line : path_.string() + ": " + line);
   }
@@ -115,6 +129,8 @@ class PcapScanSource final : public ScanSource {
   ClassTable table_;
   bool exhausted_ = false;
   std::size_t next_index_ = 0;
+  ImuBuffer imu_;
+  std::optional<double> previous_stamp_;
 };
 
 }  // namespace

@@ -27,6 +27,12 @@ const std::map<std::string, std::string>& definitions() {
        "std_msgs/Header header\nuint32 height\nuint32 width\nstring encoding\nuint8 is_bigendian\nuint32 step\nuint8[] data\n" +
            kHeader},
       {"sensor_msgs/msg/CompressedImage", "std_msgs/Header header\nstring format\nuint8[] data\n" + kHeader},
+      {"sensor_msgs/msg/Imu",
+       "std_msgs/Header header\ngeometry_msgs/Quaternion orientation\nfloat64[9] orientation_covariance\n"
+       "geometry_msgs/Vector3 angular_velocity\nfloat64[9] angular_velocity_covariance\n"
+       "geometry_msgs/Vector3 linear_acceleration\nfloat64[9] linear_acceleration_covariance\n" +
+           kHeader + kSeparator + "geometry_msgs/Quaternion\nfloat64 x 0\nfloat64 y 0\nfloat64 z 0\nfloat64 w 1\n" +
+           kSeparator + "geometry_msgs/Vector3\nfloat64 x\nfloat64 y\nfloat64 z\n"},
       {"nav_msgs/msg/Odometry",
        "std_msgs/Header header\nstring child_frame_id\ngeometry_msgs/PoseWithCovariance pose\n"
        "geometry_msgs/TwistWithCovariance twist\n" +

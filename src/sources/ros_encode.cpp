@@ -95,6 +95,18 @@ std::vector<std::uint8_t> encodeOdometry(const OdometryMsg& msg, bool big_endian
   return w.take();
 }
 
+std::vector<std::uint8_t> encodeImu(const ImuMsg& msg, bool big_endian) {
+  CdrWriter w(big_endian);
+  w.header(msg.header);
+  for (double q : {0.0, 0.0, 0.0, 1.0}) w.prim<double>(q);
+  for (int i = 0; i < 9; ++i) w.prim<double>(i == 0 ? -1.0 : 0.0);  // no orientation estimate
+  for (int k = 0; k < 3; ++k) w.prim<double>(msg.angular_velocity[k]);
+  for (int i = 0; i < 9; ++i) w.prim<double>(0.0);
+  for (int k = 0; k < 3; ++k) w.prim<double>(msg.linear_acceleration[k]);
+  for (int i = 0; i < 9; ++i) w.prim<double>(0.0);
+  return w.take();
+}
+
 std::vector<std::uint8_t> encodeImage(const ImageMsg& msg, bool big_endian) {
   CdrWriter w(big_endian);
   w.header(msg.header);

@@ -70,6 +70,20 @@ OdometryMsg decodeOdometry(std::span<const std::uint8_t> bytes, Serialization s,
   return msg;
 }
 
+ImuMsg decodeImu(std::span<const std::uint8_t> bytes, Serialization s, const std::string& where) {
+  RosReader r(bytes, s, where);
+  ImuMsg msg;
+  msg.header = r.header();
+  r.skipDoubles(4 + 9);  // orientation and its covariance
+  for (int k = 0; k < 3; ++k) msg.angular_velocity[k] = r.prim<double>();
+  r.skipDoubles(9);
+  for (int k = 0; k < 3; ++k) msg.linear_acceleration[k] = r.prim<double>();
+  r.skipDoubles(9);
+  if (!msg.angular_velocity.allFinite() || !msg.linear_acceleration.allFinite())
+    r.failAt("Imu with a non-finite angular velocity or linear acceleration");
+  return msg;
+}
+
 ImageMsg decodeImage(std::span<const std::uint8_t> bytes, Serialization s, const std::string& where) {
   RosReader r(bytes, s, where);
   ImageMsg msg;

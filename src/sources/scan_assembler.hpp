@@ -34,6 +34,8 @@ class ScanAssembler {
   /// rotation. Returns notices: that piece dropped, what the decoder tolerated (DecoderQuirks).
   /// Throws hazmap::Error naming `where` when no packet decoded and some were odd.
   std::vector<std::string> flush(const std::string& where, std::deque<RawScan>& out);
+  /// The IMU samples its packet decoder decoded since the last call (Ouster IMU packets).
+  std::vector<ImuSample> takeImu() { return decoder_ ? decoder_->takeImu() : std::vector<ImuSample>{}; }
   /// The decoder's description, with what it tolerated when anything.
   std::string describe() const;
 

@@ -24,6 +24,7 @@ std::unique_ptr<ScanSource> openScanSource(const fs::path& path, const ScanSourc
   if (fs::is_directory(path / "velodyne", ec)) {
     Sequence sequence = Sequence::open(path, options.class_table);
     if (options.notice && !sequence.tableNote().empty()) options.notice(sequence.tableNote());
+    if (options.notice && !sequence.imuNote().empty()) options.notice(sequence.imuNote());
     return sequenceScanSource(std::move(sequence), options.read_channels);
   }
   if (isBag(path)) return sources::openBagScanSource(path, options);

@@ -4,6 +4,7 @@
 
 #include "hazmap/core/error.hpp"
 #include "hazmap/sources/scan_source.hpp"
+#include "sources/imu_attach.hpp"
 
 namespace hazmap {
 
@@ -44,6 +45,7 @@ class SequenceSource final : public ScanSource {
     if (const auto& odometry = sequence_.odometry()) scan.odometry = odometry->poses[next_];
     if (const auto& truth = sequence_.groundTruth()) scan.ground_truth = truth->poses[next_];
     if (const auto& gravity = sequence_.gravity()) scan.gravity = (*gravity)[next_];
+    sources::attachImu(scan, sequence_.imu(), next_ > 0 ? std::optional<double>(times_[next_ - 1]) : std::nullopt);
     ++next_;
     return scan;
   }

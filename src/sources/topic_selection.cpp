@@ -39,6 +39,25 @@ const TopicInfo* pick(const std::vector<const TopicInfo*>& candidates, const std
                   ": " + listTopics(candidates));
 }
 
+/// The only sensor_msgs/Imu topic; else, for Ouster packets, the driver's imu_packets topic of
+/// the same namespace. Several Imu topics: none (each is named as not read).
+const TopicInfo* pickImu(const std::vector<TopicInfo>& topics, const SelectedTopics& s, bool& packets) {
+  std::vector<const TopicInfo*> imus;
+  for (const auto& t : topics)
+    if (t.type == kImuType && (t.serialization == Serialization::Cdr || t.serialization == Serialization::Ros1))
+      imus.push_back(&t);
+  packets = false;
+  if (imus.size() == 1) return imus.front();
+  if (!imus.empty() || s.kind != LidarKind::OusterPackets) return nullptr;
+  const std::string ns = s.lidar->name.substr(0, s.lidar->name.rfind('/'));
+  for (const auto& t : topics)
+    if (isOusterPacketType(t.type) && contains(t.name, "imu") && t.name.rfind(ns, 0) == 0) {
+      packets = true;
+      return &t;
+    }
+  return nullptr;
+}
+
 }  // namespace
 
 bool lidarKindOf(const TopicInfo& topic, LidarKind& kind) {
@@ -59,7 +78,7 @@ std::string listTopics(const std::vector<const TopicInfo*>& topics) {
 
 std::vector<std::string> SelectedTopics::names() const {
   std::vector<std::string> out;
-  for (const TopicInfo* t : {lidar, odometry, ouster_metadata, ground_truth, class_table})
+  for (const TopicInfo* t : {lidar, odometry, ouster_metadata, ground_truth, class_table, imu})
     if (t) out.push_back(t->name);
   return out;
 }
@@ -77,8 +96,9 @@ SelectedTopics selectTopics(const std::vector<TopicInfo>& topics, const ScanSour
   s.lidar = pick(lidars, topics, options.lidar_topic, "LiDAR", "--lidar-topic", true, where);
   lidarKindOf(*s.lidar, s.kind);
   s.odometry = pick(odometries, topics, options.odom_topic, "odometry", "--odom-topic", false, where);
+  s.imu = pickImu(topics, s, s.imu_packets);
   for (const auto& t : topics) {
-    if (&t == s.lidar || &t == s.odometry) continue;
+    if (&t == s.lidar || &t == s.odometry || &t == s.imu) continue;
     if (s.kind == LidarKind::OusterPackets && t.type == kStringType && contains(t.name, "metadata") &&
         (!s.ouster_metadata || t.name.rfind(s.lidar->name.substr(0, s.lidar->name.rfind('/')), 0) == 0)) {
       s.ouster_metadata = &t;

@@ -19,6 +19,7 @@ inline constexpr const char* kPandarScanType = "pandar_msgs/msg/PandarScan";
 inline constexpr const char* kOdometryType = "nav_msgs/msg/Odometry";
 inline constexpr const char* kStringType = "std_msgs/msg/String";
 inline constexpr const char* kPoseStampedType = "geometry_msgs/msg/PoseStamped";
+inline constexpr const char* kImuType = "sensor_msgs/msg/Imu";
 /// hazmap's own bags (simulate --format mcap) carry their class table as YAML on this topic.
 inline constexpr const char* kClassTableTopic = "/hazmap/class_table";
 inline constexpr const char* kGroundTruthTopic = "/ground_truth";
@@ -30,6 +31,10 @@ struct SelectedTopics {
   const TopicInfo* ouster_metadata = nullptr;  ///< std_msgs/String …/metadata (Ouster packets only)
   const TopicInfo* ground_truth = nullptr;     ///< /ground_truth PoseStamped or Odometry
   const TopicInfo* class_table = nullptr;      ///< /hazmap/class_table
+  /// The IMU: the only sensor_msgs/Imu topic, or (Ouster packets) the driver's …/imu_packets
+  /// beside the lidar packets; nullptr when none (or several Imu topics: named in `skipped`).
+  const TopicInfo* imu = nullptr;
+  bool imu_packets = false;  ///< `imu` carries Ouster IMU packets (else sensor_msgs/Imu)
   /// Topics not read, one line each ("/camera/image (sensor_msgs/msg/Image): not a LiDAR …").
   std::vector<std::string> skipped;
   std::vector<std::string> names() const;  ///< the selected topics' names

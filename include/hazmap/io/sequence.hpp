@@ -7,6 +7,7 @@
 //   poses.txt                            optional ground truth, KITTI format, one line per scan
 //   odometry.txt                         optional wheel odometry, KITTI format, one line per scan
 //   gravity.txt                          optional IMU gravity direction per scan (io/gravity.hpp)
+//   imu.txt                              optional raw IMU samples, gyro + accelerometer (io/imu.hpp)
 //   hazmap.yaml                          optional: `class_table:` (a class table), `sensor:` and
 //                                        `property_channel: NAME` (then NAME/NNNNNN.bin holds one
 //                                        float32 per point: LabeledCloud::property, NaN = unobserved)
@@ -21,6 +22,7 @@
 #include "hazmap/core/class_table.hpp"
 #include "hazmap/core/labeled_cloud.hpp"
 #include "hazmap/io/gravity.hpp"
+#include "hazmap/io/imu.hpp"
 #include "hazmap/io/read_stats.hpp"
 #include "hazmap/io/trajectory.hpp"
 
@@ -53,6 +55,10 @@ class Sequence {
   const std::optional<Trajectory>& odometry() const { return odometry_; }
   /// gravity.txt, one sample per scan; nullopt without the file (no gravity information).
   const std::optional<std::vector<GravitySample>>& gravity() const { return gravity_; }
+  /// imu.txt's samples in time order (out-of-order ones dropped: imuNote()); empty without it.
+  const std::vector<ImuSample>& imu() const { return imu_; }
+  /// What cleaning imu.txt dropped or found missing, one line; empty when clean.
+  const std::string& imuNote() const { return imu_note_; }
   /// The `sensor:` section of hazmap.yaml as YAML text (empty if none).
   const std::string& sensorYaml() const { return sensor_yaml_; }
   /// hazmap.yaml's `property_channel` (empty if none): frames then carry the property channel.
@@ -71,6 +77,8 @@ class Sequence {
   std::string table_note_;
   std::optional<Trajectory> ground_truth_, odometry_;
   std::optional<std::vector<GravitySample>> gravity_;
+  std::vector<ImuSample> imu_;
+  std::string imu_note_;
   std::string sensor_yaml_;
   std::string property_channel_;
   std::vector<std::string> channels_;

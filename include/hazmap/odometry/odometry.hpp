@@ -171,6 +171,7 @@ struct OdometryFrame {
   FrameStatus status = FrameStatus::First;
   std::string reason;  ///< why the frame fell back / was degenerate
   bool wheel_guess = false;  ///< the guess came from wheel odometry (else constant velocity)
+  bool imu_guess = false;    ///< the guess's rotation is the gyro's (an IMU stream)
   /// The motion hypothesis ICP started from when it replaced the guess (motion_hypotheses), else empty.
   std::string guess_hypothesis;
   RegistrationResult registration;  ///< the ICP whose answer was used (or the failed one)
@@ -190,6 +191,10 @@ struct OdometryFrame {
 /// is coarser): cropped to [min_range, max_range], downsampled to voxel_size keeping property classes.
 LabeledCloud preprocessForTracking(const LabeledCloud& scan, const OdometryConfig& config, const ClassTable& classes);
 
+/// A frame's increment rotation when its registration verified it (tracked), else nullopt: what
+/// the gyro's online bias is estimated against (preprocess/imu_motion.hpp).
+std::optional<Eigen::Matrix3d> verifiedRotation(const OdometryFrame& f);
+
 class Odometry {
  public:
   Odometry(const ClassTable& classes, const OdometryConfig& config = OdometryConfig::defaults(),
@@ -199,9 +204,13 @@ class Odometry {
   /// Processes the next scan (sensor frame). `wheel_increment` = previous ← current from wheel
   /// odometry, if available. Throws hazmap::Error for a class missing from the table (when
   /// classes are used) or a non-finite wheel increment; an empty scan falls back.
+  /// `imu_rotation`: previous ← current rotation the gyro measured; it replaces the guess's
+  /// rotation (constant velocity's, or the wheels' turn where it differs by more than 2°), the
+  /// translation stays theirs.
   const OdometryFrame& addFrame(const LabeledCloud& scan,
                                 const std::optional<Eigen::Isometry3d>& wheel_increment = std::nullopt,
-                                double stamp = -1.0);
+                                double stamp = -1.0,
+                                const std::optional<Eigen::Matrix3d>& imu_rotation = std::nullopt);
 
   const std::vector<OdometryFrame>& frames() const { return frames_; }
   Trajectory trajectory() const;
@@ -219,7 +228,7 @@ class Odometry {
   struct Attempt;
   struct Judgement;
   Attempt guess(OdometryFrame& f, const std::optional<Eigen::Isometry3d>& wheel_increment,
-                std::optional<RegistrationTarget>& map_target) const;
+                const std::optional<Eigen::Matrix3d>& imu_rotation, std::optional<RegistrationTarget>& map_target) const;
   /// Motion hypotheses (motion_hypotheses.cpp): may replace the guess by a better-fitting start.
   void seedFromHypotheses(OdometryFrame& f, Attempt& a, const LabeledCloud& source);
   Judgement judge(OdometryFrame& f, const LabeledCloud& source, const Attempt& a,

@@ -8,6 +8,7 @@
 
 #include "hazmap/core/labeled_cloud.hpp"
 #include "hazmap/core/se3.hpp"
+#include "hazmap/preprocess/imu_motion.hpp"
 
 namespace hazmap {
 
@@ -41,13 +42,18 @@ class StreamDeskewer {
   explicit StreamDeskewer(DeskewConfig config) : config_(config) {}
   /// Deskews the scan at `stamp` (its reference time) in place; returns the body-frame velocity
   /// used, nullopt when the scan was left as it is (no per-point times, no motion known yet, a
-  /// gap in the recording, deskewing off).
+  /// gap in the recording, deskewing off). With `gyro` covering the scan (an IMU stream), the
+  /// rotation is the measured one and only the translation comes from the increment.
   std::optional<Vector6d> apply(LabeledCloud& cloud, double stamp,
-                                const std::optional<Eigen::Isometry3d>& wheel_increment);
+                                const std::optional<Eigen::Isometry3d>& wheel_increment,
+                                const GyroAttitude* gyro = nullptr);
   /// The tracked increment (previous scan ← this scan) of the scan just given to apply().
   void tracked(const Eigen::Isometry3d& T_prev_curr);
 
  private:
+  std::optional<Vector6d> applyGyro(LabeledCloud& cloud, double stamp, std::optional<double> before,
+                                    const std::optional<Eigen::Isometry3d>& wheel_increment,
+                                    const GyroAttitude& gyro) const;
   DeskewConfig config_;
   std::optional<double> prev_stamp_, stamp_;
   std::optional<Eigen::Isometry3d> last_increment_;  ///< into the previous scan

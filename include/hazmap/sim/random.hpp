@@ -12,7 +12,7 @@
 namespace hazmap::sim {
 
 /// Independent random streams of one simulation.
-enum class RngStream : std::uint64_t { Scan = 1, Odometry = 2, Temperature = 3, Camera = 4, Calibration = 5, Upset = 6, Imu = 7 };
+enum class RngStream : std::uint64_t { Scan = 1, Odometry = 2, Temperature = 3, Camera = 4, Calibration = 5, Upset = 6, Imu = 7, ImuStream = 8 };
 
 class Rng {
  public:

@@ -14,6 +14,7 @@
 #include <string_view>
 #include <vector>
 
+#include "hazmap/io/imu.hpp"
 #include "hazmap/sources/packet_decoder.hpp"
 
 namespace hazmap {
@@ -63,6 +64,20 @@ OusterMetadata readOusterMetadata(const std::filesystem::path& path);
 /// ("OS-1-128_v2.3.0_1024x10.json" for "OS-1-128_v2.3.0_1024x10_lb_n3.pcap"); nullopt if none.
 std::optional<std::filesystem::path> findOusterMetadata(const std::filesystem::path& capture);
 
+/// Bytes of an Ouster IMU packet (LEGACY IMU profile, every firmware so far).
+inline constexpr std::size_t kOusterImuPacketSize = 48;
+
+/// One decoded IMU packet: the sample in the sensor frame (rotated by imu_to_sensor; rad/s, m/s²)
+/// and the gyro's timestamp on the sensor's clock (ns). `sample.time` is left 0: the decoder
+/// puts it on the scans' clock.
+struct OusterImuPacket {
+  ImuSample sample;
+  std::uint64_t gyro_time_ns = 0;
+};
+/// nullopt for a payload of another size or with non-finite values.
+std::optional<OusterImuPacket> decodeOusterImuPacket(std::span<const std::uint8_t> payload,
+                                                     const OusterMetadata& metadata);
+
 struct OusterDecoderOptions {
   /// Per-point intensity: the signal photon count (default; profiles without it — the
   /// low-bandwidth RNG15 — fall back to reflectivity) or the calibrated reflectivity.
@@ -82,6 +97,7 @@ struct OusterDecoderOptions {
 struct OusterDecoderStats {
   std::uint64_t lidar_packets = 0;       ///< packets of the lidar packet size decoded
   std::uint64_t other_packets = 0;       ///< other sizes (IMU packets and anything else) ignored
+  std::uint64_t imu_packets = 0;         ///< IMU packets decoded (takeImu)
   std::uint64_t foreign_packets = 0;     ///< lidar-sized packets of another sensor (init id / serial)
   std::uint64_t late_packets = 0;        ///< packets of the previous frame after it was emitted
   std::uint64_t invalid_columns = 0;     ///< columns whose status says they hold no data
@@ -98,6 +114,7 @@ class OusterDecoder : public PacketDecoder {
                  const std::string& where) override;
   std::optional<DecodedScan> takeScan() override;
   std::optional<DecodedScan> flush() override;
+  std::vector<ImuSample> takeImu() override;
   std::string describe() const override;
   const OusterDecoderStats& stats() const;
   const OusterMetadata& metadata() const;

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "hazmap/core/labeled_cloud.hpp"
+#include "hazmap/io/imu.hpp"
 
 namespace hazmap {
 
@@ -48,6 +49,9 @@ class PacketDecoder {
   virtual std::optional<DecodedScan> takeScan() = 0;
   /// At the end of input: the partial scan being assembled, if any.
   virtual std::optional<DecodedScan> flush() = 0;
+  /// The IMU samples decoded since the last call (sensors that send IMU packets beside their
+  /// lidar packets: Ouster), on the clock of the scans' per-point times, sensor frame.
+  virtual std::vector<ImuSample> takeImu() { return {}; }
   virtual std::string describe() const = 0;  ///< e.g. "Velodyne VLP-16 (dual return)"
   /// What was tolerated so far (see DecoderQuirks).
   const DecoderQuirks& quirks() const { return quirks_; }

@@ -14,6 +14,8 @@ namespace hazmap {
 std::vector<std::uint8_t> encodePointCloud2(const PointCloud2& msg, bool big_endian = false);
 std::vector<std::uint8_t> encodeOdometry(const OdometryMsg& msg, bool big_endian = false);
 std::vector<std::uint8_t> encodeImage(const ImageMsg& msg, bool big_endian = false);
+/// sensor_msgs/Imu with no orientation (covariance[0] = −1, as REP 145 says) and zero covariances.
+std::vector<std::uint8_t> encodeImu(const ImuMsg& msg, bool big_endian = false);
 std::vector<std::uint8_t> encodeCompressedImage(const CompressedImageMsg& msg, bool big_endian = false);
 /// geometry_msgs/msg/PoseStamped.
 std::vector<std::uint8_t> encodePoseStamped(const RosHeader& header, const Eigen::Isometry3d& pose,

@@ -42,6 +42,13 @@ struct OdometryMsg {
   Eigen::Matrix<double, 6, 6> pose_covariance = Eigen::Matrix<double, 6, 6>::Zero();  ///< ROS order
 };
 
+/// sensor_msgs/Imu: the rates and the specific force (orientation and covariances not used).
+struct ImuMsg {
+  RosHeader header;
+  Eigen::Vector3d angular_velocity = Eigen::Vector3d::Zero();     ///< rad/s
+  Eigen::Vector3d linear_acceleration = Eigen::Vector3d::Zero();  ///< m/s²
+};
+
 struct ImageMsg {
   RosHeader header;
   std::uint32_t height = 0, width = 0;
@@ -85,6 +92,9 @@ VelodyneScanMsg decodeVelodyneScan(std::span<const std::uint8_t> bytes, Serializ
 VelodyneScanMsg decodePandarScan(std::span<const std::uint8_t> bytes, Serialization s, const std::string& where);
 LidarPacket decodeOusterPacket(std::span<const std::uint8_t> bytes, Serialization s,
                                const std::string& where);
+/// sensor_msgs/Imu (ROS 2 CDR or ROS 1); a truncated message or a non-finite rate or
+/// acceleration is an error naming `where`.
+ImuMsg decodeImu(std::span<const std::uint8_t> bytes, Serialization s, const std::string& where);
 /// std_msgs/String (the Ouster driver's metadata topic).
 std::string decodeString(std::span<const std::uint8_t> bytes, Serialization s, const std::string& where);
 

@@ -34,6 +34,10 @@ struct Scan {
   std::vector<PointChannel> channels;
   /// The IMU's gravity direction at `stamp` (a sequence folder's gravity.txt) when recorded.
   std::optional<GravitySample> gravity;
+  /// The IMU's samples (sensor frame) from the previous scan's stamp (this scan's first point for
+  /// the first scan) to this scan's last point, one beyond each end (io/imu.hpp imuSpan); empty
+  /// without an IMU stream or where it does not cover that span (then constant velocity).
+  std::vector<ImuSample> imu;
 };
 
 struct ScanSourceOptions {
@@ -73,7 +77,7 @@ class ScanSource {
 
 /// A sequence folder as a stream: scans in name order, odometry.txt → Scan::odometry, poses.txt
 /// → Scan::ground_truth, times.txt (when it has one line per scan) → Scan::stamp, else the index;
-/// the `channels:` files → Scan::channels when `read_channels`.
+/// the `channels:` files → Scan::channels when `read_channels`, imu.txt → Scan::imu.
 std::unique_ptr<ScanSource> sequenceScanSource(Sequence sequence, bool read_channels = true);
 
 /// Opens a sequence folder, a bag or a capture. Throws hazmap::Error naming the path.
