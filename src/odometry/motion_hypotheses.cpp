@@ -36,8 +36,6 @@ constexpr std::size_t kMinScanPoints = 200;
 /// m; the translation grid's step when no motion is known yet (the first step, frames dropped
 /// before it): a start within half a diagonal (0.7 m) of the right one converges in the refinement.
 constexpr double kGridStep = 1.0;
-/// Frames dropped in a row that constant velocity is repeated for (within the plausible travel).
-constexpr int kMaxRepeats = 8;
 /// Weight of a new frame in the running score.
 constexpr double kTypicalWeight = 0.2;
 /// The best-scoring starts refined by a short ICP of the sampled points: a raw score ranks a
@@ -85,20 +83,6 @@ std::size_t bestOf(const std::vector<Candidate>& cands) {
   for (std::size_t i = 1; i < cands.size(); ++i)
     if (cands[i].score > cands[best].score) best = i;  // ties: the earlier (simpler) hypothesis
   return best;
-}
-
-// Frames dropped since the last one: the last increment repeated n times, while that stays a
-// plausible motion (a still carrier's repeats are no hypothesis; a turn's are a spin).
-void addRepeats(std::vector<Candidate>& cands, const Eigen::Isometry3d& last, const HypothesisLimits& limits) {
-  if (translationNorm(last) < 0.5 * kGridStep) return;
-  Eigen::Isometry3d T = last;
-  for (int n = 2; n <= kMaxRepeats; ++n) {
-    T = T * last;
-    if (translationNorm(T) > limits.plausible_translation || n * rotationAngle(last) > limits.plausible_rotation) return;
-    char s[48];
-    std::snprintf(s, sizeof s, "last increment x%d (frames dropped)", n);
-    cands.push_back({T, s});
-  }
 }
 
 // The hypotheses besides the guess: zero motion, the last translation without its turn, the
@@ -219,11 +203,11 @@ HypothesisChoice MotionHypotheses::choose(const LabeledCloud& source, const Regi
     const std::size_t base = cands.size();
     sweepYaw(cands, cands[bestOf(cands)], std::min(config.yaw_range, limits.plausible_rotation));
     scoreAll(cands, base, sample, target, previous);
-    // Frames dropped: not a centre for the sweep (along a street a step farther scores nearly as
-    // well, and a turn swept there started ICP 2.7 m off: KITTI turned 30 deg).
+    // No motion known yet (the first step, frames dropped before it): a translation grid.
+    // Repeating the last increment for frames dropped mid-run was tried and not adopted
+    // (docs/history/2026-12-03-repeated-increments.md).
     const std::size_t swept = cands.size();
-    if (in.last_increment) addRepeats(cands, *in.last_increment, limits);
-    else addTranslationGrid(cands, cands[bestOf(cands)], limits.plausible_translation);
+    if (!in.last_increment) addTranslationGrid(cands, cands[bestOf(cands)], limits.plausible_translation);
     scoreAll(cands, swept, sample, target, previous);
     out.scored = static_cast<int>(cands.size());
     out.searches = cands.size() * sample.size();

@@ -3,7 +3,7 @@
 // scored against the registration target with a few hundred source points; when it fits clearly
 // worse than the starts of the frames before, zero motion, the last translation without its turn,
 // an IMU rotation (when one is given), a yaw sweep over the plausible turn around the best of
-// them, the last increment repeated (frames dropped) or, with no motion known yet, a grid of
+// them, and, with no motion known yet, a grid of
 // horizontal steps are scored too and the best few refined by a short ICP of the sampled points.
 // The full ICP starts from another start only when the guess lies in a wrong basin (its own
 // refinement fits clearly worse) or must travel beyond the tracking checks' limits. The score is
