@@ -14,6 +14,7 @@
 #include "hazmap/sources/pcap_writer.hpp"
 #include "sources/live_feeds.hpp"
 #include "sources/packet_decoders.hpp"
+#include "sources/imu_attach.hpp"
 #include "sources/scan_assembler.hpp"
 
 namespace hazmap {
@@ -57,7 +58,7 @@ class LiveStream final : public LiveScanSource {
   }
 
   std::optional<Scan> next() override {
-    while (pending_.empty() && !ended_) {
+    while (!ended_ && (pending_.empty() || !imuReady())) {
       FeedItem item;
       switch (feed_->next(item)) {
         case FeedItem::Idle: watchSilence(); break;
@@ -72,6 +73,8 @@ class LiveStream final : public LiveScanSource {
     scan.cloud = std::move(pending_.front().cloud);
     scan.cloud.classes.resize(scan.cloud.size(), 0);
     pending_.pop_front();
+    if (!imu_.empty()) imu_.attach(scan, previous_stamp_);  // as a capture's scans (pcap_scan_source.cpp)
+    previous_stamp_ = scan.stamp;
     return scan;
   }
   std::optional<std::size_t> size() const override { return std::nullopt; }
@@ -104,6 +107,14 @@ class LiveStream final : public LiveScanSource {
     // have taken the cut too: the scan starting here then lacks its head and is skipped as well.
     if (item.lost_before > 0 && pending_.size() > before) skip_ = 2;
     skipDamaged(before);
+    imu_.append(assembler_->takeImu());
+  }
+
+  /// With an IMU stream, a scan waits for the samples past its last point (or for the next scan).
+  bool imuReady() const {
+    if (imu_.empty() || pending_.size() >= 2) return true;
+    const auto& t = pending_.front().cloud.timestamps;
+    return imu_.reaches(t.empty() ? pending_.front().stamp : *std::max_element(t.begin(), t.end()));
   }
 
   void markLoss(std::uint64_t lost, std::int64_t time_ns) {
@@ -132,6 +143,8 @@ class LiveStream final : public LiveScanSource {
     const std::size_t before = pending_.size();
     for (const auto& line : assembler_->flush(feed_->where(), pending_)) notice(line);
     skipDamaged(before);
+    imu_.append(assembler_->takeImu());
+    if (const std::string line = imu_.notice(feed_->where()); !line.empty()) notice(line);
     if (spool_) spool_->flush();
   }
 
@@ -169,6 +182,8 @@ class LiveStream final : public LiveScanSource {
   std::size_t next_index_ = 0;
   std::uint64_t datagrams_ = 0;
   std::int64_t last_time_ns_ = 0;
+  ImuBuffer imu_;
+  std::optional<double> previous_stamp_;
 };
 
 }  // namespace
