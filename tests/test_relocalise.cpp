@@ -219,7 +219,7 @@ TEST(LabelAxis, LabelsPutAFramePlacedAMetreOffBackAlongTheCorridor) {
   std::vector<std::pair<Eigen::Isometry3d, const LabeledCloud*>> placed;
   for (std::size_t i = 0; i < 12; ++i) labels.push_back(labelledPointsOf(sim.scan(i), config, sim.classTable()));
   for (std::size_t i = 0; i < 12; ++i) placed.push_back({sim.groundTruth()[i], &labels[i]});
-  const LabeledCloud map = labelMapOf(placed, config, sim.classTable());
+  const LabeledCloud map = labelMapOf(placed, sim.classTable());
   const LabeledCloud scan = labelledPointsOf(sim.scan(12), config, sim.classTable());
   Eigen::Isometry3d off = sim.groundTruth()[12];
   off.translation().x() += 1.0;

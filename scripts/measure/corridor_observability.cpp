@@ -90,7 +90,7 @@ std::string observabilityTable(const sim::Simulator& sim, unsigned seed) {
       for (std::size_t j = 0; j < i; ++j)
         if ((sim.groundTruth()[j].translation() - truth.translation()).norm() <= kRecoveryMapRadius + config.label_axis.range)
           placed.push_back({sim.groundTruth()[j], &labels[j]});
-      const LabeledCloud label_map = labelMapOf(placed, config, classes);
+      const LabeledCloud label_map = labelMapOf(placed, classes);
       bool by_labels = true, precise = true;
       std::size_t labelled = 0;
       for (const double d : {-1.0, 1.0}) {

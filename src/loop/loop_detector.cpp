@@ -269,7 +269,7 @@ double LoopDetector::crossCheckDistance(const LoopCandidate& cand, const PoseLis
   if (!rev.converged || !isFinite(rev.transform)) return std::numeric_limits<double>::quiet_NaN();
   const Vector6d d = se3Log(rev.transform.inverse() * T_from_to.inverse());
   Matrix6d sigma = 2.0 * c.covariance_scale * 0.5 * (forward_covariance + forward_covariance.transpose());
-  sigma += floorVariances(c).asDiagonal();
+  sigma += floorVariances().asDiagonal();
   return d.dot(sigma.llt().solve(d));
 }
 

@@ -46,7 +46,7 @@ Matrix6d misfitTerm(const RegistrationResult& reg, const VerificationConfig& c) 
   return extra;
 }
 
-Vector6d floorVariances(const VerificationConfig& c) {
+Vector6d floorVariances() {
   Vector6d floor;
   floor << Eigen::Vector3d::Constant(kMinTranslationSigma * kMinTranslationSigma),
       Eigen::Vector3d::Constant(kMinRotationSigma * kMinRotationSigma);
@@ -126,7 +126,7 @@ VerificationResult evaluateRegistration(const LoopCandidate& cand, const Registr
     return reject(LoopRejection::UncertainRotation, "rotation sigma " + fmt(sr) + " rad > " + fmt(kMaxRotationSigma));
   cov += honestyTerms(reg, c);
   // Add the floor variances so the information stays finite and no loop becomes rigid.
-  cov += floorVariances(c).asDiagonal();
+  cov += floorVariances().asDiagonal();
   setLoopCovariance(lc, cov);
   out.accepted = true;
   return out;

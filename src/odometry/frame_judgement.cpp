@@ -45,7 +45,7 @@ std::string suspicion(const RegistrationResult& r, const Eigen::Isometry3d& gues
   if (!config.recovery.relocalise_suspect) return {};
   if (!has_prior) return "no motion prior";
   char buf[160];
-  if (fitsWorseThanTracked(r, typical_rmse, config)) {
+  if (fitsWorseThanTracked(r, typical_rmse)) {
     std::snprintf(buf, sizeof buf, "poor fit: inlier RMSE %.3f m above %.1f x that of tracked frames (%.3f m)",
                   r.inlier_rmse, kMaxRmseRatio, typical_rmse);
     return buf;

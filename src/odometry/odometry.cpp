@@ -366,7 +366,7 @@ void Odometry::prepareLabels(const LabeledCloud& scan) {
     const bool verified = k.status != FrameStatus::Fallback;
     if (verified && !labels.empty() && (k.pose.translation() - here).norm() <= reach) placed.push_back({k.pose, &labels});
   }
-  impl_->label_map = labelMapOf(placed, config_, classes_);
+  impl_->label_map = labelMapOf(placed, classes_);
 }
 
 void Odometry::remember(OdometryFrame& f, const LabeledCloud& frame) {

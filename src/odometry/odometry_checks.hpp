@@ -153,7 +153,7 @@ inline double msSince(Clock::time_point t) { return std::chrono::duration<double
 
 /// Whether the inlier RMSE is above kMaxRmseRatio × that of tracked frames
 /// (`typical_rmse`, 0 = not known yet): a right answer fits about as well as they do.
-inline bool fitsWorseThanTracked(const RegistrationResult& r, double typical_rmse, const OdometryConfig& config) {
+inline bool fitsWorseThanTracked(const RegistrationResult& r, double typical_rmse) {
   return typical_rmse > 0.0 && r.inlier_rmse > kMaxRmseRatio * typical_rmse;
 }
 
@@ -220,7 +220,7 @@ LabelPlacement placeAlongAxisByLabels(const LabelView& view, const ClassTable& c
 LabeledCloud labelledPointsOf(const LabeledCloud& scan, const OdometryConfig& config, const ClassTable& classes);
 /// Labelled points of frames placed at their poses, downsampled at kLabelAxisVoxel.
 LabeledCloud labelMapOf(const std::vector<std::pair<Eigen::Isometry3d, const LabeledCloud*>>& frames,
-                        const OdometryConfig& config, const ClassTable& classes);
+                        const ClassTable& classes);
 /// "labels placed it +0.40 m along the weak axis (…)" or why undecided.
 std::string describe(const LabelPlacement& placement);
 /// `pose` moved `offset` along `axis` (registration space).
@@ -232,8 +232,7 @@ std::string ambiguousAlongWeakestAxis(const LabeledCloud& source, const Registra
                                       const OdometryConfig& seed_config, const RegistrationResult& answer, double fit,
                                       const std::string& answer_name);
 /// Moves `r` by the placement along `axis`, with label_axis_sigma² added there to its covariance.
-void applyLabelPlacement(RegistrationResult& r, const Eigen::Vector3d& axis, const LabelPlacement& placement,
-                         const OdometryConfig& config);
+void applyLabelPlacement(RegistrationResult& r, const Eigen::Vector3d& axis, const LabelPlacement& placement);
 /// An answer the geometry cannot place along a horizontal axis (weaker than kFlagWeakAxisRatio,
 /// or `doubt`: another position along its weakest axis fits as well): the labels decide
 /// (labelsDecideAxes). Placed: the answer moves along the axis (`placed_along`, when given) and

@@ -165,7 +165,7 @@ LabeledCloud labelledPointsOf(const LabeledCloud& scan, const OdometryConfig& co
 }
 
 LabeledCloud labelMapOf(const std::vector<std::pair<Eigen::Isometry3d, const LabeledCloud*>>& frames,
-                        const OdometryConfig& config, const ClassTable& classes) {
+                        const ClassTable& classes) {
   LabeledCloud all;
   for (const auto& [pose, labels] : frames) all.append(labels->transformed(pose));
   if (all.empty()) return all;

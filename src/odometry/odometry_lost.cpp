@@ -81,7 +81,7 @@ LabeledCloud Odometry::reestimateLostFrames(OdometryFrame& f, const LabeledCloud
       why = placeLostFrameAlongAxis(l.scan, l.labels, target, r, correction, label_note, label_precise);
     else if (why.empty() && weakHorizontalAxis(r, kSuspectWeakAxisRatio))
       why = "weakly constrained along an axis";
-    if (why.empty() && fitsWorseThanTracked(r, impl_->typical_rmse, config_))
+    if (why.empty() && fitsWorseThanTracked(r, impl_->typical_rmse))
       why = "inlier RMSE above that of tracked frames";
     // Interpolated translation is close for a ground robot (a kick turns it, a lost scan is a
     // longer step at the same pace); an answer farther from it slid somewhere (a corridor, 1 m

@@ -85,7 +85,7 @@ RegistrationResult counted(RegistrationResult r, const OdometryConfig& config, O
   return r;
 }
 
-bool distinct(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b, const OdometryConfig& c) {
+bool distinct(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
   const Eigen::Isometry3d d = a.inverse() * b;
   return translationNorm(d) > kDistinctTranslation || rotationAngle(d) > kDistinctRotation;
 }
@@ -127,7 +127,7 @@ std::size_t pickAnswer(std::vector<Verified>& verified, const OdometryConfig& co
     return best;
   }
   for (std::size_t i = 0; i < verified.size(); ++i)
-    if (i != best && distinct(verified[i].registration.transform, verified[best].registration.transform, config) &&
+    if (i != best && distinct(verified[i].registration.transform, verified[best].registration.transform) &&
         verified[i].fit >= verified[best].fit - kRecoveryAmbiguity) {
       if (resolve && resolve(verified[best], verified[i])) continue;
       outcome = describeAmbiguity(verified[best], verified[i]);
@@ -142,8 +142,7 @@ namespace {
 
 // Along an axis the geometry barely constrains (a corridor), ICP stays near where it starts:
 // starts a step or two either way of the guess show whether another position fits as well.
-void addWeakAxisProbes(std::vector<Start>& starts, const RegistrationResult& from_guess, const Eigen::Isometry3d& guess,
-                       const OdometryConfig& config) {
+void addWeakAxisProbes(std::vector<Start>& starts, const RegistrationResult& from_guess, const Eigen::Isometry3d& guess) {
   const auto axis = weakHorizontalAxis(from_guess, kSuspectWeakAxisRatio);
   if (!axis) return;
   for (const double k : {-2.0, -1.0, 1.0, 2.0}) {
@@ -225,7 +224,7 @@ std::string ambiguousAlongWeakestAxis(const LabeledCloud& source, const Registra
     Eigen::Isometry3d s = pose;
     s.translation() += k * kAxisProbeStep * *axis;
     RegistrationResult r = registerClouds(source, target, s, classes, config.registration);
-    if (!registrationFailure(r, s, seed_config).empty() || !distinct(r.transform, pose, config)) continue;
+    if (!registrationFailure(r, s, seed_config).empty() || !distinct(r.transform, pose)) continue;
     const double other_fit = surfaceFit(source, target, r.transform, kSurfaceInlierDistance);
     if (other_fit < fit - kRecoveryAmbiguity) continue;
     char name[64];
@@ -236,8 +235,7 @@ std::string ambiguousAlongWeakestAxis(const LabeledCloud& source, const Registra
   return {};
 }
 
-void applyLabelPlacement(RegistrationResult& r, const Eigen::Vector3d& axis, const LabelPlacement& placement,
-                         const OdometryConfig& config) {
+void applyLabelPlacement(RegistrationResult& r, const Eigen::Vector3d& axis, const LabelPlacement& placement) {
   r.transform = shiftedAlong(r.transform, axis, placement.offset);
   const Eigen::Vector3d a = axis.normalized();
   r.covariance.topLeftCorner<3, 3>() += kLabelAxisSigma * kLabelAxisSigma * a * a.transpose();
@@ -251,7 +249,7 @@ bool applyPlacementIfGeometryAllows(const LabeledCloud& source, const Registrati
   const double after = surfaceFit(source, target, shiftedAlong(r.transform, axis, placement.offset),
                                   kSurfaceInlierDistance);
   if (after < before - kRecoveryAmbiguity) return false;
-  applyLabelPlacement(r, axis, placement, config);
+  applyLabelPlacement(r, axis, placement);
   return true;
 }
 
@@ -359,7 +357,7 @@ std::optional<Odometry::Recovery> Odometry::recover(OdometryFrame& f, const Labe
                         "guess turned " + std::to_string(int(deg)) + " deg"});
     if (f.wheel_guess && frames_.size() >= 2) starts.push_back({prev * frames_.back().increment, "constant velocity"});
   }
-  if (config_.recovery.relocalise_suspect) addWeakAxisProbes(starts, from_guess, prev * f.guess, config_);
+  if (config_.recovery.relocalise_suspect) addWeakAxisProbes(starts, from_guess, prev * f.guess);
 
   std::vector<Verified> verified;
   std::string rejected;
@@ -376,7 +374,7 @@ std::optional<Odometry::Recovery> Odometry::recover(OdometryFrame& f, const Labe
       // there, and tracking keeps the guess along it (tanks seed 3: "no motion" won this way).
       std::snprintf(buf, sizeof buf, "degenerate (%zu unconstrained direction(s))", r.degenerate_directions.size());
       why = buf;
-    } else if (why.empty() && fitsWorseThanTracked(r, impl_->typical_rmse, config_)) {
+    } else if (why.empty() && fitsWorseThanTracked(r, impl_->typical_rmse)) {
       std::snprintf(buf, sizeof buf, "inlier RMSE %.3f m", r.inlier_rmse);
       why = buf;
     } else if (why.empty() && (translationNorm(increment) > config_.recovery.max_translation ||

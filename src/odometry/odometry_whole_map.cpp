@@ -107,7 +107,7 @@ std::optional<RegistrationResult> Odometry::relocaliseInWholeMap(OdometryFrame& 
     if (why.empty() && !r.degenerate_directions.empty()) why = "degenerate";
     // Along a weakly constrained axis (a corridor) any place along it fits: no proof of where.
     if (why.empty() && weakHorizontalAxis(r, kSuspectWeakAxisRatio)) why = "weakly constrained along an axis";
-    if (why.empty() && fitsWorseThanTracked(r, impl_->typical_rmse, config_))
+    if (why.empty() && fitsWorseThanTracked(r, impl_->typical_rmse))
       why = "inlier RMSE above that of tracked frames";
     if (why.empty() && fit < kWholeMapMinFit) why = "fits poorly";
     if (why.empty() && fit < guess_fit + kRecoveryMinGain) why = "fits no better than the guess";

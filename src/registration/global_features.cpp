@@ -160,7 +160,7 @@ FeatureCloud computeFeatures(const LabeledCloud& raw, const ClassTable& classes,
   // only a true line (a pole, a lone scan ring) has none.
   nc.min_planarity = 0.01;
   computeDescriptors(fc, config, nc);
-  if (config.use_classes) fc.landmarks = clusterLandmarks(fc.cloud, classes, config, &fc.labelled);
+  if (config.use_classes) fc.landmarks = clusterLandmarks(fc.cloud, classes, &fc.labelled);
   return fc;
 }
 

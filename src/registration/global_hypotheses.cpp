@@ -77,7 +77,7 @@ std::vector<Hypothesis> bestDistinct(std::vector<Hypothesis> all, const GlobalRe
   for (const auto& h : all) {
     if (out.size() >= keep) break;
     bool fresh = true;
-    for (const auto& o : out) fresh = fresh && distinct(h.transform, o.transform, config);
+    for (const auto& o : out) fresh = fresh && distinct(h.transform, o.transform);
     if (fresh) out.push_back(h);
   }
   return out;
@@ -203,7 +203,7 @@ Eigen::Isometry3d fitRigid(const std::vector<Eigen::Vector3f>& src, const std::v
   return T;
 }
 
-bool distinct(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b, const GlobalRegistrationConfig& config) {
+bool distinct(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
   const Eigen::Isometry3d d = a.inverse() * b;
   const double angle = Eigen::AngleAxisd(d.linear()).angle() * 180.0 / std::numbers::pi;
   return d.translation().norm() > kDistinctTranslation || angle > kDistinctRotationDeg;

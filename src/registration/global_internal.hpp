@@ -72,7 +72,6 @@ std::int64_t nearestFor(const Descriptor& d, ClassId cls, const DescriptorIndexe
 
 /// `members` (optional) receives the cloud indices of the points of the landmarks kept, sorted.
 std::vector<Landmark> clusterLandmarks(const LabeledCloud& cloud, const ClassTable& classes,
-                                       const GlobalRegistrationConfig& config,
                                        std::vector<std::uint32_t>* members = nullptr);
 
 /// A descriptor match: cloud indices of the source and target point.
@@ -97,8 +96,8 @@ std::vector<Hypothesis> constellationHypotheses(const std::vector<Landmark>& sou
                                                 const std::vector<Landmark>& target,
                                                 const GlobalRegistrationConfig& config, std::size_t keep);
 
-/// True when a and b differ by more than the config's distinct translation or rotation.
-bool distinct(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b, const GlobalRegistrationConfig& config);
+/// True when a and b differ by more than kDistinctTranslation or kDistinctRotationDeg.
+bool distinct(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b);
 /// Least-squares rigid transform dst ← src (Kabsch/Umeyama without scale).
 Eigen::Isometry3d fitRigid(const std::vector<Eigen::Vector3f>& src, const std::vector<Eigen::Vector3f>& dst);
 

@@ -18,7 +18,7 @@ constexpr std::size_t kLandmarkMinPoints = 3;
 
 
 std::vector<Landmark> clusterLandmarks(const LabeledCloud& cloud, const ClassTable& classes,
-                                       const GlobalRegistrationConfig& config, std::vector<std::uint32_t>* members) {
+                                       std::vector<std::uint32_t>* members) {
   std::vector<std::uint32_t> labelled;
   for (std::uint32_t i = 0; i < cloud.size(); ++i)
     if (classes.isProperty(cloud.classes[i])) labelled.push_back(i);

@@ -77,7 +77,7 @@ void polish(GlobalRegistrationResult& r, const LabeledCloud& source, const Globa
   const LabeledCloud fine = voxelDownsample(source, polishDownsampling(config), classes);
   const RegistrationResult p = registerClouds(fine, *tgt.final_icp, r.transform, classes, refinementOf(config));
   const bool usable = p.termination == Termination::Converged || p.termination == Termination::MaxIterations;
-  if (!usable || !isFinite(p.transform) || global::distinct(p.transform, r.transform, config)) return;
+  if (!usable || !isFinite(p.transform) || global::distinct(p.transform, r.transform)) return;
   r.transform = p.transform;
   r.refinement = p;
 }
@@ -241,7 +241,7 @@ void sortAndThin(std::vector<Candidate>& v, const GlobalRegistrationConfig& conf
   std::vector<Candidate> out;
   for (auto& c : v) {
     bool fresh = true;
-    for (const auto& o : out) fresh = fresh && global::distinct(c.hypothesis.transform, o.hypothesis.transform, config);
+    for (const auto& o : out) fresh = fresh && global::distinct(c.hypothesis.transform, o.hypothesis.transform);
     if (fresh) out.push_back(std::move(c));
   }
   v = std::move(out);

@@ -203,9 +203,8 @@ Matrix6d honestyTerms(const RegistrationResult& registration, const Verification
 /// The misfit part of honestyTerms alone: misfit_scale · inlier_rmse² · H⁻¹ (0 when off).
 Matrix6d misfitTerm(const RegistrationResult& registration, const VerificationConfig& config = {});
 /// The floor variances every loop covariance carries (verification.cpp: kMinTranslationSigma²,
-/// kMinRotationSigma²),
-/// so no loop becomes rigid. Translation first.
-Vector6d floorVariances(const VerificationConfig& config);
+/// kMinRotationSigma²), so no loop becomes rigid. Translation first.
+Vector6d floorVariances();
 /// Sets closure.covariance and its symmetrised inverse, closure.information.
 void setLoopCovariance(LoopClosure& closure, const Matrix6d& covariance);
 
