@@ -173,7 +173,8 @@ ReplayRun replayAgainstRun(const std::string& capture, const std::string& live_a
   const auto run = runCli("run '" + capture + "' --quiet --no-viewer " + run_args + " --out '" + r.run_dir.string() + "'");
   EXPECT_EQ(run.exit_code, 0) << run.output;
   const std::uint16_t port = freePortPair();
-  LiveProcess live(live_args + " --port " + std::to_string(port) + " --no-viewer --out '" + r.live_dir.string() +
+  // The live view on (any free port): drawing the run must not change it.
+  LiveProcess live(live_args + " --port " + std::to_string(port) + " --listen 127.0.0.1:0 --no-viewer --out '" + r.live_dir.string() +
                        "'",
                    dir / "live.log");
   EXPECT_TRUE(live.waitListening()) << live.log();
@@ -284,7 +285,7 @@ TEST(LiveReplay, RateMaxCountsWhatItLosesAndSkipsThoseScans) {
 TEST(LiveReplay, KillNineLeavesTheLastAutosaveReadable) {
   const fs::path dir = scratchDir();
   const std::uint16_t port = freePortPair();
-  LiveProcess live("--sensor velodyne --autosave-every 0.2 --no-viewer --port " + std::to_string(port) +
+  LiveProcess live("--sensor velodyne --autosave-every 0.2 --no-viewer --no-view --port " + std::to_string(port) +
                        " --out '" + (dir / "live").string() + "'",
                    dir / "live.log");
   ASSERT_TRUE(live.waitListening()) << live.log();
@@ -375,6 +376,31 @@ TEST(LiveErrors, PortInUseUnknownSensorAndOusterWithoutMetadata) {
   EXPECT_NE(r.exit_code, 0);
   EXPECT_NE(r.output.find("--sensor-metadata: an Ouster sensor needs its metadata JSON"), std::string::npos)
       << r.output;
+  // The live view: another address without a token, a token too short or in a missing file, an
+  // address in use; each before anything is received.
+  r = runCli("live --sensor velodyne --port 0 --listen 0.0.0.0:0 --out '" + (dir / "d").string() + "'");
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("live view: listening on 0.0.0.0:0 (not loopback) needs --token"), std::string::npos) << r.output;
+  r = runCli("live --sensor velodyne --port 0 --listen 127.0.0.1:0 --token abc --out '" + (dir / "e").string() + "'");
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("--token: a token is 8 to 200 characters"), std::string::npos) << r.output;
+  r = runCli("live --sensor velodyne --port 0 --token-file '" + (dir / "no-token").string() + "' --out '" +
+             (dir / "f").string() + "'");
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("no-token"), std::string::npos) << r.output;
+  const int tcp = ::socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  ASSERT_EQ(::bind(tcp, reinterpret_cast<sockaddr*>(&a), sizeof a), 0);
+  ::listen(tcp, 1);
+  socklen_t length = sizeof a;
+  ::getsockname(tcp, reinterpret_cast<sockaddr*>(&a), &length);
+  const std::string in_use = "127.0.0.1:" + std::to_string(ntohs(a.sin_port));
+  r = runCli("live --sensor velodyne --port 0 --listen " + in_use + " --out '" + (dir / "g").string() + "'");
+  ::close(tcp);
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("live view: cannot listen on " + in_use), std::string::npos) << r.output;
   r = runCli("replay '" + (dir / "missing.pcap").string() + "' --rate 1");
   EXPECT_NE(r.exit_code, 0);
   EXPECT_NE(r.output.find("missing.pcap"), std::string::npos) << r.output;

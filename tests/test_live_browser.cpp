@@ -98,7 +98,7 @@ class Chromium {
                       " --headless=new --use-angle=swiftshader --enable-unsafe-swiftshader --no-sandbox --no-first-run"
                       " --disable-background-networking --disable-component-update --disable-sync --disable-gpu-sandbox"
                       " --disable-background-timer-throttling --disable-renderer-backgrounding"
-                      " --host-resolver-rules='MAP * ~NOTFOUND' --window-size=1200,800 --remote-debugging-port=0"
+                      " --host-resolver-rules='MAP * ~NOTFOUND, EXCLUDE 127.0.0.1' --window-size=1200,800 --remote-debugging-port=0"
                       " --remote-allow-origins='*' --user-data-dir=" + profile.string() + " about:blank 2>" +
                       (dir / "chromium.log").string());
     int port = 0;
@@ -147,6 +147,15 @@ class Chromium {
     return r["result"]["result"].value("value", json());
   }
   void open(const std::string& url) { call("Page.navigate", {{"url", url}}); }
+  /// For failure messages: where the page is and what it has.
+  std::string where() {
+    return call("Runtime.evaluate", {{"expression", "JSON.stringify({href:location.href,viewer:!!window.hazmapViewer,"
+                                                    "live:window.hazmapLive||null,title:document.title})"},
+                                     {"returnByValue", true}})
+               .dump()
+               .substr(0, 3000) +
+           "\n" + readTextFile(dir_ / "chromium.log").substr(0, 2000);
+  }
 
  private:
   static int onData(mg_connection*, int bits, char* data, size_t size, void* user) {
@@ -252,7 +261,8 @@ TEST_F(LiveBrowser, FramesRiseMapGrowsAndAfterSaveTheTableEqualsHazardsJson) {
   Chromium browser(dir);
   ASSERT_TRUE(browser.ok());
   browser.open(url);
-  ASSERT_TRUE(eventually([&] { return browser.eval("!!(window.hazmapLive&&hazmapLive.connected&&hazmapLive.status)") == true; }));
+  ASSERT_TRUE(eventually([&] { return browser.eval("!!(window.hazmapLive&&hazmapLive.connected&&hazmapLive.status)") == true; }))
+      << browser.where();
   EXPECT_EQ(browser.eval("hazmapLive.status.state"), "waiting for sensor");  // nothing sent yet
   const int blank = browser.eval(kDrawnPixels).get<int>();
   const pid_t replay = spawnShell(fmt::format("exec {} replay '{}' --loop --quiet --port {}", cliPath(),
@@ -302,7 +312,8 @@ TEST_F(LiveBrowser, ThePageReconnectsAfterTheServerRestarts) {
   Chromium browser(dir);
   ASSERT_TRUE(browser.ok());
   browser.open(url);
-  ASSERT_TRUE(eventually([&] { return browser.eval("!!(window.hazmapLive&&hazmapLive.connected)") == true; }));
+  ASSERT_TRUE(eventually([&] { return browser.eval("!!(window.hazmapLive&&hazmapLive.connected)") == true; }))
+      << browser.where();
   const pid_t replay = spawnShell(fmt::format("exec {} replay '{}' --loop --quiet --port {}", cliPath(),
                                               sharedData(kVlp16).string(), udp));
   ASSERT_TRUE(eventually([&] { return browser.eval("hazmapLive.mapPoints").get<int>() > 1000; }));
@@ -331,7 +342,8 @@ TEST_F(LiveBrowser, HazardsAppearWithTheirValuesAndHeatIsDrawnRed) {
   Chromium browser(dir);
   ASSERT_TRUE(browser.ok());
   browser.open("http://127.0.0.1:" + std::to_string(feed.port()) + "/");
-  ASSERT_TRUE(eventually([&] { return browser.eval("!!(window.hazmapLive&&hazmapLive.connected)") == true; }));
+  ASSERT_TRUE(eventually([&] { return browser.eval("!!(window.hazmapLive&&hazmapLive.connected)") == true; }))
+      << browser.where();
   LabeledCloud scan;
   scan.enableProperty();
   for (float x = -4; x < 4; x += 0.05f)
