@@ -248,6 +248,22 @@ TEST(LiveSimulated, NarahaAsVelodynePacketsReplayedLiveGivesTheRunsPoses) {
   EXPECT_EQ(liveSection(r.live_dir).at("lost").get<std::size_t>(), 0u);
 }
 
+TEST(LiveSimulated, DemoLiveReplaysTheMissionToLiveAndWritesTheRunFolder) {
+  // hazmap demo --live: simulate → replay on loopback → live, the page's address printed; the run
+  // folder written when the replay ends, the temporary capture gone.
+  const fs::path dir = scratchDir();
+  const auto r = runCli("demo --live --frames 6 --rate 50 --listen 127.0.0.1:0 --out '" + dir.string() + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("live view: http://127.0.0.1:"), std::string::npos) << r.output;
+  const auto at = r.output.find("wrote ") + 6;  // the simulation's line names the capture
+  ASSERT_NE(r.output.find("hazmap-demo-live-", at), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(r.output.substr(at, r.output.find("/mission.pcap", at) - at))) << "the capture stayed";
+  EXPECT_EQ(readKittiTrajectory(dir / "live" / "trajectory.kitti").size(), 6u);
+  const auto live = liveSection(dir / "live");
+  EXPECT_EQ(live.at("lost").get<std::size_t>(), 0u);
+  EXPECT_EQ(live.at("state").get<std::string>(), "stopped by end of stream");
+}
+
 TEST(LiveReplay, HesaiBagPacketsGiveTheRunsFramesAndPoses) {
   const std::string bag = sharedData("sensors/hesai-pandar64/1673403880599376836").string();
   const ReplayRun r = replayAgainstRun(bag, "--sensor hesai", "1", SIGINT);
