@@ -67,9 +67,9 @@ struct LiveViewFeed::Impl {
   std::vector<std::string> map_messages;  // every map message so far: a new browser's snapshot
   std::vector<Eigen::Vector3d> positions;
   std::string pose_message, hazards_message, status_message;
-  std::size_t frames = 0, view_frames_skipped = 0, hazard_count = 0, saves = 0, map_points = 0;
+  LiveStatus counts;  // the status line's own fields (frames, hazards, tracking, map_points, saves, …)
   std::deque<SteadyClock::time_point> frame_times;  // the last 2 s: frames/s
-  std::string tracking, state_override, last_save;
+  std::string state_override;
 
   std::unique_ptr<LiveViewServer> server;  // last: its threads call back into the members above
   std::thread worker;
@@ -113,7 +113,7 @@ void LiveViewFeed::Impl::process(FrameItem& item) {
       {
         std::lock_guard<std::mutex> lock(m);
         map_messages.push_back(message);
-        map_points = voxels.points();
+        counts.map_points = voxels.points();
       }
       server->publish(std::move(message));  // a browser joining in between drops the repeat (seq)
     }
@@ -132,7 +132,7 @@ void LiveViewFeed::Impl::process(FrameItem& item) {
     positions[item.frame] = p;
     if (item.corrected) trajectory = liveTrajectoryMessage(positions);
     pose = pose_message = livePoseMessage(item.frame, item.pose, item.status);
-    tracking = toString(item.status);
+    counts.tracking = toString(item.status);
   }
   if (!trajectory.empty()) server->publishState("trajectory", std::move(trajectory));
   else server->publish(liveTrackMessage(item.frame, p));
@@ -148,13 +148,21 @@ void LiveViewFeed::Impl::findHazards() {
   {
     std::lock_guard<std::mutex> lock(m);
     hazards_message = message;
-    hazard_count = found.size();
+    counts.hazards = found.size();
   }
   server->publishState("hazards", std::move(message));
 }
 
 LiveStatus LiveViewFeed::Impl::status() const {
   LiveStatus s;
+  {
+    std::lock_guard<std::mutex> lock(m);
+    s = counts;
+    if (frame_times.size() >= 2)
+      s.frames_per_s = double(frame_times.size() - 1) /
+                       std::max(1e-3, std::chrono::duration<double>(frame_times.back() - frame_times.front()).count());
+    s.state = state_override;
+  }
   std::optional<UdpReceiverStats> r;
   if (receiver) r = receiver();
   if (r) {
@@ -174,19 +182,8 @@ LiveStatus LiveViewFeed::Impl::status() const {
     s.clients = v.clients;
     s.clients_dropped = v.clients_dropped;
   }
-  std::lock_guard<std::mutex> lock(m);
-  s.frames = frames;
-  s.hazards = hazard_count;
-  s.tracking = tracking;
-  s.map_points = map_points;
-  s.view_frames_skipped = view_frames_skipped;
-  s.saves = saves;
-  s.last_save = last_save;
-  if (frame_times.size() >= 2)
-    s.frames_per_s = double(frame_times.size() - 1) /
-                     std::max(1e-3, std::chrono::duration<double>(frame_times.back() - frame_times.front()).count());
   const bool silent = r && (!s.last_packet_age_s || *s.last_packet_age_s > config.silence_seconds);
-  s.state = !state_override.empty() ? state_override : silent ? "waiting for sensor" : frames == 0 ? "starting" : "tracking";
+  if (s.state.empty()) s.state = silent ? "waiting for sensor" : s.frames == 0 ? "starting" : "tracking";
   if (silent) s.frames_per_s = 0;
   return s;
 }
@@ -253,12 +250,12 @@ void LiveViewFeed::onFrame(const SlamFrameEvent& event) {
   bool room = false;
   {
     std::lock_guard<std::mutex> lock(s.m);
-    ++s.frames;
+    ++s.counts.frames;
     s.frame_times.push_back(SteadyClock::now());
     while (s.frame_times.size() > 2 && secondsSince(s.frame_times.front()) > 2.0) s.frame_times.pop_front();
     room = s.queue_bytes + bytes <= s.config.queue_bytes;
     if (room) s.queue_bytes += bytes;
-    else ++s.view_frames_skipped;
+    else ++s.counts.view_frames_skipped;
   }
   if (room) {
     item.scan = event.scan;  // the copy, outside the lock
@@ -287,9 +284,9 @@ void LiveViewFeed::showSaved(const std::vector<Hazard>& hazards, const Trajector
   {
     std::lock_guard<std::mutex> lock(s.m);
     s.hazards_message = message;
-    s.hazard_count = hazards.size();
-    ++s.saves;
-    s.last_save = where;
+    s.counts.hazards = hazards.size();
+    ++s.counts.saves;
+    s.counts.last_save = where;
     if (trajectory.size() >= s.positions.size()) s.positions = positionsOf(trajectory);
     else for (std::size_t i = 0; i < trajectory.size(); ++i) s.positions[i] = trajectory.poses[i].translation();
     redrawn = liveTrajectoryMessage(s.positions);
@@ -302,7 +299,7 @@ void LiveViewFeed::showSaved(const std::vector<Hazard>& hazards, const Trajector
 void LiveViewFeed::showSaveError(const std::string& error) {
   {
     std::lock_guard<std::mutex> lock(impl_->m);
-    impl_->last_save = "failed: " + error;
+    impl_->counts.last_save = "failed: " + error;
   }
   impl_->publishStatus();
 }
