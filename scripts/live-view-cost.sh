@@ -4,7 +4,8 @@
 # (--no-view, the peer), with the view and no browser, and with the view and 50 WebSocket clients
 # (25 reading everything, 25 that complete the handshake and never read). Prints run.json's
 # tracking seconds (preprocessing + registration of every frame, on the pipeline's thread), the
-# frames, and whether the trajectory equals the peer's byte for byte.
+# frames, the datagrams lost (at RATE max the receive thread must keep up with a burst), and
+# whether the trajectory equals the peer's byte for byte.
 #   scripts/live-view-cost.sh HAZMAP_BIN OUT_DIR [FRAMES=60] [RATE=50] [REPEATS=3]
 set -euo pipefail
 h=${1:?hazmap binary}; out=${2:?output folder}; frames=${3:-60}; rate=${4:-50}; repeats=${5:-3}

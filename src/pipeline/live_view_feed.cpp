@@ -1,5 +1,6 @@
 #include "hazmap/pipeline/live_view_feed.hpp"
 
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -32,6 +33,10 @@ std::size_t bytesOf(const LabeledCloud& c) {
   return c.size() * (sizeof(Eigen::Vector3f) + sizeof(ClassId)) + c.property.size() * sizeof(float) +
          c.intensity.size() * sizeof(float) + c.timestamps.size() * sizeof(double);
 }
+
+/// The calling thread yields to every other (nice 19): on a machine whose cores are all busy,
+/// tracking and the receive thread come first, the view waits.
+void lowestPriority() { ::setpriority(PRIO_PROCESS, static_cast<id_t>(::gettid()), 19); }
 
 double secondsSince(SteadyClock::time_point t) { return std::chrono::duration<double>(SteadyClock::now() - t).count(); }
 
@@ -86,6 +91,7 @@ struct LiveViewFeed::Impl {
 };
 
 void LiveViewFeed::Impl::run() {
+  lowestPriority();
   for (;;) {
     std::deque<FrameItem> batch;
     {
