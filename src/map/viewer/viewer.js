@@ -369,6 +369,7 @@
       n.textContent = count;
       row.append(box, swatch, name, n);
       legend.appendChild(row);
+      box.countEl = n;  // live updates rewrite the count
       return box;
     };
     for (const g of groups) {
@@ -377,7 +378,7 @@
                         g.count.toLocaleString('en-US') + ' pts', g.visible, (on) => setClassVisible(g.id, on));
     }
     for (const t of trajectories)
-      item('line', t.color, t.name + ' trajectory', t.points.length + ' poses', t.visible, (on) => {
+      t.checkbox = item('line', t.color, t.name + ' trajectory', t.points.length + ' poses', t.visible, (on) => {
         t.visible = on; t.line.visible = on; t.start.visible = on; requestRender();
       });
     item('', 'transparent', 'hazard boxes and labels', meta.hazards.length, hazardsVisible, (on) => {
@@ -549,6 +550,7 @@
                     new Uint8Array(3 * Math.max(n, 4096)));
       groups.push(g);
       setPointSize(state.pointSize);
+      buildLegend();
     }
     growGroup(g, n);
     const p = g.geometry.attributes.position, c = g.geometry.attributes.color, at = 3 * g.count;
@@ -560,6 +562,7 @@
     }
     c.array.set(rgb, at);
     g.count += n;
+    if (g.checkbox) g.checkbox.countEl.textContent = g.count.toLocaleString('en-US') + ' pts';
     p.needsUpdate = true;
     c.needsUpdate = true;
     updateSpan();
@@ -583,6 +586,7 @@
     t.line.geometry.setAttribute('position', new THREE.BufferAttribute(xyz, 3));
     t.line.geometry.computeBoundingSphere();
     if (points.length) t.start.position.set(xyz[0], xyz[1], xyz[2]);
+    if (t.checkbox) t.checkbox.countEl.textContent = points.length + ' poses';
     requestRender();
   }
   function setHazards(list) {
