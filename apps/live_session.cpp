@@ -88,8 +88,9 @@ class SaveRequests {
  public:
   std::string request(std::chrono::seconds wait) {
     std::unique_lock<std::mutex> lock(m_);
+    if (ended_) return answer_;  // the run folder was written at the end
     const std::uint64_t ticket = ++requested_;
-    if (!done_.wait_for(lock, wait, [&] { return served_ >= ticket; }))
+    if (!done_.wait_for(lock, wait, [&] { return served_ >= ticket || ended_; }))
       return R"({"saved":false,"pending":true,"reason":"no frame since the request (is the sensor silent?): the save runs with the next frame or at the end"})";
     return answer_;
   }
@@ -98,11 +99,13 @@ class SaveRequests {
     std::lock_guard<std::mutex> lock(m_);
     return requested_ > served_ ? requested_ : 0;
   }
-  void answer(std::uint64_t upto, std::string text) {
+  /// `upto` = waiting() when the save started; `final_write`: later requests get this answer too.
+  void answer(std::uint64_t upto, std::string text, bool final_write) {
     {
       std::lock_guard<std::mutex> lock(m_);
       served_ = std::max(served_, upto);
       answer_ = std::move(text);
+      ended_ = ended_ || final_write;
     }
     done_.notify_all();
   }
@@ -112,6 +115,7 @@ class SaveRequests {
   std::condition_variable done_;
   std::uint64_t requested_ = 0, served_ = 0;
   std::string answer_;
+  bool ended_ = false;
 };
 
 struct Session {
@@ -160,13 +164,16 @@ void Session::save(const SlamResult& result, const std::string& state, bool fina
     if (view) view->showSaved(hazards, result.estimate, folder.string());
     answer = {{"saved", folder.string()}, {"frames", result.frames.size()}, {"hazards", hazards.size()}, {"state", state}};
   } catch (const Error& e) {
-    if (!final_write) std::cerr << "notice: save failed: " << e.what() << "\n";
     if (view) view->showSaveError(e.what());
     answer = {{"saved", false}, {"error", e.what()}};
-    if (final_write) throw;
+    if (final_write) {
+      saves.answer(requests, answer.dump(), true);
+      throw;
+    }
+    std::cerr << "notice: save failed: " << e.what() << "\n";
   }
   if (view) view->setState(final_write ? state : "");
-  if (requests > 0) saves.answer(requests, answer.dump());
+  if (requests > 0 || final_write) saves.answer(requests, answer.dump(), final_write);
 }
 
 std::string readToken(const LiveOptions& o) {
