@@ -17,6 +17,7 @@
 #include "hazmap/map/hazards.hpp"
 #include "hazmap/pipeline/live_view_feed.hpp"
 #include "hazmap/pipeline/live_view_messages.hpp"
+#include "test_helpers.hpp"
 
 namespace hazmap {
 namespace {
@@ -292,6 +293,41 @@ TEST(LiveViewFeed, PublishesFramesCorrectionsHazardsAndTheStatusAndANewBrowserCa
   EXPECT_EQ(json::parse(httpGet(feed.port(), "/status"))["saves"], 1);
   mg_close_connection(early.conn);
   mg_close_connection(late.conn);
+}
+
+// runSlam's frame hook on a simulated route with accepted loops: every frame is told once, in
+// order, with the graph's poses so far; `corrections` moves exactly when earlier poses moved (an
+// online optimisation); and a run with the hook gives the same estimate bit for bit.
+TEST(LiveViewHook, TellsEveryFrameAndEachCorrectionAndChangesNothing) {
+  const auto dir = test::writeSimulatedSequence("live-hook", "naraha", 1, 76);  // first loop at frame 72
+  SlamConfig config = SlamConfig::forMethod(SlamMethod::PropertyIcpPgo);
+  config.threads = 2;
+  std::vector<std::vector<Eigen::Vector3d>> seen;
+  std::vector<std::size_t> corrections;
+  SlamSnapshots hooks;
+  hooks.frame = [&](const SlamFrameEvent& e) {
+    EXPECT_EQ(e.record.index, seen.size());
+    EXPECT_EQ(e.poses.size(), seen.size() + 1);
+    EXPECT_GT(e.scan.size(), 1000u);
+    std::vector<Eigen::Vector3d> positions;
+    for (const auto& p : e.poses) positions.push_back(p.translation());
+    seen.push_back(std::move(positions));
+    corrections.push_back(e.corrections);
+  };
+  const auto with_source = sequenceScanSource(Sequence::open(dir), false);
+  const SlamResult with = runSlam(*with_source, config, {}, hooks);
+  const SlamResult without = runSlam(Sequence::open(dir), config);
+  ASSERT_EQ(seen.size(), with.frames.size());
+  ASSERT_FALSE(with.loops.empty());
+  EXPECT_GT(corrections.back(), 0u);
+  for (std::size_t k = 1; k < seen.size(); ++k) {
+    bool moved = false;
+    for (std::size_t i = 0; i < k; ++i) moved |= seen[k][i] != seen[k - 1][i];
+    EXPECT_EQ(moved, corrections[k] != corrections[k - 1]) << "frame " << k;
+  }
+  ASSERT_EQ(with.estimate.size(), without.estimate.size());
+  for (std::size_t i = 0; i < with.estimate.size(); ++i)
+    EXPECT_TRUE(with.estimate.poses[i].isApprox(without.estimate.poses[i], 0.0)) << "frame " << i;
 }
 
 TEST(LiveViewFeed, UrlNamesTheAddressAndTheToken) {
