@@ -22,6 +22,7 @@
 #include "hazmap/sources/live_source.hpp"
 #include "hazmap/sources/pcap_reader.hpp"
 #include "hazmap/sources/pcap_writer.hpp"
+#include "live_test_helpers.hpp"
 #include "test_helpers.hpp"
 
 extern char** environ;
@@ -34,42 +35,6 @@ namespace fs = std::filesystem;
 const char* kVlp16 = "sensors/velodyne-vlp16-pcap/velodyne_vlp16.pcap";
 const char* kOuster = "sensors/ouster-os1-128/OS-1-128_v2.3.0_1024x10_lb_n3.pcap";
 const char* kOusterMeta = "sensors/ouster-os1-128/OS-1-128_v2.3.0_1024x10.json";
-
-int bindUdp(std::uint16_t port) {
-  const int s = ::socket(AF_INET, SOCK_DGRAM, 0);
-  sockaddr_in a{};
-  a.sin_family = AF_INET;
-  a.sin_addr.s_addr = htonl(INADDR_ANY);
-  a.sin_port = htons(port);
-  if (::bind(s, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0) {
-    ::close(s);
-    return -1;
-  }
-  return s;
-}
-
-std::uint16_t boundPort(int s) {
-  sockaddr_in a{};
-  socklen_t n = sizeof a;
-  ::getsockname(s, reinterpret_cast<sockaddr*>(&a), &n);
-  return ntohs(a.sin_port);
-}
-
-/// A free UDP port P with P + 1 free too (live's auxiliary port): the kernel picks P.
-std::uint16_t freePortPair() {
-  for (int attempt = 0; attempt < 100; ++attempt) {
-    const int a = bindUdp(0);
-    const std::uint16_t p = boundPort(a);
-    const int b = p < 65535 ? bindUdp(static_cast<std::uint16_t>(p + 1)) : -1;
-    ::close(a);
-    if (b >= 0) {
-      ::close(b);
-      return p;
-    }
-  }
-  ADD_FAILURE() << "no free UDP port pair";
-  return 0;
-}
 
 std::string readAll(const fs::path& p) {
   std::ifstream in(p);

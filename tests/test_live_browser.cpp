@@ -27,6 +27,7 @@
 #include "hazmap/map/global_map.hpp"
 #include "hazmap/map/hazards.hpp"
 #include "hazmap/pipeline/live_view_feed.hpp"
+#include "live_test_helpers.hpp"
 #include "test_helpers.hpp"
 
 extern char** environ;
@@ -73,20 +74,6 @@ bool eventually(const std::function<bool()>& done, int seconds = 20) {
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
   }
   return true;
-}
-
-std::string httpGet(int port, const std::string& path) {
-  char error[256] = "";
-  mg_connection* conn = mg_connect_client("127.0.0.1", port, 0, error, sizeof error);
-  if (!conn) return "";
-  mg_printf(conn, "GET %s HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: close\r\n\r\n", path.c_str());
-  std::string body;
-  if (mg_get_response(conn, error, sizeof error, 5000) >= 0) {
-    char buf[4096];
-    for (int n; (n = mg_read(conn, buf, sizeof buf)) > 0;) body.append(buf, std::size_t(n));
-  }
-  mg_close_connection(conn);
-  return body;
 }
 
 /// Headless Chromium (SwiftShader WebGL) with one page, driven over the DevTools protocol.
@@ -177,37 +164,6 @@ class Chromium {
   std::map<int, json> replies_;
   int next_id_ = 0;
 };
-
-int bindUdp(std::uint16_t port) {
-  const int s = ::socket(AF_INET, SOCK_DGRAM, 0);
-  sockaddr_in a{};
-  a.sin_family = AF_INET;
-  a.sin_addr.s_addr = htonl(INADDR_ANY);
-  a.sin_port = htons(port);
-  if (::bind(s, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0) {
-    ::close(s);
-    return -1;
-  }
-  return s;
-}
-
-/// A free UDP port P with P + 1 free too (live's auxiliary port).
-std::uint16_t freePortPair() {
-  for (int attempt = 0; attempt < 100; ++attempt) {
-    const int a = bindUdp(0);
-    sockaddr_in addr{};
-    socklen_t n = sizeof addr;
-    ::getsockname(a, reinterpret_cast<sockaddr*>(&addr), &n);
-    const std::uint16_t p = ntohs(addr.sin_port);
-    const int b = p < 65535 ? bindUdp(std::uint16_t(p + 1)) : -1;
-    ::close(a);
-    if (b >= 0) {
-      ::close(b);
-      return p;
-    }
-  }
-  return 0;
-}
 
 /// `hazmap live …` in the background; its page's address from the "live view:" line.
 struct Live {

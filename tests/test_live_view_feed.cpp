@@ -17,12 +17,14 @@
 #include "hazmap/map/hazards.hpp"
 #include "hazmap/pipeline/live_view_feed.hpp"
 #include "hazmap/pipeline/live_view_messages.hpp"
+#include "live_test_helpers.hpp"
 #include "test_helpers.hpp"
 
 namespace hazmap {
 namespace {
 
 using nlohmann::json;
+using test::httpGet;
 constexpr ClassId kNone = 0, kHeat = 1;
 
 std::vector<std::uint8_t> unbase64(const std::string& text) {
@@ -191,20 +193,6 @@ bool eventually(const std::function<bool()>& done) {
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }
   return true;
-}
-
-std::string httpGet(int port, const std::string& path) {
-  char error[256] = "";
-  mg_connection* conn = mg_connect_client("127.0.0.1", port, 0, error, sizeof error);
-  if (!conn) return "";
-  mg_printf(conn, "GET %s HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: close\r\n\r\n", path.c_str());
-  std::string body;
-  if (mg_get_response(conn, error, sizeof error, 5000) >= 0) {
-    char buf[4096];
-    for (int n; (n = mg_read(conn, buf, sizeof buf)) > 0;) body.append(buf, std::size_t(n));
-  }
-  mg_close_connection(conn);
-  return body;
 }
 
 std::int64_t nowNs(double seconds_ago) {
