@@ -419,6 +419,11 @@
     applyDetail();
   }
 
+  function showDetail() {
+    const n = groups.reduce((a, g) => a + Math.ceil(g.count * state.detail), 0);
+    $('detail-val').textContent = n.toLocaleString('en-US');
+  }
+
   function bindControls() {
     $('btn-top').addEventListener('click', () => setMode('top', true));
     $('btn-persp').addEventListener('click', () => setMode('perspective', true));
@@ -430,15 +435,12 @@
     $('point-size-val').textContent = state.pointSize + ' px';
     sizeInput.addEventListener('input', () => { setPointSize(+sizeInput.value); $('point-size-val').textContent = sizeInput.value + ' px'; });
     detailInput.value = Math.round(state.detail * 100);
-    const showDetail = () => {
-      const n = groups.reduce((a, g) => a + Math.ceil(g.count * state.detail), 0);
-      $('detail-val').textContent = n.toLocaleString('en-US');
-    };
     showDetail();
     detailInput.addEventListener('input', () => { state.detail = +detailInput.value / 100; applyDetail(); showDetail(); });
-    const zlo = bounds.min.z + center.z, zhi = bounds.max.z + center.z;
-    const toZ = (v) => zlo + (zhi - zlo) * v / 1000;
+    const zRange = () => [bounds.min.z + center.z, bounds.max.z + center.z];  // a live map's grows
+    const toZ = (v) => { const [zlo, zhi] = zRange(); return zlo + (zhi - zlo) * v / 1000; };
     const showClip = () => { $('clip-val').textContent = state.clipZ === null ? 'off' : fmt(state.clipZ, 1) + ' m'; };
+    const [zlo, zhi] = zRange();
     clipInput.value = state.clipZ === null ? 1000 : Math.round(1000 * (state.clipZ - zlo) / Math.max(zhi - zlo, 1e-6));
     showClip();
     clipInput.addEventListener('input', () => { setClip(+clipInput.value >= 1000 ? null : toZ(+clipInput.value)); showClip(); });
@@ -567,6 +569,7 @@
     c.needsUpdate = true;
     updateSpan();
     applyDetail();
+    showDetail();
   }
   function clearPoints() {
     for (const g of groups) { scene.remove(g.points); g.geometry.dispose(); }
