@@ -24,9 +24,10 @@ struct FrameItem {
   std::size_t frame = 0;
   Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
   FrameStatus status = FrameStatus::First;
-  std::optional<LabeledCloud> scan;  ///< empty: skipped for the view (its queue was full)
+  std::unique_ptr<LabeledCloud> scan;  ///< null: skipped for the view (its queue was full)
   std::size_t bytes = 0;
-  std::optional<std::vector<Eigen::Vector3d>> corrected;  ///< the whole trajectory after a correction
+  bool correction = false;                  ///< earlier poses moved: `corrected` holds them all
+  std::vector<Eigen::Vector3d> corrected;
 };
 
 std::size_t bytesOf(const LabeledCloud& c) {
@@ -133,10 +134,10 @@ void LiveViewFeed::Impl::process(FrameItem& item) {
   std::string trajectory, pose;
   {
     std::lock_guard<std::mutex> lock(m);
-    if (item.corrected) positions = std::move(*item.corrected);
+    if (item.correction) positions = std::move(item.corrected);
     if (positions.size() <= item.frame) positions.resize(item.frame + 1, p);
     positions[item.frame] = p;
-    if (item.corrected) trajectory = liveTrajectoryMessage(positions);
+    if (item.correction) trajectory = liveTrajectoryMessage(positions);
     pose = pose_message = livePoseMessage(item.frame, item.pose, item.status);
     counts.tracking = toString(item.status);
   }
@@ -248,9 +249,9 @@ void LiveViewFeed::onFrame(const SlamFrameEvent& event) {
   item.status = event.record.status;
   if (event.corrections != s.corrections_seen) {
     s.corrections_seen = event.corrections;
-    item.corrected.emplace();
-    item.corrected->reserve(event.poses.size());
-    for (const auto& pose : event.poses) item.corrected->push_back(pose.translation());
+    item.correction = true;
+    item.corrected.reserve(event.poses.size());
+    for (const auto& pose : event.poses) item.corrected.push_back(pose.translation());
   }
   const std::size_t bytes = bytesOf(event.scan);
   bool room = false;
@@ -264,7 +265,7 @@ void LiveViewFeed::onFrame(const SlamFrameEvent& event) {
     else ++s.counts.view_frames_skipped;
   }
   if (room) {
-    item.scan = event.scan;  // the copy, outside the lock
+    item.scan = std::make_unique<LabeledCloud>(event.scan);  // the copy, outside the lock
     item.bytes = bytes;
   }
   {
