@@ -14,7 +14,7 @@ while True:
     b = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     try: b.bind(("", p + 1)); print(p); break
     except OSError: pass')
-"$h" live "${live_args[@]}" --port "$port" --quiet --no-viewer --out "$out/live" > "$out/live.log" 2>&1 &
+"$h" live "${live_args[@]}" --port "$port" --listen 127.0.0.1:0 --quiet --no-viewer --out "$out/live" > "$out/live.log" 2>&1 &
 pid=$!
 for _ in $(seq 200); do grep -q "listening on UDP port" "$out/live.log" && break; sleep 0.05; done
 "$h" replay "$capture" --to 127.0.0.1 --port "$port" --rate "$rate" --quiet

@@ -37,6 +37,9 @@ hazmap_label(test_registration unit)
 hazmap_label(test_sim unit)
 hazmap_label(test_stable_sort unit)
 hazmap_label(test_live_view unit)
+hazmap_label(test_live_view_feed unit
+  scene "^LiveViewHook\\.")
+hazmap_label(test_live_browser browser)
 hazmap_label(test_sim_cli unit)
 hazmap_label(test_back_end unit
   scene "NeverWorse|^MapSkipsFallback\\.")

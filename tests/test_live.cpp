@@ -22,6 +22,7 @@
 #include "hazmap/sources/live_source.hpp"
 #include "hazmap/sources/pcap_reader.hpp"
 #include "hazmap/sources/pcap_writer.hpp"
+#include "live_test_helpers.hpp"
 #include "test_helpers.hpp"
 
 extern char** environ;
@@ -34,42 +35,6 @@ namespace fs = std::filesystem;
 const char* kVlp16 = "sensors/velodyne-vlp16-pcap/velodyne_vlp16.pcap";
 const char* kOuster = "sensors/ouster-os1-128/OS-1-128_v2.3.0_1024x10_lb_n3.pcap";
 const char* kOusterMeta = "sensors/ouster-os1-128/OS-1-128_v2.3.0_1024x10.json";
-
-int bindUdp(std::uint16_t port) {
-  const int s = ::socket(AF_INET, SOCK_DGRAM, 0);
-  sockaddr_in a{};
-  a.sin_family = AF_INET;
-  a.sin_addr.s_addr = htonl(INADDR_ANY);
-  a.sin_port = htons(port);
-  if (::bind(s, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0) {
-    ::close(s);
-    return -1;
-  }
-  return s;
-}
-
-std::uint16_t boundPort(int s) {
-  sockaddr_in a{};
-  socklen_t n = sizeof a;
-  ::getsockname(s, reinterpret_cast<sockaddr*>(&a), &n);
-  return ntohs(a.sin_port);
-}
-
-/// A free UDP port P with P + 1 free too (live's auxiliary port): the kernel picks P.
-std::uint16_t freePortPair() {
-  for (int attempt = 0; attempt < 100; ++attempt) {
-    const int a = bindUdp(0);
-    const std::uint16_t p = boundPort(a);
-    const int b = p < 65535 ? bindUdp(static_cast<std::uint16_t>(p + 1)) : -1;
-    ::close(a);
-    if (b >= 0) {
-      ::close(b);
-      return p;
-    }
-  }
-  ADD_FAILURE() << "no free UDP port pair";
-  return 0;
-}
 
 std::string readAll(const fs::path& p) {
   std::ifstream in(p);
@@ -173,7 +138,8 @@ ReplayRun replayAgainstRun(const std::string& capture, const std::string& live_a
   const auto run = runCli("run '" + capture + "' --quiet --no-viewer " + run_args + " --out '" + r.run_dir.string() + "'");
   EXPECT_EQ(run.exit_code, 0) << run.output;
   const std::uint16_t port = freePortPair();
-  LiveProcess live(live_args + " --port " + std::to_string(port) + " --no-viewer --out '" + r.live_dir.string() +
+  // The live view on (any free port): drawing the run must not change it.
+  LiveProcess live(live_args + " --port " + std::to_string(port) + " --listen 127.0.0.1:0 --no-viewer --out '" + r.live_dir.string() +
                        "'",
                    dir / "live.log");
   EXPECT_TRUE(live.waitListening()) << live.log();
@@ -247,6 +213,22 @@ TEST(LiveSimulated, NarahaAsVelodynePacketsReplayedLiveGivesTheRunsPoses) {
   EXPECT_EQ(liveSection(r.live_dir).at("lost").get<std::size_t>(), 0u);
 }
 
+TEST(LiveSimulated, DemoLiveReplaysTheMissionToLiveAndWritesTheRunFolder) {
+  // hazmap demo --live: simulate → replay on loopback → live, the page's address printed; the run
+  // folder written when the replay ends, the temporary capture gone.
+  const fs::path dir = scratchDir();
+  const auto r = runCli("demo --live --frames 6 --rate 50 --listen 127.0.0.1:0 --out '" + dir.string() + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("live view: http://127.0.0.1:"), std::string::npos) << r.output;
+  const auto at = r.output.find("wrote ") + 6;  // the simulation's line names the capture
+  ASSERT_NE(r.output.find("hazmap-demo-live-", at), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(r.output.substr(at, r.output.find("/mission.pcap", at) - at))) << "the capture stayed";
+  EXPECT_EQ(readKittiTrajectory(dir / "live" / "trajectory.kitti").size(), 6u);
+  const auto live = liveSection(dir / "live");
+  EXPECT_EQ(live.at("lost").get<std::size_t>(), 0u);
+  EXPECT_EQ(live.at("state").get<std::string>(), "stopped by end of stream");
+}
+
 TEST(LiveReplay, HesaiBagPacketsGiveTheRunsFramesAndPoses) {
   const std::string bag = sharedData("sensors/hesai-pandar64/1673403880599376836").string();
   const ReplayRun r = replayAgainstRun(bag, "--sensor hesai", "1", SIGINT);
@@ -284,7 +266,7 @@ TEST(LiveReplay, RateMaxCountsWhatItLosesAndSkipsThoseScans) {
 TEST(LiveReplay, KillNineLeavesTheLastAutosaveReadable) {
   const fs::path dir = scratchDir();
   const std::uint16_t port = freePortPair();
-  LiveProcess live("--sensor velodyne --autosave-every 0.2 --no-viewer --port " + std::to_string(port) +
+  LiveProcess live("--sensor velodyne --autosave-every 0.2 --no-viewer --no-view --port " + std::to_string(port) +
                        " --out '" + (dir / "live").string() + "'",
                    dir / "live.log");
   ASSERT_TRUE(live.waitListening()) << live.log();
@@ -375,6 +357,31 @@ TEST(LiveErrors, PortInUseUnknownSensorAndOusterWithoutMetadata) {
   EXPECT_NE(r.exit_code, 0);
   EXPECT_NE(r.output.find("--sensor-metadata: an Ouster sensor needs its metadata JSON"), std::string::npos)
       << r.output;
+  // The live view: another address without a token, a token too short or in a missing file, an
+  // address in use; each before anything is received.
+  r = runCli("live --sensor velodyne --port 0 --listen 0.0.0.0:0 --out '" + (dir / "d").string() + "'");
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("live view: listening on 0.0.0.0:0 (not loopback) needs --token"), std::string::npos) << r.output;
+  r = runCli("live --sensor velodyne --port 0 --listen 127.0.0.1:0 --token abc --out '" + (dir / "e").string() + "'");
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("--token: a token is 8 to 200 characters"), std::string::npos) << r.output;
+  r = runCli("live --sensor velodyne --port 0 --token-file '" + (dir / "no-token").string() + "' --out '" +
+             (dir / "f").string() + "'");
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("no-token"), std::string::npos) << r.output;
+  const int tcp = ::socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  ASSERT_EQ(::bind(tcp, reinterpret_cast<sockaddr*>(&a), sizeof a), 0);
+  ::listen(tcp, 1);
+  socklen_t length = sizeof a;
+  ::getsockname(tcp, reinterpret_cast<sockaddr*>(&a), &length);
+  const std::string in_use = "127.0.0.1:" + std::to_string(ntohs(a.sin_port));
+  r = runCli("live --sensor velodyne --port 0 --listen " + in_use + " --out '" + (dir / "g").string() + "'");
+  ::close(tcp);
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("live view: cannot listen on " + in_use), std::string::npos) << r.output;
   r = runCli("replay '" + (dir / "missing.pcap").string() + "' --rate 1");
   EXPECT_NE(r.exit_code, 0);
   EXPECT_NE(r.output.find("missing.pcap"), std::string::npos) << r.output;

@@ -3,6 +3,8 @@
 #include <civetweb.h>
 
 #include <arpa/inet.h>
+#include <sys/resource.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <atomic>
@@ -23,9 +25,10 @@ struct LiveClient {
   mg_connection* conn = nullptr;
   std::mutex m;
   std::condition_variable wake;
-  std::deque<std::string> updates;
+  // Shared, not copied: fifty browsers cost one copy of a map chunk, not fifty.
+  std::deque<std::shared_ptr<const std::string>> updates;
   std::size_t bytes = 0;
-  std::vector<std::pair<std::string, std::string>> states;  // coalesced, first-published order
+  std::vector<std::pair<std::string, std::shared_ptr<const std::string>>> states;  // coalesced, first-published order
   bool closing = false;
   bool dropped = false;
   std::thread sender;
@@ -44,7 +47,7 @@ struct LiveViewServer::Impl {
   mutable std::atomic<std::size_t> dropped{0}, coalesced{0};
 
   bool authorised(const mg_connection* conn) const;
-  void enqueue(LiveClient& c, std::string message) const;
+  void enqueue(LiveClient& c, std::shared_ptr<const std::string> message) const;
   void sendLoop(const std::shared_ptr<LiveClient>& c) const;
 };
 
@@ -100,10 +103,10 @@ bool LiveViewServer::Impl::authorised(const mg_connection* conn) const {
   return n >= 0 && sameSecret(given, config.token);
 }
 
-void LiveViewServer::Impl::enqueue(LiveClient& c, std::string message) const {
+void LiveViewServer::Impl::enqueue(LiveClient& c, std::shared_ptr<const std::string> message) const {
   std::lock_guard<std::mutex> lock(c.m);
   if (c.dropped || c.closing) return;
-  c.bytes += message.size();
+  c.bytes += message->size();
   c.updates.push_back(std::move(message));
   if (c.bytes > config.client_buffer_bytes) {  // fallen behind: drop it, it reconnects
     c.dropped = true;
@@ -116,9 +119,11 @@ void LiveViewServer::Impl::enqueue(LiveClient& c, std::string message) const {
 }
 
 void LiveViewServer::Impl::sendLoop(const std::shared_ptr<LiveClient>& c) const {
+  // A browser's sender yields to every other thread (nice 19): SLAM and the sensor come first.
+  ::setpriority(PRIO_PROCESS, static_cast<id_t>(::gettid()), 19);
   for (;;) {
-    std::deque<std::string> batch;
-    std::vector<std::pair<std::string, std::string>> states;
+    std::deque<std::shared_ptr<const std::string>> batch;
+    std::vector<std::pair<std::string, std::shared_ptr<const std::string>>> states;
     {
       std::unique_lock<std::mutex> lock(c->m);
       c->wake.wait(lock, [&] { return c->closing || c->dropped || !c->updates.empty() || !c->states.empty(); });
@@ -129,9 +134,9 @@ void LiveViewServer::Impl::sendLoop(const std::shared_ptr<LiveClient>& c) const 
       c->bytes = 0;
     }
     for (const auto& m : batch)
-      if (mg_websocket_write(c->conn, MG_WEBSOCKET_OPCODE_TEXT, m.data(), m.size()) <= 0) return;
+      if (mg_websocket_write(c->conn, MG_WEBSOCKET_OPCODE_TEXT, m->data(), m->size()) <= 0) return;
     for (const auto& s : states)
-      if (mg_websocket_write(c->conn, MG_WEBSOCKET_OPCODE_TEXT, s.second.data(), s.second.size()) <= 0) return;
+      if (mg_websocket_write(c->conn, MG_WEBSOCKET_OPCODE_TEXT, s.second->data(), s.second->size()) <= 0) return;
   }
   const char reason[] = "\x03\xe8" "fell behind";  // 1000, normal closure: the page reconnects
   mg_websocket_write(c->conn, MG_WEBSOCKET_OPCODE_CONNECTION_CLOSE, reason, sizeof reason - 1);
@@ -184,7 +189,8 @@ void onWsReady(mg_connection* conn, void* data) {
   // (so the snapshot handler must be cheap: ready-made messages, not a map to serialise).
   std::lock_guard<std::mutex> lock(s.m);
   if (s.snapshot)
-    for (auto& m : s.snapshot()) s.enqueue(*c, std::move(m));
+    for (auto& m : s.snapshot()) s.enqueue(*c, std::make_shared<const std::string>(std::move(m)));
+  c->bytes = 0;  // the snapshot (bounded by what the caller keeps) does not count as falling behind
   c->sender = std::thread([&s, c] { s.sendLoop(c); });
   s.clients[conn] = std::move(c);
 }
@@ -258,11 +264,13 @@ void LiveViewServer::setStatus(std::string json) {
 }
 
 void LiveViewServer::publish(std::string message) {
+  const auto shared = std::make_shared<const std::string>(std::move(message));
   std::lock_guard<std::mutex> lock(impl_->m);
-  for (auto& [conn, c] : impl_->clients) impl_->enqueue(*c, message);
+  for (auto& [conn, c] : impl_->clients) impl_->enqueue(*c, shared);
 }
 
-void LiveViewServer::publishState(const std::string& key, std::string message) {
+void LiveViewServer::publishState(const std::string& key, std::string text) {
+  const auto message = std::make_shared<const std::string>(std::move(text));
   std::lock_guard<std::mutex> lock(impl_->m);
   for (auto& [conn, c] : impl_->clients) {
     std::lock_guard<std::mutex> client_lock(c->m);

@@ -21,17 +21,18 @@ std::string css(const Rgb& c) { return fmt::format("#{:02x}{:02x}{:02x}", c[0], 
 double mm(double v) { return std::round(v * 1000.0) / 1000.0; }
 json xyz(const Eigen::Vector3d& p) { return json::array({mm(p.x()), mm(p.y()), mm(p.z())}); }
 
-json hazardsMeta(const ViewerScene& scene) {
+json hazardsMeta(const std::vector<Hazard>& hazards, const ClassTable& classes, const MapColorConfig& colors) {
   json list = json::array();
-  for (const Hazard& h : scene.hazards) {
-    const ClassInfo* info = scene.classes.find(h.label);
+  for (const Hazard& h : hazards) {
+    const ClassInfo* info = classes.find(h.label);
     ClassInfo by_kind;
     by_kind.kind = h.kind;
-    const Rgb color = propertyColor(info && info->kind == h.kind ? *info : by_kind, scene.colors);
+    const Rgb color = propertyColor(info && info->kind == h.kind ? *info : by_kind, colors);
     list.push_back({{"id", h.id}, {"class", h.class_name}, {"kind", toString(h.kind)},
                     {"centroid", xyz(h.centroid)}, {"min", xyz(h.min)}, {"max", xyz(h.max)},
                     {"area_m2", h.area_m2}, {"points", h.points}, {"frame_count", h.frame_count},
                     {"mean_property", h.mean_property ? json(*h.mean_property) : json()},
+                    {"max_property", h.max_property ? json(*h.max_property) : json()},
                     {"color", css(color)}});
   }
   return list;
@@ -53,10 +54,10 @@ json metaJson(const ViewerScene& scene, const ViewerConfig& config, const viewer
   return {{"title", scene.title}, {"source", scene.source}, {"groups", groups},
           {"points_total", e.total}, {"points_embedded", e.embedded}, {"has_property", e.has_property},
           {"qmin", vec(e.qmin)}, {"qstep", vec(e.qstep)}, {"center", vec(e.center)},
-          {"hazards", hazardsMeta(scene)}, {"trajectories", trajectories},
+          {"hazards", hazardsMeta(scene.hazards, scene.classes, scene.colors)}, {"trajectories", trajectories},
           {"clip_above", scene.clip_above ? json(*scene.clip_above) : json()},
           {"detail_budget", config.detail_budget}, {"moving_budget", config.moving_budget},
-          {"initial_view", config.top_down_first ? "top" : "perspective"}};
+          {"initial_view", config.top_down_first ? "top" : "perspective"}, {"live", config.live}};
 }
 
 // Text placed inside <script>: "</" could end the element early.
@@ -147,9 +148,15 @@ std::string viewerHtml(const ViewerScene& scene, const ViewerConfig& config, Vie
                                    {"DATA_BLOCKS", blocks},
                                    {"THREE_JS", scriptSafe(three)},
                                    {"ORBIT_CONTROLS_JS", scriptSafe(orbit)},
-                                   {"VIEWER_JS", scriptSafe(std::string(embedded::kViewerJs))}});
+                                   {"VIEWER_JS", scriptSafe(std::string(embedded::kViewerJs))},
+                                   {"LIVE_JS", config.live ? scriptSafe(std::string(embedded::kViewerLiveJs)) : ""}});
   if (report) *report = {e.total, e.embedded, html.size()};
   return html;
+}
+
+std::string viewerHazardsJson(const std::vector<Hazard>& hazards, const ClassTable& classes,
+                              const MapColorConfig& colors) {
+  return hazardsMeta(hazards, classes, colors).dump();
 }
 
 ViewerReport writeViewer(const std::filesystem::path& path, const ViewerScene& scene, const ViewerConfig& config) {

@@ -22,8 +22,9 @@ using namespace pipeline_detail;
 // One SLAM run, frame by frame: each public step is one box of the paper's Fig. 1.
 class SlamRun {
  public:
-  SlamRun(ScanSource& source, const SlamConfig& config)
-      : source_(source), config_(config), deskewer_(config.deskew) {
+  SlamRun(ScanSource& source, const SlamConfig& config,
+          std::function<void(const SlamFrameEvent&)> on_frame = {})
+      : source_(source), config_(config), deskewer_(config.deskew), on_frame_(std::move(on_frame)) {
     result_.method = config.method;
     result_.graph.dimension = 3;
   }
@@ -38,6 +39,7 @@ class SlamRun {
     addOdometryEdge(record);
     result_.frames.push_back(std::move(record));
     takeReestimatedLostFrames();
+    tellFrame(scan.cloud);
     if (!back_end_ || !back_end_->isKeyframe(pose)) return;
     back_end_->addGravityPrior(scan);
     if (config_.loops_beside_tracking)
@@ -47,6 +49,16 @@ class SlamRun {
   }
 
   std::size_t frames() const { return result_.frames.size(); }
+
+  /// The live view's hook: the frame just added, and whether earlier poses moved since the last
+  /// call (an online optimisation ran beside this frame's tracking, or lost frames were redone).
+  void tellFrame(const LabeledCloud& cloud) {
+    if (!on_frame_) return;
+    const std::size_t optimisations = result_.optimisations.size();
+    if (optimisations != told_optimisations_) ++corrections_;
+    told_optimisations_ = optimisations;
+    on_frame_(SlamFrameEvent{result_.frames.back(), cloud, result_.graph.poses, corrections_});
+  }
 
   /// The result so far, between two scans (nothing runs beside tracking then).
   SlamResult snapshot() const {
@@ -176,6 +188,7 @@ class SlamRun {
         }
       first = std::min(first, k);
     }
+    if (first + 1 < n) ++corrections_;  // poses before the newest moved
     for (std::size_t k = first; k < n; ++k) {
       tracked_[k] = normalized(tracked_[k - 1] * result_.frames[k].T_prev_curr);
       result_.graph.poses[k] = normalized(result_.graph.poses[k - 1] * result_.frames[k].T_prev_curr);
@@ -223,6 +236,8 @@ class SlamRun {
     LabeledCloud cloud;
   };
   std::optional<PendingLoops> pending_loops_;  // the newest keyframe's loop stage, not yet run
+  std::function<void(const SlamFrameEvent&)> on_frame_;
+  std::size_t told_optimisations_ = 0, corrections_ = 0;
 };
 
 }  // namespace
@@ -238,7 +253,7 @@ SlamResult runSlam(ScanSource& source, const SlamConfig& config, const FrameProg
   if (config.threads > 0)
     threads.emplace(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(config.threads));
   const auto t_start = Clock::now();
-  SlamRun run(source, config);
+  SlamRun run(source, config, snapshots.frame);
   const std::size_t total = source.size().value_or(0);
   while (std::optional<Scan> scan = source.next()) {
     run.addScan(std::move(*scan));

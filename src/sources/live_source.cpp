@@ -87,6 +87,7 @@ class LiveStream final : public LiveScanSource {
     s.decoder = assembler_->describe();
     return s;
   }
+  UdpReceiverStats receiverStats() const override { return feed_->receiverStats(); }
   void flushSpool() override {
     if (spool_) spool_->flush();
   }

@@ -145,6 +145,7 @@ bool UdpReceiver::receiveOne(std::size_t i, std::vector<std::uint8_t>& buffer) {
     last_overflow_[i] = *overflow;
   }
   ++stats_.received;
+  stats_.last_received_ns = d.time_ns;
   if (message.msg_flags & MSG_TRUNC) {
     ++stats_.truncated;
     ++lost_since_queued_;
@@ -174,7 +175,10 @@ std::optional<ReceivedDatagram> UdpReceiver::pop(std::chrono::milliseconds timeo
 
 UdpReceiverStats UdpReceiver::stats() const {
   std::lock_guard lock(mutex_);
-  return stats_;
+  UdpReceiverStats s = stats_;
+  s.queued = queue_.size();
+  s.queued_bytes = queue_bytes_;
+  return s;
 }
 
 }  // namespace hazmap

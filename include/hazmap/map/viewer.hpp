@@ -49,6 +49,9 @@ struct ViewerConfig {
   /// Points drawn while the camera moves (keeps a 5-million-point map interactive).
   std::size_t moving_budget = 600'000;
   bool top_down_first = false;  ///< open in the top-down view instead of perspective
+  /// The live view's page (`hazmap live`): the same page, which then connects to the server's
+  /// WebSocket (/ws) and draws what it publishes; the offline page holds no network code.
+  bool live = false;
   /// Where Debian's libjs-three puts three.min.js and examples/js/controls/OrbitControls.js.
   std::filesystem::path three_dir = "/usr/share/javascript/three";
 };
@@ -58,6 +61,12 @@ struct ViewerReport {
   std::size_t points_embedded = 0;
   std::size_t bytes = 0;
 };
+
+/// The page's hazard list as JSON text (an array: id, class, kind, centroid, min, max, area_m2,
+/// points, frame_count, mean_property, max_property, color), what its table and boxes show; the
+/// live view publishes the same.
+std::string viewerHazardsJson(const std::vector<Hazard>& hazards, const ClassTable& classes,
+                              const MapColorConfig& colors = {});
 
 /// The page as one string. Throws hazmap::Error when three.js is missing or the map does not
 /// fit under max_bytes (the message suggests a --max-points that fits).

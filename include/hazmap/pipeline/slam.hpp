@@ -187,9 +187,21 @@ SlamResult runSlam(ScanSource& source, const SlamConfig& config, const FrameProg
 /// Copies of a running SLAM's result (what `hazmap live` autosaves): `due` is asked after each
 /// frame; when it answers yes, `take` gets the result so far as the end of the run would give it,
 /// without the final optimisation (the graph as optimised online so far).
+/// `frame` (optional) is told of each frame as it joins the graph (what the live view draws):
+/// cheap work only, it runs on the pipeline's thread.
+struct SlamFrameEvent {
+  const FrameRecord& record;
+  const LabeledCloud& scan;  ///< sensor frame, deskewed as tracking saw it
+  /// The graph's poses so far (T_world_sensor; optimised online after accepted loops).
+  const std::vector<Eigen::Isometry3d>& poses;
+  /// Counts changes to poses before the newest (an online optimisation, re-estimated lost
+  /// frames): when it moves, the whole trajectory was redrawn.
+  std::size_t corrections = 0;
+};
 struct SlamSnapshots {
   std::function<bool()> due;
   std::function<void(const SlamResult&)> take;
+  std::function<void(const SlamFrameEvent&)> frame;
 };
 SlamResult runSlam(ScanSource& source, const SlamConfig& config, const FrameProgress& progress,
                    const SlamSnapshots& snapshots);

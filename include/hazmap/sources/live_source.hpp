@@ -54,6 +54,9 @@ struct LiveStats {
 class LiveScanSource : public ScanSource {
  public:
   virtual LiveStats stats() const = 0;
+  /// The receive thread's counts and queue now; unlike stats(), safe from any thread (the live
+  /// view's status line reads it while the pipeline waits for the sensor).
+  virtual UdpReceiverStats receiverStats() const = 0;
   /// The spool made readable up to now (for an autosave's second pass).
   virtual void flushSpool() = 0;
   virtual std::uint16_t dataPort() const = 0;

@@ -28,6 +28,9 @@ struct UdpReceiverStats {
   std::uint64_t kernel_dropped = 0; ///< dropped by the kernel: socket buffer full (SO_RXQ_OVFL)
   std::uint64_t queue_dropped = 0;  ///< dropped because the queue was full (consumer too slow)
   std::uint64_t truncated = 0;      ///< larger than the receive buffer: dropped
+  std::size_t queued = 0;           ///< datagrams waiting for the decoder now
+  std::size_t queued_bytes = 0;     ///< their payload bytes
+  std::int64_t last_received_ns = 0;  ///< receive time of the newest datagram (0: none yet)
 };
 
 class UdpReceiver {
@@ -45,7 +48,7 @@ class UdpReceiver {
   void stop();
   /// The next datagram, waiting at most `timeout`; nullopt when none came.
   std::optional<ReceivedDatagram> pop(std::chrono::milliseconds timeout);
-  UdpReceiverStats stats() const;
+  UdpReceiverStats stats() const;  ///< thread-safe
   /// Datagrams dropped after the last one queued (after stop(): the stream's lost tail).
   std::uint64_t lostAfterLast() const;
   std::uint16_t port(std::size_t i) const { return ports_.at(i); }  ///< as bound

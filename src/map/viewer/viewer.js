@@ -50,17 +50,19 @@
 
   // One THREE.Points per class group; a group's points are shuffled, so drawing its first k
   // points is an even decimation (level of detail).
-  const groups = meta.groups.map((g) => {
+  function makeGroup(g, xyz, colors) {
     const geometry = new THREE.BufferGeometry();
-    geometry.setAttribute('position', new THREE.BufferAttribute(data.xyz.subarray(3 * g.offset, 3 * (g.offset + g.count)), 3));
-    geometry.setAttribute('color', new THREE.BufferAttribute(data.colors.subarray(3 * g.offset, 3 * (g.offset + g.count)), 3, true));
+    geometry.setAttribute('position', new THREE.BufferAttribute(xyz, 3));
+    geometry.setAttribute('color', new THREE.BufferAttribute(colors, 3, true));
     const material = new THREE.PointsMaterial({ size: 2, sizeAttenuation: false, vertexColors: THREE.VertexColors,
                                                 clippingPlanes: [clipPlane] });
     const points = new THREE.Points(geometry, material);
     points.frustumCulled = false;
     scene.add(points);
     return Object.assign({}, g, { points, material, geometry, visible: true, drawn: g.count });
-  });
+  }
+  const groups = meta.groups.map((g) => makeGroup(g, data.xyz.subarray(3 * g.offset, 3 * (g.offset + g.count)),
+                                                  data.colors.subarray(3 * g.offset, 3 * (g.offset + g.count))));
 
   const trajectories = meta.trajectories.map((t) => {
     const geometry = new THREE.BufferGeometry();
@@ -77,7 +79,7 @@
     return Object.assign({}, t, { line, start, visible: true });
   });
 
-  const hazardObjects = meta.hazards.map((h) => {
+  const hazardObject = (h) => {
     const box = new THREE.Box3(new THREE.Vector3().fromArray(h.min).sub(center), new THREE.Vector3().fromArray(h.max).sub(center));
     const helper = new THREE.Box3Helper(box, new THREE.Color(h.color));
     helper.material.depthTest = false;
@@ -91,7 +93,8 @@
     $('labels').appendChild(label);
     const top = new THREE.Vector3(0.5 * (box.min.x + box.max.x), 0.5 * (box.min.y + box.max.y), box.max.z);
     return { hazard: h, helper, label, top, centroid: new THREE.Vector3().fromArray(h.centroid).sub(center) };
-  });
+  };
+  let hazardObjects = meta.hazards.map(hazardObject);
   let hazardsVisible = true;
 
   // Markers of the selection and of the distance tool.
@@ -119,8 +122,8 @@
   $('labels').appendChild(measureLabel);
 
   // ---- cameras ---------------------------------------------------------------------------------
-  const size = bounds.getSize(new THREE.Vector3());
-  const span = Math.max(size.x, size.y, size.z, 1);
+  let size = bounds.getSize(new THREE.Vector3());
+  let span = Math.max(size.x, size.y, size.z, 1);
   const perspective = new THREE.PerspectiveCamera(50, 1, span / 2000, span * 20);
   perspective.up.set(0, 0, 1);
   const ortho = new THREE.OrthographicCamera(-1, 1, 1, -1, -span * 10, span * 10);
@@ -131,7 +134,7 @@
     c.screenSpacePanning = true;
     c.enableDamping = false;
     c.addEventListener('change', requestRender);
-    c.addEventListener('start', () => { state.moving = true; applyDetail(); });
+    c.addEventListener('start', () => { state.moving = true; state.userMoved = true; applyDetail(); });
     c.addEventListener('end', () => { state.moving = false; applyDetail(); requestRender(); });
     return c;
   };
@@ -348,6 +351,7 @@
   // ---- side panel ------------------------------------------------------------------------------
   function buildLegend() {
     const legend = $('legend');
+    legend.textContent = '';
     const item = (swatchClass, color, text, count, checked, onToggle) => {
       const row = document.createElement('label');
       row.className = 'legend-item';
@@ -365,18 +369,19 @@
       n.textContent = count;
       row.append(box, swatch, name, n);
       legend.appendChild(row);
+      box.countEl = n;  // live updates rewrite the count
       return box;
     };
     for (const g of groups) {
       const label = g.kind === 'none' ? g.name + ' (grey by height)' : g.name;
       g.checkbox = item(g.kind === 'none' ? 'grey' : '', g.kind === 'none' ? null : g.css, label,
-                        g.count.toLocaleString('en-US') + ' pts', true, (on) => setClassVisible(g.id, on));
+                        g.count.toLocaleString('en-US') + ' pts', g.visible, (on) => setClassVisible(g.id, on));
     }
     for (const t of trajectories)
-      item('line', t.color, t.name + ' trajectory', t.points.length + ' poses', true, (on) => {
+      t.checkbox = item('line', t.color, t.name + ' trajectory', t.points.length + ' poses', t.visible, (on) => {
         t.visible = on; t.line.visible = on; t.start.visible = on; requestRender();
       });
-    item('', 'transparent', 'hazard boxes and labels', meta.hazards.length, true, (on) => {
+    item('', 'transparent', 'hazard boxes and labels', meta.hazards.length, hazardsVisible, (on) => {
       hazardsVisible = on;
       for (const o of hazardObjects) { o.helper.visible = on; }
       requestRender();
@@ -385,6 +390,7 @@
 
   function buildHazardTable() {
     const body = $('hazards').querySelector('tbody');
+    body.textContent = '';
     meta.hazards.forEach((h, k) => {
       const tr = document.createElement('tr');
       const ext = h.max.map((v, i) => v - h.min[i]);
@@ -413,6 +419,11 @@
     applyDetail();
   }
 
+  function showDetail() {
+    const n = groups.reduce((a, g) => a + Math.ceil(g.count * state.detail), 0);
+    $('detail-val').textContent = n.toLocaleString('en-US');
+  }
+
   function bindControls() {
     $('btn-top').addEventListener('click', () => setMode('top', true));
     $('btn-persp').addEventListener('click', () => setMode('perspective', true));
@@ -424,15 +435,12 @@
     $('point-size-val').textContent = state.pointSize + ' px';
     sizeInput.addEventListener('input', () => { setPointSize(+sizeInput.value); $('point-size-val').textContent = sizeInput.value + ' px'; });
     detailInput.value = Math.round(state.detail * 100);
-    const showDetail = () => {
-      const n = groups.reduce((a, g) => a + Math.ceil(g.count * state.detail), 0);
-      $('detail-val').textContent = n.toLocaleString('en-US');
-    };
     showDetail();
     detailInput.addEventListener('input', () => { state.detail = +detailInput.value / 100; applyDetail(); showDetail(); });
-    const zlo = bounds.min.z + center.z, zhi = bounds.max.z + center.z;
-    const toZ = (v) => zlo + (zhi - zlo) * v / 1000;
+    const zRange = () => [bounds.min.z + center.z, bounds.max.z + center.z];  // a live map's grows
+    const toZ = (v) => { const [zlo, zhi] = zRange(); return zlo + (zhi - zlo) * v / 1000; };
     const showClip = () => { $('clip-val').textContent = state.clipZ === null ? 'off' : fmt(state.clipZ, 1) + ' m'; };
+    const [zlo, zhi] = zRange();
     clipInput.value = state.clipZ === null ? 1000 : Math.round(1000 * (state.clipZ - zlo) / Math.max(zhi - zlo, 1e-6));
     showClip();
     clipInput.addEventListener('input', () => { setClip(+clipInput.value >= 1000 ? null : toZ(+clipInput.value)); showClip(); });
@@ -460,6 +468,7 @@
     const r = 5 * metresPerPixel();
     for (const m of [pickMarker, ...measureMarkers]) m.scale.setScalar(r);
     for (const t of trajectories) t.start.scale.setScalar(r);
+    if (robot) robot.scale.setScalar(Math.max(0.5, 2 * r));
   }
 
   function updateOverlays() {
@@ -514,6 +523,106 @@
     return n;
   }
 
+  // ---- live updates (viewer_live.js: the live view's page only) ---------------------------------
+  // World points (xyz, Float32Array) and their colours (rgb, Uint8Array) join their class's
+  // group, whose buffers grow by doubling; the bounds and the camera's depth range grow with them.
+  let boundsFromData = data.n > 0, robot = null;
+  function updateSpan() {
+    size = bounds.getSize(new THREE.Vector3());
+    span = Math.max(size.x, size.y, size.z, 1);
+    perspective.near = span / 2000; perspective.far = span * 20; perspective.updateProjectionMatrix();
+    ortho.near = -span * 10; ortho.far = span * 10; ortho.updateProjectionMatrix();
+  }
+  function growGroup(g, n) {
+    const pos = g.geometry.attributes.position, col = g.geometry.attributes.color;
+    if (3 * (g.count + n) <= pos.array.length) return;
+    const cap = Math.max(2 * pos.array.length, 3 * (g.count + n));
+    const p = new Float32Array(cap), c = new Uint8Array(cap);
+    p.set(pos.array.subarray(0, 3 * g.count));
+    c.set(col.array.subarray(0, 3 * g.count));
+    g.geometry.setAttribute('position', new THREE.BufferAttribute(p, 3));
+    g.geometry.setAttribute('color', new THREE.BufferAttribute(c, 3, true));
+  }
+  function addPoints(info, xyz, rgb) {
+    const n = xyz.length / 3;
+    if (!n) return;
+    let g = groups.find((x) => x.id === info.id);
+    if (!g) {
+      g = makeGroup(Object.assign({}, info, { offset: 0, count: 0 }), new Float32Array(3 * Math.max(n, 4096)),
+                    new Uint8Array(3 * Math.max(n, 4096)));
+      groups.push(g);
+      setPointSize(state.pointSize);
+      buildLegend();
+    }
+    growGroup(g, n);
+    const p = g.geometry.attributes.position, c = g.geometry.attributes.color, at = 3 * g.count;
+    if (!boundsFromData) { bounds.makeEmpty(); boundsFromData = true; }
+    const v = new THREE.Vector3();
+    for (let i = 0; i < n; ++i) {
+      v.set(xyz[3 * i] - center.x, xyz[3 * i + 1] - center.y, xyz[3 * i + 2] - center.z).toArray(p.array, at + 3 * i);
+      bounds.expandByPoint(v);
+    }
+    c.array.set(rgb, at);
+    g.count += n;
+    if (g.checkbox) g.checkbox.countEl.textContent = g.count.toLocaleString('en-US') + ' pts';
+    p.needsUpdate = true;
+    c.needsUpdate = true;
+    updateSpan();
+    applyDetail();
+    showDetail();
+  }
+  function clearPoints() {
+    for (const g of groups) { scene.remove(g.points); g.geometry.dispose(); }
+    groups.length = 0;
+    bounds.set(new THREE.Vector3(-5, -5, -1), new THREE.Vector3(5, 5, 1));
+    boundsFromData = false;
+    updateSpan();
+    buildLegend();
+    requestRender();
+  }
+  function setTrajectory(name, points) {
+    const t = trajectories.find((x) => x.name === name);
+    if (!t) return;
+    const xyz = new Float32Array(points.length * 3);
+    points.forEach((q, i) => { for (let k = 0; k < 3; ++k) xyz[3 * i + k] = q[k] - center.getComponent(k); });
+    t.points = points;
+    t.line.geometry.setAttribute('position', new THREE.BufferAttribute(xyz, 3));
+    t.line.geometry.computeBoundingSphere();
+    if (points.length) t.start.position.set(xyz[0], xyz[1], xyz[2]);
+    if (t.checkbox) t.checkbox.countEl.textContent = points.length + ' poses';
+    requestRender();
+  }
+  function setHazards(list) {
+    for (const o of hazardObjects) { scene.remove(o.helper); o.label.remove(); }
+    meta.hazards = list;
+    hazardObjects = list.map(hazardObject);
+    for (const o of hazardObjects) o.helper.visible = hazardsVisible;
+    state.selectedHazard = null;
+    buildHazardTable();
+    buildLegend();
+    requestRender();
+  }
+  // The robot: a cone pointing along its heading.
+  function setRobot(p, yaw) {
+    if (!robot) {
+      const cone = new THREE.ConeGeometry(0.35, 1, 16);
+      cone.rotateZ(-Math.PI / 2);  // along +x
+      robot = new THREE.Mesh(cone, new THREE.MeshBasicMaterial({ color: 0xffa000, depthTest: false }));
+      robot.renderOrder = 5;
+      scene.add(robot);
+    }
+    robot.position.set(p[0] - center.x, p[1] - center.y, p[2] - center.z);
+    robot.rotation.set(0, 0, yaw);
+    updateMarkerSizes();
+    requestRender();
+  }
+  const live = {
+    addPoints, clearPoints, setTrajectory, setHazards, setRobot,
+    fit(instant) { flyTo(bounds.getCenter(new THREE.Vector3()), fitExtent(), instant !== false); },
+    setSummary(text) { $('summary').textContent = text; },
+    get userMoved() { return !!state.userMoved; },
+  };
+
   // ---- start -----------------------------------------------------------------------------------
   $('title').textContent = meta.title;
   document.title = meta.title;
@@ -564,5 +673,6 @@
     drawnPoints() { return groups.reduce((a, g) => a + (g.visible ? g.drawn : 0), 0); },
     countPixels,
     renderNow,
+    live,
   };
 })();

@@ -1,0 +1,267 @@
+// hazmap live's session: the stream, the pipeline, the live view, saves (on request, every
+// --autosave-every seconds, at the end). See live_session.hpp.
+#include "live_session.hpp"
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <atomic>
+#include <cctype>
+#include <chrono>
+#include <condition_variable>
+#include <csignal>
+#include <iostream>
+#include <memory>
+#include <mutex>
+#include <unistd.h>
+
+#include "hazmap/core/error.hpp"
+#include "hazmap/io/atomic_file.hpp"
+#include "hazmap/io/trajectory.hpp"
+#include "hazmap/pipeline/live_view_feed.hpp"
+#include "hazmap/pipeline/run_outputs.hpp"
+#include "hazmap/sources/live_source.hpp"
+
+namespace hazmap::cli {
+namespace {
+
+std::atomic<bool> g_stop{false};
+volatile std::sig_atomic_t g_signal = 0;
+
+/// First SIGINT/SIGTERM: end the stream (the run folder is written); a second: abort now.
+extern "C" void onSignal(int signal) {
+  if (g_stop.load()) ::_exit(128 + signal);
+  g_signal = signal;
+  g_stop.store(true);
+}
+
+void installSignalHandlers() {
+  struct sigaction action {};
+  action.sa_handler = onSignal;
+  sigemptyset(&action.sa_mask);
+  ::sigaction(SIGINT, &action, nullptr);
+  ::sigaction(SIGTERM, &action, nullptr);
+}
+
+SlamConfig liveConfig(const LiveOptions& o, const ParameterOptions& params) {
+  SlamConfig config = SlamConfig::forMethod(parseSlamMethod(o.method));
+  if (!o.config.empty()) config.applyYamlFile(o.config);
+  config.property_icp = params.propertyIcp(config.property_icp);
+  params.applySettings(config);
+  config.threads = o.threads;
+  config.deskew.enabled = !o.no_deskew;
+  return config;
+}
+
+ScanSourceOptions sourceOptions(const LiveOptions& o, LiveSensor sensor) {
+  ScanSourceOptions s;
+  s.sensor_metadata = o.sensor_metadata;
+  if (sensor == LiveSensor::Velodyne) s.velodyne_calibration = o.calibration;
+  if (sensor == LiveSensor::Hesai) s.hesai_calibration = o.calibration;
+  // A model name (VLP-16, Pandar64) is passed on: packets of another model are then counted.
+  const std::string family = toString(sensor);
+  const bool named_family = std::equal(o.sensor.begin(), o.sensor.end(), family.begin(), family.end(),
+                                       [](char a, char b) { return std::tolower(static_cast<unsigned char>(a)) == b; });
+  if (!named_family) s.sensor = o.sensor;
+  if (!o.classes.empty()) s.class_table = ClassTable::load(o.classes);
+  s.notice = [](const std::string& line) { std::cerr << "notice: " << line << "\n"; };
+  return s;
+}
+
+std::string stoppedBy() {
+  return std::string("stopped by ") + (g_signal == SIGTERM ? "SIGTERM" : g_signal == SIGINT ? "SIGINT" : "end of stream");
+}
+
+nlohmann::json liveJson(const LiveScanSource& source, LiveSensor sensor, const std::string& state) {
+  const LiveStats s = source.stats();
+  return {{"sensor", toString(sensor)}, {"data_port", source.dataPort()},
+          {"auxiliary_port", source.auxiliaryPort()}, {"received", s.receiver.received},
+          {"kernel_dropped", s.receiver.kernel_dropped}, {"queue_dropped", s.receiver.queue_dropped},
+          {"truncated", s.receiver.truncated}, {"lost", s.lost}, {"scans_skipped", s.scans_skipped},
+          {"silences", s.silences}, {"decoder", s.decoder}, {"spool", "live.pcap"}, {"state", state}};
+}
+
+/// POST /save from the browser: answered once the pipeline wrote the run folder between two
+/// frames (a snapshot needs the pipeline's thread), or after `wait` with `pending`.
+class SaveRequests {
+ public:
+  std::string request(std::chrono::seconds wait) {
+    std::unique_lock<std::mutex> lock(m_);
+    if (ended_) return answer_;  // the run folder was written at the end
+    const std::uint64_t ticket = ++requested_;
+    if (!done_.wait_for(lock, wait, [&] { return served_ >= ticket || ended_; }))
+      return R"({"saved":false,"pending":true,"reason":"no frame since the request (is the sensor silent?): the save runs with the next frame or at the end"})";
+    return answer_;
+  }
+  /// The requests a save starting now serves (0: none waiting).
+  std::uint64_t waiting() {
+    std::lock_guard<std::mutex> lock(m_);
+    return requested_ > served_ ? requested_ : 0;
+  }
+  /// `upto` = waiting() when the save started; `final_write`: later requests get this answer too.
+  void answer(std::uint64_t upto, std::string text, bool final_write) {
+    {
+      std::lock_guard<std::mutex> lock(m_);
+      served_ = std::max(served_, upto);
+      answer_ = std::move(text);
+      ended_ = ended_ || final_write;
+    }
+    done_.notify_all();
+  }
+
+ private:
+  std::mutex m_;
+  std::condition_variable done_;
+  std::uint64_t requested_ = 0, served_ = 0;
+  std::string answer_;
+  bool ended_ = false;
+};
+
+struct Session {
+  const LiveOptions& o;
+  SlamConfig config;
+  LiveSensor sensor;
+  std::unique_ptr<LiveScanSource> source;
+  std::unique_ptr<LiveViewFeed> view;
+  SaveRequests saves;
+
+  void write(const SlamResult& result, const std::string& state, bool final_write);
+  void save(const SlamResult& result, const std::string& state, bool final_write);
+  void startView();
+};
+
+/// The run folder from `result` (the end's or a save's): the map's second pass re-reads the
+/// spool; run.json gains the stream's counts (`live`).
+void Session::write(const SlamResult& result, const std::string& state, bool final_write) {
+  source->flushSpool();
+  const std::filesystem::path out(o.out);
+  ScanSourceOptions options = sourceOptions(o, sensor);
+  options.notice = nullptr;  // the live pass said it already
+  const auto second_pass = openLiveSpool(out / "live.pcap", sensor, options);
+  OutputConfig outputs;
+  outputs.write_viewer = !o.no_viewer;
+  const RunSummary summary = writeRunOutputs(*second_pass, result, config, outputs, out);
+  nlohmann::json j = nlohmann::json::parse(readTextFile(out / "run.json"));
+  j["live"] = liveJson(*source, sensor, state);
+  writeTextAtomically(out / "run.json", j.dump(2) + "\n");
+  if (o.quiet) return;
+  if (final_write) std::cout << formatRunSummary(result, summary, out, outputs);
+  else std::cout << fmt::format("{} {} frames to {}\n", state.starts_with("autosave") ? "autosaved" : "saved on request",
+                                result.frames.size(), o.out)
+                 << std::flush;
+}
+
+/// write(), told to the browsers (the saved hazards and trajectory) and to a waiting POST /save.
+void Session::save(const SlamResult& result, const std::string& state, bool final_write) {
+  const std::uint64_t requests = saves.waiting();
+  nlohmann::json answer;
+  try {
+    if (view) view->setState("saving");
+    write(result, state, final_write);
+    const auto folder = std::filesystem::absolute(o.out).lexically_normal();
+    const std::vector<Hazard> hazards = readHazardsJson(folder / "hazards.json");
+    if (view) view->showSaved(hazards, result.estimate, folder.string());
+    answer = {{"saved", folder.string()}, {"frames", result.frames.size()}, {"hazards", hazards.size()}, {"state", state}};
+  } catch (const Error& e) {
+    if (view) view->showSaveError(e.what());
+    answer = {{"saved", false}, {"error", e.what()}};
+    if (final_write) {
+      saves.answer(requests, answer.dump(), true);
+      throw;
+    }
+    std::cerr << "notice: save failed: " << e.what() << "\n";
+  }
+  if (view) view->setState(final_write ? state : "");
+  if (requests > 0 || final_write) saves.answer(requests, answer.dump(), final_write);
+}
+
+std::string readToken(const LiveOptions& o) {
+  if (!o.token.empty() && !o.token_file.empty()) fail("--token-file", "give --token or --token-file, not both");
+  std::string token = o.token;
+  if (!o.token_file.empty()) {
+    token = readTextFile(o.token_file);
+    token.erase(std::find_if(token.begin(), token.end(), [](char c) { return c == '\n' || c == '\r'; }), token.end());
+    if (token.empty()) fail(o.token_file, "the token file's first line is empty");
+  }
+  const bool url_safe = std::all_of(token.begin(), token.end(), [](char c) {
+    return std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_' || c == '.' || c == '~';
+  });
+  if (!token.empty() && (token.size() < 8 || token.size() > 200 || !url_safe))
+    fail(o.token_file.empty() ? "--token" : o.token_file,
+         "a token is 8 to 200 characters of A-Z a-z 0-9 - _ . ~ (it travels in the page's address)");
+  return token;
+}
+
+void Session::startView() {
+  if (o.no_view) return;
+  if (!(o.view_voxel >= 0.01 && o.view_voxel <= 10)) fail("--view-voxel", "must be in [0.01, 10] m");
+  LiveViewFeedConfig c;
+  c.server.listen = o.listen;
+  c.server.token = readToken(o);
+  c.map.voxel = o.view_voxel;
+  c.map.max_points = o.view_max_points;
+  c.title = "hazmap live: " + o.out;
+  LiveScanSource* s = source.get();
+  view = std::make_unique<LiveViewFeed>(c, source->classTable(), [s] { return s->receiverStats(); },
+                                        [this] { return saves.request(std::chrono::seconds(20)); });
+  std::cout << "live view: " << liveViewUrl(o.listen, view->port(), c.server.token) << "\n" << std::flush;
+}
+
+}  // namespace
+
+void addLiveViewOptions(CLI::App& app, LiveOptions& o) {
+  app.add_option("--listen", o.listen,
+                 "The live view's address ADDR:PORT (port 0: any free port); an address other than loopback "
+                 "needs --token or --token-file");
+  app.add_option("--token", o.token, "Every request to the live view must carry this token (?token=T or a Bearer header)");
+  app.add_option("--token-file", o.token_file, "Read the token from this file's first line");
+  app.add_flag("--no-view", o.no_view, "Run without the live view (no HTTP server)");
+  app.add_option("--view-voxel", o.view_voxel, "The live view draws one map point per voxel this size (m)");
+  app.add_option("--view-max-points", o.view_max_points, "The live view's map points, at most");
+}
+
+void stopLiveSession() { g_stop.store(true); }
+
+void runLiveSession(const LiveOptions& o, const ParameterOptions& params,
+                    const std::function<void(std::uint16_t)>& listening) {
+  Session s{o, liveConfig(o, params), liveSensorNamed(o.sensor), nullptr, nullptr, {}};
+  if (o.port < -1 || o.port > 65535) fail("--port", std::to_string(o.port) + " is no UDP port (0-65535)");
+  if (!(o.queue_mb >= 0.01 && o.queue_mb <= 65536)) fail("--queue-mb", "must be in [0.01, 65536] MiB");
+  if (!(o.autosave_every >= 0)) fail("--autosave-every", "must be >= 0 seconds (0: no autosave)");
+  s.config.validate();
+  if (!o.no_view) readToken(o);  // a bad token fails before anything binds
+  const std::filesystem::path out(o.out);
+  std::filesystem::create_directories(out);
+  LiveSourceOptions live;
+  live.sensor = s.sensor;
+  if (o.port >= 0) live.port = static_cast<std::uint16_t>(o.port);
+  live.spool = out / "live.pcap";
+  live.stop = &g_stop;
+  live.queue_bytes = static_cast<std::size_t>(o.queue_mb * 1024 * 1024);
+  s.source = openLiveSource(live, sourceOptions(o, s.sensor));
+  if (!o.sensor_metadata.empty())  // beside the spool, so `hazmap run DIR/live.pcap` finds it
+    std::filesystem::copy_file(o.sensor_metadata, out / "live.json", std::filesystem::copy_options::overwrite_existing);
+  s.startView();
+  installSignalHandlers();
+  std::cout << fmt::format("listening on UDP port {} ({}; auxiliary port {}); Ctrl-C ends the run and writes {}\n",
+                           s.source->dataPort(), toString(s.sensor), s.source->auxiliaryPort(), o.out)
+            << std::flush;
+  if (listening) listening(s.source->dataPort());
+  auto last_save = std::chrono::steady_clock::now();
+  SlamSnapshots hooks;
+  hooks.due = [&] {
+    const double since = std::chrono::duration<double>(std::chrono::steady_clock::now() - last_save).count();
+    return s.saves.waiting() > 0 || (o.autosave_every > 0 && since >= o.autosave_every);
+  };
+  hooks.take = [&](const SlamResult& snapshot) {
+    s.save(snapshot, s.saves.waiting() > 0 ? "saved on request while running" : "autosave while running", false);
+    last_save = std::chrono::steady_clock::now();
+  };
+  if (s.view) hooks.frame = [&](const SlamFrameEvent& e) { s.view->onFrame(e); };
+  const SlamResult result = runSlam(*s.source, s.config, {}, hooks);
+  if (s.view) s.view->drain();
+  s.save(result, stoppedBy(), true);
+}
+
+}  // namespace hazmap::cli

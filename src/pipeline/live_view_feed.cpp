@@ -1,0 +1,332 @@
+#include "hazmap/pipeline/live_view_feed.hpp"
+
+#include <sys/resource.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <condition_variable>
+#include <deque>
+#include <mutex>
+#include <optional>
+#include <thread>
+
+#include "hazmap/map/render.hpp"
+#include "hazmap/map/viewer.hpp"
+
+namespace hazmap {
+
+namespace {
+
+using SteadyClock = std::chrono::steady_clock;
+
+struct FrameItem {
+  std::size_t frame = 0;
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  FrameStatus status = FrameStatus::First;
+  std::unique_ptr<LabeledCloud> scan;  ///< null: skipped for the view (its queue was full)
+  std::size_t bytes = 0;
+  bool correction = false;                  ///< earlier poses moved: `corrected` holds them all
+  std::vector<Eigen::Vector3d> corrected;
+};
+
+std::size_t bytesOf(const LabeledCloud& c) {
+  return c.size() * (sizeof(Eigen::Vector3f) + sizeof(ClassId)) + c.property.size() * sizeof(float) +
+         c.intensity.size() * sizeof(float) + c.timestamps.size() * sizeof(double);
+}
+
+/// The calling thread yields to every other (nice 19): on a machine whose cores are all busy,
+/// tracking and the receive thread come first, the view waits.
+void lowestPriority() { ::setpriority(PRIO_PROCESS, static_cast<id_t>(::gettid()), 19); }
+
+double secondsSince(SteadyClock::time_point t) { return std::chrono::duration<double>(SteadyClock::now() - t).count(); }
+
+std::string pageHtml(const LiveViewFeedConfig& config, const ClassTable& classes) {
+  ViewerScene scene;
+  scene.title = config.title;
+  scene.source = "live";
+  scene.classes = classes;
+  scene.trajectories.push_back({"estimate", {}, {208, 64, 255}});
+  ViewerConfig viewer;
+  viewer.live = true;
+  viewer.three_dir = config.three_dir;
+  return viewerHtml(scene, viewer);
+}
+
+}  // namespace
+
+struct LiveViewFeed::Impl {
+  LiveViewFeedConfig config;
+  ClassTable classes;
+  std::function<UdpReceiverStats()> receiver;
+  LiveMapVoxels voxels;
+  GlobalMap hazard_map;
+  bool hazards_dirty = false;
+  SteadyClock::time_point hazards_found{};
+  std::size_t corrections_seen = 0;  // pipeline thread only
+
+  mutable std::mutex m;  // everything below
+  std::condition_variable wake, idle;
+  std::deque<FrameItem> queue;
+  std::size_t queue_bytes = 0;
+  bool busy = false, stop = false;
+  std::vector<std::string> map_messages;  // every map message so far: a new browser's snapshot
+  std::vector<Eigen::Vector3d> positions;
+  std::string pose_message, hazards_message, status_message;
+  LiveStatus counts;  // the status line's own fields (frames, hazards, tracking, map_points, saves, …)
+  std::deque<SteadyClock::time_point> frame_times;  // the last 2 s: frames/s
+  std::string state_override;
+
+  std::unique_ptr<LiveViewServer> server;  // last: its threads call back into the members above
+  std::thread worker;
+
+  Impl(LiveViewFeedConfig c, ClassTable t)
+      : config(std::move(c)), classes(std::move(t)), voxels(classes, config.map), hazard_map(config.hazard_map, classes) {}
+
+  void run();
+  void process(FrameItem& item);
+  void findHazards();
+  void publishStatus();
+  LiveStatus status() const;
+  std::vector<std::string> snapshot() const;
+};
+
+void LiveViewFeed::Impl::run() {
+  lowestPriority();
+  for (;;) {
+    std::deque<FrameItem> batch;
+    {
+      std::unique_lock<std::mutex> lock(m);
+      wake.wait_for(lock, std::chrono::milliseconds(250), [&] { return stop || !queue.empty(); });
+      if (stop && queue.empty()) return;
+      batch.swap(queue);
+      busy = !batch.empty();
+    }
+    for (FrameItem& item : batch) process(item);
+    findHazards();
+    publishStatus();
+    {
+      std::lock_guard<std::mutex> lock(m);
+      for (const FrameItem& item : batch) queue_bytes -= item.bytes;
+      busy = false;
+    }
+    idle.notify_all();
+  }
+}
+
+void LiveViewFeed::Impl::process(FrameItem& item) {
+  if (item.scan) {
+    for (std::string& message : voxels.add(*item.scan, item.pose)) {
+      {
+        std::lock_guard<std::mutex> lock(m);
+        map_messages.push_back(message);
+        counts.map_points = voxels.points();
+      }
+      server->publish(std::move(message));  // a browser joining in between drops the repeat (seq)
+    }
+    const auto& c = item.scan->classes;
+    if (std::any_of(c.begin(), c.end(), [&](ClassId id) { return classes.isProperty(id); })) {
+      hazard_map.insert(item.frame, *item.scan, item.pose);
+      hazards_dirty = true;
+    }
+  }
+  const Eigen::Vector3d p = item.pose.translation();
+  std::string trajectory, pose;
+  {
+    std::lock_guard<std::mutex> lock(m);
+    if (item.correction) positions = std::move(item.corrected);
+    if (positions.size() <= item.frame) positions.resize(item.frame + 1, p);
+    positions[item.frame] = p;
+    if (item.correction) trajectory = liveTrajectoryMessage(positions);
+    pose = pose_message = livePoseMessage(item.frame, item.pose, item.status);
+    counts.tracking = toString(item.status);
+  }
+  if (!trajectory.empty()) server->publishState("trajectory", std::move(trajectory));
+  else server->publish(liveTrackMessage(item.frame, p));
+  server->publishState("pose", std::move(pose));
+}
+
+void LiveViewFeed::Impl::findHazards() {
+  if (!hazards_dirty || secondsSince(hazards_found) < config.hazards_every) return;
+  hazards_dirty = false;
+  hazards_found = SteadyClock::now();
+  const std::vector<Hazard> found = hazmap::findHazards(hazard_map, config.hazards);
+  std::string message = liveHazardsMessage(found, classes, "live");
+  {
+    std::lock_guard<std::mutex> lock(m);
+    hazards_message = message;
+    counts.hazards = found.size();
+  }
+  server->publishState("hazards", std::move(message));
+}
+
+LiveStatus LiveViewFeed::Impl::status() const {
+  LiveStatus s;
+  {
+    std::lock_guard<std::mutex> lock(m);
+    s = counts;
+    if (frame_times.size() >= 2)
+      s.frames_per_s = double(frame_times.size() - 1) /
+                       std::max(1e-3, std::chrono::duration<double>(frame_times.back() - frame_times.front()).count());
+    s.state = state_override;
+  }
+  std::optional<UdpReceiverStats> r;
+  if (receiver) r = receiver();
+  if (r) {
+    s.packets = r->received;
+    s.drops = r->kernel_dropped + r->queue_dropped + r->truncated;
+    s.queue_datagrams = r->queued;
+    s.queue_bytes = r->queued_bytes;
+    if (r->last_received_ns > 0) {
+      timespec now;
+      ::clock_gettime(CLOCK_REALTIME, &now);
+      const std::int64_t ns = std::int64_t{now.tv_sec} * 1'000'000'000 + now.tv_nsec - r->last_received_ns;
+      s.last_packet_age_s = std::max(0.0, double(ns) * 1e-9);
+    }
+  }
+  if (server) {
+    const LiveViewStats v = server->stats();
+    s.clients = v.clients;
+    s.clients_dropped = v.clients_dropped;
+  }
+  const bool silent = r && (!s.last_packet_age_s || *s.last_packet_age_s > config.silence_seconds);
+  if (s.state.empty()) s.state = silent ? "waiting for sensor" : s.frames == 0 ? "starting" : "tracking";
+  if (silent) s.frames_per_s = 0;
+  return s;
+}
+
+void LiveViewFeed::Impl::publishStatus() {
+  const LiveStatus s = status();
+  std::string message = liveStatusMessage(s);
+  {
+    std::lock_guard<std::mutex> lock(m);
+    status_message = message;
+  }
+  server->setStatus(liveStatusJson(s));
+  server->publishState("status", std::move(message));
+}
+
+// Ready-made messages only: the server holds its lock while a browser's snapshot is taken.
+std::vector<std::string> LiveViewFeed::Impl::snapshot() const {
+  std::lock_guard<std::mutex> lock(m);
+  std::vector<std::string> out = map_messages;
+  out.push_back(liveTrajectoryMessage(positions));
+  for (const std::string* s : {&hazards_message, &pose_message, &status_message})
+    if (!s->empty()) out.push_back(*s);
+  return out;
+}
+
+LiveViewFeed::LiveViewFeed(LiveViewFeedConfig config, ClassTable classes, std::function<UdpReceiverStats()> receiver,
+                           LiveViewServer::SaveHandler on_save)
+    : impl_(std::make_unique<Impl>(std::move(config), std::move(classes))) {
+  Impl& s = *impl_;
+  s.receiver = std::move(receiver);
+  const std::string page = pageHtml(s.config, s.classes);  // before listening: three.js missing is an error
+  s.server = std::make_unique<LiveViewServer>(s.config.server, std::move(on_save), [&s] { return s.snapshot(); });
+  s.server->addFile("/", "text/html; charset=utf-8", page);
+  s.server->addFile("/index.html", "text/html; charset=utf-8", page);
+  s.publishStatus();
+  s.worker = std::thread([&s] { s.run(); });
+}
+
+LiveViewFeed::~LiveViewFeed() {
+  {
+    std::lock_guard<std::mutex> lock(impl_->m);
+    impl_->stop = true;
+  }
+  impl_->wake.notify_all();
+  if (impl_->worker.joinable()) impl_->worker.join();
+  impl_->server.reset();  // closes the browsers before the members they read go
+}
+
+int LiveViewFeed::port() const { return impl_->server->port(); }
+
+void LiveViewFeed::onFrame(const SlamFrameEvent& event) {
+  Impl& s = *impl_;
+  FrameItem item;
+  item.frame = event.record.index;
+  item.pose = event.poses.back();
+  item.status = event.record.status;
+  if (event.corrections != s.corrections_seen) {
+    s.corrections_seen = event.corrections;
+    item.correction = true;
+    item.corrected.reserve(event.poses.size());
+    for (const auto& pose : event.poses) item.corrected.push_back(pose.translation());
+  }
+  const std::size_t bytes = bytesOf(event.scan);
+  bool room = false;
+  {
+    std::lock_guard<std::mutex> lock(s.m);
+    ++s.counts.frames;
+    s.frame_times.push_back(SteadyClock::now());
+    while (s.frame_times.size() > 2 && secondsSince(s.frame_times.front()) > 2.0) s.frame_times.pop_front();
+    room = s.queue_bytes + bytes <= s.config.queue_bytes;
+    if (room) s.queue_bytes += bytes;
+    else ++s.counts.view_frames_skipped;
+  }
+  if (room) {
+    item.scan = std::make_unique<LabeledCloud>(event.scan);  // the copy, outside the lock
+    item.bytes = bytes;
+  }
+  {
+    std::lock_guard<std::mutex> lock(s.m);
+    s.queue.push_back(std::move(item));
+  }
+  s.wake.notify_one();
+}
+
+void LiveViewFeed::setState(const std::string& state) {
+  {
+    std::lock_guard<std::mutex> lock(impl_->m);
+    impl_->state_override = state;
+  }
+  impl_->wake.notify_one();
+  impl_->publishStatus();
+}
+
+void LiveViewFeed::showSaved(const std::vector<Hazard>& hazards, const Trajectory& trajectory, const std::string& where) {
+  Impl& s = *impl_;
+  std::string message = liveHazardsMessage(hazards, s.classes, "saved");
+  std::string redrawn;
+  {
+    std::lock_guard<std::mutex> lock(s.m);
+    s.hazards_message = message;
+    s.counts.hazards = hazards.size();
+    ++s.counts.saves;
+    s.counts.last_save = where;
+    if (trajectory.size() >= s.positions.size()) s.positions = positionsOf(trajectory);
+    else for (std::size_t i = 0; i < trajectory.size(); ++i) s.positions[i] = trajectory.poses[i].translation();
+    redrawn = liveTrajectoryMessage(s.positions);
+  }
+  s.server->publishState("hazards", std::move(message));
+  s.server->publishState("trajectory", std::move(redrawn));
+  s.publishStatus();
+}
+
+void LiveViewFeed::showSaveError(const std::string& error) {
+  {
+    std::lock_guard<std::mutex> lock(impl_->m);
+    impl_->counts.last_save = "failed: " + error;
+  }
+  impl_->publishStatus();
+}
+
+void LiveViewFeed::drain() {
+  std::unique_lock<std::mutex> lock(impl_->m);
+  impl_->idle.wait(lock, [&] { return impl_->queue.empty() && !impl_->busy; });
+}
+
+LiveStatus LiveViewFeed::status() const { return impl_->status(); }
+
+std::string liveViewUrl(const std::string& listen, int port, const std::string& token) {
+  std::string host = listen.substr(0, listen.rfind(':'));
+  if (host.size() > 2 && host.front() == '[') host = host.substr(1, host.size() - 2);
+  if (host.empty() || host == "0.0.0.0" || host == "::") {
+    char name[256] = "";
+    host = ::gethostname(name, sizeof name - 1) == 0 && name[0] ? name : "localhost";
+  }
+  if (host.find(':') != std::string::npos) host = "[" + host + "]";
+  return "http://" + host + ":" + std::to_string(port) + "/" + (token.empty() ? "" : "?token=" + token);
+}
+
+}  // namespace hazmap

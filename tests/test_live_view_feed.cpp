@@ -1,0 +1,329 @@
+// The live view's messages and feed (issue 33, part 4): the /status contract, map voxels sent
+// once and decoding to their points, hazards in the viewer's rows, and a feed driven by frames
+// as runSlam gives them, watched through a WebSocket client on loopback.
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <civetweb.h>
+
+#include <chrono>
+#include <cmath>
+#include <ctime>
+#include <functional>
+#include <mutex>
+#include <thread>
+
+#include "hazmap/map/global_map.hpp"
+#include "hazmap/map/hazards.hpp"
+#include "hazmap/pipeline/live_view_feed.hpp"
+#include "hazmap/pipeline/live_view_messages.hpp"
+#include "live_test_helpers.hpp"
+#include "test_helpers.hpp"
+
+namespace hazmap {
+namespace {
+
+using nlohmann::json;
+using test::httpGet;
+constexpr ClassId kNone = 0, kHeat = 1;
+
+std::vector<std::uint8_t> unbase64(const std::string& text) {
+  static const std::string table = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::vector<std::uint8_t> out;
+  std::uint32_t bits = 0;
+  int n = 0;
+  for (char c : text) {
+    if (c == '=') break;
+    bits = bits << 6 | std::uint32_t(table.find(c));
+    if ((n += 6) >= 8) out.push_back(std::uint8_t(bits >> (n -= 8)));
+  }
+  return out;
+}
+
+/// The points of a "map" message: (index + 0.5) × voxel, with their group's class.
+std::vector<std::pair<Eigen::Vector3d, ClassId>> decodeMap(const json& m) {
+  const auto xyz = unbase64(m["xyz"].get<std::string>());
+  const double voxel = m["voxel"].get<double>();
+  std::vector<std::pair<Eigen::Vector3d, ClassId>> points;
+  std::size_t at = 0;
+  for (const auto& g : m["groups"])
+    for (std::size_t k = 0; k < g["count"].get<std::size_t>(); ++k, ++at) {
+      Eigen::Vector3d p;
+      for (int a = 0; a < 3; ++a) {
+        const std::size_t b = 6 * at + 2 * std::size_t(a);
+        p[a] = (double(std::int16_t(std::uint16_t(xyz[b] | xyz[b + 1] << 8))) + 0.5) * voxel;
+      }
+      points.emplace_back(p, g["id"].get<ClassId>());
+    }
+  EXPECT_EQ(xyz.size(), 6 * at);
+  EXPECT_EQ(unbase64(m["rgb"].get<std::string>()).size(), 3 * at);
+  return points;
+}
+
+/// A 4 × 3 m floor with a 1 × 1 m heat patch (60 °C) above it, in the sensor frame.
+LabeledCloud floorWithHeat() {
+  LabeledCloud c;
+  c.enableProperty();
+  for (float x = 0; x < 4; x += 0.05f)
+    for (float y = 0; y < 3; y += 0.05f) c.push_back({x, y, -0.5f}, kNone);
+  for (float x = 1; x < 2; x += 0.05f)
+    for (float y = 1; y < 2; y += 0.05f) c.push_back({x, y, -0.3f}, kHeat, 0, 0, 60.0f);
+  return c;
+}
+
+TEST(LiveViewMessages, StatusCarriesTheContractsFields) {
+  LiveStatus s;
+  s.frames = 12;
+  s.packets = 900;
+  s.drops = 3;
+  s.state = "waiting for sensor";
+  s.hazards = 2;
+  json j = json::parse(liveStatusJson(s));
+  for (const char* key : {"frames", "packets", "drops", "state", "last_packet_age_s", "hazards"})
+    EXPECT_TRUE(j.contains(key)) << key;
+  EXPECT_EQ(j["frames"], 12);
+  EXPECT_EQ(j["packets"], 900);
+  EXPECT_EQ(j["drops"], 3);
+  EXPECT_EQ(j["state"], "waiting for sensor");
+  EXPECT_TRUE(j["last_packet_age_s"].is_null());  // no datagram yet
+  EXPECT_EQ(j["hazards"], 2);
+  s.last_packet_age_s = 1.23456;
+  j = json::parse(liveStatusMessage(s));
+  EXPECT_EQ(j["type"], "status");
+  EXPECT_NEAR(j["status"]["last_packet_age_s"].get<double>(), 1.235, 1e-9);
+}
+
+TEST(LiveViewMessages, MapVoxelsGoOnceInBoundedChunksAndDecodeToTheirPoints) {
+  LiveMapConfig config;
+  config.voxel = 0.2;
+  config.chunk_points = 100;
+  LiveMapVoxels voxels(ClassTable::defaults(), config);
+  const LabeledCloud scan = floorWithHeat();
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.translation() = Eigen::Vector3d(-30.0, 7.0, 1.0);
+  const auto messages = voxels.add(scan, pose);
+  ASSERT_GT(messages.size(), 2u);
+  std::size_t points = 0, heat = 0;
+  for (std::size_t i = 0; i < messages.size(); ++i) {
+    const json m = json::parse(messages[i]);
+    EXPECT_EQ(m["type"], "map");
+    EXPECT_EQ(m["seq"].get<std::size_t>(), i);
+    const auto decoded = decodeMap(m);
+    EXPECT_LE(decoded.size(), config.chunk_points);
+    for (const auto& [p, label] : decoded) {
+      // Each voxel centre lies within half a voxel (per axis) of a point of the scan, in the world.
+      double best = 1e9;
+      for (std::size_t k = 0; k < scan.size(); ++k)
+        best = std::min(best, ((pose * scan.points[k].cast<double>()) - p).cwiseAbs().maxCoeff());
+      EXPECT_LE(best, 0.1 + 1e-6);
+      heat += label == kHeat;
+    }
+    points += decoded.size();
+  }
+  EXPECT_EQ(points, voxels.points());
+  EXPECT_GT(heat, 0u);
+  EXPECT_TRUE(voxels.add(scan, pose).empty());  // nothing new
+  // The cap: once max_points are sent, new voxels are counted, not sent.
+  config.max_points = 50;
+  LiveMapVoxels capped(ClassTable::defaults(), config);
+  std::size_t sent = 0;
+  for (const auto& m : capped.add(scan, pose)) sent += decodeMap(json::parse(m)).size();
+  EXPECT_EQ(sent, 50u);
+  EXPECT_GT(capped.dropped(), 0u);
+}
+
+TEST(LiveViewMessages, HazardsMessageCarriesTheViewersRowsWithTheirValues) {
+  GlobalMap map;
+  map.insert(0, floorWithHeat(), Eigen::Isometry3d::Identity());
+  const std::vector<Hazard> hazards = findHazards(map);
+  ASSERT_EQ(hazards.size(), 1u);
+  const json m = json::parse(liveHazardsMessage(hazards, ClassTable::defaults(), "live"));
+  EXPECT_EQ(m["type"], "hazards");
+  EXPECT_EQ(m["origin"], "live");
+  ASSERT_EQ(m["hazards"].size(), 1u);
+  const json& h = m["hazards"][0];
+  EXPECT_EQ(h["id"], hazards[0].id);
+  EXPECT_EQ(h["class"], hazards[0].class_name);
+  EXPECT_NEAR(h["mean_property"].get<double>(), 60.0, 1e-3);
+  EXPECT_NEAR(h["centroid"][0].get<double>(), hazards[0].centroid.x(), 1e-3);
+  EXPECT_EQ(h["color"], "#e61919");  // the heat colour of map.ply
+  const json pose = json::parse(livePoseMessage(4, Eigen::Isometry3d(Eigen::AngleAxisd(0.5, Eigen::Vector3d::UnitZ())),
+                                                FrameStatus::Tracked));
+  EXPECT_EQ(pose["frame"], 4);
+  EXPECT_NEAR(pose["yaw"].get<double>(), 0.5, 1e-4);
+  EXPECT_EQ(pose["status"], "tracked");
+}
+
+// ---- the feed, through a WebSocket client ----------------------------------------------------
+
+struct Browser {
+  std::mutex m;
+  std::vector<json> received;
+  mg_connection* conn = nullptr;
+  std::vector<json> copy() {
+    std::lock_guard<std::mutex> lock(m);
+    return received;
+  }
+  std::vector<json> ofType(const std::string& type) {
+    std::vector<json> out;
+    for (auto& j : copy())
+      if (j["type"] == type) out.push_back(j);
+    return out;
+  }
+};
+
+int onMessage(mg_connection*, int bits, char* data, size_t size, void* user) {
+  if ((bits & 0x0f) != MG_WEBSOCKET_OPCODE_TEXT) return 1;
+  auto& b = *static_cast<Browser*>(user);
+  std::lock_guard<std::mutex> lock(b.m);
+  b.received.push_back(json::parse(std::string(data, size)));
+  return 1;
+}
+
+bool connect(Browser& b, int port) {
+  char error[256] = "";
+  b.conn = mg_connect_websocket_client("127.0.0.1", port, 0, error, sizeof error, "/ws", nullptr, onMessage, nullptr, &b);
+  return b.conn != nullptr;
+}
+
+bool eventually(const std::function<bool()>& done) {
+  const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  while (!done()) {
+    if (std::chrono::steady_clock::now() > until) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  return true;
+}
+
+std::int64_t nowNs(double seconds_ago) {
+  timespec t;
+  ::clock_gettime(CLOCK_REALTIME, &t);
+  return std::int64_t{t.tv_sec} * 1'000'000'000 + t.tv_nsec - std::int64_t(seconds_ago * 1e9);
+}
+
+/// Frames along +x, 0.5 m apart, each seeing the floor with its heat patch.
+struct FakeRun {
+  std::vector<Eigen::Isometry3d> poses;
+  std::size_t corrections = 0;
+  void frame(LiveViewFeed& feed, const LabeledCloud& scan) {
+    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+    pose.translation().x() = 0.5 * double(poses.size());
+    poses.push_back(pose);
+    FrameRecord record;
+    record.index = poses.size() - 1;
+    record.status = FrameStatus::Tracked;
+    feed.onFrame(SlamFrameEvent{record, scan, poses, corrections});
+  }
+};
+
+TEST(LiveViewFeed, PublishesFramesCorrectionsHazardsAndTheStatusAndANewBrowserCatchesUp) {
+  LiveViewFeedConfig config;
+  config.server.listen = "127.0.0.1:0";
+  config.hazards_every = 0;
+  std::atomic<double> silent_for{0.0};
+  UdpReceiverStats receiver;
+  receiver.received = 4321;
+  receiver.queue_dropped = 2;
+  LiveViewFeed feed(config, ClassTable::defaults(), [&] {
+    UdpReceiverStats r = receiver;
+    r.last_received_ns = nowNs(silent_for.load());
+    return r;
+  }, [] { return std::string(R"({"saved":"x"})"); });
+  Browser early;
+  ASSERT_TRUE(connect(early, feed.port()));
+  const LabeledCloud scan = floorWithHeat();
+  FakeRun run;
+  for (int i = 0; i < 5; ++i) run.frame(feed, scan);
+  // A loop correction: every pose moved 1 m up; the whole trajectory is redrawn.
+  for (auto& p : run.poses) p.translation().z() += 1.0;
+  ++run.corrections;
+  run.frame(feed, scan);
+  feed.drain();
+  ASSERT_TRUE(eventually([&] { return !early.ofType("trajectory").empty() && !early.ofType("hazards").empty(); }));
+  ASSERT_TRUE(eventually([&] { const auto p = early.ofType("pose"); return !p.empty() && p.back()["frame"] == 5; }));
+  EXPECT_EQ(early.ofType("track").size(), 5u);  // frames 0-4; frame 5 came with the redraw
+  const json trajectory = early.ofType("trajectory").back();
+  ASSERT_EQ(trajectory["points"].size(), 6u);
+  EXPECT_NEAR(trajectory["points"][0][2].get<double>(), 1.0, 1e-9);
+  EXPECT_NEAR(trajectory["points"][5][0].get<double>(), 2.5, 1e-9);
+  const json hazards = early.ofType("hazards").back();
+  EXPECT_EQ(hazards["origin"], "live");
+  EXPECT_GE(hazards["hazards"].size(), 1u);
+  EXPECT_EQ(hazards["hazards"][0]["class"], "heat");
+  // /status: the contract, from the counts the feed was given.
+  json status = json::parse(httpGet(feed.port(), "/status"));
+  EXPECT_EQ(status["frames"], 6);
+  EXPECT_EQ(status["packets"], 4321);
+  EXPECT_EQ(status["drops"], 2);
+  EXPECT_EQ(status["state"], "tracking");
+  EXPECT_LT(status["last_packet_age_s"].get<double>(), 1.0);
+  EXPECT_EQ(status["hazards"].get<std::size_t>(), hazards["hazards"].size());
+  EXPECT_GT(status["map_points"].get<std::size_t>(), 100u);
+  // Silent for > 1 s: waiting for sensor, by itself, and back again.
+  silent_for = 5.0;
+  EXPECT_TRUE(eventually([&] { return json::parse(httpGet(feed.port(), "/status"))["state"] == "waiting for sensor"; }));
+  silent_for = 0.0;
+  EXPECT_TRUE(eventually([&] { return json::parse(httpGet(feed.port(), "/status"))["state"] == "tracking"; }));
+  // A browser joining now gets the same map (every voxel once) and the trajectory so far.
+  Browser late;
+  ASSERT_TRUE(connect(late, feed.port()));
+  ASSERT_TRUE(eventually([&] { return !late.ofType("status").empty(); }));
+  std::size_t early_points = 0, late_points = 0;
+  for (const auto& m : early.ofType("map")) early_points += decodeMap(m).size();
+  for (const auto& m : late.ofType("map")) late_points += decodeMap(m).size();
+  EXPECT_EQ(late_points, early_points);
+  EXPECT_EQ(late_points, status["map_points"].get<std::size_t>());
+  EXPECT_EQ(late.ofType("trajectory").at(0)["points"].size(), 6u);
+  // A save: the run folder's hazards replace the live ones.
+  feed.showSaved({}, Trajectory{}, "/tmp/run");
+  EXPECT_TRUE(eventually([&] { const auto h = late.ofType("hazards"); return !h.empty() && h.back()["origin"] == "saved"; }));
+  EXPECT_TRUE(late.ofType("hazards").back()["hazards"].empty());
+  EXPECT_EQ(json::parse(httpGet(feed.port(), "/status"))["saves"], 1);
+  mg_close_connection(early.conn);
+  mg_close_connection(late.conn);
+}
+
+// runSlam's frame hook on a simulated route with accepted loops: every frame is told once, in
+// order, with the graph's poses so far; `corrections` moves exactly when earlier poses moved (an
+// online optimisation); and a run with the hook gives the same estimate bit for bit.
+TEST(LiveViewHook, TellsEveryFrameAndEachCorrectionAndChangesNothing) {
+  const auto dir = test::writeSimulatedSequence("live-hook", "naraha", 1, 76);  // first loop at frame 72
+  SlamConfig config = SlamConfig::forMethod(SlamMethod::PropertyIcpPgo);
+  config.threads = 2;
+  std::vector<std::vector<Eigen::Vector3d>> seen;
+  std::vector<std::size_t> corrections;
+  SlamSnapshots hooks;
+  hooks.frame = [&](const SlamFrameEvent& e) {
+    EXPECT_EQ(e.record.index, seen.size());
+    EXPECT_EQ(e.poses.size(), seen.size() + 1);
+    EXPECT_GT(e.scan.size(), 1000u);
+    std::vector<Eigen::Vector3d> positions;
+    for (const auto& p : e.poses) positions.push_back(p.translation());
+    seen.push_back(std::move(positions));
+    corrections.push_back(e.corrections);
+  };
+  const auto with_source = sequenceScanSource(Sequence::open(dir), false);
+  const SlamResult with = runSlam(*with_source, config, {}, hooks);
+  const SlamResult without = runSlam(Sequence::open(dir), config);
+  ASSERT_EQ(seen.size(), with.frames.size());
+  ASSERT_FALSE(with.loops.empty());
+  EXPECT_GT(corrections.back(), 0u);
+  for (std::size_t k = 1; k < seen.size(); ++k) {
+    bool moved = false;
+    for (std::size_t i = 0; i < k; ++i) moved |= seen[k][i] != seen[k - 1][i];
+    EXPECT_EQ(moved, corrections[k] != corrections[k - 1]) << "frame " << k;
+  }
+  ASSERT_EQ(with.estimate.size(), without.estimate.size());
+  for (std::size_t i = 0; i < with.estimate.size(); ++i)
+    EXPECT_TRUE(with.estimate.poses[i].isApprox(without.estimate.poses[i], 0.0)) << "frame " << i;
+}
+
+TEST(LiveViewFeed, UrlNamesTheAddressAndTheToken) {
+  EXPECT_EQ(liveViewUrl("127.0.0.1:0", 41234, ""), "http://127.0.0.1:41234/");
+  EXPECT_EQ(liveViewUrl("127.0.0.1:8080", 8080, "abcdefgh12"), "http://127.0.0.1:8080/?token=abcdefgh12");
+  EXPECT_EQ(liveViewUrl("[::1]:8080", 8080, ""), "http://[::1]:8080/");
+  EXPECT_EQ(liveViewUrl("0.0.0.0:8080", 8080, "").find("http://0.0.0.0"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace hazmap
