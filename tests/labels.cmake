@@ -109,3 +109,4 @@ hazmap_label(test_viewer unit
 hazmap_label(test_live real-data
   unit "^LiveSpool\\.WriterRoundTrips|^LiveErrors\\."
   scene "^LiveSimulated\\.")
+hazmap_label(test_missions unit)
