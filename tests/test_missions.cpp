@@ -4,12 +4,16 @@
 
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <set>
 
 #include "hazmap/core/error.hpp"
 #include "hazmap/io/atomic_file.hpp"
 #include "hazmap/io/trajectory.hpp"
 #include "hazmap/map/map_folder.hpp"
+#include "hazmap/pipeline/prior_map.hpp"
 #include "hazmap/pipeline/run_outputs.hpp"
+#include "hazmap/sim/missions.hpp"
+#include "hazmap/sources/scan_source.hpp"
 #include "test_helpers.hpp"
 
 using namespace hazmap;
@@ -139,4 +143,162 @@ TEST(MapFolder, ARewriteInvalidatesTheOldManifestFirst) {
   ASSERT_TRUE(fs::exists(dir / "map.json"));
   invalidateMapFolder(dir);
   expectOneLine(openError(dir), "map.json is missing");
+}
+
+// ---- Simulated missions (part 5) ----
+
+namespace {
+
+std::set<std::string> kindsOf(const sim::MissionPlan& plan) {
+  std::set<std::string> kinds;
+  for (const auto& c : plan.changes) kinds.insert(c.kind);
+  return kinds;
+}
+
+}  // namespace
+
+TEST(MissionSim, LaterMissionsFindTheSceneChangedAndStartElsewhere) {
+  const sim::SimulatorConfig config;
+  for (const std::string name : {"naraha", "tanks"}) {
+    const sim::Scene base = sim::builtinScene(name);
+    const sim::MissionPlan first = sim::planMission(base, 1, 1, config);
+    EXPECT_TRUE(first.changes.empty());
+    EXPECT_GT(first.scene.mesh.triangles.size(), base.mesh.triangles.size());  // the crate
+    EXPECT_EQ(first.scene.route.waypoints, base.route.waypoints);
+    const sim::MissionPlan second = sim::planMission(base, 2, 1, config);
+    const sim::MissionPlan third = sim::planMission(base, 3, 1, config);
+    EXPECT_EQ(kindsOf(second), (std::set<std::string>{"moved", "removed", "value_changed", "new", "geometry_moved"}));
+    EXPECT_NE(second.scene.route.waypoints.front(), base.route.waypoints.front()) << name;
+    EXPECT_NE(third.scene.route.waypoints.front(), second.scene.route.waypoints.front()) << name;
+    EXPECT_LT(second.scene.route.polylineLength(), base.route.polylineLength());  // part of the route
+    for (const auto& c : second.changes) {
+      if (c.kind == "moved") {
+        EXPECT_NEAR((c.after - c.before).norm(), 2.0, 1e-9);
+        EXPECT_EQ(second.scene.classAt(c.after), c.class_id);  // the source is where it moved to
+        EXPECT_EQ(second.scene.classAt(c.before), 0);
+        EXPECT_EQ(first.scene.classAt(c.before), c.class_id);
+      }
+      if (c.kind == "removed") EXPECT_EQ(second.scene.classAt(c.before), 0) << c.name;
+      if (c.kind == "new") EXPECT_EQ(first.scene.classAt(c.after), 0);
+      if (c.kind == "value_changed") {
+        EXPECT_GT(c.temperature_after_c, c.temperature_before_c);
+        EXPECT_EQ(second.scene.regionAt(c.after)->temperature_offset_c, c.temperature_after_c - c.temperature_before_c);
+      }
+    }
+  }
+  EXPECT_NE(test::errorOf([&] { sim::planMission(sim::builtinScene("naraha"), 0, 1, config); }).find("--mission"),
+            std::string::npos);
+}
+
+TEST(MissionSim, WritesChangesTruthAndPosesInMissionOnesFrame) {
+  sim::SimulatorConfig config;
+  config.max_frames = 3;
+  const sim::MissionPlan plan = sim::planMission(sim::builtinScene("naraha"), 2, 1, config);
+  const fs::path dir = test::scratchDir() / "m2";
+  sim::writeMission(config, plan, dir, false);
+  const nlohmann::json truth = nlohmann::json::parse(readTextFile(dir / "changes_truth.json"));
+  EXPECT_EQ(truth["mission"], 2);
+  ASSERT_EQ(truth["changes"].size(), plan.changes.size());
+  const Sequence seq = Sequence::open(dir);
+  const sim::RouteSample start = sim::sampleRoute(plan.scene.route, config.robot).front();
+  const Eigen::Isometry3d expected =
+      plan.mission1_origin.inverse() * sim::sensorPose(start, plan.scene.route.floor_z, config.sensor.mount_height);
+  EXPECT_LT(test::transErr(seq.groundTruth()->poses.front(), expected), 1e-6);
+  EXPECT_GT(seq.groundTruth()->poses.front().translation().norm(), 5.0);  // not where mission 1 began
+  // The changes in mission 1's frame: the moved source's "before" is the scene's minus the origin.
+  for (const auto& c : truth["changes"])
+    if (c["kind"] == "moved") {
+      const Eigen::Vector3d before(c["before"][0], c["before"][1], c["before"][2]);
+      EXPECT_LT((plan.mission1_origin * before - plan.changes.front().before).norm(), 1e-9);
+    }
+  const auto r = test::runCli("simulate --scenario naraha --mission 2 --format mcap --out " + (dir / "x.mcap").string());
+  EXPECT_NE(r.exit_code, 0);
+  expectOneLine(r.output.substr(0, r.output.find_last_not_of('\n') + 1), "--mission");
+}
+
+// ---- Localisation in a prior map (part 2) ----
+
+namespace {
+
+// The built-in table with class 2 standing for radiation instead of water.
+fs::path swappedClassTable(const fs::path& dir) {
+  ClassTable t = ClassTable::defaults();
+  ClassInfo c = t.at(2);
+  c.name = "gamma", c.kind = PropertyKind::Radiation;
+  t.add(c);
+  writeTextAtomically(dir / "swapped.yaml", t.toYamlString());
+  return dir / "swapped.yaml";
+}
+
+}  // namespace
+
+TEST(PriorMap, AnotherClassTableIsOneLine) {
+  const MapFolder map = openMap(corridorRun());
+  EXPECT_NO_THROW(checkPriorClasses(map, map.classes()));
+  const ClassTable swapped = ClassTable::fromYamlFile(swappedClassTable(test::scratchDir()));
+  expectOneLine(test::errorOf([&] { checkPriorClasses(map, swapped); }),
+                "another class table: class 2 is 'water' (water) there, 'gamma' (radiation) here");
+}
+
+TEST(PriorMap, StartUnknownHidesTruthAndRebasesOdometry) {
+  const fs::path seq = test::writeSimulatedSequence("missions-start", "corridor", 2, 4);
+  auto hidden = startUnknown(openScanSource(seq));
+  auto plain = openScanSource(seq);
+  std::optional<Eigen::Isometry3d> first_odometry;
+  while (auto s = hidden->next()) {
+    const auto p = plain->next();
+    ASSERT_TRUE(p && p->odometry && s->odometry);
+    EXPECT_FALSE(s->ground_truth.has_value());
+    if (!first_odometry) {
+      first_odometry = *p->odometry;
+      EXPECT_LT(test::transErr(*s->odometry, Eigen::Isometry3d::Identity()), 1e-9);
+    }
+    EXPECT_LT(test::transErr(*s->odometry, first_odometry->inverse() * *p->odometry), 1e-9);
+  }
+}
+
+TEST(PriorMap, PriorCliRefusesBadPriorsInOneLine) {
+  const fs::path seq = test::writeSimulatedSequence("missions-cli", "corridor", 2, 4);
+  const fs::path out = test::scratchDir() / "out";
+  auto r = test::runCli("run " + seq.string() + " --prior " + (out / "none").string() + " --quiet --out " + out.string());
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("no such map folder"), std::string::npos) << r.output;
+  r = test::runCli("run " + seq.string() + " --prior " + corridorRun().string() + " --quiet --out " +
+                   corridorRun().string());
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("is the output folder"), std::string::npos) << r.output;
+  r = test::runCli("run " + seq.string() + " --classes " + swappedClassTable(out.parent_path()).string() + " --prior " + corridorRun().string() +
+                   " --quiet --out " + out.string());
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("another class table"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(out / "run.json"));
+}
+
+TEST(PriorMap, SecondMissionLocalisesInTheFirstsMap) {
+  // tanks, seed 1: mission 1 whole, mission 2 from elsewhere with the scene changed.
+  const fs::path dir = test::scratchDir();
+  for (int k : {1, 2}) {
+    const auto r = test::runCli("simulate --scenario tanks --seed 1 --mission " + std::to_string(k) + " --out " +
+                                (dir / ("m" + std::to_string(k))).string());
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+  }
+  auto r = test::runCli("run " + (dir / "m1").string() + " --quiet --no-viewer --threads 2 --out " + (dir / "r1").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  r = test::runCli("run " + (dir / "m2").string() + " --prior " + (dir / "r1").string() +
+                   " --no-viewer --threads 2 --out " + (dir / "r2").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("Prior map: localised at frame"), std::string::npos) << r.output;
+  const nlohmann::json run = nlohmann::json::parse(readTextFile(dir / "r2" / "run.json"));
+  const nlohmann::json& p = run["prior"];
+  ASSERT_EQ(p["state"], "localised");
+  const Trajectory truth = readKittiTrajectory(dir / "m2" / "poses.txt");
+  const std::size_t frame = p["localised_at_frame"];
+  Eigen::Isometry3d at = Eigen::Isometry3d::Identity();
+  for (int i = 0; i < 12; ++i)
+    (i % 4 < 3 ? at.linear()(i / 4, i % 4) : at.translation()(i / 4)) = p["localised_pose"][static_cast<std::size_t>(i)];
+  EXPECT_LT(test::transErr(at, truth.poses.at(frame)), 0.10);
+  EXPECT_LT(test::rotErrDeg(at, truth.poses.at(frame)), 1.0);
+  // The whole run in mission 1's frame: its map error against the truth there.
+  EXPECT_LT(run["map_error"]["point"]["mean"].get<double>(), 0.05);
+  EXPECT_NO_THROW(openMap(dir / "r2"));  // a run in a prior leaves a map too
 }
