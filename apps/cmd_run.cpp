@@ -11,6 +11,7 @@
 #include "hazmap/pipeline/progress.hpp"
 #include "hazmap/core/error.hpp"
 #include "hazmap/io/atomic_file.hpp"
+#include "hazmap/map/hazard_changes.hpp"
 #include "hazmap/pipeline/prior_map.hpp"
 #include "hazmap/pipeline/run_outputs.hpp"
 #include "recording.hpp"
@@ -124,13 +125,23 @@ void run(const RunOptions& o, const ParameterOptions& params) {
   OutputConfig outputs;
   outputs.write_viewer = !o.no_viewer;
   outputs.channel_cameras = labels.channel_cameras;
-  const RunSummary summary = writeRunOutputs(*second_pass, result, config, outputs, o.out);
+  RunArtifacts artifacts;
+  const RunSummary summary = writeRunOutputs(*second_pass, result, config, outputs, o.out, &artifacts);
+  // What changed since the prior (only once the run is in its frame).
+  std::size_t changed = 0;
+  if (localisation && localisation->state == PriorState::Localised) {
+    const auto changes = compareHazards(prior->hazards(), artifacts.hazards, artifacts.map);
+    writeHazardChanges(o.out, changes);
+    for (const auto& c : changes) changed += c.changed();
+  }
   // run.json gains the labelling's report (images missing, observed shares) and the prior's.
   if (!o.cameras.empty()) addToRunJson(o.out, "camera_labels", labelReportJson(labels));
   if (localisation) addToRunJson(o.out, "prior", priorJson(*localisation, o.prior));
   if (o.quiet) return;
   std::cout << formatRunSummary(result, summary, o.out, outputs);
   if (localisation) std::cout << formatPriorSummary(*localisation);
+  if (localisation && localisation->state == PriorState::Localised)
+    std::cout << fmt::format("Changes since the prior: {} (changes.json, changes.csv).\n", changed);
 }
 
 const RegisterCommand registration{{

@@ -110,4 +110,5 @@ hazmap_label(test_live real-data
   unit "^LiveSpool\\.WriterRoundTrips|^LiveErrors\\."
   scene "^LiveSimulated\\.")
 hazmap_label(test_missions unit
-  scene "^PriorMap\\.SecondMission")
+  scene "^PriorMap\\.SecondMission"
+  real-data "^PriorMapReal\\.")

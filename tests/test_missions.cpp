@@ -275,10 +275,10 @@ TEST(PriorMap, PriorCliRefusesBadPriorsInOneLine) {
 }
 
 TEST(PriorMap, SecondMissionLocalisesInTheFirstsMap) {
-  // tanks, seed 1: mission 1 whole, mission 2 from elsewhere with the scene changed.
+  // naraha, seed 2: mission 1 whole, mission 2 from elsewhere with the scene changed.
   const fs::path dir = test::scratchDir();
   for (int k : {1, 2}) {
-    const auto r = test::runCli("simulate --scenario tanks --seed 1 --mission " + std::to_string(k) + " --out " +
+    const auto r = test::runCli("simulate --scenario naraha --seed 2 --mission " + std::to_string(k) + " --out " +
                                 (dir / ("m" + std::to_string(k))).string());
     ASSERT_EQ(r.exit_code, 0) << r.output;
   }
@@ -301,4 +301,36 @@ TEST(PriorMap, SecondMissionLocalisesInTheFirstsMap) {
   // The whole run in mission 1's frame: its map error against the truth there.
   EXPECT_LT(run["map_error"]["point"]["mean"].get<double>(), 0.05);
   EXPECT_NO_THROW(openMap(dir / "r2"));  // a run in a prior leaves a map too
+}
+
+TEST(PriorMapReal, SecondHalfOfAKittiSequenceLocalisesInTheFirstHalfsMap) {
+  // Real HDL-64 scans (SemanticKITTI sample, 6 frames, labels on the first 3) split in two: the
+  // second half, started unknown, placed in the first half's map where the whole sequence's own
+  // run puts those scans.
+  const fs::path data = test::sharedData("kitti-semantic-sample");
+  const fs::path dir = test::scratchDir();
+  for (const char* part : {"a/velodyne", "a/labels", "b/velodyne"}) fs::create_directories(dir / part);
+  for (int i = 0; i < 3; ++i) {
+    const std::string n = "00000" + std::to_string(i), m = "00000" + std::to_string(i + 3);
+    fs::create_symlink(data / "velodyne" / (n + ".bin"), dir / "a" / "velodyne" / (n + ".bin"));
+    fs::create_symlink(data / "labels" / (n + ".label"), dir / "a" / "labels" / (n + ".label"));
+    fs::create_symlink(data / "velodyne" / (m + ".bin"), dir / "b" / "velodyne" / (n + ".bin"));
+  }
+  const std::string common = " --classes semantic-kitti --quiet --no-viewer --threads 2 --out ";
+  for (const auto& [in, out] : {std::pair{data, dir / "whole"}, std::pair{dir / "a", dir / "ra"}}) {
+    const auto r = test::runCli("run " + in.string() + common + out.string());
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+  }
+  const auto r = test::runCli("run " + (dir / "b").string() + " --prior " + (dir / "ra").string() + common +
+                              (dir / "rb").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const nlohmann::json prior = nlohmann::json::parse(readTextFile(dir / "rb" / "run.json"))["prior"];
+  ASSERT_EQ(prior["state"], "localised") << prior.dump(1);
+  const Trajectory whole = readKittiTrajectory(dir / "whole" / "trajectory.kitti");
+  const Trajectory second = readKittiTrajectory(dir / "rb" / "trajectory.kitti");
+  ASSERT_EQ(second.size(), 3u);
+  for (std::size_t i = 0; i < 3; ++i) {
+    EXPECT_LT(test::transErr(whole.poses[i + 3], second.poses[i]), 0.05) << i;
+    EXPECT_LT(test::rotErrDeg(whole.poses[i + 3], second.poses[i]), 0.5) << i;
+  }
 }
