@@ -9,6 +9,7 @@
 #include "hazmap/core/error.hpp"
 #include "hazmap/io/atomic_file.hpp"
 #include "hazmap/io/trajectory.hpp"
+#include "hazmap/map/hazard_changes.hpp"
 #include "hazmap/map/map_folder.hpp"
 #include "hazmap/pipeline/prior_map.hpp"
 #include "hazmap/pipeline/run_outputs.hpp"
@@ -333,4 +334,80 @@ TEST(PriorMapReal, SecondHalfOfAKittiSequenceLocalisesInTheFirstHalfsMap) {
     EXPECT_LT(test::transErr(whole.poses[i + 3], second.poses[i]), 0.05) << i;
     EXPECT_LT(test::rotErrDeg(whole.poses[i + 3], second.poses[i]), 0.5) << i;
   }
+}
+
+// ---- What changed (part 4) ----
+
+namespace {
+
+Hazard hazardAt(int id, ClassId label, const Eigen::Vector3d& centre, double half, std::size_t frames = 12) {
+  Hazard h;
+  h.id = id, h.label = label, h.class_name = label == 1 ? "heat" : "water";
+  h.centroid = centre, h.min = centre.array() - half, h.max = centre.array() + half;
+  h.area_m2 = 4 * half * half, h.cells = static_cast<std::size_t>(h.area_m2 / 0.01);
+  h.frame_count = frames, h.frames = {{0, static_cast<std::uint32_t>(frames - 1)}};
+  return h;
+}
+
+// A run's map with a floor patch of 0.1 m cells around `centre`.
+void addSurface(LabeledCloud& map, const Eigen::Vector3d& centre, double half) {
+  for (double x = -half; x <= half; x += 0.1)
+    for (double y = -half; y <= half; y += 0.1) map.push_back(Eigen::Vector3f(centre.x() + x, centre.y() + y, centre.z()), 0);
+}
+
+const HazardChange& changeOf(const std::vector<HazardChange>& all, int before_id, int after_id) {
+  for (const auto& c : all)
+    if (c.before_id == before_id && c.after_id == after_id) return c;
+  throw std::runtime_error("no such change");
+}
+
+}  // namespace
+
+TEST(HazardChanges, MovedGoneNewAndNotReObservedAreTold) {
+  const Eigen::Vector3d a(0, 0, 0), b(10, 0, 0), c(20, 0, 0), d(30, 0, 0);
+  std::vector<Hazard> before = {hazardAt(1, 1, a, 0.5), hazardAt(2, 1, b, 0.5), hazardAt(3, 2, c, 0.8),
+                                hazardAt(4, 2, d, 0.8)};
+  std::vector<Hazard> after = {hazardAt(1, 1, a + Eigen::Vector3d(0, 2, 0), 0.5),  // moved 2 m
+                               hazardAt(2, 2, d + Eigen::Vector3d(0.05, 0, 0), 0.8),  // the same puddle
+                               hazardAt(3, 2, Eigen::Vector3d(40, 0, 0), 0.6)};       // a new one
+  after[1].max_property = 20.0, before[3].max_property = 20.0;
+  LabeledCloud map;
+  addSurface(map, b, 0.8);  // the run looked where hazard 2 was: gone; hazard 3's place unseen
+  addSurface(map, d, 1.0);
+  const auto changes = compareHazards(before, after, map);
+  EXPECT_EQ(changeOf(changes, 1, 1).kinds, std::vector<std::string>{"moved"});
+  EXPECT_NEAR(changeOf(changes, 1, 1).moved_m, 2.0, 1e-9);
+  EXPECT_EQ(changeOf(changes, 2, 0).kinds, std::vector<std::string>{"gone"});
+  EXPECT_EQ(changeOf(changes, 3, 0).kinds, std::vector<std::string>{"not_re_observed"});
+  EXPECT_FALSE(changeOf(changes, 3, 0).changed());
+  EXPECT_EQ(changeOf(changes, 4, 2).kinds, std::vector<std::string>{"unchanged"});
+  EXPECT_EQ(changeOf(changes, 0, 3).kinds, std::vector<std::string>{"new"});
+  EXPECT_GT(changeOf(changes, 0, 3).confidence, 0.5);
+  const fs::path dir = test::scratchDir();
+  writeHazardChanges(dir, changes);
+  const nlohmann::json j = nlohmann::json::parse(readTextFile(dir / "changes.json"));
+  EXPECT_EQ(j["changes"].size(), changes.size());
+  EXPECT_EQ(j["counts"]["gone"], 1);
+  EXPECT_NE(readTextFile(dir / "changes.csv").find("not_re_observed,water,3,0"), std::string::npos);
+}
+
+TEST(HazardChanges, PartialViewsAreNotChanges) {
+  const Eigen::Vector3d p(5, 5, 0);
+  const std::vector<Hazard> before = {hazardAt(1, 2, p, 0.8), hazardAt(2, 1, Eigen::Vector3d(0, 0, 1), 0.3)};
+  // The puddle seen in two parts from afar, its centroid 0.6 m off; the heat source 50 °C hotter.
+  std::vector<Hazard> after = {hazardAt(1, 2, p + Eigen::Vector3d(0.6, 0, 0), 0.3),
+                               hazardAt(2, 2, p - Eigen::Vector3d(0.5, 0.4, 0), 0.2),
+                               hazardAt(3, 1, Eigen::Vector3d(0, 0, 1), 0.3)};
+  std::vector<Hazard> before_valued = before;
+  before_valued[1].max_property = 60.0, after[2].max_property = 110.0;
+  LabeledCloud sparse;
+  addSurface(sparse, p, 0.2);  // few cells where the puddle was: it is not "shrunk"
+  auto changes = compareHazards(before_valued, after, sparse);
+  EXPECT_EQ(changeOf(changes, 1, 1).kinds, std::vector<std::string>{"unchanged"});
+  EXPECT_EQ(changeOf(changes, 0, 2).kinds, std::vector<std::string>{"unchanged"});  // a fragment
+  EXPECT_EQ(changeOf(changes, 2, 3).kinds, std::vector<std::string>{"value_changed"});
+  LabeledCloud dense;
+  addSurface(dense, p, 1.0);  // the whole old footprint seen: now it did shrink
+  changes = compareHazards(before, {after[0]}, dense);
+  EXPECT_EQ(changeOf(changes, 1, 1).kinds, std::vector<std::string>{"shrunk"});
 }

@@ -18,9 +18,16 @@ namespace {
 constexpr double kSameHazard = 1.0;
 // Moved: same class, unmatched on both sides, centroids within this (m).
 constexpr double kMoveReach = 4.0;
-// A matched hazard whose centroid moved more than this is reported moved (m).
+// A matched hazard is reported moved when its centroid moved more than this (m) and its boxes
+// before and after do not overlap or come within kFragmentMargin: within its old footprint a shifted
+// centroid is the view (part of a puddle seen), not the hazard.
 constexpr double kMovedTolerance = 0.5;
-// Area change reported as grown/shrunk: by this factor and at least this much (m²).
+// An unmatched hazard within this (m) of a same-class hazard's box is a piece of it seen
+// apart (a puddle seen in two parts from afar), not a new or gone one.
+constexpr double kFragmentMargin = 0.5;
+// Area change reported as grown/shrunk: by this factor and at least this much (m²). Shrunk only
+// where the run's map holds at least as many cells in the old box as the hazard had: a hazard
+// seen only in part from afar is not smaller.
 constexpr double kAreaFactor = 1.5, kAreaMinChange = 0.25;
 // max_property change reported (the property's unit, °C for heat).
 constexpr double kValueChange = 10.0;
@@ -35,6 +42,18 @@ std::size_t cellsIn(const LabeledCloud& map, const Hazard& h) {
   std::size_t n = 0;
   for (const auto& p : map.points) n += (p.array() >= lo.array()).all() && (p.array() <= hi.array()).all();
   return n;
+}
+
+// The boxes overlap, or their gap is at most `margin` along every axis.
+bool boxesOverlap(const Hazard& a, const Hazard& b, double margin) {
+  return ((a.min.array() - margin) <= b.max.array()).all() && ((b.min.array() - margin) <= a.max.array()).all();
+}
+
+// An unmatched hazard that is a piece of a hazard of its class on the other side.
+bool fragmentOf(const Hazard& h, const std::vector<Hazard>& others) {
+  for (const auto& o : others)
+    if (o.label == h.label && boxesOverlap(h, o, kFragmentMargin)) return true;
+  return false;
 }
 
 HazardChange pairOf(const Hazard* b, const Hazard* a) {
@@ -54,12 +73,13 @@ HazardChange pairOf(const Hazard* b, const Hazard* a) {
   return c;
 }
 
-// What differs between a hazard and its match.
-void classifyPair(HazardChange& c) {
-  if (c.moved_m > kMovedTolerance) c.kinds.push_back("moved");
+// What differs between a hazard and its match (`seen_cells`: the run's map cells in the old box).
+void classifyPair(HazardChange& c, const Hazard& before, const Hazard& after, std::size_t seen_cells) {
+  if (c.moved_m > kMovedTolerance && !boxesOverlap(before, after, kFragmentMargin)) c.kinds.push_back("moved");
   const double da = c.area_after_m2 - c.area_before_m2;
-  if (std::abs(da) >= kAreaMinChange && (c.area_after_m2 > kAreaFactor * c.area_before_m2 || c.area_before_m2 > kAreaFactor * c.area_after_m2))
-    c.kinds.push_back(da > 0 ? "grown" : "shrunk");
+  if (da >= kAreaMinChange && c.area_after_m2 > kAreaFactor * c.area_before_m2) c.kinds.push_back("grown");
+  if (-da >= kAreaMinChange && c.area_before_m2 > kAreaFactor * c.area_after_m2 && seen_cells >= before.cells)
+    c.kinds.push_back("shrunk");
   if (c.value_before && c.value_after && std::abs(*c.value_after - *c.value_before) >= kValueChange)
     c.kinds.push_back("value_changed");
   if (c.kinds.empty()) c.kinds.push_back("unchanged");
@@ -94,21 +114,22 @@ std::vector<HazardChange> compareHazards(const std::vector<Hazard>& before, cons
   matchWithin(before, after, kMoveReach, match, used);
   std::vector<HazardChange> out;
   for (std::size_t i = 0; i < before.size(); ++i) {
+    const std::size_t cells = cellsIn(after_map, before[i]);
     if (match[i] >= 0) {
-      out.push_back(pairOf(&before[i], &after[static_cast<std::size_t>(match[i])]));
-      classifyPair(out.back());
+      const Hazard& a = after[static_cast<std::size_t>(match[i])];
+      out.push_back(pairOf(&before[i], &a));
+      classifyPair(out.back(), before[i], a, cells);
       continue;
     }
     HazardChange c = pairOf(&before[i], nullptr);
-    const std::size_t cells = cellsIn(after_map, before[i]);
-    c.kinds.push_back(cells >= kLookedCells ? "gone" : "not_re_observed");
+    c.kinds.push_back(cells < kLookedCells ? "not_re_observed" : fragmentOf(before[i], after) ? "unchanged" : "gone");
     c.confidence = std::min(1.0, static_cast<double>(cells) / kConfidentCells);
     out.push_back(std::move(c));
   }
   for (std::size_t j = 0; j < after.size(); ++j)
     if (!used[j]) {
       out.push_back(pairOf(nullptr, &after[j]));
-      out.back().kinds.push_back("new");
+      out.back().kinds.push_back(fragmentOf(after[j], before) ? "unchanged" : "new");
     }
   return out;
 }
