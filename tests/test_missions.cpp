@@ -411,3 +411,16 @@ TEST(HazardChanges, PartialViewsAreNotChanges) {
   changes = compareHazards(before, {after[0]}, dense);
   EXPECT_EQ(changeOf(changes, 1, 1).kinds, std::vector<std::string>{"shrunk"});
 }
+
+TEST(HazardChanges, AMovedSourceSeenInTwoPiecesIsOneMove) {
+  const Eigen::Vector3d p(0, 0, 0), q(0, 2, 0);
+  const std::vector<Hazard> before = {hazardAt(1, 1, p, 0.5)};
+  const std::vector<Hazard> after = {hazardAt(1, 1, q + Eigen::Vector3d(0, 0, 0.3), 0.4),
+                                     hazardAt(2, 1, q - Eigen::Vector3d(0, 0, 0.3), 0.4)};
+  const auto changes = compareHazards(before, after, LabeledCloud{});
+  std::size_t changed = 0;
+  for (const auto& c : changes) changed += c.changed();
+  EXPECT_EQ(changed, 1u);
+  EXPECT_EQ(changeOf(changes, 1, 1).kinds, std::vector<std::string>{"moved"});
+  EXPECT_EQ(changeOf(changes, 0, 2).kinds, std::vector<std::string>{"part_of"});
+}

@@ -49,10 +49,13 @@ bool boxesOverlap(const Hazard& a, const Hazard& b, double margin) {
   return ((a.min.array() - margin) <= b.max.array()).all() && ((b.min.array() - margin) <= a.max.array()).all();
 }
 
-// An unmatched hazard that is a piece of a hazard of its class on the other side.
-bool fragmentOf(const Hazard& h, const std::vector<Hazard>& others) {
-  for (const auto& o : others)
-    if (o.label == h.label && boxesOverlap(h, o, kFragmentMargin)) return true;
+// An unmatched hazard that is a piece of a hazard of its class among `others` (those with
+// `matched` set, when given: a piece of a matched hazard on its own side).
+bool fragmentOf(const Hazard& h, const std::vector<Hazard>& others, const std::vector<bool>* matched = nullptr) {
+  for (std::size_t k = 0; k < others.size(); ++k)
+    if (&others[k] != &h && (!matched || (*matched)[k]) && others[k].label == h.label &&
+        boxesOverlap(h, others[k], kFragmentMargin))
+      return true;
   return false;
 }
 
@@ -103,7 +106,7 @@ void matchWithin(const std::vector<Hazard>& before, const std::vector<Hazard>& a
 }  // namespace
 
 bool HazardChange::changed() const {
-  return !(kinds.size() == 1 && (kinds[0] == "unchanged" || kinds[0] == "not_re_observed"));
+  return !(kinds.size() == 1 && (kinds[0] == "unchanged" || kinds[0] == "not_re_observed" || kinds[0] == "part_of"));
 }
 
 std::vector<HazardChange> compareHazards(const std::vector<Hazard>& before, const std::vector<Hazard>& after,
@@ -112,6 +115,8 @@ std::vector<HazardChange> compareHazards(const std::vector<Hazard>& before, cons
   std::vector<bool> used(after.size(), false);
   matchWithin(before, after, kSameHazard, match, used);
   matchWithin(before, after, kMoveReach, match, used);
+  std::vector<bool> before_matched(before.size());
+  for (std::size_t i = 0; i < before.size(); ++i) before_matched[i] = match[i] >= 0;
   std::vector<HazardChange> out;
   for (std::size_t i = 0; i < before.size(); ++i) {
     const std::size_t cells = cellsIn(after_map, before[i]);
@@ -122,14 +127,19 @@ std::vector<HazardChange> compareHazards(const std::vector<Hazard>& before, cons
       continue;
     }
     HazardChange c = pairOf(&before[i], nullptr);
-    c.kinds.push_back(cells < kLookedCells ? "not_re_observed" : fragmentOf(before[i], after) ? "unchanged" : "gone");
+    c.kinds.push_back(fragmentOf(before[i], before, &before_matched) ? "part_of"
+                      : cells < kLookedCells                           ? "not_re_observed"
+                      : fragmentOf(before[i], after)                   ? "unchanged"
+                                                                       : "gone");
     c.confidence = std::min(1.0, static_cast<double>(cells) / kConfidentCells);
     out.push_back(std::move(c));
   }
   for (std::size_t j = 0; j < after.size(); ++j)
     if (!used[j]) {
       out.push_back(pairOf(nullptr, &after[j]));
-      out.back().kinds.push_back(fragmentOf(after[j], before) ? "unchanged" : "new");
+      out.back().kinds.push_back(fragmentOf(after[j], after, &used) ? "part_of"
+                                 : fragmentOf(after[j], before)      ? "unchanged"
+                                                                     : "new");
     }
   return out;
 }

@@ -17,7 +17,8 @@ namespace hazmap {
 
 struct HazardChange {
   /// unchanged | moved | grown | shrunk | value_changed (one or more, ';'-joined in the CSV) |
-  /// gone | not_re_observed | new
+  /// gone | not_re_observed | new | part_of (a piece of a matched hazard on its own side, seen
+  /// apart: its changes are that hazard's)
   std::vector<std::string> kinds;
   std::string class_name;
   int before_id = 0, after_id = 0;  ///< hazards.json ids (0 = none)
@@ -29,7 +30,7 @@ struct HazardChange {
   /// 0–1: how much the run's evidence supports the verdict (frames that saw the hazard, or for
   /// gone the surface points where it was), saturating at kConfidentFrames / kConfidentPoints.
   double confidence = 0.0;
-  bool changed() const;  ///< anything but unchanged and not_re_observed
+  bool changed() const;  ///< anything but unchanged, not_re_observed and part_of
 };
 
 /// `after_map`: the run's map (cells' centroids, GlobalMap::cloud()) in the prior's frame.
