@@ -11,6 +11,7 @@
 #include "hazmap/graph/g2o.hpp"
 #include "hazmap/map/export.hpp"
 #include "hazmap/map/image.hpp"
+#include "hazmap/map/map_folder.hpp"
 #include "hazmap/map/outputs.hpp"
 #include "pipeline/map_folder_output.hpp"
 
@@ -192,6 +193,8 @@ RunSummary writeRunOutputs(ScanSource& scans, const SlamResult& result, const Sl
   RunSummary summary;
   summary.frames = n;
   GlobalMap map(output.map, scans.classTable());
+  // The outputs change: a previous map.json no longer describes them (MapFolderOutput writes anew).
+  invalidateMapFolder(out_dir);
   std::optional<pipeline_detail::MapFolderOutput> folder;
   if (output.write_map_folder) folder.emplace(out_dir, result, config, scans.classTable());
   const Trajectory truth_poses = assembleMap(scans, result, map, output.map_error, summary.map_error,

@@ -32,7 +32,8 @@ struct OutputConfig {
   bool write_pngs = true;
   bool write_viewer = true;  ///< viewer.html, the map in 3D in a browser (`hazmap view`)
   /// The reopenable map (map/map_folder.hpp): keyframes/, classes.yaml and, last, map.json, so a
-  /// later mission can localise in this one (`hazmap run --prior`).
+  /// later mission can localise in this one (`hazmap run --prior`). Off, a previous map.json in
+  /// the folder is still removed (the files it describes are rewritten).
   bool write_map_folder = true;
   /// Per camera channel, the cameras that gave it (hazards.json's `channels`; hazmap run --camera).
   std::map<std::string, std::vector<std::string>> channel_cameras;
