@@ -424,3 +424,14 @@ TEST(HazardChanges, AMovedSourceSeenInTwoPiecesIsOneMove) {
   EXPECT_EQ(changeOf(changes, 1, 1).kinds, std::vector<std::string>{"moved"});
   EXPECT_EQ(changeOf(changes, 0, 2).kinds, std::vector<std::string>{"part_of"});
 }
+
+TEST(MapFolder, SensorHeightIsTheFloorBelowTheSensor) {
+  // A floor 0.8 m below the sensor, a wall and a few returns from a drain below the floor.
+  LabeledCloud cloud;
+  for (double x = -5; x <= 5; x += 0.25)
+    for (double y = -5; y <= 5; y += 0.25) cloud.push_back(Eigen::Vector3f(x, y, -0.8f), 0);
+  for (double z = -0.8; z <= 2; z += 0.1) cloud.push_back(Eigen::Vector3f(3, 0, z), 0);
+  for (int i = 0; i < 10; ++i) cloud.push_back(Eigen::Vector3f(1, 0.1f * i, -1.5f), 0);
+  EXPECT_NEAR(sensorHeightAboveFloor(cloud), 0.8, 1e-6);
+  EXPECT_TRUE(std::isnan(sensorHeightAboveFloor(LabeledCloud{})));
+}
