@@ -11,6 +11,8 @@
 #include "hazmap/pipeline/progress.hpp"
 #include "hazmap/core/error.hpp"
 #include "hazmap/io/atomic_file.hpp"
+#include "hazmap/map/hazard_changes.hpp"
+#include "hazmap/pipeline/prior_map.hpp"
 #include "hazmap/pipeline/run_outputs.hpp"
 #include "recording.hpp"
 #include "source_flags.hpp"
@@ -32,7 +34,25 @@ struct RunOptions {
   std::vector<std::string> cameras;  ///< camera.yaml (or rig) files: label from cameras first
   std::vector<std::string> image_topics;  ///< with a bag: one per camera
   std::string rules;
+  std::string prior;  ///< map folder of an earlier run: localise in it (issue 34)
 };
+
+/// --prior: the earlier run's map, checked before any work (and never the output folder).
+std::optional<MapFolder> openPrior(const RunOptions& o) {
+  if (o.prior.empty()) return std::nullopt;
+  std::error_code ec;
+  if (std::filesystem::equivalent(o.prior, o.out, ec))
+    fail("--prior", "is the output folder " + o.out + "; write the new run elsewhere");
+  return openMap(o.prior);
+}
+
+/// run.json gains `key` (a JSON text) after the outputs were written.
+void addToRunJson(const std::filesystem::path& out, const std::string& key, const std::string& json) {
+  const std::filesystem::path run_json = out / "run.json";
+  nlohmann::json j = nlohmann::json::parse(readTextFile(run_json));
+  j[key] = nlohmann::json::parse(json);
+  writeTextAtomically(run_json, j.dump(2) + "\n");
+}
 
 /// With --camera, the sequence is first labelled from the cameras (hazmap label) into
 /// <out>/labelled_sequence, and SLAM runs on that. A recording is first converted into
@@ -85,25 +105,43 @@ void run(const RunOptions& o, const ParameterOptions& params) {
   const std::string input = labelFromCameras(o, labels);
   ScanSourceOptions tracking_source = o.source.options(table, !o.quiet);
   tracking_source.read_channels = false;  // only the map (the second pass) keeps channels
-  const auto scans = openScanSource(input, tracking_source);
+  const std::optional<MapFolder> prior = openPrior(o);
+  std::unique_ptr<ScanSource> scans = openScanSource(input, tracking_source);
+  if (prior) {
+    checkPriorClasses(*prior, scans->classTable());
+    scans = startUnknown(std::move(scans));  // where it starts is what the prior must tell
+  }
   ProgressBar bar(o.method, scans->size().value_or(0), o.quiet ? 0 : -1);
-  const SlamResult result = runSlam(*scans, config, [&](std::size_t d, std::size_t) { bar.update(d); });
+  SlamResult result = runSlam(*scans, config, [&](std::size_t d, std::size_t) { bar.update(d); });
   bar.finish();
+  std::optional<PriorLocalisation> localisation;
+  if (prior) {
+    const auto keyframe_pass = openScanSource(input, tracking_source);
+    localisation = localiseInPrior(*prior, *keyframe_pass, result, config);
+    for (const auto& w : localisation->warnings) std::cerr << "warning: --prior " << o.prior << ": " << w << "\n";
+  }
   // The map is a second pass over the recording with the final poses.
   const auto second_pass = openScanSource(input, o.source.options(table));
   OutputConfig outputs;
   outputs.write_viewer = !o.no_viewer;
   outputs.channel_cameras = labels.channel_cameras;
-  const RunSummary summary = writeRunOutputs(*second_pass, result, config, outputs, o.out);
-  if (!o.cameras.empty()) {
-    // run.json gains the labelling's report: images missing (counted skips), observed shares.
-    const std::filesystem::path run_json = std::filesystem::path(o.out) / "run.json";
-    nlohmann::json j = nlohmann::json::parse(readTextFile(run_json));
-    j["camera_labels"] = nlohmann::json::parse(labelReportJson(labels));
-    writeTextAtomically(run_json, j.dump(2) + "\n");
+  RunArtifacts artifacts;
+  const RunSummary summary = writeRunOutputs(*second_pass, result, config, outputs, o.out, &artifacts);
+  // What changed since the prior (only once the run is in its frame).
+  std::size_t changed = 0;
+  if (localisation && localisation->state == PriorState::Localised) {
+    const auto changes = compareHazards(prior->hazards(), artifacts.hazards, artifacts.map);
+    writeHazardChanges(o.out, changes);
+    for (const auto& c : changes) changed += c.changed();
   }
+  // run.json gains the labelling's report (images missing, observed shares) and the prior's.
+  if (!o.cameras.empty()) addToRunJson(o.out, "camera_labels", labelReportJson(labels));
+  if (localisation) addToRunJson(o.out, "prior", priorJson(*localisation, o.prior));
   if (o.quiet) return;
   std::cout << formatRunSummary(result, summary, o.out, outputs);
+  if (localisation) std::cout << formatPriorSummary(*localisation);
+  if (localisation && localisation->state == PriorState::Localised)
+    std::cout << fmt::format("Changes since the prior: {} (changes.json, changes.csv).\n", changed);
 }
 
 const RegisterCommand registration{{
@@ -133,6 +171,9 @@ const RegisterCommand registration{{
       app.add_option("--image-topic", o->image_topics,
                      "With a bag: the image topic of each --camera, in order (default: the camera YAML's topic:)");
       app.add_option("--rules", o->rules, "Class rules YAML for --camera (default: built-in rules)");
+      app.add_option("--prior", o->prior,
+                     "Map folder of an earlier run (its map.json): start unknown, localise in it, track and close "
+                     "loops in its frame (run.json: prior)");
       auto params = addParameterOptions(app, "keys as in --config, e.g. odometry.registration.max_iterations=30");
       app.callback([o, params] { run(*o, *params); });
     }}};

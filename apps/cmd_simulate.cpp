@@ -14,6 +14,7 @@
 #include "hazmap/io/sequence.hpp"
 #include "hazmap/map/render.hpp"
 #include "hazmap/preprocess/voxel_downsample.hpp"
+#include "hazmap/sim/missions.hpp"
 #include "hazmap/sim/simulator.hpp"
 #include "hazmap/sim/velodyne_packets.hpp"
 #include "hazmap/sources/pcap_writer.hpp"
@@ -83,7 +84,19 @@ struct SimulateOptions {
   bool worst_day = false;
   bool no_odometry = false;
   double imu_rate = 0.0;
+  int mission = 0;  ///< 0: not a mission (the scene as built in)
 };
+
+/// --mission K: the scene as mission K finds it, its part of the route, changes_truth.json.
+sim::SimulationSummary writeMissionFolder(const SimulateOptions& o, const sim::SimulatorConfig& config) {
+  if (o.format != "folder") fail("--mission", "writes a sequence folder, not --format " + o.format);
+  const ClassTable table = ClassTable::load(config.class_table);
+  const sim::MissionPlan plan = sim::planMission(sim::loadConfiguredScene(config, table), o.mission, config.seed, config);
+  const auto summary = sim::writeMission(config, plan, o.out, o.overwrite);
+  std::cout << fmt::format("mission {} of {}: {} scene change(s) against mission 1 (changes_truth.json); poses.txt in "
+                           "mission 1's frame\n", o.mission, plan.scene.name, plan.changes.size());
+  return summary;
+}
 
 /// --format mcap: the sequence is simulated into a temporary folder next to the bag, then written
 /// as a ROS 2 MCAP bag (sources/mcap_export.hpp) and the folder removed.
@@ -305,6 +318,11 @@ void setupSimulate(CLI::App& app) {
   app.add_option("--imu-rate", opt->imu_rate,
                  "Also write imu.txt: gyro + accelerometer samples at this rate (Hz, e.g. 200; noise: imu.* keys)")
       ->check(CLI::Range(1.0, 2000.0));
+  app.add_option("--mission", opt->mission,
+                 "Mission K of a site entered again (1 = the scene with a crate; K >= 2 starts elsewhere on "
+                 "the route, drives part of it, finds sources moved/removed/hotter, a new puddle and the crate "
+                 "moved: changes_truth.json; poses.txt in mission 1's frame)")
+      ->check(CLI::Range(1, 1000));
   app.callback([opt, scenario, seed, frames, scene, regions, temperature]() {
     sim::SimulatorConfig config;
     if (opt->worst_day) config = sim::SimulatorConfig::withPreset("worst-day", config, "--worst-day");
@@ -319,6 +337,7 @@ void setupSimulate(CLI::App& app) {
     if (temperature->count()) config.temperature.enabled = opt->temperature;
     applyCameraOptions(*opt, config.cameras);
     if (opt->image_format != "mono16" && opt->format != "mcap") fail("--image-format", "is for --format mcap");
+    if (opt->mission > 0 && opt->format != "folder") fail("--mission", "writes a sequence folder, not --format " + opt->format);
     if (opt->format == "pcap") {
       if (opt->png) fail("--png", "renders a sequence folder; not with --format pcap");
       writeSimulationAsPcap(config, opt->out, opt->overwrite);
@@ -329,7 +348,8 @@ void setupSimulate(CLI::App& app) {
       writeSimulationAsMcap(config, opt->out, opt->overwrite, opt->image_format == "png");
       return;
     }
-    const auto summary = sim::writeSimulation(config, opt->out, opt->overwrite);
+    const auto summary = opt->mission > 0 ? writeMissionFolder(*opt, config)
+                                          : sim::writeSimulation(config, opt->out, opt->overwrite);
     const double fps = summary.scan_seconds > 0.0 ? summary.frames / summary.scan_seconds : 0.0;
     std::cout << fmt::format(
         "wrote {}: {} frames, {:.1f} m route, {} points\n"

@@ -141,6 +141,7 @@ void Session::write(const SlamResult& result, const std::string& state, bool fin
   const auto second_pass = openLiveSpool(out / "live.pcap", sensor, options);
   OutputConfig outputs;
   outputs.write_viewer = !o.no_viewer;
+  outputs.write_map_folder = final_write;  // the reopenable map once, at the end (not every autosave)
   const RunSummary summary = writeRunOutputs(*second_pass, result, config, outputs, out);
   nlohmann::json j = nlohmann::json::parse(readTextFile(out / "run.json"));
   j["live"] = liveJson(*source, sensor, state);

@@ -112,3 +112,6 @@ hazmap_label(test_viewer unit
 hazmap_label(test_live real-data
   unit "^LiveSpool\\.WriterRoundTrips|^LiveErrors\\."
   scene "^LiveSimulated\\.")
+hazmap_label(test_missions unit
+  scene "^PriorMap\\.SecondMission"
+  real-data "^PriorMapReal\\.")

@@ -17,6 +17,13 @@
 
 namespace hazmap {
 
+OutputConfig demoRunOutputs() {
+  OutputConfig outputs;
+  outputs.write_map_folder = false;
+  return outputs;
+}
+
+
 namespace {
 
 // The odometry row integrates encoder increments: there is no per-frame work to rate.
@@ -143,7 +150,7 @@ std::vector<DemoRow> runMethods(const DemoConfig& config, const Sequence& sequen
     results[m] = runSlam(sequence, slam, [&](std::size_t done, std::size_t) { bar.update(done); });
     bar.finish();
     const RunSummary summary =
-        writeRunOutputs(sequence, results[m], slam, OutputConfig{}, pass.dir / toString(method), &artifacts[m]);
+        writeRunOutputs(sequence, results[m], slam, demoRunOutputs(), pass.dir / toString(method), &artifacts[m]);
     rows.push_back(rowOf(method, pass.mode, summary, results[m]));
     const DemoRow& row = rows.back();
     out << fmt::format("  {:<18} {:<5} map error {:.3f} m, ATE {:.3f} m, {} frames/s, {} loops\n",

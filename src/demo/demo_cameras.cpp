@@ -41,7 +41,7 @@ void runCameraLabelRows(const DemoConfig& config, const std::filesystem::path& s
     slam.odometry.mode = OdometryMode::FrameToFrame;
     slam.threads = config.threads;
     const SlamResult result = runSlam(sequence, slam);
-    const RunSummary summary = writeRunOutputs(sequence, result, slam, OutputConfig{}, dir / toString(method));
+    const RunSummary summary = writeRunOutputs(sequence, result, slam, demoRunOutputs(), dir / toString(method));
     DemoRow row;
     row.method = method;
     row.tracking = OdometryMode::FrameToFrame;

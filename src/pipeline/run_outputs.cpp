@@ -11,7 +11,9 @@
 #include "hazmap/graph/g2o.hpp"
 #include "hazmap/map/export.hpp"
 #include "hazmap/map/image.hpp"
+#include "hazmap/map/map_folder.hpp"
 #include "hazmap/map/outputs.hpp"
+#include "pipeline/map_folder_output.hpp"
 
 namespace hazmap {
 
@@ -116,7 +118,7 @@ nlohmann::json runJson(const SlamResult& r, const SlamConfig& config, const RunS
 /// and the paper's map error (Table 2) when every scan has a ground-truth pose.
 Trajectory assembleMap(ScanSource& scans, const SlamResult& result, GlobalMap& map,
                        const MapErrorConfig& error_config, std::optional<MapErrorResult>& map_error,
-                       const std::string& where) {
+                       const std::string& where, pipeline_detail::MapFolderOutput* folder) {
   const std::size_t n = result.estimate.size();
   std::optional<MapErrorAccumulator> error;
   Trajectory truth;
@@ -125,6 +127,7 @@ Trajectory assembleMap(ScanSource& scans, const SlamResult& result, GlobalMap& m
     if (i >= n) break;
     redoDeskew(scan->cloud, result.frames.at(i));
     map.insert(i, scan->cloud, result.estimate.poses[i], scan->channels);
+    if (folder) folder->addScan(i, scan->cloud);
     if (i == 0 && scan->ground_truth) error.emplace(error_config);
     if (!scan->ground_truth) error.reset();
     if (!error) continue;
@@ -190,8 +193,12 @@ RunSummary writeRunOutputs(ScanSource& scans, const SlamResult& result, const Sl
   RunSummary summary;
   summary.frames = n;
   GlobalMap map(output.map, scans.classTable());
-  const Trajectory truth_poses =
-      assembleMap(scans, result, map, output.map_error, summary.map_error, out_dir.string());
+  // The outputs change: a previous map.json no longer describes them (MapFolderOutput writes anew).
+  invalidateMapFolder(out_dir);
+  std::optional<pipeline_detail::MapFolderOutput> folder;
+  if (output.write_map_folder) folder.emplace(out_dir, result, config, scans.classTable());
+  const Trajectory truth_poses = assembleMap(scans, result, map, output.map_error, summary.map_error,
+                                             out_dir.string(), folder ? &*folder : nullptr);
   const bool with_truth = truth_poses.size() == n;
   const Trajectory* truth = with_truth ? &truth_poses : nullptr;
   if (with_truth) {
@@ -237,6 +244,7 @@ RunSummary writeRunOutputs(ScanSource& scans, const SlamResult& result, const Sl
   summary.output_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   writeTextAtomically(out_dir / "run.json", runJson(result, config, summary).dump(2) + "\n");
+  if (folder) folder->finish();
   if (artifacts) {
     artifacts->map = std::move(written.cloud);
     artifacts->hazards = std::move(written.hazards);

@@ -65,7 +65,8 @@ LabeledCloud simulateScan(const ScanInputs& in, const Eigen::Isometry3d& T_world
     const double range = std::max(static_cast<double>(h.distance) + noise, 0.0);
     const Eigen::Vector3d surface =
         origin.cast<double>() + static_cast<double>(h.distance) * dirs_world[i].cast<double>();
-    const ClassId truth = in.scene->classAt(surface);
+    const PropertyRegion* region = in.scene->regionAt(surface);
+    const ClassId truth = region ? region->class_id : 0;
     ClassId observed = truth;
     if (truth != 0) {
       if (u_label < in.labels->property_dropout) observed = 0;
@@ -77,7 +78,7 @@ LabeledCloud simulateScan(const ScanInputs& in, const Eigen::Isometry3d& T_world
     if (temperature) {
       const bool hot = std::find(in.heat_classes.begin(), in.heat_classes.end(), truth) !=
                        in.heat_classes.end();
-      temp = static_cast<float>((hot ? in.temperature->hot_c : in.temperature->ambient_c) +
+      temp = static_cast<float>((hot ? in.temperature->hot_c + region->temperature_offset_c : in.temperature->ambient_c) +
                                 in.temperature->noise_sigma_c * temperature_noise);
     }
     cloud.push_back((range * dirs_sensor[i].cast<double>()).cast<float>(), observed,

@@ -75,9 +75,14 @@ double Route::polylineLength() const {
 }
 
 ClassId Scene::classAt(const Eigen::Vector3d& p) const {
+  const PropertyRegion* r = regionAt(p);
+  return r ? r->class_id : 0;
+}
+
+const PropertyRegion* Scene::regionAt(const Eigen::Vector3d& p) const {
   for (const auto& r : regions)
-    if (r.contains(p)) return r.class_id;
-  return 0;
+    if (r.contains(p)) return &r;
+  return nullptr;
 }
 
 void Scene::labelTriangles() {

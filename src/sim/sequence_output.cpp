@@ -188,10 +188,16 @@ std::string simulationInfo(const Simulator& sim, const SimulationSummary& summar
 
 SimulationSummary writeSimulation(const SimulatorConfig& config, const fs::path& out_dir_arg,
                                   bool overwrite) {
-  const auto t_start = Clock::now();
   if (out_dir_arg.empty()) fail("simulate", "no output folder given");
   // Everything that can be wrong with the input is checked here, before anything is created.
-  Simulator sim(config);
+  const Simulator sim(config);
+  return writeSimulation(sim, out_dir_arg, overwrite, {});
+}
+
+SimulationSummary writeSimulation(const Simulator& sim, const fs::path& out_dir_arg, bool overwrite,
+                                  const std::function<void(const fs::path& folder)>& extra) {
+  const auto t_start = Clock::now();
+  if (out_dir_arg.empty()) fail("simulate", "no output folder given");
   // "seq/", "./seq" and "seq" are the same folder; its name must be a real name.
   fs::path out_dir = fs::absolute(out_dir_arg).lexically_normal();
   if (!out_dir.has_filename()) out_dir = out_dir.parent_path();
@@ -225,6 +231,7 @@ SimulationSummary writeSimulation(const SimulatorConfig& config, const fs::path&
     summary.camera_seconds = secondsSince(t_cameras);
   }
   writeTextAtomically(tmp.path / "simulation.yaml", simulationInfo(sim, summary));
+  if (extra) extra(tmp.path);
 
   commitFolder(tmp, out_dir, shown, replace);
   summary.total_seconds = secondsSince(t_start);

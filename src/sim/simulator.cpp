@@ -8,8 +8,9 @@
 
 namespace hazmap::sim {
 
-Simulator::Simulator(const SimulatorConfig& config, Scene scene, ClassTable table)
-    : config_(config), scene_(std::move(scene)), table_(std::move(table)) {
+Simulator::Simulator(const SimulatorConfig& config, Scene scene, ClassTable table,
+                     std::optional<Eigen::Isometry3d> truth_origin)
+    : config_(config), truth_origin_(std::move(truth_origin)), scene_(std::move(scene)), table_(std::move(table)) {
   config_.validate();
   scene_.validate(table_, "scene " + scene_.name);
   if (scene_.mesh.triangle_classes.size() != scene_.mesh.triangles.size()) scene_.labelTriangles();
@@ -28,7 +29,7 @@ void Simulator::init() {
   for (const auto& s : samples_)
     world_.push_back(sensorPose(s, scene_.route.floor_z, config_.sensor.mount_height));
   // KITTI convention: poses relative to the first scan (what an odometry / SLAM run produces).
-  const Eigen::Isometry3d first_inv = world_.front().inverse();
+  const Eigen::Isometry3d first_inv = (truth_origin_ ? *truth_origin_ : world_.front()).inverse();
   for (const auto& T : world_) truth_.push_back(normalized(first_inv * T));
   odometry_ = accumulateOdometry(truth_, config_.odometry, config_.seed, &slips_, kicks_.empty() ? nullptr : &kicks_);
 

@@ -10,9 +10,14 @@
 
 #include "hazmap/core/property_icp_config.hpp"
 #include "hazmap/odometry/odometry.hpp"
+#include "hazmap/pipeline/run_outputs.hpp"
 #include "hazmap/pipeline/slam_method.hpp"
 
 namespace hazmap {
+
+/// The outputs of each demo run: `hazmap run`'s, without the reopenable map (the demo's runs are
+/// compared, not entered again; naraha's keyframes alone are 63 MB per run).
+OutputConfig demoRunOutputs();
 
 struct DemoConfig {
   std::filesystem::path out_dir = "hazmap-demo";

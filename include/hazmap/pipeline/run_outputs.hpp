@@ -2,7 +2,7 @@
 // Everything `hazmap run` writes for a finished SLAM run, each file atomically:
 //   trajectory.kitti, trajectory.tum, odometry_only.kitti, graph.g2o,
 //   map.ply, map.pcd, hazards.json, hazards.csv, map_top.png, trajectory.png, viewer.html,
-//   run.json.
+//   run.json, and the reopenable map: keyframes/*.pcd, classes.yaml, map.json (last).
 // The map is assembled in a second pass over the scans with the final poses; when the recording
 // has ground truth the same pass measures the paper's map error (Table 2) and the ATE.
 #include <map>
@@ -31,6 +31,10 @@ struct OutputConfig {
   double render_clip_above_sensor = 1.5;
   bool write_pngs = true;
   bool write_viewer = true;  ///< viewer.html, the map in 3D in a browser (`hazmap view`)
+  /// The reopenable map (map/map_folder.hpp): keyframes/, classes.yaml and, last, map.json, so a
+  /// later mission can localise in this one (`hazmap run --prior`). Off, a previous map.json in
+  /// the folder is still removed (the files it describes are rewritten).
+  bool write_map_folder = true;
   /// Per camera channel, the cameras that gave it (hazards.json's `channels`; hazmap run --camera).
   std::map<std::string, std::vector<std::string>> channel_cameras;
 };

@@ -30,6 +30,9 @@ struct PropertyRegion {
   Eigen::Vector3d box_max = Eigen::Vector3d::Zero();
   std::vector<Eigen::Vector2d> polygon;  ///< Polygon: simple polygon in the xy plane (m)
   double z_min = 0.0, z_max = 0.0;       ///< Polygon: vertical extent of the prism (m)
+  /// Added to TemperatureConfig::hot_c on a heat region's surfaces (°C): a source hotter in a
+  /// later mission (sim/missions.hpp). Not read from or written to regions YAML.
+  double temperature_offset_c = 0.0;
 
   static PropertyRegion box(std::string name, ClassId id, const Eigen::Vector3d& min,
                             const Eigen::Vector3d& max);
@@ -64,6 +67,8 @@ struct Scene {
 
   /// Class of a surface point: the first region containing it, else 0 (none).
   ClassId classAt(const Eigen::Vector3d& p) const;
+  /// The first region containing `p`, or null.
+  const PropertyRegion* regionAt(const Eigen::Vector3d& p) const;
   /// Gives each triangle the class of the region that contains its centroid (for scene.ply).
   void labelTriangles();
   /// Property classes the regions use (sorted, unique).

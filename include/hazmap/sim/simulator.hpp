@@ -6,7 +6,9 @@
 #include <Eigen/Geometry>
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -83,7 +85,10 @@ class Simulator {
  public:
   /// Validates everything and builds the BVH; throws hazmap::Error before any work on bad input.
   explicit Simulator(const SimulatorConfig& config);
-  Simulator(const SimulatorConfig& config, Scene scene, ClassTable table);
+  /// `truth_origin` (world ← frame): groundTruth() and odometry() in that frame instead of the
+  /// first scan's (a later mission's poses in mission 1's frame, sim/missions.hpp).
+  Simulator(const SimulatorConfig& config, Scene scene, ClassTable table,
+            std::optional<Eigen::Isometry3d> truth_origin = std::nullopt);
 
   std::size_t frames() const { return truth_.size(); }
   /// Scan i in the sensor frame (thread-safe; same bytes for the same seed and index).
@@ -118,6 +123,7 @@ class Simulator {
  private:
   void init();
   SimulatorConfig config_;
+  std::optional<Eigen::Isometry3d> truth_origin_;
   Scene scene_;
   ClassTable table_;
   std::unique_ptr<RayCaster> caster_;
@@ -164,5 +170,9 @@ struct SimulationSummary {
 /// any other folder. Validation happens before anything is created.
 SimulationSummary writeSimulation(const SimulatorConfig& config, const std::filesystem::path& out_dir,
                                   bool overwrite = false);
+/// The same for a simulator made already; `extra` writes more files into the folder before it is
+/// renamed into place (a mission's changes_truth.json).
+SimulationSummary writeSimulation(const Simulator& sim, const std::filesystem::path& out_dir, bool overwrite,
+                                  const std::function<void(const std::filesystem::path& folder)>& extra);
 
 }  // namespace hazmap::sim

@@ -1,0 +1,18 @@
+#pragma once
+// map.json's pieces to and from JSON (map_folder_write.cpp and map_folder_read.cpp share them).
+#include <nlohmann/json.hpp>
+
+#include "hazmap/map/map_folder.hpp"
+
+namespace hazmap::map_folder_detail {
+
+nlohmann::json poseJson(const Eigen::Isometry3d& pose);  ///< row-major 3×4, as a poses.txt line
+Eigen::Isometry3d poseFromJson(const nlohmann::json& j);
+nlohmann::json landmarkJson(const PropertyLandmark& l);
+PropertyLandmark landmarkFromJson(const nlohmann::json& j);
+nlohmann::json keyframeJson(const MapKeyframe& k);
+MapKeyframe keyframeFromJson(const nlohmann::json& j);
+std::string hex64(std::uint64_t v);
+std::uint64_t parseHex64(const std::string& text);
+
+}  // namespace hazmap::map_folder_detail

@@ -1,0 +1,184 @@
+#include "pipeline/prior_search.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "hazmap/core/error.hpp"
+#include "hazmap/core/se3.hpp"
+#include "hazmap/preprocess/voxel_downsample.hpp"
+#include "pipeline/clock.hpp"
+#include "pipeline/loop_edges.hpp"
+#include "pipeline/map_folder_output.hpp"
+
+namespace hazmap::pipeline_detail {
+
+namespace {
+
+// Keyframe clouds are kept at loop closure's default keyframe voxel; the prior's overview (the
+// global registration target) is coarser, as the registration downsamples to 0.5 m anyway.
+constexpr double kKeyframeVoxel = 0.15;
+constexpr double kOverviewVoxel = 0.25;
+// A query = the keyframe and this many before it (a VLP-16 scan alone is sparse).
+constexpr std::size_t kQueryKeyframesBefore = 2;
+// Verification target: the nearest prior keyframe and this many on each side.
+constexpr std::size_t kPriorSubmapHalf = 2;
+// The nearest prior keyframe must lie within this of the guess (m), else the run is elsewhere.
+constexpr double kPriorReach = 6.0;
+// Two answers localise the run when they agree this well (composed with the run's estimate).
+constexpr double kAgreeTranslation = 0.3;               // m
+constexpr double kAgreeRotation = 2.0 * M_PI / 180.0;   // rad
+
+LabeledCloud downsampled(const LabeledCloud& cloud, double voxel, const ClassTable& classes) {
+  VoxelDownsampleConfig c;
+  c.voxel_size = voxel;
+  c.vote = ClassVote::PreferProperty;
+  return voxelDownsample(cloud, c, classes);
+}
+
+double median(std::vector<double> v) {
+  std::erase_if(v, [](double x) { return !std::isfinite(x); });
+  if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+  return v[v.size() / 2];
+}
+
+bool agree(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
+  const Eigen::Isometry3d d = a.inverse() * b;
+  return translationNorm(d) <= kAgreeTranslation && rotationAngle(d) <= kAgreeRotation;
+}
+
+}  // namespace
+
+LabeledCloud RunKeyframes::query(std::size_t k, const SlamResult& result) const {
+  const Eigen::Isometry3d world_k = result.estimate.poses.at(frames.at(k));
+  LabeledCloud q = clouds.at(k);
+  for (std::size_t j = k > kQueryKeyframesBefore ? k - kQueryKeyframesBefore : 0; j < k; ++j)
+    q.append(clouds[j].transformed(world_k.inverse() * result.estimate.poses.at(frames[j])));
+  return q;
+}
+
+double RunKeyframes::sensorHeight() const { return median(heights); }
+
+RunKeyframes readRunKeyframes(ScanSource& scans, const SlamResult& result, const SlamConfig& config,
+                              const ClassTable& classes) {
+  RunKeyframes run;
+  const std::vector<std::size_t> frames = keyframeFrames(result, config);
+  std::size_t i = 0, next = 0;
+  for (std::optional<Scan> scan; next < frames.size() && (scan = scans.next()); ++i) {
+    if (frames[next] != i) continue;
+    ++next;
+    redoDeskew(scan->cloud, result.frames.at(i));
+    run.frames.push_back(i);
+    run.heights.push_back(sensorHeightAboveFloor(scan->cloud));
+    run.clouds.push_back(downsampled(scan->cloud, kKeyframeVoxel, classes));
+  }
+  return run;
+}
+
+PriorIndex::PriorIndex(const MapFolder& prior, const ClassTable& classes, const SlamConfig& config)
+    : global_(config.odometry.global) {
+  global_.tracking_registration = config.odometry.registration;
+  global_.use_classes = global_.use_classes && config.odometry.registration.use_classes;
+  LabeledCloud all;
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+  for (std::size_t k = 0; k < prior.keyframes().size(); ++k) {
+    const LabeledCloud full = prior.loadKeyframe(k);
+    poses_.push_back(prior.keyframes()[k].pose);
+    clouds_.push_back(downsampled(full, kKeyframeVoxel, classes));
+    all.append(downsampled(full, kOverviewVoxel, classes).transformed(poses_.back()));
+    centre += poses_.back().translation();
+  }
+  if (poses_.empty()) fail(prior.dir().string(), "the prior map has no keyframes");
+  centre /= static_cast<double>(poses_.size());
+  overview_ = prepareGlobalTarget(downsampled(all, kOverviewVoxel, classes), classes, global_, centre.cast<float>());
+}
+
+std::size_t PriorIndex::nearest(const Eigen::Vector3d& position, double& distance) const {
+  std::size_t best = 0;
+  distance = std::numeric_limits<double>::infinity();
+  for (std::size_t k = 0; k < poses_.size(); ++k) {
+    const double d = (poses_[k].translation() - position).norm();
+    if (d < distance) distance = d, best = k;
+  }
+  return best;
+}
+
+LabeledCloud PriorIndex::submap(std::size_t k) const {
+  LabeledCloud s;
+  const std::size_t first = k > kPriorSubmapHalf ? k - kPriorSubmapHalf : 0;
+  const std::size_t last = std::min(poses_.size() - 1, k + kPriorSubmapHalf);
+  for (std::size_t j = first; j <= last; ++j) s.append(clouds_[j].transformed(poses_[k].inverse() * poses_[j]));
+  return s;
+}
+
+PriorVerification verifyInPrior(const PriorIndex& prior, const LabeledCloud& query, const Eigen::Isometry3d& guess,
+                                const ClassTable& classes, const SlamConfig& config) {
+  PriorVerification v;
+  double distance = 0.0;
+  v.prior_keyframe = prior.nearest(guess.translation(), distance);
+  if (distance > kPriorReach) {
+    v.outcome = fmt::format("no prior keyframe within {:.0f} m of the answer", kPriorReach);
+    return v;
+  }
+  const LoopClosureConfig loops = loopClosureConfigFor(config);
+  const VerificationConfig& vc = loops.verification;
+  const Eigen::Isometry3d& P = prior.pose(v.prior_keyframe);
+  v.registration = registerClouds(query, prior.submap(v.prior_keyframe), P.inverse() * guess, classes, vc.icp());
+  const RegistrationResult& r = v.registration;
+  v.T_world_query = P * r.transform;
+  if (!r.converged) v.outcome = "property ICP did not converge: " + r.reason;
+  else if (r.fitness < vc.min_fitness) v.outcome = fmt::format("property ICP fitness {:.2f} < {:.2f}", r.fitness, vc.min_fitness);
+  else if (r.inlier_rmse > vc.max_rmse) v.outcome = fmt::format("property ICP rmse {:.2f} m > {:.2f} m", r.inlier_rmse, vc.max_rmse);
+  else if (vc.reject_degenerate && !r.degenerate_directions.empty()) v.outcome = "property ICP leaves a direction degenerate";
+  else {
+    v.accepted = true;
+    v.outcome = fmt::format("verified against prior keyframe {} (fitness {:.2f}, rmse {:.3f} m)", v.prior_keyframe,
+                            r.fitness, r.inlier_rmse);
+  }
+  return v;
+}
+
+void searchPrior(const PriorIndex& prior, const RunKeyframes& run, const SlamResult& result, const ClassTable& classes,
+                 const SlamConfig& config, PriorLocalisation& out) {
+  std::optional<std::pair<std::size_t, Eigen::Isometry3d>> last;  // keyframe, prior ← run
+  double attempt_seconds = 0.0;
+  for (std::size_t k = 0; k < run.frames.size(); ++k) {
+    const auto t = Clock::now();
+    const std::size_t f = run.frames[k];
+    const LabeledCloud query = run.query(k, result);
+    const GlobalRegistrationResult g = registerGlobally(query, prior.overview(), classes, prior.globalConfig());
+    PriorAttempt a{f, false, "", 0};
+    if (!g.success) {
+      a.outcome = std::string("global registration: ") + toString(g.status) + (g.reason.empty() ? "" : " (" + g.reason + ")");
+    } else {
+      const PriorVerification v = verifyInPrior(prior, query, g.transform, classes, config);
+      a.prior_keyframe = v.prior_keyframe;
+      a.outcome = v.outcome;
+      a.accepted = v.accepted;
+      a.pose = v.T_world_query;
+      if (v.accepted) {
+        const Eigen::Isometry3d H = v.T_world_query * result.estimate.poses.at(f).inverse();
+        // Two verified answers of two keyframes must agree (composed with the run's estimate).
+        if (last && agree(last->second, H)) {
+          out.state = PriorState::Localised;
+          out.frame = f;
+          out.T_prior_run = H;
+          out.localised_pose = v.T_world_query;
+          a.outcome += "; agrees with frame " + std::to_string(run.frames[last->first]) + "'s answer: localised";
+        } else if (last) {
+          a.outcome += "; disagrees with frame " + std::to_string(run.frames[last->first]) + "'s answer";
+        }
+        last.emplace(k, H);
+      }
+    }
+    attempt_seconds += secondsSince(t);
+    out.search.push_back(std::move(a));
+    if (out.state == PriorState::Localised) break;
+  }
+  out.seconds_per_attempt = out.search.empty() ? 0.0 : attempt_seconds / static_cast<double>(out.search.size());
+}
+
+}  // namespace hazmap::pipeline_detail

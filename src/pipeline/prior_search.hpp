@@ -1,0 +1,68 @@
+#pragma once
+// The pieces of localisation in a prior map (pipeline/prior_map.hpp): the run's keyframes, the
+// prior's keyframes prepared once, the property-ICP verification against the prior, the search.
+#include <Eigen/Geometry>
+#include <string>
+#include <vector>
+
+#include "hazmap/pipeline/prior_map.hpp"
+#include "hazmap/registration/global_registration.hpp"
+
+namespace hazmap::pipeline_detail {
+
+/// m: a sensor height this different from the prior's is warned about.
+constexpr double kSensorHeightTolerance = 0.1;
+
+/// The run's keyframes (keyframeFrames), their clouds as tracking saw them, downsampled.
+struct RunKeyframes {
+  std::vector<std::size_t> frames;
+  std::vector<LabeledCloud> clouds;  ///< sensor frame
+  std::vector<double> heights;       ///< sensorHeightAboveFloor of the full clouds
+  /// Keyframe k with the keyframes just before it, placed in k's frame with the run's estimate.
+  LabeledCloud query(std::size_t k, const SlamResult& result) const;
+  double sensorHeight() const;  ///< median of the finite heights, NaN when none
+};
+RunKeyframes readRunKeyframes(ScanSource& scans, const SlamResult& result, const SlamConfig& config,
+                              const ClassTable& classes);
+
+/// The prior's keyframes, read and prepared once: downsampled clouds, poses, and the global
+/// registration target of all of them in the prior's frame.
+class PriorIndex {
+ public:
+  PriorIndex(const MapFolder& prior, const ClassTable& classes, const SlamConfig& config);
+  std::size_t size() const { return poses_.size(); }
+  const Eigen::Isometry3d& pose(std::size_t k) const { return poses_.at(k); }
+  /// The prior keyframe nearest `position` (prior frame) and its distance.
+  std::size_t nearest(const Eigen::Vector3d& position, double& distance) const;
+  /// Keyframe k with its neighbours by index, placed in k's frame (the verification target).
+  LabeledCloud submap(std::size_t k) const;
+  const GlobalRegistrationTarget& overview() const { return overview_; }
+  const GlobalRegistrationConfig& globalConfig() const { return global_; }
+
+ private:
+  std::vector<Eigen::Isometry3d> poses_;
+  std::vector<LabeledCloud> clouds_;
+  GlobalRegistrationConfig global_;
+  GlobalRegistrationTarget overview_;
+};
+
+struct PriorVerification {
+  bool accepted = false;
+  std::string outcome;
+  std::size_t prior_keyframe = 0;
+  Eigen::Isometry3d T_world_query = Eigen::Isometry3d::Identity();  ///< prior world ← query
+  RegistrationResult registration;  ///< target = the prior keyframe's submap
+};
+
+/// Property ICP of `query` against the submap of the prior keyframe nearest `guess` (prior world
+/// ← query), from `guess`: accepted when it converged, fits (loop verification's min_fitness and
+/// max_rmse) and leaves no direction degenerate.
+PriorVerification verifyInPrior(const PriorIndex& prior, const LabeledCloud& query, const Eigen::Isometry3d& guess,
+                                const ClassTable& classes, const SlamConfig& config);
+
+/// The search, keyframe by keyframe: global registration against the prior, verification, and
+/// two verified answers of two keyframes that agree. Sets out.state (Localised) and out.T_prior_run.
+void searchPrior(const PriorIndex& prior, const RunKeyframes& run, const SlamResult& result,
+                 const ClassTable& classes, const SlamConfig& config, PriorLocalisation& out);
+
+}  // namespace hazmap::pipeline_detail
