@@ -10,20 +10,14 @@
 # ccache each worktree would miss on every file compiled against its own PCH: where ccache is in
 # use (a developer's machine, a cache shared by worktrees) it is the better of the two and PCH
 # stays off by default; on a fresh machine (CI) PCH is on. -DHAZMAP_PCH=ON/OFF overrides.
-if(CMAKE_CXX_COMPILER_LAUNCHER MATCHES "ccache")
-  set(HAZMAP_PCH_DEFAULT OFF)
-else()
-  set(HAZMAP_PCH_DEFAULT ON)
-endif()
-option(HAZMAP_PCH "Precompiled headers (default: on unless ccache is the compiler launcher)" ${HAZMAP_PCH_DEFAULT})
-message(STATUS "hazmap: precompiled headers ${HAZMAP_PCH}")
+# (HAZMAP_PCH is decided in the root CMakeLists.txt, next to the ccache launcher.)
 if(NOT HAZMAP_PCH)
   return()
 endif()
 
 # Standard and Eigen headers that most translation units include (counted over src/, apps/,
 # tests/: cmath 109 files, vector 87, string 85, algorithm 76, filesystem 48, Eigen/Geometry 39...).
-set(HAZMAP_PCH_COMMON
+set(HAZMAP_PCH_COMMON ${HAZMAP_ALIGNMENT_GUARD}
   <algorithm> <array> <cmath> <cstddef> <cstdint> <cstdio> <cstring> <filesystem> <fstream>
   <functional> <limits> <map> <memory> <optional> <sstream> <string> <string_view>
   <unordered_map> <utility> <vector> <Eigen/Core> <Eigen/Geometry>)
@@ -64,3 +58,25 @@ if(TARGET _hazmap)
   target_precompile_headers(_hazmap PRIVATE ${HAZMAP_PCH_COMMON} <pybind11/pybind11.h>
     <pybind11/stl.h> <pybind11/numpy.h> <pybind11/eigen.h>)
 endif()
+
+# Every other compiled target (fuzz replay, benchmarks, helpers) reads the alignment guard from
+# its command line: a PCH-less file must not escape it (cmake/alignment_guard.hpp).
+function(hazmap_guard_targets_without_pch dir)
+  get_property(targets DIRECTORY ${dir} PROPERTY BUILDSYSTEM_TARGETS)
+  foreach(target ${targets})
+    get_target_property(type ${target} TYPE)
+    if(NOT type MATCHES "EXECUTABLE|LIBRARY" OR type STREQUAL "INTERFACE_LIBRARY")
+      continue()
+    endif()
+    get_target_property(own ${target} PRECOMPILE_HEADERS)
+    get_target_property(reused ${target} PRECOMPILE_HEADERS_REUSE_FROM)
+    if(NOT own AND NOT reused)
+      target_compile_options(${target} PRIVATE "$<$<COMPILE_LANGUAGE:CXX>:--include=${HAZMAP_ALIGNMENT_GUARD}>")
+    endif()
+  endforeach()
+  get_property(subdirs DIRECTORY ${dir} PROPERTY SUBDIRECTORIES)
+  foreach(sub ${subdirs})
+    hazmap_guard_targets_without_pch(${sub})
+  endforeach()
+endfunction()
+hazmap_guard_targets_without_pch(${CMAKE_CURRENT_SOURCE_DIR})

@@ -12,9 +12,9 @@
 #include "hazmap/sources/hesai.hpp"
 #include "hazmap/sources/pcap_reader.hpp"
 #include "hazmap/sources/pcap_writer.hpp"
+#include "sources/assembled_scans.hpp"
 #include "sources/live_feeds.hpp"
 #include "sources/packet_decoders.hpp"
-#include "sources/imu_attach.hpp"
 #include "sources/scan_assembler.hpp"
 
 namespace hazmap {
@@ -58,7 +58,7 @@ class LiveStream final : public LiveScanSource {
   }
 
   std::optional<Scan> next() override {
-    while (!ended_ && (pending_.empty() || !imuReady())) {
+    while (!ended_ && !scans_.ready()) {
       FeedItem item;
       switch (feed_->next(item)) {
         case FeedItem::Idle: watchSilence(); break;
@@ -66,16 +66,8 @@ class LiveStream final : public LiveScanSource {
         case FeedItem::Datagram: take(item); break;
       }
     }
-    if (pending_.empty()) return std::nullopt;
-    Scan scan;
-    scan.index = next_index_++;
-    scan.stamp = pending_.front().stamp;
-    scan.cloud = std::move(pending_.front().cloud);
-    scan.cloud.classes.resize(scan.cloud.size(), 0);
-    pending_.pop_front();
-    if (!imu_.empty()) imu_.attach(scan, previous_stamp_);  // as a capture's scans (pcap_scan_source.cpp)
-    previous_stamp_ = scan.stamp;
-    return scan;
+    if (scans_.empty()) return std::nullopt;
+    return scans_.pop();  // as a capture's scans (pcap_scan_source.cpp)
   }
   std::optional<std::size_t> size() const override { return std::nullopt; }
   const ClassTable& classTable() const override { return table_; }
@@ -101,21 +93,14 @@ class LiveStream final : public LiveScanSource {
     markLoss(item.lost_before, item.time_ns);
     last_time_ns_ = item.time_ns;
     if (spool_) spool_->write(item.time_ns, item.port, item.payload);
-    const std::size_t before = pending_.size();
+    const std::size_t before = scans_.pending().size();
     assembler_->addPacket(item.payload, seconds(item.time_ns),
-                          feed_->where() + ": datagram " + std::to_string(datagrams_++), pending_);
+                          feed_->where() + ": datagram " + std::to_string(datagrams_++), scans_.pending());
     // A scan cut by the first datagram after a loss ends where the loss began, so the loss may
     // have taken the cut too: the scan starting here then lacks its head and is skipped as well.
-    if (item.lost_before > 0 && pending_.size() > before) skip_ = 2;
+    if (item.lost_before > 0 && scans_.pending().size() > before) skip_ = 2;
     skipDamaged(before);
-    imu_.append(assembler_->takeImu());
-  }
-
-  /// With an IMU stream, a scan waits for the samples past its last point (or for the next scan).
-  bool imuReady() const {
-    if (imu_.empty() || pending_.size() >= 2) return true;
-    const auto& t = pending_.front().cloud.timestamps;
-    return imu_.reaches(t.empty() ? pending_.front().stamp : *std::max_element(t.begin(), t.end()));
+    scans_.imu().append(assembler_->takeImu());
   }
 
   void markLoss(std::uint64_t lost, std::int64_t time_ns) {
@@ -130,8 +115,9 @@ class LiveStream final : public LiveScanSource {
 
   /// The scans a loss fell into are skipped, not passed on with a hole.
   void skipDamaged(std::size_t before) {
-    while (skip_ > 0 && pending_.size() > before) {
-      pending_.erase(pending_.begin() + static_cast<std::ptrdiff_t>(before));
+    auto& pending = scans_.pending();
+    while (skip_ > 0 && pending.size() > before) {
+      pending.erase(pending.begin() + static_cast<std::ptrdiff_t>(before));
       ++stats_.scans_skipped;
       --skip_;
     }
@@ -141,11 +127,11 @@ class LiveStream final : public LiveScanSource {
   void end(const FeedItem& item) {
     ended_ = true;
     markLoss(item.lost_before, last_time_ns_);
-    const std::size_t before = pending_.size();
-    for (const auto& line : assembler_->flush(feed_->where(), pending_)) notice(line);
+    const std::size_t before = scans_.pending().size();
+    for (const auto& line : assembler_->flush(feed_->where(), scans_.pending())) notice(line);
     skipDamaged(before);
-    imu_.append(assembler_->takeImu());
-    if (const std::string line = imu_.notice(feed_->where()); !line.empty()) notice(line);
+    scans_.imu().append(assembler_->takeImu());
+    if (const std::string line = scans_.imu().notice(feed_->where()); !line.empty()) notice(line);
     if (spool_) spool_->flush();
   }
 
@@ -173,18 +159,15 @@ class LiveStream final : public LiveScanSource {
   std::unique_ptr<DatagramFeed> feed_;
   std::unique_ptr<ScanAssembler> assembler_;
   std::optional<PcapWriter> spool_;
-  std::deque<RawScan> pending_;
+  AssembledScans scans_;
   ClassTable table_;
   LiveStats stats_;
   double silence_seconds_;
   SteadyClock::time_point last_heard_;
   bool waiting_ = false, ended_ = false;
   std::size_t skip_ = 0;  // scans still to skip after a loss
-  std::size_t next_index_ = 0;
   std::uint64_t datagrams_ = 0;
   std::int64_t last_time_ns_ = 0;
-  ImuBuffer imu_;
-  std::optional<double> previous_stamp_;
 };
 
 }  // namespace

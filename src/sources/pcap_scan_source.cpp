@@ -12,7 +12,7 @@
 #include "hazmap/sources/pcap_reader.hpp"
 #include "hazmap/sources/scan_source.hpp"
 #include "hazmap/sources/velodyne.hpp"
-#include "sources/imu_attach.hpp"
+#include "sources/assembled_scans.hpp"
 #include "sources/packet_decoders.hpp"
 #include "sources/scan_assembler.hpp"
 
@@ -79,44 +79,29 @@ class PcapScanSource final : public ScanSource {
   }
 
   std::optional<Scan> next() override {
-    while (!exhausted_ && (pending_.empty() || !imuReady())) {
+    while (!exhausted_ && !scans_.ready()) {
       UdpPacket packet;
       if (reader_.next(packet)) {
         assembler_->addPacket(packet.payload, packet.time, path_.string() + ": datagram " +
                                                                std::to_string(packet.frame_index),
-                              pending_);
-        imu_.append(assembler_->takeImu());
+                              scans_.pending());
+        scans_.imu().append(assembler_->takeImu());
         continue;
       }
       exhausted_ = true;
-      for (const auto& line : assembler_->flush(path_.string(), pending_)) notice(line);
-      imu_.append(assembler_->takeImu());
+      for (const auto& line : assembler_->flush(path_.string(), scans_.pending())) notice(line);
+      scans_.imu().append(assembler_->takeImu());
       for (const auto& line : reader_.loss().notices) notice(line);
-      if (const std::string line = imu_.notice(path_.string()); !line.empty()) notice(line);
+      if (const std::string line = scans_.imu().notice(path_.string()); !line.empty()) notice(line);
     }
-    if (pending_.empty()) return std::nullopt;
-    Scan scan;
-    scan.index = next_index_++;
-    scan.stamp = pending_.front().stamp;
-    scan.cloud = std::move(pending_.front().cloud);
-    scan.cloud.classes.resize(scan.cloud.size(), 0);
-    pending_.pop_front();
-    if (!imu_.empty()) imu_.attach(scan, previous_stamp_);
-    previous_stamp_ = scan.stamp;
-    return scan;
+    if (scans_.empty()) return std::nullopt;
+    return scans_.pop();
   }
   std::optional<std::size_t> size() const override { return std::nullopt; }
   const ClassTable& classTable() const override { return table_; }
   std::string describe() const override { return path_.string() + " (" + assembler_->describe() + ")"; }
 
  private:
-  /// With an IMU stream, a scan waits for the samples past its last point (or for the next scan).
-  bool imuReady() const {
-    if (imu_.empty() || pending_.size() >= 2) return true;
-    const auto& t = pending_.front().cloud.timestamps;
-    return imu_.reaches(t.empty() ? pending_.front().stamp : *std::max_element(t.begin(), t.end()));
-  }
-
   void notice(const std::string& line) const {
     if (options_.notice) options_.notice(line.rfind(path_.string(), 0) == 0 ? line : path_.string() + ": " + line);
   }
@@ -125,12 +110,9 @@ class PcapScanSource final : public ScanSource {
   ScanSourceOptions options_;
   PcapReader reader_;
   std::optional<ScanAssembler> assembler_;
-  std::deque<RawScan> pending_;
+  AssembledScans scans_;
   ClassTable table_;
   bool exhausted_ = false;
-  std::size_t next_index_ = 0;
-  ImuBuffer imu_;
-  std::optional<double> previous_stamp_;
 };
 
 }  // namespace
