@@ -1,6 +1,6 @@
-// Force-included into every C++ translation unit of the build (cmake/alignment_guard.cmake: in
-// the precompiled header where there is one, else with --include): a stable sort or merge over an
-// element type that needs more than the heap's guaranteed alignment does not compile.
+// Force-included into every C++ translation unit of the build (root CMakeLists.txt and
+// cmake/build_speed.cmake: in the precompiled header where there is one, else with --include): a
+// stable sort or merge over an element type needing more than the heap's alignment does not compile.
 //
 // Why: libstdc++ (GCC 12) takes std::stable_sort's, std::stable_partition's and
 // std::inplace_merge's scratch buffer from std::get_temporary_buffer, i.e. plain ::operator new,
