@@ -47,6 +47,7 @@ void installSignalHandlers() {
 
 SlamConfig liveConfig(const LiveOptions& o, const ParameterOptions& params) {
   SlamConfig config = SlamConfig::forMethod(parseSlamMethod(o.method));
+  config.back_end_thread = true;  // live: tracking never waits for a loop stage (--set slam.back_end_thread=false)
   if (!o.config.empty()) config.applyYamlFile(o.config);
   config.property_icp = params.propertyIcp(config.property_icp);
   params.applySettings(config);
