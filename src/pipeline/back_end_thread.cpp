@@ -52,10 +52,7 @@ void BackEndThread::push(TrackedFrame frame) {
   {
     std::unique_lock<std::mutex> lock(m_);
     const auto room = [&] { return failure_ || queued_bytes_ == 0 || double(queued_bytes_ + bytes) <= limit; };
-    if (!room()) {
-      ++waits_;
-      room_.wait(lock, room);
-    }
+    room_.wait(lock, room);
     rethrow();
     queued_bytes_ += bytes;
     queue_.push_back(std::move(frame));

@@ -43,8 +43,8 @@ class BackEndThread {
   BackEndThread(const BackEndThread&) = delete;
   BackEndThread& operator=(const BackEndThread&) = delete;
 
-  /// Queues a frame; waits only while the queued keyframe scans exceed slam.back_end_queue_mb
-  /// (counted in waits()). Rethrows what failed on the back end's thread.
+  /// Queues a frame; waits only while the queued keyframe scans exceed slam.back_end_queue_mb.
+  /// Rethrows what failed on the back end's thread.
   void push(TrackedFrame frame);
   /// The newest optimised poses (nodes 0..m) not taken yet; null when none came since.
   std::shared_ptr<const std::vector<Eigen::Isometry3d>> takeSolution();
@@ -52,7 +52,6 @@ class BackEndThread {
   SlamResult snapshot();
   /// Every queued frame, then the final optimisation (BackEnd::finish); the back end's result.
   SlamResult finish();
-  std::size_t waits() const { return waits_; }
 
  private:
   void run();
@@ -66,7 +65,6 @@ class BackEndThread {
   GraphSide graph_;
   std::function<void(std::size_t)> before_loop_stage_;
   std::size_t optimisations_published_ = 0;
-  std::size_t waits_ = 0;  // tracker's thread only
 
   std::mutex m_;  // everything below
   std::condition_variable wake_, idle_, room_;
