@@ -5,7 +5,7 @@
 # SIGINT, then run.json's live.latency_ms (frames, p50, p99, max), the frames, the frames per
 # second of wall time between the first and the last pose (frames / tracking window), and the
 # datagrams lost. Each row is `LABEL|ARGS...` (live's own arguments: --method, --set ...).
-#   scripts/live-latency.sh HAZMAP_BIN OUT_DIR CAPTURE RATE SECONDS REPEATS 'label|args' ...
+#   [METADATA=ouster.json] scripts/live-latency.sh HAZMAP_BIN OUT_DIR CAPTURE RATE SECONDS REPEATS 'label|args' ...
 #   e.g. scripts/live-latency.sh build/apps/hazmap /tmp/lat velodyne_vlp16.pcap 1 30 2 \
 #          'icp|--method icp' 'sync|--method icp+pgo --set slam.back_end_thread=false' \
 #          'async|--method icp+pgo --set slam.back_end_thread=true'
@@ -13,8 +13,9 @@ set -euo pipefail
 h=${1:?hazmap binary}; out=${2:?output folder}; capture=${3:?capture}; rate=${4:?rate}
 seconds=${5:?seconds}; repeats=${6:?repeats}; shift 6
 mkdir -p "$out"
-extra=()
-[[ -f "${capture%.pcap}.json" ]] && extra=(--sensor-metadata "${capture%.pcap}.json")
+extra=()  # an Ouster capture: its metadata JSON in $METADATA, or beside it with the same name
+meta=${METADATA:-${capture%.pcap}.json}
+[[ -f "$meta" ]] && extra=(--sensor-metadata "$meta")
 sensor=velodyne; [[ ${#extra[@]} -gt 0 ]] && sensor=ouster
 free_port() {
   /usr/bin/python3 -c 'import socket
@@ -45,7 +46,7 @@ for rep in $(seq "$repeats"); do
 import json, sys
 j = json.load(open(sys.argv[1] + "/run.json")); l = j["live"]["latency_ms"]
 print(f"{sys.argv[2]:10s} frames {j['frames']:5d}  latency p50 {l['p50']:7.1f}  p99 {l['p99']:7.1f}  "
-      f"max {l['max']:7.1f} ms  tracking {j['timings_s']['tracking']:7.3f} s  loops {len(j.get('loops', []))}  "
+      f"max {l['max']:7.1f} ms  tracking {j['timings_s']['tracking']:7.3f} s  loops {j['loop_closure']['accepted']}  "
       f"lost {j['live']['lost']}")
 PY
   done
