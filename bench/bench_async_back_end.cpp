@@ -23,6 +23,7 @@
 #include "hazmap/pipeline/frame_latency.hpp"
 #include "hazmap/pipeline/slam.hpp"
 #include "hazmap/sim/simulator.hpp"
+#include "hazmap/sources/forwarding_source.hpp"
 
 namespace {
 
@@ -40,11 +41,11 @@ const Sequence& naraha() {
 }
 
 /// The sequence's scans, each released no earlier than start + index ÷ rate (rate 0: at once).
-class PacedSource : public ScanSource {
+class PacedSource : public ForwardingScanSource {
  public:
-  PacedSource(std::unique_ptr<ScanSource> inner, double rate) : inner_(std::move(inner)), rate_(rate) {}
+  PacedSource(std::unique_ptr<ScanSource> inner, double rate) : ForwardingScanSource(std::move(inner)), rate_(rate) {}
   std::optional<Scan> next() override {
-    std::optional<Scan> scan = inner_->next();
+    std::optional<Scan> scan = ForwardingScanSource::next();
     if (!scan) return scan;
     if (released_.empty()) start_ = SteadyClock::now();
     if (rate_ > 0)
@@ -53,16 +54,10 @@ class PacedSource : public ScanSource {
     released_.push_back(SteadyClock::now());
     return scan;
   }
-  std::optional<std::size_t> size() const override { return inner_->size(); }
-  const ClassTable& classTable() const override { return inner_->classTable(); }
-  std::string describe() const override { return inner_->describe(); }
-  bool canReread() const override { return inner_->canReread(); }
-  LabeledCloud reread(std::size_t index) const override { return inner_->reread(index); }
   SteadyClock::time_point released(std::size_t i) const { return released_.at(i); }
   SteadyClock::time_point start() const { return start_; }
 
  private:
-  std::unique_ptr<ScanSource> inner_;
   double rate_;
   SteadyClock::time_point start_{};
   std::vector<SteadyClock::time_point> released_;

@@ -16,17 +16,18 @@
 #include "hazmap/pipeline/frame_latency.hpp"
 #include "hazmap/pipeline/run_outputs.hpp"
 #include "hazmap/pipeline/slam.hpp"
+#include "hazmap/sources/forwarding_source.hpp"
 #include "test_helpers.hpp"
 
 namespace hazmap {
 namespace {
 
 /// A source that says when its stream has ended (next() gave nullopt).
-class WatchedSource : public ScanSource {
+class WatchedSource : public ForwardingScanSource {
  public:
-  explicit WatchedSource(std::unique_ptr<ScanSource> inner) : inner_(std::move(inner)) {}
+  using ForwardingScanSource::ForwardingScanSource;
   std::optional<Scan> next() override {
-    std::optional<Scan> scan = inner_->next();
+    std::optional<Scan> scan = ForwardingScanSource::next();
     if (!scan) {
       std::lock_guard<std::mutex> lock(m);
       ended = true;
@@ -34,18 +35,9 @@ class WatchedSource : public ScanSource {
     }
     return scan;
   }
-  std::optional<std::size_t> size() const override { return inner_->size(); }
-  const ClassTable& classTable() const override { return inner_->classTable(); }
-  std::string describe() const override { return inner_->describe(); }
-  bool canReread() const override { return inner_->canReread(); }
-  LabeledCloud reread(std::size_t index) const override { return inner_->reread(index); }
-
   std::mutex m;
   std::condition_variable changed;
   bool ended = false;
-
- private:
-  std::unique_ptr<ScanSource> inner_;
 };
 
 void expectSamePoses(const Trajectory& a, const Trajectory& b) {
