@@ -19,6 +19,7 @@
 #include "hazmap/core/error.hpp"
 #include "hazmap/io/atomic_file.hpp"
 #include "hazmap/io/trajectory.hpp"
+#include "hazmap/pipeline/frame_latency.hpp"
 #include "hazmap/pipeline/live_view_feed.hpp"
 #include "hazmap/pipeline/run_outputs.hpp"
 #include "hazmap/sources/live_source.hpp"
@@ -46,6 +47,7 @@ void installSignalHandlers() {
 
 SlamConfig liveConfig(const LiveOptions& o, const ParameterOptions& params) {
   SlamConfig config = SlamConfig::forMethod(parseSlamMethod(o.method));
+  config.back_end_thread = true;  // live: tracking never waits for a loop stage (--set slam.back_end_thread=false)
   if (!o.config.empty()) config.applyYamlFile(o.config);
   config.property_icp = params.propertyIcp(config.property_icp);
   params.applySettings(config);
@@ -73,9 +75,14 @@ std::string stoppedBy() {
   return std::string("stopped by ") + (g_signal == SIGTERM ? "SIGTERM" : g_signal == SIGINT ? "SIGINT" : "end of stream");
 }
 
-nlohmann::json liveJson(const LiveScanSource& source, LiveSensor sensor, const std::string& state) {
+nlohmann::json latencyJson(const FrameLatency& l) {
+  return {{"frames", l.count()}, {"p50", l.quantileMs(0.5)}, {"p99", l.quantileMs(0.99)}, {"max", l.maxMs()}};
+}
+
+nlohmann::json liveJson(const LiveScanSource& source, LiveSensor sensor, const std::string& state,
+                        const FrameLatency& latency) {
   const LiveStats s = source.stats();
-  return {{"sensor", toString(sensor)}, {"data_port", source.dataPort()},
+  return {{"latency_ms", latencyJson(latency)}, {"sensor", toString(sensor)}, {"data_port", source.dataPort()},
           {"auxiliary_port", source.auxiliaryPort()}, {"received", s.receiver.received},
           {"kernel_dropped", s.receiver.kernel_dropped}, {"queue_dropped", s.receiver.queue_dropped},
           {"truncated", s.receiver.truncated}, {"lost", s.lost}, {"scans_skipped", s.scans_skipped},
@@ -125,6 +132,7 @@ struct Session {
   std::unique_ptr<LiveScanSource> source;
   std::unique_ptr<LiveViewFeed> view;
   SaveRequests saves;
+  FrameLatency latency;  // a scan's newest point to its pose (pipeline thread only)
 
   void write(const SlamResult& result, const std::string& state, bool final_write);
   void save(const SlamResult& result, const std::string& state, bool final_write);
@@ -144,7 +152,7 @@ void Session::write(const SlamResult& result, const std::string& state, bool fin
   outputs.write_map_folder = final_write;  // the reopenable map once, at the end (not every autosave)
   const RunSummary summary = writeRunOutputs(*second_pass, result, config, outputs, out);
   nlohmann::json j = nlohmann::json::parse(readTextFile(out / "run.json"));
-  j["live"] = liveJson(*source, sensor, state);
+  j["live"] = liveJson(*source, sensor, state, latency);
   writeTextAtomically(out / "run.json", j.dump(2) + "\n");
   if (o.quiet) return;
   if (final_write) std::cout << formatRunSummary(result, summary, out, outputs);
@@ -226,7 +234,7 @@ void stopLiveSession() { g_stop.store(true); }
 
 void runLiveSession(const LiveOptions& o, const ParameterOptions& params,
                     const std::function<void(std::uint16_t)>& listening) {
-  Session s{o, liveConfig(o, params), liveSensorNamed(o.sensor), nullptr, nullptr, {}};
+  Session s{o, liveConfig(o, params), liveSensorNamed(o.sensor), nullptr, nullptr, {}, {}};
   if (o.port < -1 || o.port > 65535) fail("--port", std::to_string(o.port) + " is no UDP port (0-65535)");
   if (!(o.queue_mb >= 0.01 && o.queue_mb <= 65536)) fail("--queue-mb", "must be in [0.01, 65536] MiB");
   if (!(o.autosave_every >= 0)) fail("--autosave-every", "must be >= 0 seconds (0: no autosave)");
@@ -259,7 +267,10 @@ void runLiveSession(const LiveOptions& o, const ParameterOptions& params,
     s.save(snapshot, s.saves.waiting() > 0 ? "saved on request while running" : "autosave while running", false);
     last_save = std::chrono::steady_clock::now();
   };
-  if (s.view) hooks.frame = [&](const SlamFrameEvent& e) { s.view->onFrame(e); };
+  hooks.frame = [&](const SlamFrameEvent& e) {
+    if (const double newest = newestPointTime(e.scan); newest > 0) s.latency.add(realtimeNow() - newest);
+    if (s.view) s.view->onFrame(e);
+  };
   const SlamResult result = runSlam(*s.source, s.config, {}, hooks);
   if (s.view) s.view->drain();
   s.save(result, stoppedBy(), true);

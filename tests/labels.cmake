@@ -115,3 +115,5 @@ hazmap_label(test_live real-data
 hazmap_label(test_missions unit
   scene "^PriorMap\\.SecondMission"
   real-data "^PriorMapReal\\.")
+hazmap_label(test_back_end_thread scene
+  unit "^(FrameLatency\\..*|AsyncBackEnd\\.QueueBoundMustBePositive)$")

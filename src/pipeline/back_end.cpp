@@ -14,16 +14,19 @@ BackEnd::BackEnd(const SlamConfig& config, SlamResult& result, const std::vector
     : config_(config), result_(result), tracked_(tracked),
       schedule_(config.loop_search_every, config.loop_pause_after_accept), anchors_(config) {}
 
-void BackEnd::start(const ClassTable& classes, ScanSource& source) {
+void BackEnd::start(const ClassTable& classes, ScanSource& source, std::mutex* source_lock) {
   loops_ = std::make_unique<LoopDetector>(classes, loopClosureConfigFor(config_));
   if (config_.innovation_gate)
     loops_->setRelativeCovariance([this](std::size_t from, std::size_t to) { return relativeCovariance(from, to); });
   // Old keyframes are re-read when a loop needs them (bounded memory): from the recording when
   // it allows that, else from the copies a stream's keyframes leave on disk.
   if (source.canReread()) {
-    loops_->setCloudLoader([this, &source](std::size_t k) {
+    loops_->setCloudLoader([this, &source, source_lock](std::size_t k) {
       const std::size_t f = keyframe_frames_.at(k);
+      std::unique_lock<std::mutex> lock;
+      if (source_lock) lock = std::unique_lock<std::mutex>(*source_lock);
       LabeledCloud cloud = source.reread(f);
+      if (lock) lock.unlock();
       redoDeskew(cloud, result_.frames.at(f));
       return cloud;
     });
@@ -38,12 +41,6 @@ void BackEnd::addStep(const FrameRecord& rec, const Matrix6d& edge_covariance) {
   anchors_.addStep(rec, edge_covariance);
 }
 
-bool BackEnd::isKeyframe(const Eigen::Isometry3d& pose) const {
-  if (keyframe_frames_.empty()) return true;
-  const Eigen::Isometry3d since = last_keyframe_pose_.inverse() * pose;
-  return translationNorm(since) >= config_.keyframe_distance || rotationAngle(since) >= config_.keyframe_angle;
-}
-
 // Frame-to-map tracking: the gravity priors' σ × this (issue 37: a constant, not a key). Scans
 // registered against the same map have anticorrelated increment errors (naraha: tracking's tilt
 // stays within ~0.05° over 160 frames), but the graph chains them as independent (0.5 mrad per
@@ -52,17 +49,16 @@ bool BackEnd::isKeyframe(const Eigen::Isometry3d& pose) const {
 constexpr double kGravitySigmaScaleFrameToMap = 3.0;
 
 // Roll and pitch observed absolutely (PoseGraphConfig::gravity_prior), also where no loop reaches.
-void BackEnd::addGravityPrior(const Scan& scan) {
-  if (!config_.graph.gravity_prior || !scan.gravity) return;
+void BackEnd::addGravityPrior(const std::optional<GravitySample>& gravity) {
+  if (!config_.graph.gravity_prior || !gravity) return;
   double sigma = config_.graph.gravity_sigma_deg > 0.0 ? config_.graph.gravity_sigma_deg * M_PI / 180.0
-                                                      : scan.gravity->sigmaRad();
+                                                      : gravity->sigmaRad();
   if (config_.odometry.mode == OdometryMode::FrameToMap) sigma *= kGravitySigmaScaleFrameToMap;
-  result_.graph.addGravityPrior(static_cast<int>(result_.frames.size() - 1), scan.gravity->down, sigma);
+  result_.graph.addGravityPrior(static_cast<int>(result_.frames.size() - 1), gravity->down, sigma);
 }
 
-void BackEnd::closeLoops(const Eigen::Isometry3d& pose, LabeledCloud cloud) {
+void BackEnd::closeLoops(LabeledCloud cloud) {
   const auto t_loop = Clock::now();
-  last_keyframe_pose_ = pose;
   keyframe_frames_.push_back(result_.frames.size() - 1);
   if (spill_) spill_->store(keyframe_frames_.back(), cloud);
   const std::size_t k = loops_->addKeyframe(std::move(cloud));

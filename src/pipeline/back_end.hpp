@@ -5,10 +5,12 @@
 // end (slam.cpp) tracks and adds each frame's node and odometry edge.
 #include <cstddef>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "hazmap/io/gravity.hpp"
 #include "hazmap/loop/loop_closure.hpp"
 #include "hazmap/pipeline/slam.hpp"
 #include "hazmap/sources/scan_source.hpp"
@@ -24,19 +26,18 @@ class BackEnd {
   BackEnd(const SlamConfig& config, SlamResult& result, const std::vector<Eigen::Isometry3d>& tracked);
 
   /// The loop detector over the run's classes; old keyframes are re-read from `source` when a
-  /// loop needs them (or from copies on disk when the source cannot re-read).
-  void start(const ClassTable& classes, ScanSource& source);
+  /// loop needs them (or from copies on disk when the source cannot re-read), holding
+  /// `source_lock` (when given) while one is re-read.
+  void start(const ClassTable& classes, ScanSource& source, std::mutex* source_lock = nullptr);
   /// The newest frame's odometry edge covariance (what the loop gate chains) and its share no
   /// registration vouched for (what the anchors chain). replaceStep: a re-estimated frame's.
   void addStep(const FrameRecord& rec, const Matrix6d& edge_covariance);
   void replaceStep(std::size_t frame, const Matrix6d& edge_covariance) { step_covariance_.at(frame) = edge_covariance; }
-  /// A frame this far (SlamConfig::keyframe_distance / keyframe_angle) from the last keyframe.
-  bool isKeyframe(const Eigen::Isometry3d& pose) const;
   /// The newest frame's gravity-direction prior when its scan has an IMU measurement.
-  void addGravityPrior(const Scan& scan);
+  void addGravityPrior(const std::optional<GravitySample>& gravity);
   /// The newest frame becomes a keyframe: its anchor edge, loop candidates verified by ICP, and
   /// an online optimisation as soon as one is accepted.
-  void closeLoops(const Eigen::Isometry3d& pose, LabeledCloud cloud);
+  void closeLoops(LabeledCloud cloud);
   /// The last optimisation with the consistent loops; the loops and rejections recorded.
   void finish();
 
@@ -59,7 +60,6 @@ class BackEnd {
   std::optional<KeyframeSpill> spill_;
   std::vector<std::size_t> keyframe_frames_;  // keyframe index → frame index
   std::vector<Matrix6d> step_covariance_;      // frame index → its odometry edge's covariance
-  Eigen::Isometry3d last_keyframe_pose_ = Eigen::Isometry3d::Identity();
   MapAnchors anchors_;
 };
 

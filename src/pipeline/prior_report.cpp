@@ -6,6 +6,7 @@
 #include "hazmap/core/error.hpp"
 #include "hazmap/core/se3.hpp"
 #include "hazmap/pipeline/prior_map.hpp"
+#include "hazmap/sources/forwarding_source.hpp"
 #include "map/map_folder_json.hpp"
 
 namespace hazmap {
@@ -23,11 +24,11 @@ using map_folder_detail::poseJson;
 
 namespace {
 
-class StartUnknownSource : public ScanSource {
+class StartUnknownSource : public ForwardingScanSource {
  public:
-  explicit StartUnknownSource(std::unique_ptr<ScanSource> inner) : inner_(std::move(inner)) {}
+  using ForwardingScanSource::ForwardingScanSource;
   std::optional<Scan> next() override {
-    std::optional<Scan> scan = inner_->next();
+    std::optional<Scan> scan = ForwardingScanSource::next();
     if (!scan) return scan;
     scan->ground_truth.reset();
     if (scan->odometry) {
@@ -36,14 +37,7 @@ class StartUnknownSource : public ScanSource {
     }
     return scan;
   }
-  std::optional<std::size_t> size() const override { return inner_->size(); }
-  const ClassTable& classTable() const override { return inner_->classTable(); }
-  std::string describe() const override { return inner_->describe(); }
-  bool canReread() const override { return inner_->canReread(); }
-  LabeledCloud reread(std::size_t index) const override { return inner_->reread(index); }
-
  private:
-  std::unique_ptr<ScanSource> inner_;
   std::optional<Eigen::Isometry3d> first_odometry_inverse_;
 };
 

@@ -5,13 +5,14 @@
 
 #include <algorithm>
 #include <memory>
+#include <mutex>
 
 #include "hazmap/core/error.hpp"
 #include "hazmap/core/se3.hpp"
-#include "pipeline/back_end.hpp"
+#include "pipeline/back_end_thread.hpp"
 #include "pipeline/clock.hpp"
-#include "pipeline/edge_noise.hpp"
 #include "pipeline/frame_records.hpp"
+#include "pipeline/graph_side.hpp"
 
 namespace hazmap {
 
@@ -19,14 +20,22 @@ namespace {
 
 using namespace pipeline_detail;
 
-// One SLAM run, frame by frame: each public step is one box of the paper's Fig. 1.
+// One SLAM run, frame by frame: each public step is one box of the paper's Fig. 1. The graph's
+// side runs on this thread (GraphSide) or on the back end's own (BackEndThread,
+// SlamConfig::back_end_thread); either way it gets the same frames in the same order.
 class SlamRun {
  public:
-  SlamRun(ScanSource& source, const SlamConfig& config,
-          std::function<void(const SlamFrameEvent&)> on_frame = {})
-      : source_(source), config_(config), deskewer_(config.deskew), on_frame_(std::move(on_frame)) {
+  SlamRun(ScanSource& source, const SlamConfig& config, const SlamSnapshots& hooks)
+      : source_(source), config_(config), deskewer_(config.deskew), on_frame_(hooks.frame),
+        before_loop_stage_(hooks.loop_stage) {
     result_.method = config.method;
     result_.graph.dimension = 3;
+  }
+
+  /// The next scan; the source is locked meanwhile (the back end's thread may re-read old keyframes).
+  std::optional<Scan> next() {
+    std::lock_guard<std::mutex> lock(source_lock_);
+    return source_.next();
   }
 
   /// Fig. 1 for one scan: wheel-odometry guess → deskewing and (property-)ICP tracking → the
@@ -36,53 +45,61 @@ class SlamRun {
     const std::optional<Eigen::Isometry3d> wheel_increment = wheelIncrement(scan);
     FrameRecord record = trackBesideLoops(scan, wheel_increment);
     const Eigen::Isometry3d pose = addToTrajectory(record);
-    addOdometryEdge(record);
+    if (graph_) graph_->addFrame(record);
     result_.frames.push_back(std::move(record));
-    takeReestimatedLostFrames();
+    const std::vector<std::size_t> changed = takeReestimatedLostFrames();
+    if (graph_) graph_->replaceFrames(changed);
+    const bool keyframe = isKeyframe(pose);
+    if (back_end_thread_) return passToBackEnd(scan, pose, changed, keyframe);
     tellFrame(scan.cloud);
-    if (!back_end_ || !back_end_->isKeyframe(pose)) return;
-    back_end_->addGravityPrior(scan);
+    if (!keyframe) return;
+    graph_->addGravityPrior(scan.gravity);
     if (config_.loops_beside_tracking)
-      pending_loops_.emplace(PendingLoops{pose, std::move(scan.cloud)});
+      pending_loops_.emplace(PendingLoops{frames() - 1, std::move(scan.cloud)});
     else
-      back_end_->closeLoops(pose, std::move(scan.cloud));
+      closeLoops(frames() - 1, std::move(scan.cloud));
   }
 
   std::size_t frames() const { return result_.frames.size(); }
 
   /// The live view's hook: the frame just added, and whether earlier poses moved since the last
-  /// call (an online optimisation ran beside this frame's tracking, or lost frames were redone).
+  /// call (an online optimisation ran beside this frame's tracking or came back from the back
+  /// end's thread, or lost frames were redone).
   void tellFrame(const LabeledCloud& cloud) {
     if (!on_frame_) return;
-    const std::size_t optimisations = result_.optimisations.size();
-    if (optimisations != told_optimisations_) ++corrections_;
-    told_optimisations_ = optimisations;
-    on_frame_(SlamFrameEvent{result_.frames.back(), cloud, result_.graph.poses, corrections_});
+    if (!back_end_thread_) {
+      const std::size_t optimisations = result_.optimisations.size();
+      if (optimisations != told_optimisations_) ++corrections_;
+      told_optimisations_ = optimisations;
+    }
+    const std::vector<Eigen::Isometry3d>& poses = back_end_thread_ ? estimate_ : result_.graph.poses;
+    on_frame_(SlamFrameEvent{result_.frames.back(), cloud, poses, corrections_});
   }
 
-  /// The result so far, between two scans (nothing runs beside tracking then).
-  SlamResult snapshot() const {
-    SlamResult s = result_;
+  /// The result so far, between two scans (nothing runs beside tracking then; the back end's
+  /// thread is waited for until it has every frame).
+  SlamResult snapshot() {
+    SlamResult s = back_end_thread_ ? withTrackerSide(back_end_thread_->snapshot()) : result_;
     s.source = source_.describe();
     s.tracked = trajectoryOf(tracked_);
-    s.estimate = back_end_ ? trajectoryOf(result_.graph.poses)
+    s.estimate = hasBackEnd() ? trajectoryOf(s.graph.poses)
                  : config_.method == SlamMethod::Odometry ? s.odometry_only
                                                           : s.tracked;
     return s;
   }
 
   SlamResult finish() {
-    runPendingLoops();
+    if (back_end_thread_) {
+      result_ = withTrackerSide(back_end_thread_->finish());
+    } else {
+      runPendingLoops();
+      graph_->finish();
+    }
     result_.source = source_.describe();  // after the scans: a decoder knows its sensor by then
     result_.tracked = trajectoryOf(tracked_);
-    if (back_end_) {
-      back_end_->finish();
-      result_.estimate = trajectoryOf(result_.graph.poses);
-    } else if (config_.method == SlamMethod::Odometry) {
-      result_.estimate = result_.odometry_only;
-    } else {
-      result_.estimate = result_.tracked;
-    }
+    if (hasBackEnd()) result_.estimate = trajectoryOf(result_.graph.poses);
+    else if (config_.method == SlamMethod::Odometry) result_.estimate = result_.odometry_only;
+    else result_.estimate = result_.tracked;
     return std::move(result_);
   }
 
@@ -101,9 +118,27 @@ class SlamRun {
     // α and the class search radii, set once for tracking and loop verification alike.
     classes_ = config_.property_icp.applyTo(source_.classTable(), where);
     tracker_.emplace(classes_, config_.odometry, start_);
-    if (!usesPoseGraph(config_.method)) return;
-    back_end_.emplace(config_, result_, tracked_);
-    back_end_->start(classes_, source_);
+    if (usesPoseGraph(config_.method) && config_.back_end_thread) {
+      back_end_thread_ = std::make_unique<BackEndThread>(config_, start_, classes_, source_, source_lock_,
+                                                         before_loop_stage_);
+      return;
+    }
+    graph_.emplace(config_, result_, tracked_, start_);
+    graph_->start(classes_, source_, nullptr);
+  }
+
+  bool hasBackEnd() const { return back_end_thread_ || (graph_ && graph_->hasBackEnd()); }
+
+  /// A frame this far (SlamConfig::keyframe_distance / keyframe_angle) from the last keyframe
+  /// (PGO methods only) becomes the next.
+  bool isKeyframe(const Eigen::Isometry3d& pose) {
+    if (!hasBackEnd()) return false;
+    if (last_keyframe_) {
+      const Eigen::Isometry3d since = last_keyframe_->inverse() * pose;
+      if (translationNorm(since) < config_.keyframe_distance && rotationAngle(since) < config_.keyframe_angle) return false;
+    }
+    last_keyframe_ = pose;
+    return true;
   }
 
   /// Wheel odometry from the common start pose; the increment from the previous scan.
@@ -141,27 +176,13 @@ class SlamRun {
     return rec;
   }
 
-  /// The tracked pose, and the graph's new node continuing from the (possibly already
-  /// optimised) previous node. Every method records its graph (graph.g2o).
+  /// The tracked pose (and, with the back end on its own thread, the live estimate continuing
+  /// from the newest pose it has).
   Eigen::Isometry3d addToTrajectory(const FrameRecord& rec) {
     const bool first = tracked_.empty();
     tracked_.push_back(first ? start_ : normalized(tracked_.back() * rec.T_prev_curr));
-    PoseGraph& graph = result_.graph;
-    graph.addNode(first ? start_ : normalized(graph.poses.back() * rec.T_prev_curr));
+    if (back_end_thread_) estimate_.push_back(first ? start_ : normalized(estimate_.back() * rec.T_prev_curr));
     return tracked_.back();
-  }
-
-  /// Odometry edge, information = inverse of the calibrated ICP covariance (eq. 3), or the wheel
-  /// noise when the tracker fell back to the encoders. The covariance is kept for the gate.
-  void addOdometryEdge(const FrameRecord& rec) {
-    if (rec.index == 0) {
-      if (back_end_) back_end_->addStep(rec, Matrix6d::Zero());
-      return;
-    }
-    const EdgeNoise noise = odometryEdgeNoise(rec, config_);
-    if (back_end_) back_end_->addStep(rec, noise.covariance);
-    result_.graph.addEdge(static_cast<int>(rec.index - 1), static_cast<int>(rec.index), rec.T_prev_curr,
-                          noise.information, EdgeKind::Odometry);
   }
 
   /// Issue 19 (odometry.recovery.reestimate_lost_frames): once a frame is verified again the tracker
@@ -169,30 +190,50 @@ class SlamRun {
   /// recorded ones (record, odometry edge, tracked pose and graph node from the first changed frame
   /// on), as `hazmap odometry` writes them. Only with relocalise_suspect (the worst-day set-up):
   /// a normal run's graph stays bit for bit.
-  void takeReestimatedLostFrames() {
+  std::vector<std::size_t> takeReestimatedLostFrames() {
+    std::vector<std::size_t> changed;
     if (!tracker_ || !usesIcp(config_.method) || !config_.odometry.recovery.relocalise_suspect ||
         !config_.odometry.recovery.reestimate_lost_frames)
-      return;
+      return changed;
     const std::vector<OdometryFrame>& tf = tracker_->frames();
     const std::size_t n = result_.frames.size(), back = static_cast<std::size_t>(config_.odometry.recovery.lost_frames_max) + 2;
-    std::size_t first = n;
-    for (std::size_t k = n > back ? n - back : 1; k < n && k < tf.size(); ++k) {
-      FrameRecord& rec = result_.frames[k];
-      if (!takeReestimate(rec, tf[k])) continue;
-      const EdgeNoise noise = odometryEdgeNoise(rec, config_);
-      if (back_end_) back_end_->replaceStep(k, noise.covariance);
-      for (PoseGraphEdge& e : result_.graph.edges)
-        if (e.kind == EdgeKind::Odometry && e.from == static_cast<int>(k - 1) && e.to == static_cast<int>(k)) {
-          e.T_from_to = rec.T_prev_curr;
-          e.information = noise.information;
-        }
-      first = std::min(first, k);
+    for (std::size_t k = n > back ? n - back : 1; k < n && k < tf.size(); ++k)
+      if (takeReestimate(result_.frames[k], tf[k])) changed.push_back(k);
+    if (changed.empty()) return changed;
+    if (changed.front() + 1 < n) ++corrections_;  // poses before the newest moved
+    chainFrom(tracked_, result_.frames, changed.front());
+    if (back_end_thread_) chainFrom(estimate_, result_.frames, changed.front());
+    return changed;
+  }
+
+  /// The frame to the back end's thread (by value; a keyframe's scan moved), after the newest
+  /// optimised poses it sent back were applied: at a frame boundary, so the live view sees the
+  /// correction with this frame.
+  void passToBackEnd(Scan& scan, const Eigen::Isometry3d& pose, const std::vector<std::size_t>& changed, bool keyframe) {
+    if (const auto solution = back_end_thread_->takeSolution()) {
+      const std::size_t m = std::min(solution->size(), estimate_.size());
+      std::copy(solution->begin(), solution->begin() + static_cast<std::ptrdiff_t>(m), estimate_.begin());
+      chainFrom(estimate_, result_.frames, m);
+      ++corrections_;
     }
-    if (first + 1 < n) ++corrections_;  // poses before the newest moved
-    for (std::size_t k = first; k < n; ++k) {
-      tracked_[k] = normalized(tracked_[k - 1] * result_.frames[k].T_prev_curr);
-      result_.graph.poses[k] = normalized(result_.graph.poses[k - 1] * result_.frames[k].T_prev_curr);
+    tellFrame(scan.cloud);
+    TrackedFrame f;
+    f.record = result_.frames.back();
+    f.tracked_pose = pose;
+    for (std::size_t k : changed) f.reestimated.push_back(result_.frames[k]);
+    f.keyframe = keyframe;
+    if (keyframe) {
+      f.gravity = scan.gravity;
+      f.cloud = std::move(scan.cloud);
     }
+    back_end_thread_->push(std::move(f));
+  }
+
+  /// The back end's result with what only the tracker knows (wheel odometry, tracking's time).
+  SlamResult withTrackerSide(SlamResult back) const {
+    back.odometry_only = result_.odometry_only;
+    back.timings.tracking_s = result_.timings.tracking_s;
+    return back;
   }
 
   /// track(), with the previous keyframe's pending loop stage (if any) running beside it
@@ -210,7 +251,12 @@ class SlamRun {
     if (!pending_loops_) return;
     PendingLoops p = std::move(*pending_loops_);
     pending_loops_.reset();
-    back_end_->closeLoops(p.pose, std::move(p.cloud));
+    closeLoops(p.frame, std::move(p.cloud));
+  }
+
+  void closeLoops(std::size_t frame, LabeledCloud cloud) {
+    if (before_loop_stage_) before_loop_stage_(frame);
+    graph_->closeLoops(std::move(cloud));
   }
 
   Trajectory trajectoryOf(const std::vector<Eigen::Isometry3d>& poses) const {
@@ -230,14 +276,21 @@ class SlamRun {
   ImuStreamMotion imu_;
   std::optional<Odometry> tracker_;
   std::vector<Eigen::Isometry3d> tracked_;
-  std::optional<BackEnd> back_end_;  // PGO methods only
+  std::optional<Eigen::Isometry3d> last_keyframe_;
+  std::optional<GraphSide> graph_;  // the graph on this thread (every method records one)
   struct PendingLoops {
-    Eigen::Isometry3d pose;
+    std::size_t frame;
     LabeledCloud cloud;
   };
   std::optional<PendingLoops> pending_loops_;  // the newest keyframe's loop stage, not yet run
   std::function<void(const SlamFrameEvent&)> on_frame_;
+  std::function<void(std::size_t)> before_loop_stage_;
   std::size_t told_optimisations_ = 0, corrections_ = 0;
+  std::mutex source_lock_;
+  // SlamConfig::back_end_thread: the graph on the back end's thread, and the estimate so far as
+  // the tracker knows it (the back end's newest optimised poses, then the tracked increments).
+  std::unique_ptr<BackEndThread> back_end_thread_;
+  std::vector<Eigen::Isometry3d> estimate_;
 };
 
 }  // namespace
@@ -253,9 +306,9 @@ SlamResult runSlam(ScanSource& source, const SlamConfig& config, const FrameProg
   if (config.threads > 0)
     threads.emplace(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(config.threads));
   const auto t_start = Clock::now();
-  SlamRun run(source, config, snapshots.frame);
+  SlamRun run(source, config, snapshots);
   const std::size_t total = source.size().value_or(0);
-  while (std::optional<Scan> scan = source.next()) {
+  while (std::optional<Scan> scan = run.next()) {
     run.addScan(std::move(*scan));
     if (progress) progress(run.frames(), total);
     if (snapshots.due && snapshots.take && snapshots.due()) snapshots.take(run.snapshot());

@@ -34,6 +34,11 @@ const ConfigFields<SlamConfig>& slamSectionFields() {
                    "Keyframes not searched for loops after one whose search accepted a loop")
           .flag("loops_beside_tracking", &C::loops_beside_tracking,
                 "Run a keyframe's loop stage while the next scan is tracked (same results)")
+          .flag("back_end_thread", &C::back_end_thread,
+                "Run the back end (loop search, verification, optimisation) on its own thread: tracking "
+                "never waits for it (same final results; hazmap live's default)")
+          .number("back_end_queue_mb", &C::back_end_queue_mb, positive(),
+                  "MiB; with back_end_thread: keyframe scans waiting for the back end, at most (then tracking waits)")
           .number("min_translation_sigma", &C::min_translation_sigma, positive(),
                   "m; floor on an ICP increment's standard deviation before inverting it")
           .number("min_rotation_sigma", &C::min_rotation_sigma, positive(), "rad")

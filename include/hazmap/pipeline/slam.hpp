@@ -77,6 +77,14 @@ struct SlamConfig {
   /// tracked, the two sharing the threads; same results bit for bit (the next scan's node joins
   /// the graph after both).
   bool loops_beside_tracking = true;
+  /// Run the back end (keyframes' loop search, verification, optimisation) on a thread of its
+  /// own instead: tracking never waits for a loop stage, and the optimised poses come back to it
+  /// at a frame boundary (what `hazmap live` does by default). The final answer is the same as
+  /// with this off; the estimate during the run lags the loops by the back end's delay.
+  bool back_end_thread = false;
+  /// With back_end_thread: keyframe scans waiting for the back end, at most (MiB); beyond it
+  /// tracking waits (memory stays bounded when the back end cannot keep up with the sensor).
+  double back_end_queue_mb = 256.0;
   int threads = 0;  ///< 0 = TBB default
   /// Motion compensation of scans with per-point times (spinning LiDARs in bags and captures;
   /// sequence folders of .bin scans have no times and are never touched).
@@ -202,6 +210,9 @@ struct SlamSnapshots {
   std::function<bool()> due;
   std::function<void(const SlamResult&)> take;
   std::function<void(const SlamFrameEvent&)> frame;
+  /// (Optional; tests) called with a keyframe's frame index just before its loop stage, on the
+  /// thread that runs it (the back end's with SlamConfig::back_end_thread).
+  std::function<void(std::size_t frame)> loop_stage;
 };
 SlamResult runSlam(ScanSource& source, const SlamConfig& config, const FrameProgress& progress,
                    const SlamSnapshots& snapshots);

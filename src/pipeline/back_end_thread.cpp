@@ -1,0 +1,157 @@
+#include "pipeline/back_end_thread.hpp"
+
+#include <sys/resource.h>
+#include <tbb/task_arena.h>
+#include <unistd.h>
+
+namespace hazmap::pipeline_detail {
+
+namespace {
+
+// On a machine whose cores are all busy the back end yields to tracking (and to the receive
+// thread): tracking is what the sensor's rate waits for, the back end only has to keep up on
+// average. It runs its loop stage on its own thread alone (an arena of one: TBB's workers stay
+// with tracking); the loop stage's results do not depend on the thread count.
+constexpr int kBackEndNice = 10;
+
+template <typename T>
+std::size_t bytesOf(const std::vector<T>& v) {
+  return v.size() * sizeof(T);
+}
+
+std::size_t queuedBytes(const TrackedFrame& f) {
+  const LabeledCloud& c = f.cloud;
+  return bytesOf(c.points) + bytesOf(c.classes) + bytesOf(c.intensity) + bytesOf(c.timestamps) + bytesOf(c.property);
+}
+
+}  // namespace
+
+BackEndThread::BackEndThread(const SlamConfig& config, const Eigen::Isometry3d& start, const ClassTable& classes,
+                             ScanSource& source, std::mutex& source_lock,
+                             std::function<void(std::size_t)> before_loop_stage)
+    : config_(config), graph_(config, result_, tracked_, start), before_loop_stage_(std::move(before_loop_stage)) {
+  result_.method = config.method;
+  result_.graph.dimension = 3;
+  graph_.start(classes, source, &source_lock);
+  thread_ = std::thread([this] { run(); });
+}
+
+BackEndThread::~BackEndThread() {
+  {
+    std::lock_guard<std::mutex> lock(m_);
+    stop_ = true;
+    queue_.clear();  // not finished (an error on the tracker's side): what is queued is dropped
+  }
+  wake_.notify_all();
+  if (thread_.joinable()) thread_.join();
+}
+
+void BackEndThread::push(TrackedFrame frame) {
+  const std::size_t bytes = queuedBytes(frame);
+  const double limit = config_.back_end_queue_mb * 1024.0 * 1024.0;
+  {
+    std::unique_lock<std::mutex> lock(m_);
+    const auto room = [&] { return failure_ || queued_bytes_ == 0 || double(queued_bytes_ + bytes) <= limit; };
+    room_.wait(lock, room);
+    rethrow();
+    queued_bytes_ += bytes;
+    queue_.push_back(std::move(frame));
+  }
+  wake_.notify_one();
+}
+
+std::shared_ptr<const std::vector<Eigen::Isometry3d>> BackEndThread::takeSolution() {
+  std::lock_guard<std::mutex> lock(m_);
+  return std::move(solution_);
+}
+
+SlamResult BackEndThread::snapshot() {
+  std::unique_lock<std::mutex> lock(m_);
+  waitIdle(lock);
+  rethrow();
+  return result_;  // the back end waits for a frame meanwhile: nothing writes it
+}
+
+SlamResult BackEndThread::finish() {
+  {
+    std::unique_lock<std::mutex> lock(m_);
+    waitIdle(lock);
+    stop_ = true;
+  }
+  wake_.notify_all();
+  thread_.join();
+  rethrow();
+  graph_.finish();
+  return std::move(result_);
+}
+
+void BackEndThread::waitIdle(std::unique_lock<std::mutex>& lock) {
+  idle_.wait(lock, [&] { return failure_ || (queue_.empty() && !busy_); });
+}
+
+void BackEndThread::rethrow() {
+  if (failure_) std::rethrow_exception(failure_);
+}
+
+void BackEndThread::run() {
+  ::setpriority(PRIO_PROCESS, static_cast<id_t>(::gettid()), kBackEndNice);
+  tbb::task_arena alone(1);
+  alone.execute([this] {
+    for (;;) {
+      TrackedFrame frame;
+      {
+        std::unique_lock<std::mutex> lock(m_);
+        wake_.wait(lock, [&] { return stop_ || !queue_.empty(); });
+        if (queue_.empty()) return;
+        frame = std::move(queue_.front());
+        queue_.pop_front();
+        busy_ = true;
+      }
+      const std::size_t bytes = queuedBytes(frame);
+      std::exception_ptr failure;
+      try {
+        apply(frame);
+      } catch (...) {
+        failure = std::current_exception();
+      }
+      std::shared_ptr<const std::vector<Eigen::Isometry3d>> solution;
+      if (result_.optimisations.size() != optimisations_published_) {
+        optimisations_published_ = result_.optimisations.size();
+        solution = std::make_shared<const std::vector<Eigen::Isometry3d>>(result_.graph.poses);
+      }
+      {
+        std::lock_guard<std::mutex> lock(m_);
+        queued_bytes_ -= bytes;
+        busy_ = false;
+        if (solution) solution_ = std::move(solution);
+        if (failure) failure_ = failure;
+      }
+      idle_.notify_all();
+      room_.notify_all();
+      if (failure) return;
+    }
+  });
+}
+
+// The synchronous schedule's order for one frame (slam.cpp SlamRun::addScan): node and edge,
+// record, re-estimated frames, then a keyframe's gravity prior and loop stage.
+void BackEndThread::apply(TrackedFrame& f) {
+  tracked_.push_back(f.tracked_pose);
+  graph_.addFrame(f.record);
+  result_.frames.push_back(std::move(f.record));
+  if (!f.reestimated.empty()) {
+    std::vector<std::size_t> changed;
+    for (FrameRecord& r : f.reestimated) {
+      changed.push_back(r.index);
+      result_.frames.at(r.index) = std::move(r);
+    }
+    chainFrom(tracked_, result_.frames, changed.front());
+    graph_.replaceFrames(changed);
+  }
+  if (!f.keyframe) return;
+  graph_.addGravityPrior(f.gravity);
+  if (before_loop_stage_) before_loop_stage_(result_.frames.size() - 1);
+  graph_.closeLoops(std::move(f.cloud));
+}
+
+}  // namespace hazmap::pipeline_detail

@@ -1,0 +1,79 @@
+#pragma once
+// The asynchronous back end (issue 33 part 3, SlamConfig::back_end_thread): the graph's side of a
+// run (graph_side.hpp: nodes, odometry edges, loop search, verification, optimisation) on a
+// thread of its own, so tracking never waits for a loop stage. What crosses between the two
+// threads is explicit and small: each tracked frame by value (its record, its tracked pose, a
+// keyframe's scan moved in), one way; the newest optimised poses as an immutable shared vector,
+// the other way, which the tracker applies at a frame boundary. The back end applies the frames in
+// the order they were tracked, and the tracker reads nothing the back end computes, so the graph
+// it builds, hence the final answer, is the one the synchronous schedule builds.
+#include <condition_variable>
+#include <deque>
+#include <exception>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <thread>
+#include <vector>
+
+#include "hazmap/pipeline/slam.hpp"
+#include "pipeline/graph_side.hpp"
+
+namespace hazmap::pipeline_detail {
+
+/// One tracked frame, as the back end needs it.
+struct TrackedFrame {
+  FrameRecord record;
+  Eigen::Isometry3d tracked_pose = Eigen::Isometry3d::Identity();
+  /// Earlier frames the tracker re-estimated with this one (issue 19): their new records.
+  std::vector<FrameRecord> reestimated;
+  bool keyframe = false;
+  std::optional<GravitySample> gravity;  ///< a keyframe's, when its scan had one
+  LabeledCloud cloud;                    ///< a keyframe's scan as tracking saw it (empty otherwise)
+};
+
+class BackEndThread {
+ public:
+  /// Starts the thread. `before_loop_stage` (tests; may be empty) is called on the back end's
+  /// thread with a keyframe's frame index before its loop stage.
+  BackEndThread(const SlamConfig& config, const Eigen::Isometry3d& start, const ClassTable& classes,
+                ScanSource& source, std::mutex& source_lock, std::function<void(std::size_t)> before_loop_stage);
+  ~BackEndThread();
+  BackEndThread(const BackEndThread&) = delete;
+  BackEndThread& operator=(const BackEndThread&) = delete;
+
+  /// Queues a frame; waits only while the queued keyframe scans exceed slam.back_end_queue_mb.
+  /// Rethrows what failed on the back end's thread.
+  void push(TrackedFrame frame);
+  /// The newest optimised poses (nodes 0..m) not taken yet; null when none came since.
+  std::shared_ptr<const std::vector<Eigen::Isometry3d>> takeSolution();
+  /// Waits until every queued frame is in the graph; then a copy of the back end's result.
+  SlamResult snapshot();
+  /// Every queued frame, then the final optimisation (BackEnd::finish); the back end's result.
+  SlamResult finish();
+
+ private:
+  void run();
+  void apply(TrackedFrame& frame);
+  void waitIdle(std::unique_lock<std::mutex>& lock);
+  void rethrow();
+
+  const SlamConfig& config_;
+  SlamResult result_;                        // back end's thread only, except while idle
+  std::vector<Eigen::Isometry3d> tracked_;  // back end's thread only
+  GraphSide graph_;
+  std::function<void(std::size_t)> before_loop_stage_;
+  std::size_t optimisations_published_ = 0;
+
+  std::mutex m_;  // everything below
+  std::condition_variable wake_, idle_, room_;
+  std::deque<TrackedFrame> queue_;
+  std::size_t queued_bytes_ = 0;
+  bool busy_ = false, stop_ = false;
+  std::exception_ptr failure_;
+  std::shared_ptr<const std::vector<Eigen::Isometry3d>> solution_;
+  std::thread thread_;  // last: started once the members above exist
+};
+
+}  // namespace hazmap::pipeline_detail

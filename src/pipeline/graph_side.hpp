@@ -1,0 +1,53 @@
+#pragma once
+// The pose graph's side of a run, fed one tracked frame at a time (paper Fig. 1, right): each
+// frame's node chained from the previous (possibly optimised) node, its odometry edge
+// (information = inverse ICP covariance, eq. 3), re-estimated lost frames, and on keyframes the
+// gravity prior and the back end's loop stage. The same code serves both schedules
+// (SlamConfig::back_end_thread): on the tracker's thread (offline, `hazmap run`), or on the
+// back end's own thread with copies of the records (back_end_thread.hpp), so both build the same
+// graph from the same sequence of calls.
+#include <mutex>
+#include <optional>
+#include <vector>
+
+#include "hazmap/io/gravity.hpp"
+#include "hazmap/pipeline/slam.hpp"
+#include "pipeline/back_end.hpp"
+
+namespace hazmap::pipeline_detail {
+
+class GraphSide {
+ public:
+  /// `result`: the graph, the records (frames) and the loop records; `tracked`: the tracked pose
+  /// of each frame (read by the map anchors). Both are the caller's, appended by the caller.
+  GraphSide(const SlamConfig& config, SlamResult& result, const std::vector<Eigen::Isometry3d>& tracked,
+            const Eigen::Isometry3d& start);
+
+  /// PGO methods: the back end over the run's classes. `source_lock` (may be null) is held while
+  /// an old keyframe is re-read from `source` (the tracker reads it on another thread).
+  void start(const ClassTable& classes, ScanSource& source, std::mutex* source_lock);
+  bool hasBackEnd() const { return back_end_.has_value(); }
+
+  /// The newest record's node and odometry edge (result.frames.back() is `rec`'s place).
+  void addFrame(const FrameRecord& rec);
+  /// Frames whose records (result.frames) the tracker re-estimated (ascending): their edges and
+  /// the gate's covariances; the nodes from the first on chained again.
+  void replaceFrames(const std::vector<std::size_t>& changed);
+  /// The newest frame is a keyframe: its gravity prior (when the scan had one).
+  void addGravityPrior(const std::optional<GravitySample>& gravity);
+  /// The newest keyframe's loop stage: anchor edge, loop search and verification, optimisation.
+  void closeLoops(LabeledCloud cloud);
+  void finish();
+
+ private:
+  const SlamConfig& config_;
+  SlamResult& result_;
+  const std::vector<Eigen::Isometry3d>& tracked_;
+  Eigen::Isometry3d start_;
+  std::optional<BackEnd> back_end_;
+};
+
+/// poses[k] = poses[k - 1] · frames[k].T_prev_curr for k from `first` on (the chain of increments).
+void chainFrom(std::vector<Eigen::Isometry3d>& poses, const std::vector<FrameRecord>& frames, std::size_t first);
+
+}  // namespace hazmap::pipeline_detail
