@@ -19,7 +19,23 @@ using nlohmann::json;
 double mm(double v) { return std::round(v * 1000.0) / 1000.0; }
 json xyz(const Eigen::Vector3d& p) { return json::array({mm(p.x()), mm(p.y()), mm(p.z())}); }
 
+json cameraObject(const LiveCameraStats& c) {
+  return {{"name", c.name},
+          {"frames", c.frames},
+          {"rejected", c.rejected},
+          {"ring_dropped", c.ring_dropped},
+          {"scans_without_image", c.scans_without_image},
+          {"stalls", c.stalls},
+          {"stalled", c.stalled},
+          {"last_frame_age_s", c.last_frame_age_s ? json(std::round(*c.last_frame_age_s * 1000) / 1000) : json()},
+          {"pipeline_errors", c.pipeline_errors},
+          {"restarts", c.restarts},
+          {"last_error", c.last_error}};
+}
+
 json statusObject(const LiveStatus& s) {
+  json cameras = json::array();
+  for (const auto& c : s.cameras) cameras.push_back(cameraObject(c));
   return {{"frames", s.frames},
           {"packets", s.packets},
           {"drops", s.drops},
@@ -35,7 +51,9 @@ json statusObject(const LiveStatus& s) {
           {"clients", s.clients},
           {"clients_dropped", s.clients_dropped},
           {"saves", s.saves},
-          {"last_save", s.last_save}};
+          {"last_save", s.last_save},
+          {"cameras", cameras},
+          {"camera_warnings", s.camera_warnings}};
 }
 
 template <typename T>
