@@ -4,6 +4,7 @@
 #include <iostream>
 
 #include "hazmap/core/error.hpp"
+#include "hazmap/pipeline/live_view_messages.hpp"
 #include "hazmap/properties/camera_rig.hpp"
 #include "hazmap/properties/label_sequence.hpp"
 
@@ -73,13 +74,6 @@ std::vector<LiveCameraStats> LiveCameras::stats() const {
   return out;
 }
 
-nlohmann::json LiveCameras::json() const {
-  nlohmann::json out = nlohmann::json::array();
-  for (const LiveCameraStats& s : stats())
-    out.push_back({{"name", s.name}, {"frames", s.frames}, {"rejected", s.rejected}, {"ring_dropped", s.ring_dropped},
-                   {"scans_without_image", s.scans_without_image}, {"stalls", s.stalls},
-                   {"pipeline_errors", s.pipeline_errors}, {"restarts", s.restarts}, {"last_error", s.last_error}});
-  return out;
-}
+nlohmann::json LiveCameras::json() const { return nlohmann::json::parse(liveCamerasJson(stats())); }
 
 }  // namespace hazmap::cli

@@ -12,6 +12,7 @@
 
 #include <chrono>
 #include <fstream>
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
@@ -132,7 +133,8 @@ struct ReplayRun {
 /// `silent_first`: the replay starts only once live reported the sensor silent.
 ReplayRun replayAgainstRun(const std::string& capture, const std::string& live_args, const std::string& rate,
                            int signal, bool silent_first = false, const std::string& run_args = "",
-                           const std::string& replay_args = "", std::string* status = nullptr) {
+                           const std::string& replay_args = "", std::string* status = nullptr,
+                           const std::function<bool(const nlohmann::json&)>& status_done = {}) {
   ReplayRun r;
   const fs::path dir = scratchDir();
   r.run_dir = dir / "run";
@@ -152,7 +154,13 @@ ReplayRun replayAgainstRun(const std::string& capture, const std::string& live_a
   if (status) {  // /status once the replay ended (the page's address is in the log)
     const std::string log = live.log(), mark = "live view: http://127.0.0.1:";
     const auto at = log.find(mark);
-    if (at != std::string::npos) *status = httpGet(std::stoi(log.substr(at + mark.size())), "/status");
+    // The status is refreshed four times a second: asked again until it shows `status_done`.
+    for (int i = 0; at != std::string::npos && i < 200; ++i) {
+      *status = httpGet(std::stoi(log.substr(at + mark.size())), "/status");
+      const auto j = nlohmann::json::parse(*status, nullptr, false);
+      if (!status_done || (!j.is_discarded() && status_done(j))) break;
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    }
   }
   r.live_exit = live.stop(signal);
   r.live_log = live.log();
@@ -237,7 +245,11 @@ TEST(LiveSimulated, NarahaWithItsThermalCameraReplayedLiveGivesTheRunsHazards) {
   const ReplayRun r = replayAgainstRun(base.string(),
                                        "--sensor velodyne --no-deskew --camera '" + yaml + "' --camera-pipeline '" + pipeline + "'",
                                        "50", SIGINT, false, "--no-deskew --camera '" + yaml + "'",
-                                       "--camera '" + yaml + "' --camera-port " + std::to_string(camera_port), &status);
+                                       "--camera '" + yaml + "' --camera-port " + std::to_string(camera_port), &status,
+                                       [](const nlohmann::json& j) {
+                                         return j.contains("cameras") && j["cameras"].size() == 1 &&
+                                                j["cameras"][0].value("frames", 0) >= 12 && j.value("hazards", 0) >= 1;
+                                       });
   ASSERT_EQ(r.live_exit, 0) << r.live_log;
   expectSamePoses(r.run_dir, r.live_dir);
   const auto run_hazards = nlohmann::json::parse(readTextFile(r.run_dir / "hazards.json"));
@@ -395,11 +407,7 @@ TEST(LiveSpool, WriterRoundTripsTimesPortsAndPayloads) {
 
 TEST(LiveErrors, CameraPipelinesThatCannotRunAreOneLineErrors) {
   const fs::path dir = scratchDir();
-  CameraCalibration cam;
-  CameraIntrinsics k;
-  k.width = 64, k.height = 48, k.fx = k.fy = 50, k.cx = 32, k.cy = 24;
-  cam.model = CameraModel(k, "camera");
-  writeTextAtomically(dir / "cam.yaml", cameraYaml(cam, ""));
+  writeTextAtomically(dir / "cam.yaml", cameraYaml(smallCamera("camera"), ""));
   const std::string base = "live --sensor velodyne --port 0 --listen 127.0.0.1:0 --camera '" + (dir / "cam.yaml").string() + "'";
   for (const auto& [pipeline, says] : std::vector<std::pair<std::string, std::string>>{
            {"nosuchelement ! appsink", "does not parse"},

@@ -21,6 +21,7 @@
 #include "hazmap/properties/live_labels.hpp"
 #include "hazmap/sources/gst_camera.hpp"
 #include "live_test_helpers.hpp"
+#include "real_camera_frame.hpp"
 #include "test_helpers.hpp"
 
 namespace hazmap::test {
@@ -43,26 +44,11 @@ bool waitUntil(Done done, double seconds = 10.0) {
 /// channel `temperature` read 1:1 from 8-bit grey (so the built-in heat rule, >= 60, splits the
 /// image into bright and dark), its image folder beside it.
 CameraCalibration realCamera(int width, int height) {
-  const auto dir = sharedData("cameras/pjlab-center-camera");
-  const auto intr = nlohmann::json::parse(readTextFile(dir / "center_camera-intrinsic.json"))["center_camera-intrinsic"]["param"];
-  const auto K = intr["cam_K"]["data"];
-  const auto dist = intr["cam_dist"]["data"][0];
-  CameraIntrinsics k;
-  k.width = width;
-  k.height = height;
-  k.fx = K[0][0];
-  k.cx = K[0][2];
-  k.fy = K[1][1];
-  k.cy = K[1][2];
-  k.distortion = DistortionModel::RadialTangential;
-  k.coeffs = {dist[0], dist[1], dist[2], dist[3], 0.0};
+  const RealCameraCalibration real = readRealCameraCalibration(width, height);
   CameraCalibration c;
   c.name = "center_camera";
-  c.model = CameraModel(k, "center_camera");
-  const auto M = nlohmann::json::parse(readTextFile(dir / "top_center_lidar-to-center_camera-extrinsic.json"))
-      ["top_center_lidar-to-center_camera-extrinsic"]["param"]["sensor_calib"]["data"];
-  for (int r = 0; r < 4; ++r)
-    for (int col = 0; col < 4; ++col) c.T_camera_lidar.matrix()(r, col) = M[r][col];
+  c.model = CameraModel(real.intrinsics, "center_camera");
+  c.T_camera_lidar = real.T_camera_lidar;
   c.channel.name = "temperature";
   c.channel.units = "grey";
   c.channel.scale = 1.0;
@@ -167,10 +153,7 @@ TEST(LiveCameraRtp, Gray16KeepsEveryCountOverRtp) {
   ::clock_gettime(CLOCK_REALTIME, &now);
   EXPECT_LT(std::abs(double(now.tv_sec) - double(f.time_ns) * 1e-9), 60.0);
   // Into a camera's values: raw · scale + offset, as a 16-bit PNG of the same counts gives.
-  CameraCalibration cam;
-  CameraIntrinsics k;
-  k.width = w, k.height = h, k.fx = k.fy = 100, k.cx = w / 2.0, k.cy = h / 2.0;
-  cam.model = CameraModel(k, "rtp");
+  const CameraCalibration cam = smallCamera("rtp", w, h);
   LiveCamera camera(cam);
   ASSERT_TRUE(camera.push(f));
   Gray16 raw{w, h, {}};
@@ -201,17 +184,13 @@ TEST(LiveCameraErrors, BadPipelinesAreOneLineErrors) {
 
 TEST(LiveCameraErrors, UnsupportedFormatIsCountedNotFatal) {
   std::atomic<int> frames{0};
-  GstFrameReceiver r("videotestsrc num-buffers=3 ! video/x-raw,format=I420,width=64,height=48 ! appsink sync=false",
+  GstFrameReceiver r("videotestsrc is-live=true ! video/x-raw,format=I420,width=64,height=48,framerate=30/1 ! appsink",
                      "test", [&](CameraFrame&&) { ++frames; });
   ASSERT_TRUE(waitUntil([&] { return r.stats().rejected >= 1; }));
   EXPECT_EQ(frames.load(), 0);
   EXPECT_NE(r.stats().last_error.find("I420"), std::string::npos) << r.stats().last_error;
   // A frame of another size than the calibration's: rejected by the camera, counted.
-  CameraCalibration cam;
-  CameraIntrinsics k;
-  k.width = 64, k.height = 48, k.fx = k.fy = 50, k.cx = 32, k.cy = 24;
-  cam.model = CameraModel(k, "small");
-  cam.name = "small";
+  const CameraCalibration cam = smallCamera("small");
   LiveCamera camera(cam);
   CameraFrame f{0, 32, 24, "mono8", false, 32, std::vector<std::uint8_t>(32 * 24)};
   EXPECT_FALSE(camera.push(f));
@@ -220,10 +199,7 @@ TEST(LiveCameraErrors, UnsupportedFormatIsCountedNotFatal) {
 }
 
 TEST(LiveCameraLabeler, StalledCameraCostsAWaitAndIsCounted) {
-  CameraCalibration cam;
-  CameraIntrinsics k;
-  k.width = 64, k.height = 48, k.fx = k.fy = 50, k.cx = 32, k.cy = 24;
-  cam.model = CameraModel(k, "stalled");
+  const CameraCalibration cam = smallCamera("stalled");
   LiveCameraConfig config;
   config.wait = 0.2;
   auto camera = std::make_shared<LiveCamera>(cam, config);
@@ -250,10 +226,7 @@ TEST(LiveCameraLabeler, StalledCameraCostsAWaitAndIsCounted) {
 }
 
 TEST(LiveCameraLabeler, RingKeepsFramesUntilNoLaterScanCanUseThem) {
-  CameraCalibration cam;
-  CameraIntrinsics k;
-  k.width = 8, k.height = 8, k.fx = k.fy = 5, k.cx = 4, k.cy = 4;
-  cam.model = CameraModel(k, "ring");
+  const CameraCalibration cam = smallCamera("ring", 8, 8);
   LiveCamera camera(cam);
   for (int i = 0; i < 5; ++i)
     camera.push(CameraFrame{std::int64_t(1000 + i) * 1'000'000'000, 8, 8, "mono8", false, 8, std::vector<std::uint8_t>(64)});
@@ -267,10 +240,7 @@ TEST(LiveCameraLabeler, LabelSpoolGivesTheSecondPassTheSameLabels) {
   // Scans labelled live are spooled; a second pass over the same scans gets the same classes,
   // property and named channels back, the camera class table, and no labels past the spool's end.
   const fs::path dir = scratchDir();
-  CameraCalibration cam;
-  CameraIntrinsics k;
-  k.width = 64, k.height = 48, k.fx = k.fy = 50, k.cx = 32, k.cy = 24;
-  cam.model = CameraModel(k, "spool");
+  const CameraCalibration cam = smallCamera("spool");
   auto camera = std::make_shared<LiveCamera>(cam);
   std::vector<std::uint8_t> pixels(64 * 48 * 2);
   for (std::size_t p = 0; p < pixels.size() / 2; ++p) pixels[2 * p + 1] = p % 64 < 32 ? 0x90 : 0x70;  // hot | cool

@@ -49,6 +49,8 @@ struct LiveStatus {
   std::uint64_t camera_warnings = 0;
 };
 std::string liveStatusJson(const LiveStatus& status);
+/// The cameras' counts as /status has them (a JSON array), for run.json too.
+std::string liveCamerasJson(const std::vector<LiveCameraStats>& cameras);
 std::string liveStatusMessage(const LiveStatus& status);
 
 std::string livePoseMessage(std::size_t frame, const Eigen::Isometry3d& pose, FrameStatus status);
