@@ -90,19 +90,19 @@ class SpoolLabels final : public ScanSource {
 
   std::optional<Scan> next() override {
     std::optional<Scan> scan = scans_->next();
-    if (!scan) return scan;
-    if (!pending_ && !readRecord()) return scan;  // the spool ends: received, never labelled
-    if (pending_index_ != scan->index) return scan;
-    pending_ = false;
-    if (classes_.size() != scan->cloud.size())
-      fail(where_, "label spool: scan " + std::to_string(scan->index) + " had " + std::to_string(classes_.size()) +
+    if (!scan || !findRecord(scan->index)) return scan;  // none: received, never labelled
+    if (points_ != scan->cloud.size())
+      fail(where_, "label spool: scan " + std::to_string(scan->index) + " had " + std::to_string(points_) +
                        " points when labelled, " + std::to_string(scan->cloud.size()) + " now");
     ScanLabels labels;
-    labels.classes = classes_;
-    labels.channels = values_;
+    labels.classes.resize(points_);
+    labels.channels.assign(channels_.size(), std::vector<float>(points_));
+    if (!get(labels.classes.data(), points_)) return scan;  // a record cut by a crash: the end
+    for (auto& v : labels.channels)
+      if (!get(v.data(), points_)) return scan;
     PropertyLabeler::apply(labels, scan->cloud);
     if (read_channels_)
-      for (std::size_t c = 0; c < channels_.size(); ++c) scan->channels.push_back({channels_[c], values_[c]});
+      for (std::size_t c = 0; c < channels_.size(); ++c) scan->channels.push_back({channels_[c], labels.channels[c]});
     return scan;
   }
   std::optional<std::size_t> size() const override { return scans_->size(); }
@@ -114,19 +114,21 @@ class SpoolLabels final : public ScanSource {
   bool get(T* data, std::size_t n) {
     return static_cast<bool>(in_.read(reinterpret_cast<char*>(data), static_cast<std::streamsize>(n * sizeof(T))));
   }
-  /// The next whole record; false at the end (a record cut by a crash counts as the end).
-  bool readRecord() {
-    std::uint64_t head[2];
-    if (!get(head, 2)) return false;
-    if (head[1] > (std::uint64_t(1) << 28)) fail(where_, "label spool: a record of " + std::to_string(head[1]) + " points");
-    classes_.resize(head[1]);
-    values_.assign(channels_.size(), std::vector<float>(head[1]));
-    if (!get(classes_.data(), classes_.size())) return false;
-    for (auto& v : values_)
-      if (!get(v.data(), v.size())) return false;
-    pending_index_ = head[0];
-    pending_ = true;
-    return true;
+  /// Positions the stream at the data of scan `index`'s record (records of scans this pass does
+  /// not have are skipped); false when the spool has none for it.
+  bool findRecord(std::size_t index) {
+    while (true) {
+      if (!pending_) {
+        std::uint64_t head[2];
+        if (!get(head, 2)) return false;
+        if (head[1] > (std::uint64_t(1) << 32)) fail(where_, "label spool: a record of " + std::to_string(head[1]) + " points");
+        pending_index_ = head[0], points_ = head[1], pending_ = true;
+      }
+      if (pending_index_ > index) return false;  // a later scan's
+      pending_ = false;
+      if (pending_index_ == index) return true;
+      in_.seekg(static_cast<std::streamoff>(points_ * (sizeof(ClassId) + sizeof(float) * channels_.size())), std::ios::cur);
+    }
   }
 
   std::unique_ptr<ScanSource> scans_;
@@ -135,10 +137,8 @@ class SpoolLabels final : public ScanSource {
   std::ifstream in_;
   bool read_channels_;
   std::vector<std::string> channels_;
-  bool pending_ = false;
-  std::uint64_t pending_index_ = 0;
-  std::vector<ClassId> classes_;
-  std::vector<std::vector<float>> values_;
+  bool pending_ = false;  // a record's head is read, its data not yet
+  std::uint64_t pending_index_ = 0, points_ = 0;
 };
 
 }  // namespace
