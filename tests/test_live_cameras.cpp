@@ -2,8 +2,8 @@
 // kept in a ring and used to label live scans with the same projection and rules as `hazmap
 // label`. The real camera frame of ../shared/data/cameras (README there) through multifilesrc →
 // pngdec → appsink labels its real LiDAR frame exactly as `hazmap label` does from the same image;
-// 16-bit grey keeps every count over RTP (rtpgstpay); a stalled camera costs a scan its wait and
-// is counted; bad pipelines and unsupported formats are one-line errors or counted rejections.
+// 16-bit grey keeps every count over RTP (rtpgstpay); a frame on its way is waited for, a stalled
+// camera is not, and is counted; bad pipelines and unsupported formats are one-line errors or counted rejections.
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 #include <stb/stb_image.h>
@@ -198,7 +198,7 @@ TEST(LiveCameraErrors, UnsupportedFormatIsCountedNotFatal) {
   EXPECT_NE(camera.stats().last_error.find("small"), std::string::npos);
 }
 
-TEST(LiveCameraLabeler, StalledCameraCostsAWaitAndIsCounted) {
+TEST(LiveCameraLabeler, StalledCameraIsCountedAndItsNextFrameUsed) {
   const CameraCalibration cam = smallCamera("stalled");
   LiveCameraConfig config;
   config.wait = 0.2;
@@ -209,7 +209,7 @@ TEST(LiveCameraLabeler, StalledCameraCostsAWaitAndIsCounted) {
   timespec now;
   ::clock_gettime(CLOCK_REALTIME, &now);
   const double t = double(now.tv_sec) + double(now.tv_nsec) * 1e-9;
-  const ScanLabels labels = labeler.label(scan, t);  // waits until t + 0.1 + 0.2, then labels without
+  const ScanLabels labels = labeler.label(scan, t);  // never heard: not waited for, labelled without
   EXPECT_EQ(labels.image_index.at(0), -1);
   for (ClassId c : labels.classes) EXPECT_EQ(c, 0);
   EXPECT_EQ(camera->stats().scans_without_image, 1u);
@@ -223,6 +223,34 @@ TEST(LiveCameraLabeler, StalledCameraCostsAWaitAndIsCounted) {
   std::size_t heat = 0;
   for (ClassId c : second.classes) heat += c != 0;
   EXPECT_GT(heat, 50u);  // 0x9090 centikelvin = 97 °C on the points in view
+}
+
+TEST(LiveCameraLabeler, AFrameOnItsWayIsWaitedFor) {
+  // The camera is alive (a frame 50 ms before the scan); the frame at the scan's own time comes
+  // 150 ms after the scan is handed over: the scan waits and uses it, not the older one.
+  const CameraCalibration cam = smallCamera("late");
+  auto camera = std::make_shared<LiveCamera>(cam);
+  LiveLabeler labeler({camera}, PropertyRules::defaults({"temperature"}, ClassTable::defaults()), LabelerConfig{});
+  timespec now;
+  ::clock_gettime(CLOCK_REALTIME, &now);
+  const std::int64_t t_ns = std::int64_t{now.tv_sec} * 1'000'000'000 + now.tv_nsec;
+  const auto frame = [](std::int64_t ns, std::uint8_t high) {
+    return CameraFrame{ns, 64, 48, "mono16", false, 128, std::vector<std::uint8_t>(64 * 48 * 2, high)};
+  };
+  ASSERT_TRUE(camera->push(frame(t_ns - 50'000'000, 0x70)));  // 15 °C
+  std::thread late([&] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(150));
+    camera->push(frame(t_ns, 0x90));  // 97 °C
+  });
+  LabeledCloud scan;
+  for (int i = 0; i < 100; ++i) scan.push_back(Eigen::Vector3f(0.01f * i, 0.0f, 5.0f));
+  const ScanLabels labels = labeler.label(scan, realtimeSeconds(t_ns));
+  late.join();
+  EXPECT_EQ(labels.image_index.at(0), 1);
+  std::size_t heat = 0;
+  for (ClassId c : labels.classes) heat += c != 0;
+  EXPECT_GT(heat, 50u);
+  EXPECT_EQ(camera->stats().scans_without_image, 0u);
 }
 
 TEST(LiveCameraLabeler, RingKeepsFramesUntilNoLaterScanCanUseThem) {

@@ -13,7 +13,7 @@
 namespace hazmap {
 
 NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(LiveCameraStats, name, frames, rejected, ring_dropped, scans_without_image, stalls,
-                                   stalled, pipeline_errors, restarts, last_error)
+                                   stalled, pipeline_errors, restarts, last_error);
 
 namespace {
 

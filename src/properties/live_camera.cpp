@@ -87,7 +87,10 @@ bool LiveCamera::push(const CameraFrame& frame) {
 void LiveCamera::waitFor(double t, std::int64_t deadline_ns) const {
   std::unique_lock<std::mutex> lock(m_);
   const auto reached = [&] { return !ring_.empty() && ring_.back().stamp >= t; };
-  while (!reached()) {
+  // A camera silent for longer than `stall` (or not heard yet) is not waited for: tracking would
+  // otherwise lag behind the sensor by the whole wait for as long as it stays silent.
+  const auto silent = [&] { return last_frame_ns_ == 0 || double(nowNs() - last_frame_ns_) * 1e-9 > config_.stall; };
+  while (!reached() && !silent()) {
     const std::int64_t left = deadline_ns - nowNs();
     if (left <= 0) return;
     arrived_.wait_for(lock, std::chrono::nanoseconds(std::min<std::int64_t>(left, 50'000'000)));

@@ -6,8 +6,8 @@
 // test directly), stamped on CLOCK_REALTIME, the clock of the live LiDAR scans. A scan taken at
 // t uses, per camera, the frame nearest to t − time_offset within the labeler's time tolerance
 // (the rule of PropertyLabeler); it waits for that frame until CLOCK_REALTIME reaches
-// t − time_offset + tolerance + wait, so a stalled camera costs each scan at most `wait` once and
-// nothing after (its deadline has passed), and a scan labelled late finds its frames still kept.
+// t − time_offset + tolerance + wait, unless the camera is stalled (no frame for `stall` s, or none
+// yet): then no scan waits for it. A scan labelled late finds its frames still kept.
 #include <condition_variable>
 #include <cstdint>
 #include <memory>
@@ -50,7 +50,7 @@ class LiveCamera {
   /// calibration's, an unknown encoding) is counted, its reason kept. Returns false then.
   bool push(const CameraFrame& frame);
   /// Waits until a frame stamped at or after `t` (camera clock, s) is kept or CLOCK_REALTIME
-  /// reaches `deadline_ns`.
+  /// reaches `deadline_ns`; not at all while the camera is stalled.
   void waitFor(double t, std::int64_t deadline_ns) const;
   /// The kept frames as an image source (shared, not copied).
   std::shared_ptr<const ImageSource> snapshot() const;
