@@ -40,6 +40,7 @@ const RegisterCommand registration{{
       app.add_flag("--no-viewer", o->no_viewer, "Do not write viewer.html");
       app.add_flag("--quiet", o->quiet, "No summary (the listening line is still printed)");
       addLiveViewOptions(app, *o);
+      addLiveCameraOptions(app, o->cameras);
       auto params = addParameterOptions(app, "keys as in --config, e.g. odometry.registration.max_iterations=30");
       app.callback([o, params] { runLiveSession(*o, *params); });
     }}};

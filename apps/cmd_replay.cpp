@@ -22,6 +22,7 @@
 
 #include "command.hpp"
 #include "hazmap/core/error.hpp"
+#include "replay_cameras.hpp"
 #include "replay_datagrams.hpp"
 
 namespace hazmap::cli {
@@ -31,6 +32,8 @@ struct ReplayOptions {
   std::string capture, to = "127.0.0.1", rate = "1";
   int port = -1;
   bool loop = false, quiet = false;
+  std::vector<std::string> cameras;  ///< camera.yaml files whose images go as RTP
+  int camera_port = 5000;
 };
 
 /// The capture's LiDAR data port: a sensor's standard one (2368, 7502) if present, else the
@@ -76,18 +79,24 @@ struct Sent {
   std::uint64_t datagrams = 0, bytes = 0, refused = 0;
 };
 
-/// One pass over the capture; `start` and `origin` map capture time to wall time.
+/// One pass over the capture (and the cameras' images, merged by time); the first datagram or
+/// image sets the origin that maps capture time to wall time.
 void replayOnce(const ReplayOptions& o, int socket, sockaddr_in address, double rate, std::uint16_t data_port,
-                Sent& sent) {
+                ReplayCameras& cameras, Sent& sent) {
   const auto datagrams = openReplayDatagrams(o.capture);
   ReplayDatagram packet;
   std::optional<std::int64_t> origin;
   const auto start = std::chrono::steady_clock::now();
-  while (datagrams->next(packet)) {
-    if (!origin) origin = packet.time_ns;
+  const auto pace = [&](std::int64_t time_ns) {
+    if (!origin) origin = time_ns;
     if (rate > 0)
       std::this_thread::sleep_until(start + std::chrono::nanoseconds(static_cast<std::int64_t>(
-                                                static_cast<double>(packet.time_ns - *origin) / rate)));
+                                                static_cast<double>(time_ns - *origin) / rate)));
+  };
+  cameras.rewind();
+  while (datagrams->next(packet)) {
+    cameras.sendUntil(packet.time_ns, pace);  // images stamped up to this datagram go first
+    pace(packet.time_ns);
     std::uint16_t port = packet.port;
     if (o.port >= 0) port = static_cast<std::uint16_t>(port == data_port ? o.port : o.port + 1);
     address.sin_port = htons(port);
@@ -100,6 +109,7 @@ void replayOnce(const ReplayOptions& o, int socket, sockaddr_in address, double 
     ++sent.datagrams;
     sent.bytes += packet.payload.size();
   }
+  cameras.sendUntil(std::nullopt, pace);
 }
 
 void replay(const ReplayOptions& o) {
@@ -110,12 +120,15 @@ void replay(const ReplayOptions& o) {
   const int s = ::socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
   if (s < 0) fail("replay", std::string("cannot open a socket: ") + std::strerror(errno));
   std::unique_ptr<int, void (*)(int*)> closer(new int(s), [](int* fd) { ::close(*fd), delete fd; });
+  ReplayCameras cameras(o.cameras, o.to, o.camera_port);
   Sent sent;
   const auto start = std::chrono::steady_clock::now();
-  do replayOnce(o, s, address, rate, data_port, sent);
+  do replayOnce(o, s, address, rate, data_port, cameras, sent);
   while (o.loop);
   if (o.quiet) return;
-  std::cout << fmt::format("sent {} datagrams ({} bytes) to {} in {:.3f} s{}\n", sent.datagrams, sent.bytes, o.to,
+  std::cout << fmt::format("sent {} datagrams ({} bytes){} to {} in {:.3f} s{}\n", sent.datagrams, sent.bytes,
+                           cameras.count() ? fmt::format(" and {} camera images (RTP, port {}+)", cameras.sent(), o.camera_port) : "",
+                           o.to,
                            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(),
                            sent.refused ? fmt::format(", {} refused (no listener)", sent.refused) : "");
 }
@@ -132,6 +145,11 @@ const RegisterCommand registration{{
       app.add_option("--port", o->port,
                      "Send the LiDAR data port's datagrams to this port and every other datagram to this + 1 "
                      "(as hazmap live --port listens); default: the original ports");
+      app.add_option("--camera", o->cameras,
+                     "Also send this camera's images (camera.yaml beside its NNNNNN.png and times.txt; repeatable) "
+                     "as RTP (rtpgstpay, GRAY16_LE), each at its stamp");
+      app.add_option("--camera-port", o->camera_port,
+                     "UDP port of the first --camera's RTP stream (the next camera: + 1, ...)");
       app.add_flag("--quiet", o->quiet, "No summary line");
       app.callback([o] { replay(*o); });
     }}};

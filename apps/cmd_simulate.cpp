@@ -140,6 +140,22 @@ std::vector<McapExtraTopic> cameraTopics(const std::filesystem::path& folder, co
   return topics;
 }
 
+/// --format pcap --cameras: the cameras' folders (images, times.txt, camera.yaml) beside the
+/// capture as CAPTURE_STEM.cameras/<name>/, for `hazmap run CAPTURE --camera` and `hazmap replay
+/// --camera` (the packets carry no image).
+void keepPcapCameras(const std::filesystem::path& cameras, const std::filesystem::path& capture, bool overwrite) {
+  namespace fs = std::filesystem;
+  const fs::path target = capture.parent_path() / (capture.stem().string() + ".cameras");
+  std::error_code ec;
+  if (fs::exists(target, ec) && !overwrite) fail(target.string(), "exists (pass --overwrite to replace it)");
+  fs::remove_all(target);
+  fs::create_directories(target.parent_path());
+  fs::rename(cameras, target);  // the same folder (the simulated sequence sits beside the capture)
+  for (const auto& entry : fs::directory_iterator(target))
+    if (fs::exists(entry.path() / "camera.yaml"))
+      std::cout << fmt::format("  camera {}\n", (entry.path() / "camera.yaml").string());
+}
+
 /// --format pcap: the sequence simulated into a temporary folder, each scan written as the VLP-16's
 /// data packets to port 2368 (sim/velodyne_packets.hpp) into a capture renamed into place at the
 /// end. Packets carry no class, odometry or truth: a run on the capture is geometry alone.
@@ -176,6 +192,7 @@ void writeSimulationAsPcap(const sim::SimulatorConfig& config, const std::filesy
   fs::rename(partial, absolute);
   std::cout << fmt::format("wrote {}: {} frames as {} VLP-16 data packets (port 2368), {:.1f} m route\n",
                            capture.string(), frames, packets, summary.route_length);
+  if (fs::is_directory(folder / "cameras", ec)) keepPcapCameras(folder / "cameras", absolute, overwrite);
 }
 
 /// The simulated imu.txt as sensor_msgs/Imu on /imu (sensor frame: frame_id velodyne).

@@ -22,6 +22,7 @@
 #include "hazmap/pipeline/frame_latency.hpp"
 #include "hazmap/pipeline/live_view_feed.hpp"
 #include "hazmap/pipeline/run_outputs.hpp"
+#include "hazmap/properties/live_labels.hpp"
 #include "hazmap/sources/live_source.hpp"
 
 namespace hazmap::cli {
@@ -89,6 +90,8 @@ nlohmann::json liveJson(const LiveScanSource& source, LiveSensor sensor, const s
           {"silences", s.silences}, {"decoder", s.decoder}, {"spool", "live.pcap"}, {"state", state}};
 }
 
+constexpr const char* kLabelSpool = "live_labels.bin";
+
 /// POST /save from the browser: answered once the pipeline wrote the run folder between two
 /// frames (a snapshot needs the pipeline's thread), or after `wait` with `pending`.
 class SaveRequests {
@@ -130,6 +133,8 @@ struct Session {
   SlamConfig config;
   LiveSensor sensor;
   std::unique_ptr<LiveScanSource> source;
+  std::unique_ptr<LiveCameras> cameras;        // with --camera
+  std::unique_ptr<LiveLabelledScans> labelled;  // the source's scans with the cameras' labels
   std::unique_ptr<LiveViewFeed> view;
   SaveRequests saves;
   FrameLatency latency;  // a scan's newest point to its pose (pipeline thread only)
@@ -137,22 +142,27 @@ struct Session {
   void write(const SlamResult& result, const std::string& state, bool final_write);
   void save(const SlamResult& result, const std::string& state, bool final_write);
   void startView();
+  ScanSource& scans() { return labelled ? static_cast<ScanSource&>(*labelled) : *source; }
 };
 
 /// The run folder from `result` (the end's or a save's): the map's second pass re-reads the
 /// spool; run.json gains the stream's counts (`live`).
 void Session::write(const SlamResult& result, const std::string& state, bool final_write) {
   source->flushSpool();
+  if (labelled) labelled->flush();
   const std::filesystem::path out(o.out);
   ScanSourceOptions options = sourceOptions(o, sensor);
   options.notice = nullptr;  // the live pass said it already
-  const auto second_pass = openLiveSpool(out / "live.pcap", sensor, options);
+  std::unique_ptr<ScanSource> second_pass = openLiveSpool(out / "live.pcap", sensor, options);
+  if (labelled) second_pass = relabelFromSpool(std::move(second_pass), out / kLabelSpool);
   OutputConfig outputs;
   outputs.write_viewer = !o.no_viewer;
+  if (cameras) outputs.channel_cameras = cameras->channelCameras();
   outputs.write_map_folder = final_write;  // the reopenable map once, at the end (not every autosave)
   const RunSummary summary = writeRunOutputs(*second_pass, result, config, outputs, out);
   nlohmann::json j = nlohmann::json::parse(readTextFile(out / "run.json"));
   j["live"] = liveJson(*source, sensor, state, latency);
+  if (cameras) j["live"]["cameras"] = cameras->json(), j["live"]["label_spool"] = kLabelSpool;
   writeTextAtomically(out / "run.json", j.dump(2) + "\n");
   if (o.quiet) return;
   if (final_write) std::cout << formatRunSummary(result, summary, out, outputs);
@@ -212,7 +222,8 @@ void Session::startView() {
   c.map.max_points = o.view_max_points;
   c.title = "hazmap live: " + o.out;
   LiveScanSource* s = source.get();
-  view = std::make_unique<LiveViewFeed>(c, source->classTable(), [s] { return s->receiverStats(); },
+  if (cameras) c.cameras = [this] { return cameras->stats(); };
+  view = std::make_unique<LiveViewFeed>(c, scans().classTable(), [s] { return s->receiverStats(); },
                                         [this] { return saves.request(std::chrono::seconds(20)); });
   std::cout << "live view: " << liveViewUrl(o.listen, view->port(), c.server.token) << "\n" << std::flush;
 }
@@ -234,7 +245,7 @@ void stopLiveSession() { g_stop.store(true); }
 
 void runLiveSession(const LiveOptions& o, const ParameterOptions& params,
                     const std::function<void(std::uint16_t)>& listening) {
-  Session s{o, liveConfig(o, params), liveSensorNamed(o.sensor), nullptr, nullptr, {}, {}};
+  Session s{o, liveConfig(o, params), liveSensorNamed(o.sensor), nullptr, nullptr, nullptr, nullptr, {}, {}};
   if (o.port < -1 || o.port > 65535) fail("--port", std::to_string(o.port) + " is no UDP port (0-65535)");
   if (!(o.queue_mb >= 0.01 && o.queue_mb <= 65536)) fail("--queue-mb", "must be in [0.01, 65536] MiB");
   if (!(o.autosave_every >= 0)) fail("--autosave-every", "must be >= 0 seconds (0: no autosave)");
@@ -249,6 +260,12 @@ void runLiveSession(const LiveOptions& o, const ParameterOptions& params,
   live.stop = &g_stop;
   live.queue_bytes = static_cast<std::size_t>(o.queue_mb * 1024 * 1024);
   s.source = openLiveSource(live, sourceOptions(o, s.sensor));
+  if (!o.cameras.cameras.empty() || !o.cameras.pipelines.empty()) {
+    s.cameras = std::make_unique<LiveCameras>(o.cameras, s.source->classTable());
+    s.labelled = std::make_unique<LiveLabelledScans>(*s.source, s.cameras->labeler(), out / kLabelSpool);
+  } else if (!o.cameras.rules.empty()) {
+    fail("--rules", "needs --camera");
+  }
   if (!o.sensor_metadata.empty())  // beside the spool, so `hazmap run DIR/live.pcap` finds it
     std::filesystem::copy_file(o.sensor_metadata, out / "live.json", std::filesystem::copy_options::overwrite_existing);
   s.startView();
@@ -271,7 +288,7 @@ void runLiveSession(const LiveOptions& o, const ParameterOptions& params,
     if (const double newest = newestPointTime(e.scan); newest > 0) s.latency.add(realtimeNow() - newest);
     if (s.view) s.view->onFrame(e);
   };
-  const SlamResult result = runSlam(*s.source, s.config, {}, hooks);
+  const SlamResult result = runSlam(s.scans(), s.config, {}, hooks);
   if (s.view) s.view->drain();
   s.save(result, stoppedBy(), true);
 }

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "config_options.hpp"
+#include "live_cameras.hpp"
 
 namespace hazmap::cli {
 
@@ -22,6 +23,7 @@ struct LiveOptions {
   std::string listen = "127.0.0.1:8080", token, token_file;
   double view_voxel = 0.2;
   std::size_t view_max_points = 1'000'000;
+  LiveCameraOptions cameras;  ///< property cameras (none: the scans carry no property class)
 };
 
 /// Adds the live view's flags (--listen, --token, --token-file, --no-view, --view-voxel,

@@ -42,7 +42,7 @@ set(HAZMAP_STAGE_LINKS_properties preprocess)
 # Third-party libraries: private to the stages (a static library passes them on as link-only).
 set(HAZMAP_STAGE_THIRD_PARTY TBB::tbb Ceres::ceres yaml-cpp fmt::fmt spdlog::spdlog embree nanoflann::nanoflann
   nlohmann_json::nlohmann_json ${STB_LIBRARY} ${CAIRO_LIBRARY} SQLite::SQLite3 PkgConfig::ZSTD
-  PkgConfig::LZ4 BZip2::BZip2 ZLIB::ZLIB ${PCAP_LIBRARY} ${CIVETWEB_LIBRARY})
+  PkgConfig::LZ4 PkgConfig::GST BZip2::BZip2 ZLIB::ZLIB ${PCAP_LIBRARY} ${CIVETWEB_LIBRARY})
 
 # A symbolic link `link` -> `target`, replacing whatever `link` was.
 function(hazmap_stage_link target link)

@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <limits>
 
 #include "hazmap/core/config_fields.hpp"
 #include "hazmap/core/property_icp_config.hpp"
@@ -49,6 +50,23 @@ void velodyneSeeds(const fs::path& pcap, const fs::path& out) {
 
 }  // namespace
 
+/// A label spool as `hazmap live --camera` writes it (live_labels.cpp): one channel, scans 0 and 1
+/// of three points each (classes, temperatures with one unobserved point).
+void writeLabelSpoolSeed(const fs::path& path) {
+  std::string bytes = "HZLABELS1\n";
+  const auto put = [&](const auto& v) { bytes.append(reinterpret_cast<const char*>(&v), sizeof v); };
+  put(std::uint32_t{1});
+  put(std::uint32_t{11});
+  bytes += "temperature";
+  for (std::uint64_t scan = 0; scan < 2; ++scan) {
+    put(scan);
+    put(std::uint64_t{3});
+    for (std::uint16_t c : {0, 1, 1}) put(c);
+    for (float t : {20.5f, 75.0f, std::numeric_limits<float>::quiet_NaN()}) put(t);
+  }
+  writeTextAtomically(path, bytes);
+}
+
 int main(int argc, char** argv) {
   if (argc != 4) {
     std::cerr << "usage: hazmap_fuzz_seeds SHARED_DATA_DIR SOURCE_DIR OUT_DIR\n";
@@ -56,7 +74,7 @@ int main(int argc, char** argv) {
   }
   const fs::path data = argv[1], source = argv[2], out = argv[3];
   try {
-    for (const char* d : {"pcd", "ply", "kitti", "trajectory", "class_table", "hazards_json", "config"})
+    for (const char* d : {"pcd", "ply", "kitti", "trajectory", "class_table", "hazards_json", "config", "label_spool"})
       fs::create_directories(out / d);
     const auto scan = readKittiScan(data / "kitti-semantic-sample/velodyne/000000.bin",
                                     data / "kitti-semantic-sample/labels/000000.label", ClassTable::defaults());
@@ -143,6 +161,7 @@ int main(int argc, char** argv) {
   "min": [16.4, -1.0, -0.5], "max": [18.5, 0.6, -0.3], "extent": [2.1, 1.6, 0.2], "area_m2": 2.48,
   "cells": 250, "points": 4100, "mean_property": 1.0, "frame_count": 20, "frames": [[20, 39]]}]}
 )");
+    writeLabelSpoolSeed(out / "label_spool/live_labels.bin");
   } catch (const std::exception& e) {
     std::cerr << "hazmap_fuzz_seeds: " << e.what() << "\n";
     return 1;

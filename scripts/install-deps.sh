@@ -12,6 +12,7 @@ packages=(
   pcl-tools
   libsqlite3-dev libzstd-dev liblz4-dev libbz2-dev zlib1g-dev
   libpcap-dev libcivetweb-dev
+  libgstreamer1.0-dev libgstreamer-plugins-base1.0-dev gstreamer1.0-plugins-base gstreamer1.0-plugins-good
   libcairo2-dev fonts-dejavu-core libjs-three chromium
   python3-dev python3-pybind11 python3-pytest python3-numpy python3-dask python3-distributed
 )

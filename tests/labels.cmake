@@ -112,6 +112,8 @@ hazmap_label(test_viewer unit
 hazmap_label(test_live real-data
   unit "^LiveSpool\\.WriterRoundTrips|^LiveErrors\\."
   scene "^LiveSimulated\\.")
+hazmap_label(test_live_cameras unit
+  real-data "^LiveCameraRealFrame\\.")
 hazmap_label(test_missions unit
   scene "^PriorMap\\.SecondMission"
   real-data "^PriorMapReal\\.")

@@ -12,6 +12,8 @@
 #include <cstdint>
 #include <string>
 
+#include "hazmap/properties/camera.hpp"
+
 namespace hazmap::test {
 
 inline int bindUdp(std::uint16_t port) {
@@ -48,6 +50,16 @@ inline std::uint16_t freePortPair() {
   }
   ADD_FAILURE() << "no free UDP port pair";
   return 0;
+}
+
+/// A pinhole camera of `width`×`height` looking along the LiDAR's z (focal length = width · 0.78).
+inline CameraCalibration smallCamera(const std::string& name, int width = 64, int height = 48) {
+  CameraIntrinsics k;
+  k.width = width, k.height = height, k.fx = k.fy = 0.78125 * width, k.cx = width / 2.0, k.cy = height / 2.0;
+  CameraCalibration c;
+  c.name = name;
+  c.model = CameraModel(k, name);
+  return c;
 }
 
 /// The body of GET `path` on 127.0.0.1:`port` ("" when nothing answered).

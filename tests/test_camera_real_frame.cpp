@@ -15,10 +15,14 @@
 #include "hazmap/io/atomic_file.hpp"
 #include "hazmap/io/pcd.hpp"
 #include "hazmap/properties/camera_model.hpp"
+#include "real_camera_frame.hpp"
 #include "test_helpers.hpp"
 
 namespace hazmap {
 namespace {
+
+using test::RealCameraCalibration;
+using test::readRealCameraCalibration;
 
 struct Frame {
   LabeledCloud cloud;
@@ -38,23 +42,10 @@ Frame loadFrame() {
   if (!rgb) throw std::runtime_error("cannot read 0.png");
   for (int i = 0; i < f.width * f.height; ++i) f.grey.push_back((rgb[3 * i] + rgb[3 * i + 1] + rgb[3 * i + 2]) / 3.0f);
   stbi_image_free(rgb);
-  const auto intr = nlohmann::json::parse(readTextFile(dir / "center_camera-intrinsic.json"))["center_camera-intrinsic"]["param"];
-  const auto K = intr["cam_K"]["data"];
-  const auto dist = intr["cam_dist"]["data"][0];
-  CameraIntrinsics k;
-  k.width = f.width;  // the image's 1200 rows, not img_dist_h's 1080 (README)
-  k.height = f.height;
-  k.fx = K[0][0];
-  k.cx = K[0][2];
-  k.fy = K[1][1];
-  k.cy = K[1][2];
-  k.distortion = DistortionModel::RadialTangential;
-  k.coeffs = {dist[0], dist[1], dist[2], dist[3], 0.0};
-  f.camera = CameraModel(k, "center_camera");
-  const auto ext = nlohmann::json::parse(readTextFile(dir / "top_center_lidar-to-center_camera-extrinsic.json"));
-  const auto M = ext["top_center_lidar-to-center_camera-extrinsic"]["param"]["sensor_calib"]["data"];
-  for (int r = 0; r < 4; ++r)
-    for (int c = 0; c < 4; ++c) f.T_camera_lidar.matrix()(r, c) = M[r][c];
+  // The image's 1200 rows, not img_dist_h's 1080 (README).
+  const RealCameraCalibration c = readRealCameraCalibration(f.width, f.height);
+  f.camera = CameraModel(c.intrinsics, "center_camera");
+  f.T_camera_lidar = c.T_camera_lidar;
   return f;
 }
 

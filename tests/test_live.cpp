@@ -12,6 +12,7 @@
 
 #include <chrono>
 #include <fstream>
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
@@ -19,6 +20,7 @@
 
 #include "hazmap/io/atomic_file.hpp"
 #include "hazmap/io/trajectory.hpp"
+#include "hazmap/properties/camera.hpp"
 #include "hazmap/sources/live_source.hpp"
 #include "hazmap/sources/pcap_reader.hpp"
 #include "hazmap/sources/pcap_writer.hpp"
@@ -130,7 +132,9 @@ struct ReplayRun {
 
 /// `silent_first`: the replay starts only once live reported the sensor silent.
 ReplayRun replayAgainstRun(const std::string& capture, const std::string& live_args, const std::string& rate,
-                           int signal, bool silent_first = false, const std::string& run_args = "") {
+                           int signal, bool silent_first = false, const std::string& run_args = "",
+                           const std::string& replay_args = "", std::string* status = nullptr,
+                           const std::function<bool(const nlohmann::json&)>& status_done = {}) {
   ReplayRun r;
   const fs::path dir = scratchDir();
   r.run_dir = dir / "run";
@@ -145,8 +149,19 @@ ReplayRun replayAgainstRun(const std::string& capture, const std::string& live_a
   EXPECT_TRUE(live.waitListening()) << live.log();
   if (silent_first) EXPECT_TRUE(live.waitFor("waiting for sensor on UDP port")) << live.log();
   const auto replay = runCli("replay '" + capture + "' --to 127.0.0.1 --port " + std::to_string(port) +
-                             " --rate " + rate);
+                             " --rate " + rate + " " + replay_args);
   EXPECT_EQ(replay.exit_code, 0) << replay.output;
+  if (status) {  // /status once the replay ended (the page's address is in the log)
+    const std::string log = live.log(), mark = "live view: http://127.0.0.1:";
+    const auto at = log.find(mark);
+    // The status is refreshed four times a second: asked again until it shows `status_done`.
+    for (int i = 0; at != std::string::npos && i < 200; ++i) {
+      *status = httpGet(std::stoi(log.substr(at + mark.size())), "/status");
+      const auto j = nlohmann::json::parse(*status, nullptr, false);
+      if (!status_done || (!j.is_discarded() && status_done(j))) break;
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    }
+  }
   r.live_exit = live.stop(signal);
   r.live_log = live.log();
   return r;
@@ -211,6 +226,54 @@ TEST(LiveSimulated, NarahaAsVelodynePacketsReplayedLiveGivesTheRunsPoses) {
   ASSERT_EQ(r.live_exit, 0) << r.live_log;
   expectSamePoses(r.run_dir, r.live_dir);
   EXPECT_EQ(liveSection(r.live_dir).at("lost").get<std::size_t>(), 0u);
+}
+
+TEST(LiveSimulated, NarahaWithItsThermalCameraReplayedLiveGivesTheRunsHazards) {
+  // simulate --format pcap --cameras thermal keeps the camera's images beside the capture; replay
+  // sends them as RTP (rtpgstpay) on the capture's clock, live labels each scan from the frame
+  // nearest its time: the hazards (and poses) of `hazmap run CAPTURE --camera` on the same input.
+  const fs::path base = scratchDir().parent_path() / "LiveSimulated.thermal.pcap";
+  const auto sim = runCli("simulate --frames 12 --cameras thermal --format pcap --overwrite --out '" + base.string() + "'");
+  ASSERT_EQ(sim.exit_code, 0) << sim.output;
+  const std::string yaml = (base.parent_path() / "LiveSimulated.thermal.cameras" / "thermal" / "camera.yaml").string();
+  ASSERT_TRUE(fs::exists(yaml)) << sim.output;
+  const std::uint16_t camera_port = freePortPair();
+  const std::string pipeline = "udpsrc port=" + std::to_string(camera_port) +
+                               " buffer-size=16777216 caps=\"application/x-rtp,media=application,clock-rate=90000,"
+                               "encoding-name=X-GST\" ! rtpgstdepay ! appsink name=thermal";
+  std::string status;
+  const ReplayRun r = replayAgainstRun(base.string(),
+                                       "--sensor velodyne --no-deskew --camera '" + yaml + "' --camera-pipeline '" + pipeline + "'",
+                                       "50", SIGINT, false, "--no-deskew --camera '" + yaml + "'",
+                                       "--camera '" + yaml + "' --camera-port " + std::to_string(camera_port), &status,
+                                       [](const nlohmann::json& j) {
+                                         return j.contains("cameras") && j["cameras"].size() == 1 &&
+                                                j["cameras"][0].value("frames", 0) >= 12 && j.value("hazards", 0) >= 1;
+                                       });
+  ASSERT_EQ(r.live_exit, 0) << r.live_log;
+  expectSamePoses(r.run_dir, r.live_dir);
+  const auto run_hazards = nlohmann::json::parse(readTextFile(r.run_dir / "hazards.json"));
+  const auto live_hazards = nlohmann::json::parse(readTextFile(r.live_dir / "hazards.json"));
+  EXPECT_GE(run_hazards.at("count").get<int>(), 1);  // the simulated hot spots are seen
+  ASSERT_EQ(live_hazards.at("count"), run_hazards.at("count"));
+  for (std::size_t k = 0; k < run_hazards.at("hazards").size(); ++k) {
+    const auto& a = run_hazards["hazards"][k];
+    const auto& b = live_hazards["hazards"][k];
+    EXPECT_EQ(a.at("class"), b.at("class"));
+    EXPECT_EQ(a.at("cells"), b.at("cells"));
+    for (int i = 0; i < 3; ++i) EXPECT_NEAR(a["centroid"][i].get<double>(), b["centroid"][i].get<double>(), 1e-3);
+    EXPECT_NEAR(a["channels"]["temperature"]["max"].get<double>(), b["channels"]["temperature"]["max"].get<double>(), 1e-3);
+  }
+  const auto live = liveSection(r.live_dir);
+  EXPECT_EQ(live.at("lost").get<std::size_t>(), 0u);
+  ASSERT_EQ(live.at("cameras").size(), 1u);
+  EXPECT_EQ(live["cameras"][0].at("frames").get<int>(), 12);  // every image arrived whole
+  EXPECT_EQ(live["cameras"][0].at("scans_without_image").get<int>(), 0);
+  // /status after the replay: the camera's frames, and hazards found by the live view's map.
+  const auto s = nlohmann::json::parse(status.empty() ? "{}" : status);
+  ASSERT_TRUE(s.contains("cameras")) << status;
+  EXPECT_EQ(s["cameras"][0].at("frames").get<int>(), 12);
+  EXPECT_GE(s.at("hazards").get<int>(), 1);
 }
 
 TEST(LiveSimulated, DemoLiveReplaysTheMissionToLiveAndWritesTheRunFolder) {
@@ -340,6 +403,25 @@ TEST(LiveSpool, WriterRoundTripsTimesPortsAndPayloads) {
   EXPECT_EQ(p.payload.size(), b.size());
   EXPECT_FALSE(r.next(p));
   EXPECT_FALSE(r.loss().anyLost());
+}
+
+TEST(LiveErrors, CameraPipelinesThatCannotRunAreOneLineErrors) {
+  const fs::path dir = scratchDir();
+  writeTextAtomically(dir / "cam.yaml", cameraYaml(smallCamera("camera"), ""));
+  const std::string base = "live --sensor velodyne --port 0 --listen 127.0.0.1:0 --camera '" + (dir / "cam.yaml").string() + "'";
+  for (const auto& [pipeline, says] : std::vector<std::pair<std::string, std::string>>{
+           {"nosuchelement ! appsink", "does not parse"},
+           {"videotestsrc ! fakesink", "no appsink"},
+           {"v4l2src device=/dev/no-such-camera ! appsink", "no-such-camera"}}) {
+    const auto r = runCli(base + " --camera-pipeline '" + pipeline + "' --out '" + (dir / "out").string() + "'");
+    EXPECT_NE(r.exit_code, 0) << pipeline;
+    EXPECT_NE(r.output.find("--camera-pipeline of camera: "), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find(says), std::string::npos) << r.output;
+    EXPECT_EQ(r.output.find("Segmentation"), std::string::npos);
+  }
+  const auto r = runCli(base + " --out '" + (dir / "out").string() + "'");  // a camera without its pipeline
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("--camera-pipeline: give one per --camera (1 cameras, 0 pipelines)"), std::string::npos) << r.output;
 }
 
 TEST(LiveErrors, PortInUseUnknownSensorAndOusterWithoutMetadata) {

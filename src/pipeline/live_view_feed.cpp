@@ -184,6 +184,9 @@ LiveStatus LiveViewFeed::Impl::status() const {
       s.last_packet_age_s = std::max(0.0, double(ns) * 1e-9);
     }
   }
+  if (config.cameras) s.cameras = config.cameras();
+  for (const LiveCameraStats& c : s.cameras)
+    s.camera_warnings += c.rejected + c.pipeline_errors + c.ring_dropped + c.stalls + c.scans_without_image;
   if (server) {
     const LiveViewStats v = server->stats();
     s.clients = v.clients;

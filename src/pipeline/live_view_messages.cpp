@@ -12,6 +12,9 @@
 
 namespace hazmap {
 
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(LiveCameraStats, name, frames, rejected, ring_dropped, scans_without_image, stalls,
+                                   stalled, pipeline_errors, restarts, last_error);
+
 namespace {
 
 using nlohmann::json;
@@ -19,7 +22,15 @@ using nlohmann::json;
 double mm(double v) { return std::round(v * 1000.0) / 1000.0; }
 json xyz(const Eigen::Vector3d& p) { return json::array({mm(p.x()), mm(p.y()), mm(p.z())}); }
 
+json cameraObject(const LiveCameraStats& c) {
+  json j = c;  // every count (to_json below)
+  j["last_frame_age_s"] = c.last_frame_age_s ? json(std::round(*c.last_frame_age_s * 1000) / 1000) : json();
+  return j;
+}
+
 json statusObject(const LiveStatus& s) {
+  json cameras = json::array();
+  for (const auto& c : s.cameras) cameras.push_back(cameraObject(c));
   return {{"frames", s.frames},
           {"packets", s.packets},
           {"drops", s.drops},
@@ -35,7 +46,9 @@ json statusObject(const LiveStatus& s) {
           {"clients", s.clients},
           {"clients_dropped", s.clients_dropped},
           {"saves", s.saves},
-          {"last_save", s.last_save}};
+          {"last_save", s.last_save},
+          {"cameras", cameras},
+          {"camera_warnings", s.camera_warnings}};
 }
 
 template <typename T>
@@ -91,6 +104,12 @@ std::string mapMessage(std::size_t seq, const std::vector<NewVoxel>& voxels, dou
 }  // namespace
 
 std::string liveStatusJson(const LiveStatus& status) { return statusObject(status).dump(); }
+
+std::string liveCamerasJson(const std::vector<LiveCameraStats>& cameras) {
+  json out = json::array();
+  for (const auto& c : cameras) out.push_back(cameraObject(c));
+  return out.dump();
+}
 
 std::string liveStatusMessage(const LiveStatus& status) {
   return json{{"type", "status"}, {"status", statusObject(status)}}.dump();

@@ -28,9 +28,11 @@ std::optional<double> ratio(std::size_t num, std::size_t den) {
   return static_cast<double>(num) / static_cast<double>(den);
 }
 
-// The labelled sequence's table: every property class now comes from a camera, which labels
-// only what it saw of a region, so no class marks its whole extent (property ICP then keeps
-// the class but not the labelled patch's outline, ClassInfo::whole_extent).
+}  // namespace
+
+// Every property class now comes from a camera, which labels only what it saw of a region, so
+// no class marks its whole extent (property ICP then keeps the class but not the labelled
+// patch's outline, ClassInfo::whole_extent).
 ClassTable cameraClassTable(const ClassTable& input) {
   ClassTable table = input;
   for (ClassId id : input.ids()) {
@@ -42,7 +44,13 @@ ClassTable cameraClassTable(const ClassTable& input) {
   return table;
 }
 
-}  // namespace
+PropertyRules cameraRules(const fs::path& rules, const std::vector<std::string>& channels, const ClassTable& table) {
+  PropertyRules r = rules.empty() ? PropertyRules::defaults(channels, table) : PropertyRules::fromYamlFile(rules, table);
+  if (r.rules().empty())
+    fail("label", "no built-in rule applies to the cameras' channels; give --rules RULES.yaml");
+  if (!rules.empty()) r.checkChannels(channels, rules.string());
+  return r;
+}
 
 std::optional<double> ClassLabelMetrics::precision() const { return ratio(true_positive, true_positive + false_positive); }
 std::optional<double> ClassLabelMetrics::recall() const { return ratio(true_positive, true_positive + false_negative); }
@@ -92,11 +100,7 @@ PropertyLabeler makeLabeler(const std::vector<fs::path>& cameras, const fs::path
     channels.push_back(in.camera.channel.name);
     inputs.push_back(std::move(in));
   }
-  PropertyRules r = rules.empty() ? PropertyRules::defaults(channels, table) : PropertyRules::fromYamlFile(rules, table);
-  if (r.rules().empty())
-    fail("label", "no built-in rule applies to the cameras' channels; give --rules RULES.yaml");
-  if (!rules.empty()) r.checkChannels(channels, rules.string());
-  return PropertyLabeler(std::move(inputs), std::move(r), config);
+  return PropertyLabeler(std::move(inputs), cameraRules(rules, channels, table), config);
 }
 
 std::vector<double> readScanTimes(const Sequence& sequence) {

@@ -35,6 +35,8 @@ struct LiveViewFeedConfig {
   /// No datagram for longer than this (s): state "waiting for sensor".
   double silence_seconds = 1.0;
   std::string title = "hazmap live";
+  /// The live property cameras' counts for the status (thread-safe; empty: no cameras).
+  std::function<std::vector<LiveCameraStats>()> cameras;
   std::filesystem::path three_dir = "/usr/share/javascript/three";  ///< ViewerConfig::three_dir
 };
 

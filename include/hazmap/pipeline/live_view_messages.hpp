@@ -21,6 +21,7 @@
 #include "hazmap/core/labeled_cloud.hpp"
 #include "hazmap/map/export.hpp"
 #include "hazmap/map/hazards.hpp"
+#include "hazmap/properties/live_camera.hpp"
 #include "hazmap/odometry/odometry.hpp"
 
 namespace hazmap {
@@ -42,8 +43,14 @@ struct LiveStatus {
   std::size_t clients = 0, clients_dropped = 0;
   std::size_t saves = 0;
   std::string last_save;       ///< the folder of the last save, or its error
+  std::vector<LiveCameraStats> cameras;  ///< the live property cameras (empty without --camera)
+  /// Frames rejected, pipeline errors, frames dropped unused, stalls and scans without a frame,
+  /// summed over the cameras.
+  std::uint64_t camera_warnings = 0;
 };
 std::string liveStatusJson(const LiveStatus& status);
+/// The cameras' counts as /status has them (a JSON array), for run.json too.
+std::string liveCamerasJson(const std::vector<LiveCameraStats>& cameras);
 std::string liveStatusMessage(const LiveStatus& status);
 
 std::string livePoseMessage(std::size_t frame, const Eigen::Isometry3d& pose, FrameStatus status);

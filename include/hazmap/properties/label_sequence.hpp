@@ -72,6 +72,13 @@ PropertyLabeler makeLabeler(const std::vector<std::filesystem::path>& cameras, c
                             const ClassTable& table, const LabelerConfig& config,
                             const std::filesystem::path& image_bag = {},
                             const std::vector<std::string>& image_topics = {});
+/// The class table of camera-labelled scans: `input`'s, with no property class marking its
+/// whole extent (a camera labels only what it saw of a region).
+ClassTable cameraClassTable(const ClassTable& input);
+/// The rules for cameras giving `channels`: the file's (checked against them), or with no file
+/// the built-in rules for those channels. Throws when none applies.
+PropertyRules cameraRules(const std::filesystem::path& rules, const std::vector<std::string>& channels,
+                          const ClassTable& table);
 /// Scan times of a sequence: times.txt (one per scan). Throws naming the file if missing/short.
 std::vector<double> readScanTimes(const Sequence& sequence);
 /// Labels every frame of `sequence_dir` and writes the labelled sequence to `out_dir`

@@ -58,6 +58,8 @@ class ImageFolder {
   std::size_t size() const { return files_.size(); }
   double stamp(std::size_t i) const { return stamps_.at(i); }
   const std::vector<double>& stamps() const { return stamps_; }
+  /// Image i's file (its raw counts: readGray16).
+  const std::filesystem::path& file(std::size_t i) const { return files_.at(i); }
   /// Loads image i in `camera`'s channel units; its size must be the camera's.
   PropertyImage load(std::size_t i, const CameraCalibration& camera) const;
   const std::filesystem::path& directory() const { return dir_; }

@@ -58,7 +58,11 @@
       'packets ' + s.packets + ' · drops ' + s.drops + ' · queue ' + s.queue_datagrams + ' (' +
       fmt(s.queue_bytes / 1024, 0) + ' kB)\n' +
       'last packet ' + (s.last_packet_age_s === null ? 'never' : fmt(s.last_packet_age_s, 2) + ' s ago') +
-      ' · hazards ' + s.hazards + ' · map ' + s.map_points.toLocaleString('en-US') + ' pts';
+      ' · hazards ' + s.hazards + ' · map ' + s.map_points.toLocaleString('en-US') + ' pts' +
+      (s.cameras || []).map((c) => '\ncamera ' + c.name + ': ' + c.frames + ' frames' +
+        (c.stalled ? ' · STALLED' : ' · last ' + fmt(c.last_frame_age_s, 2) + ' s ago') +
+        (c.scans_without_image ? ' · ' + c.scans_without_image + ' scans without a frame' : '') +
+        (c.last_error ? ' · ' + c.last_error : '')).join('');
     if (s.last_save) $('live-save').textContent = 'last save: ' + s.last_save;
   }
 
