@@ -35,6 +35,7 @@ struct RunOptions {
   std::vector<std::string> image_topics;  ///< with a bag: one per camera
   std::string rules;
   std::string prior;  ///< map folder of an earlier run: localise in it (issue 34)
+  bool start_unknown = false;  ///< hide the start pose: the run keeps its own frame (issue 34)
 };
 
 /// --prior: the earlier run's map, checked before any work (and never the output folder).
@@ -107,10 +108,9 @@ void run(const RunOptions& o, const ParameterOptions& params) {
   tracking_source.read_channels = false;  // only the map (the second pass) keeps channels
   const std::optional<MapFolder> prior = openPrior(o);
   std::unique_ptr<ScanSource> scans = openScanSource(input, tracking_source);
-  if (prior) {
-    checkPriorClasses(*prior, scans->classTable());
-    scans = startUnknown(std::move(scans));  // where it starts is what the prior must tell
-  }
+  if (prior) checkPriorClasses(*prior, scans->classTable());
+  // Where it starts is what the prior (or a later merge) must tell.
+  if (prior || o.start_unknown) scans = startUnknown(std::move(scans));
   ProgressBar bar(o.method, scans->size().value_or(0), o.quiet ? 0 : -1);
   SlamResult result = runSlam(*scans, config, [&](std::size_t d, std::size_t) { bar.update(d); });
   bar.finish();
@@ -174,6 +174,9 @@ const RegisterCommand registration{{
       app.add_option("--prior", o->prior,
                      "Map folder of an earlier run (its map.json): start unknown, localise in it, track and close "
                      "loops in its frame (run.json: prior)");
+      app.add_flag("--start-unknown", o->start_unknown,
+                   "Hide the ground truth's start pose and re-base the odometry: the run keeps its own frame, as a "
+                   "mission entering without a map (to be placed later by hazmap merge)");
       auto params = addParameterOptions(app, "keys as in --config, e.g. odometry.registration.max_iterations=30");
       app.callback([o, params] { run(*o, *params); });
     }}};
