@@ -175,7 +175,8 @@ std::string joined(const std::vector<std::string>& kinds) {
 void writeHazardChanges(const std::filesystem::path& dir, const std::vector<HazardChange>& changes) {
   nlohmann::json list = nlohmann::json::array();
   std::map<std::string, std::size_t> counts;
-  std::string csv = "kinds,class,before_id,after_id,before_x,before_y,before_z,after_x,after_y,after_z,moved_m,"
+  const bool missions = std::any_of(changes.begin(), changes.end(), [](const HazardChange& c) { return c.mission > 0; });
+  std::string csv = std::string(missions ? "mission," : "") + "kinds,class,before_id,after_id,before_x,before_y,before_z,after_x,after_y,after_z,moved_m,"
                     "area_before_m2,area_after_m2,value_before,value_after,frames_before,frames_after,confidence\n";
   const auto xyz = [](const std::optional<Eigen::Vector3d>& p) {
     return p ? fmt::format("{:.3f},{:.3f},{:.3f}", p->x(), p->y(), p->z()) : std::string(",,");
@@ -189,6 +190,7 @@ void writeHazardChanges(const std::filesystem::path& dir, const std::vector<Haza
                     {"value_before", optionalValue(c.value_before)}, {"value_after", optionalValue(c.value_after)},
                     {"frames_before", rangesJson(c.frames_before)}, {"frames_after", rangesJson(c.frames_after)},
                     {"confidence", c.confidence}});
+    if (missions) list.back()["mission"] = c.mission, csv += fmt::format("{},", c.mission);
     csv += fmt::format("{},{},{},{},{},{},{:.3f},{:.3f},{:.3f},{},{},{},{},{:.2f}\n", joined(c.kinds), c.class_name,
                        c.before_id, c.after_id, xyz(c.before), xyz(c.after), c.moved_m, c.area_before_m2,
                        c.area_after_m2, value(c.value_before), value(c.value_after), csvRanges(c.frames_before),

@@ -52,13 +52,31 @@ void invalidateMapFolder(const fs::path& dir) {
   if (ec) fail((dir / "map.json").string(), "cannot remove the previous manifest: " + ec.message());
 }
 
-std::string writeMapKeyframeCloud(const fs::path& dir, std::size_t frame, const LabeledCloud& cloud) {
+namespace {
+
+// keyframes/NNNNNN.pcd, the folder created.
+std::string keyframeCloudName(const fs::path& dir, std::size_t frame) {
   char name[32];
   std::snprintf(name, sizeof name, "keyframes/%06zu.pcd", frame);
   std::error_code ec;
   fs::create_directories(dir / "keyframes", ec);
   if (ec) fail((dir / "keyframes").string(), "cannot create: " + ec.message());
+  return name;
+}
+
+}  // namespace
+
+std::string writeMapKeyframeCloud(const fs::path& dir, std::size_t frame, const LabeledCloud& cloud) {
+  const std::string name = keyframeCloudName(dir, frame);
   writePcd(dir / name, cloud, PcdEncoding::BinaryCompressed);
+  return name;
+}
+
+std::string copyMapKeyframeCloud(const fs::path& dir, std::size_t frame, const fs::path& from) {
+  const std::string name = keyframeCloudName(dir, frame);
+  std::error_code ec;
+  fs::copy_file(from, dir / name, fs::copy_options::overwrite_existing, ec);
+  if (ec) fail(from.string(), "cannot copy into " + (dir / name).string() + ": " + ec.message());
   return name;
 }
 

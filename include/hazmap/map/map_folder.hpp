@@ -74,6 +74,10 @@ void invalidateMapFolder(const std::filesystem::path& dir);
 /// relative to `dir`.
 std::string writeMapKeyframeCloud(const std::filesystem::path& dir, std::size_t frame, const LabeledCloud& cloud);
 
+/// Copies another map's keyframe cloud file `from` as this folder's keyframes/NNNNNN.pcd (a
+/// merge renumbers the frames) and returns its path relative to `dir`.
+std::string copyMapKeyframeCloud(const std::filesystem::path& dir, std::size_t frame, const std::filesystem::path& from);
+
 /// Writes classes.yaml and, last, map.json listing `files` (relative paths, which must exist:
 /// the run's graph.g2o, trajectory.kitti, hazards.json) and the keyframes' clouds,
 /// each with its size and checksum. Atomic; throws hazmap::Error naming the file.
