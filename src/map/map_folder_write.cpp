@@ -81,10 +81,11 @@ std::string copyMapKeyframeCloud(const fs::path& dir, std::size_t frame, const f
 }
 
 void writeMapManifest(const fs::path& dir, const MapManifest& manifest, const ClassTable& classes,
-                      const std::vector<std::string>& files) {
+                      const std::vector<std::string>& files, const std::string& graph_extras) {
   writeTextAtomically(dir / "classes.yaml", classes.toYamlString());
   std::vector<std::string> listed = files;
   listed.push_back("classes.yaml");
+  if (!graph_extras.empty()) listed.push_back(graph_extras);
   nlohmann::json keyframes = nlohmann::json::array();
   for (const auto& k : manifest.keyframes) {
     keyframes.push_back(keyframeJson(k));
@@ -105,6 +106,7 @@ void writeMapManifest(const fs::path& dir, const MapManifest& manifest, const Cl
   j["classes"] = "classes.yaml";
   j["sensor_height_m"] = std::isfinite(manifest.sensor_height) ? nlohmann::json(manifest.sensor_height) : nlohmann::json();
   j["graph"] = "graph.g2o";
+  if (!graph_extras.empty()) j["graph_extras"] = graph_extras;
   j["hazards"] = "hazards.json";
   j["trajectory"] = "trajectory.kitti";
   j["parameters"] = nlohmann::json::parse(manifest.parameters_json);

@@ -89,7 +89,8 @@ void writeMergedFolder(const fs::path& dir, const std::vector<MergeInput>& input
       changes.push_back(std::move(c));
     }
   writeHazardChanges(dir, changes);
-  writeMapManifest(dir, manifest, first.classes(), {"graph.g2o", "trajectory.kitti", "hazards.json"});
+  const std::string extras = writeGraphExtras(dir, graph);
+  writeMapManifest(dir, manifest, first.classes(), {"graph.g2o", "trajectory.kitti", "hazards.json"}, extras);
 }
 
 }  // namespace hazmap::pipeline_detail
