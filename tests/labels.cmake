@@ -112,6 +112,9 @@ hazmap_label(test_viewer unit
 hazmap_label(test_live real-data
   unit "^LiveSpool\\.WriterRoundTrips|^LiveErrors\\."
   scene "^LiveSimulated\\.")
+hazmap_label(test_merge unit
+  scene "^MergeScene\\."
+  real-data "^MergeReal\\.")
 hazmap_label(test_missions unit
   scene "^PriorMap\\.SecondMission"
   real-data "^PriorMapReal\\.")
