@@ -12,6 +12,7 @@
 #include "hazmap/core/error.hpp"
 #include "hazmap/io/atomic_file.hpp"
 #include "hazmap/map/hazard_changes.hpp"
+#include "hazmap/map/viewer.hpp"
 #include "hazmap/pipeline/prior_map.hpp"
 #include "hazmap/pipeline/run_outputs.hpp"
 #include "recording.hpp"
@@ -53,6 +54,15 @@ void addToRunJson(const std::filesystem::path& out, const std::string& key, cons
   nlohmann::json j = nlohmann::json::parse(readTextFile(run_json));
   j[key] = nlohmann::json::parse(json);
   writeTextAtomically(run_json, j.dump(2) + "\n");
+}
+
+/// viewer.html again, from the folder, now with its changes layer (changes.json comes after the map).
+void rewriteViewerWithChanges(const std::filesystem::path& out, const ClassTable& classes, const std::string& method) {
+  ViewerScene scene = loadRunScene(out, classes);
+  scene.title = "hazmap " + method;
+  ViewerConfig viewer;
+  viewer.decimate_to_fit = true;
+  writeViewer(out / "viewer.html", scene, viewer);
 }
 
 /// With --camera, the sequence is first labelled from the cameras (hazmap label) into
@@ -133,6 +143,7 @@ void run(const RunOptions& o, const ParameterOptions& params) {
     const auto changes = compareHazards(prior->hazards(), artifacts.hazards, artifacts.map);
     writeHazardChanges(o.out, changes);
     for (const auto& c : changes) changed += c.changed();
+    if (outputs.write_viewer) rewriteViewerWithChanges(o.out, second_pass->classTable(), o.method);
   }
   // run.json gains the labelling's report (images missing, observed shares) and the prior's.
   if (!o.cameras.empty()) addToRunJson(o.out, "camera_labels", labelReportJson(labels));

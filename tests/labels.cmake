@@ -107,7 +107,7 @@ hazmap_label(test_hesai real-data)
 hazmap_label(test_velodyne real-data
   unit "^Velodyne\\.(Hdl32eBlockLayout|ExactAzimuth)|^VelodyneCalibration\\.|^VelodyneCalibrationFile\\.BadFilesAreNamed$")
 hazmap_label(test_viewer unit
-  browser "^ViewerBrowser\\.ShowsTheMap"
+  browser "^ViewerBrowser\\.ShowsTheMap|^ViewerBrowser\\.ShowsTheChanges"
   "browser,scene" "^ViewerBrowser\\.RunWritesAViewer")
 hazmap_label(test_live real-data
   unit "^LiveSpool\\.WriterRoundTrips|^LiveErrors\\."

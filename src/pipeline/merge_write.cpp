@@ -78,8 +78,6 @@ void writeMergedFolder(const fs::path& dir, const std::vector<MergeInput>& input
   for (int n = 0; n < graph.numNodes(); ++n) trajectory.push_back(n, graph.poses[static_cast<std::size_t>(n)]);
   writeKittiTrajectory(dir / "trajectory.kitti", trajectory);
   writeG2o(dir / "graph.g2o", graph);
-  const MapOutputs written = writeMapOutputs(dir, merged, trajectory, nullptr, nullptr, mapFiles(outputs, options, trajectory));
-  report.hazards = written.hazards.size();
   // Each later mission against the first (both at the merged poses).
   std::vector<HazardChange> changes;
   for (std::size_t m = 1; m < missions.size(); ++m)
@@ -89,6 +87,10 @@ void writeMergedFolder(const fs::path& dir, const std::vector<MergeInput>& input
       changes.push_back(std::move(c));
     }
   writeHazardChanges(dir, changes);
+  MapOutputConfig files = mapFiles(outputs, options, trajectory);
+  files.changes = std::move(changes);  // the viewer's changes layer and table
+  const MapOutputs written = writeMapOutputs(dir, merged, trajectory, nullptr, nullptr, files);
+  report.hazards = written.hazards.size();
   const std::string extras = writeGraphExtras(dir, graph);
   writeMapManifest(dir, manifest, first.classes(), {"graph.g2o", "trajectory.kitti", "hazards.json"}, extras);
 }

@@ -40,6 +40,12 @@ struct HazardChange {
 std::vector<HazardChange> compareHazards(const std::vector<Hazard>& before, const std::vector<Hazard>& after,
                                          const LabeledCloud& after_map);
 
+/// One entry of changes.json (a JSON object's text; "mission" only when set).
+std::string hazardChangeJson(const HazardChange& change);
+
+/// Reads changes.json back. Throws hazmap::Error naming the file when it is missing or broken.
+std::vector<HazardChange> readHazardChanges(const std::filesystem::path& path);
+
 /// changes.json ({"changes": [...], "counts": {kind: n}}) and changes.csv. Atomic. When any
 /// change has a mission, each entry has "mission" and the CSV a first column `mission`.
 void writeHazardChanges(const std::filesystem::path& dir, const std::vector<HazardChange>& changes);
