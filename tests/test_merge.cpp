@@ -162,6 +162,7 @@ TEST(MergeCli, AnotherClassTableIsOneLine) {
 }
 
 // ---- merging simulated missions ----
+// (Each builds its missions; tens of seconds on a quiet machine.)
 
 TEST(MergeScene, TwoMissionsGiveOneMapFolderThatMergesAgain) {
   const fs::path dir = test::scratchDir();
@@ -193,7 +194,8 @@ TEST(MergeScene, TwoMissionsGiveOneMapFolderThatMergesAgain) {
   EXPECT_EQ(merged.graph().numNodes(), static_cast<int>(merged.manifest().frames));
   // What changed, mission 2 against mission 1: the removed source gone, the machine moved 2 m.
   std::set<std::string> kinds;
-  for (const auto& c : readJson(dir / "merged" / "changes.json")["changes"]) {
+  const nlohmann::json changes = readJson(dir / "merged" / "changes.json");
+  for (const auto& c : changes["changes"]) {
     EXPECT_EQ(c["mission"], 2);
     for (const auto& k : c["kinds"]) kinds.insert(k.get<std::string>());
   }
@@ -214,13 +216,17 @@ TEST(MergeScene, ACopyOfItselfLandsInPlaceAndAnUnplaceableMapIsLeftOut) {
   MergeOptions options;
   options.threads = 2;
   options.write_viewer = options.write_pngs = false;
-  const MergeReport report = mergeMaps({dir / "r1", dir / "copy", corridorRun().dir}, dir / "merged", options);
+  // An open field of tanks: another site.
+  const fs::path tanks = test::writeSimulatedSequence("merge-tanks", "tanks", 1, 20);
+  const auto run = test::runCli("run " + tanks.string() + " --quiet --no-viewer --threads 2 --out " + (dir / "tanks").string());
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  const MergeReport report = mergeMaps({dir / "r1", dir / "copy", dir / "tanks"}, dir / "merged", options);
   ASSERT_EQ(report.maps.size(), 3u);
   ASSERT_TRUE(report.maps[1].placed);
   const Eigen::Isometry3d& T = report.maps[1].localisation.T_prior_run;
   EXPECT_LT(test::transErr(T, Eigen::Isometry3d::Identity()), 0.01);
   EXPECT_LT(test::rotErrDeg(T, Eigen::Isometry3d::Identity()), 0.1);
-  // The corridor is another building: never placed, never guessed; reported and left out.
+  // The tanks are another site: never placed, never guessed; reported and left out.
   EXPECT_FALSE(report.maps[2].placed);
   EXPECT_EQ(report.maps[2].localisation.state, PriorState::NeverLocalised);
   const MapFolder merged = openMap(dir / "merged");
@@ -228,7 +234,8 @@ TEST(MergeScene, ACopyOfItselfLandsInPlaceAndAnUnplaceableMapIsLeftOut) {
   ASSERT_FALSE(report.map_errors.empty()) << report.map_error_note;
   EXPECT_LE(report.map_errors[1].error.point.mean, report.map_errors[0].error.point.mean + 0.002);
   // Against itself nothing changed.
-  for (const auto& c : readJson(dir / "merged" / "changes.json")["changes"])
+  const nlohmann::json changes = readJson(dir / "merged" / "changes.json");
+  for (const auto& c : changes["changes"])
     for (const auto& k : c["kinds"]) EXPECT_TRUE(k == "unchanged" || k == "part_of") << c.dump();
 }
 
