@@ -79,20 +79,6 @@ inline CommandResult runCli(const std::string& args) {
   return r;
 }
 
-/// The SemanticKITTI sample `data` (6 scans, labels on the first 3) split in two sequences of
-/// symlinks: dir/a = frames 0-2 with their labels, dir/b = frames 3-5 (issue 34: a second half
-/// entering the first half's map).
-inline void splitKittiSample(const std::filesystem::path& data, const std::filesystem::path& dir) {
-  namespace fs = std::filesystem;
-  for (const char* part : {"a/velodyne", "a/labels", "b/velodyne"}) fs::create_directories(dir / part);
-  for (int i = 0; i < 3; ++i) {
-    const std::string n = "00000" + std::to_string(i), m = "00000" + std::to_string(i + 3);
-    fs::create_symlink(data / "velodyne" / (n + ".bin"), dir / "a" / "velodyne" / (n + ".bin"));
-    fs::create_symlink(data / "labels" / (n + ".label"), dir / "a" / "labels" / (n + ".label"));
-    fs::create_symlink(data / "velodyne" / (m + ".bin"), dir / "b" / "velodyne" / (n + ".bin"));
-  }
-}
-
 /// Writes a short simulated sequence under HAZMAP_TEST_TMP and returns its folder. The name
 /// carries the process id: CTest runs each test as its own process, so each writes its own copy
 /// (callers keep the path in a function-local static to write it once per process).
