@@ -173,6 +173,7 @@ PriorVerification verifyInPrior(const PriorIndex& prior, const LabeledCloud& que
     v.outcome = fmt::format("no prior keyframe within {:.0f} m of the answer", kPriorReach);
     return v;
   }
+  v.in_reach = true;
   const LoopClosureConfig loops = loopClosureConfigFor(config);
   const VerificationConfig& vc = loops.verification;
   const Eigen::Isometry3d& P = prior.pose(v.prior_keyframe);
@@ -238,7 +239,7 @@ std::vector<PriorEdge> loopsToPrior(const PriorIndex& prior, const RunKeyframes&
     const std::size_t f = run.frames[k];
     const Eigen::Isometry3d predicted = poses.at(f);
     const PriorVerification v = verifyInPrior(prior, run.query(k, poses), predicted, classes, config);
-    PriorAttempt a{f, false, v.outcome, v.prior_keyframe, v.T_world_query};
+    PriorAttempt a{f, false, v.outcome, v.prior_keyframe, v.T_world_query, v.in_reach};
     const Eigen::Isometry3d correction = predicted.inverse() * v.T_world_query;
     if (v.accepted && (translationNorm(correction) > kLoopMaxCorrection || rotationAngle(correction) > kLoopMaxCorrectionAngle))
       a.outcome = "moves the keyframe too far from where the localisation puts it";

@@ -70,6 +70,7 @@ class PriorIndex {
 
 struct PriorVerification {
   bool accepted = false;
+  bool in_reach = false;  ///< a prior keyframe lay within reach of the guess
   std::string outcome;
   std::size_t prior_keyframe = 0;
   Eigen::Isometry3d T_world_query = Eigen::Isometry3d::Identity();  ///< prior world ← query
