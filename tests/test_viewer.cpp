@@ -13,6 +13,7 @@
 
 #include "hazmap/core/error.hpp"
 #include "hazmap/io/atomic_file.hpp"
+#include "hazmap/io/ply.hpp"
 #include "hazmap/map/global_map.hpp"
 #include "hazmap/map/hazards.hpp"
 #include "hazmap/map/viewer.hpp"
@@ -175,6 +176,21 @@ TEST(ViewerPage, EmbedsThreeAndTheQuantisedMapAndLinksNothing) {
   for (const auto& g : meta["groups"]) grouped += g["count"].get<std::size_t>();
   EXPECT_EQ(grouped, s.scene.map.size());
   EXPECT_LT(meta["qstep"][0].get<double>(), 0.001);  // 12 m / 65535
+}
+
+// A run's (or a merge's) folder with changes.json: `hazmap view` carries the changes into the page.
+TEST(ViewerPage, AFolderWithChangesShowsThem) {
+  const auto dir = test::scratchDir();
+  const Scene s = testScene();
+  writePly(dir / "map.ply", s.scene.map);
+  writeHazardsJson(dir / "hazards.json", s.scene.hazards, 0.1);
+  HazardChange gone;
+  gone.kinds = {"gone"}, gone.class_name = "heat", gone.before = Eigen::Vector3d(2.0, 6.0, 0.15);
+  writeHazardChanges(dir, {gone});
+  const ViewerScene scene = loadRunScene(dir);
+  ASSERT_EQ(scene.changes.size(), 1u);
+  EXPECT_EQ(scene.changes[0].kinds, std::vector<std::string>{"gone"});
+  EXPECT_NE(viewerHtml(scene).find("\"changes\":[{"), std::string::npos);
 }
 
 TEST(ViewerPage, TooLargeOrMissingFilesFailInOneLineAndWriteNothing) {

@@ -118,7 +118,8 @@ HazardChange changeFrom(const nlohmann::json& j) {
 std::vector<HazardChange> readHazardChanges(const std::filesystem::path& path) {
   std::vector<HazardChange> changes;
   try {
-    for (const auto& c : nlohmann::json::parse(readTextFile(path)).at("changes")) changes.push_back(changeFrom(c));
+    const nlohmann::json j = nlohmann::json::parse(readTextFile(path));
+    for (const auto& c : j.at("changes")) changes.push_back(changeFrom(c));
   } catch (const Error&) {
     throw;
   } catch (const std::exception& e) {
