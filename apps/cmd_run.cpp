@@ -12,6 +12,7 @@
 #include "hazmap/core/error.hpp"
 #include "hazmap/io/atomic_file.hpp"
 #include "hazmap/map/hazard_changes.hpp"
+#include "hazmap/map/viewer.hpp"
 #include "hazmap/pipeline/prior_map.hpp"
 #include "hazmap/pipeline/run_outputs.hpp"
 #include "recording.hpp"
@@ -35,6 +36,7 @@ struct RunOptions {
   std::vector<std::string> image_topics;  ///< with a bag: one per camera
   std::string rules;
   std::string prior;  ///< map folder of an earlier run: localise in it (issue 34)
+  bool start_unknown = false;  ///< hide the start pose: the run keeps its own frame (issue 34)
 };
 
 /// --prior: the earlier run's map, checked before any work (and never the output folder).
@@ -52,6 +54,15 @@ void addToRunJson(const std::filesystem::path& out, const std::string& key, cons
   nlohmann::json j = nlohmann::json::parse(readTextFile(run_json));
   j[key] = nlohmann::json::parse(json);
   writeTextAtomically(run_json, j.dump(2) + "\n");
+}
+
+/// viewer.html again, from the folder, now with its changes layer (changes.json comes after the map).
+void rewriteViewerWithChanges(const std::filesystem::path& out, const ClassTable& classes, const std::string& method) {
+  ViewerScene scene = loadRunScene(out, classes);
+  scene.title = "hazmap " + method;
+  ViewerConfig viewer;
+  viewer.decimate_to_fit = true;
+  writeViewer(out / "viewer.html", scene, viewer);
 }
 
 /// With --camera, the sequence is first labelled from the cameras (hazmap label) into
@@ -107,10 +118,9 @@ void run(const RunOptions& o, const ParameterOptions& params) {
   tracking_source.read_channels = false;  // only the map (the second pass) keeps channels
   const std::optional<MapFolder> prior = openPrior(o);
   std::unique_ptr<ScanSource> scans = openScanSource(input, tracking_source);
-  if (prior) {
-    checkPriorClasses(*prior, scans->classTable());
-    scans = startUnknown(std::move(scans));  // where it starts is what the prior must tell
-  }
+  if (prior) checkPriorClasses(*prior, scans->classTable());
+  // Where it starts is what the prior (or a later merge) must tell.
+  if (prior || o.start_unknown) scans = startUnknown(std::move(scans));
   ProgressBar bar(o.method, scans->size().value_or(0), o.quiet ? 0 : -1);
   SlamResult result = runSlam(*scans, config, [&](std::size_t d, std::size_t) { bar.update(d); });
   bar.finish();
@@ -133,6 +143,7 @@ void run(const RunOptions& o, const ParameterOptions& params) {
     const auto changes = compareHazards(prior->hazards(), artifacts.hazards, artifacts.map);
     writeHazardChanges(o.out, changes);
     for (const auto& c : changes) changed += c.changed();
+    if (outputs.write_viewer) rewriteViewerWithChanges(o.out, second_pass->classTable(), o.method);
   }
   // run.json gains the labelling's report (images missing, observed shares) and the prior's.
   if (!o.cameras.empty()) addToRunJson(o.out, "camera_labels", labelReportJson(labels));
@@ -174,6 +185,9 @@ const RegisterCommand registration{{
       app.add_option("--prior", o->prior,
                      "Map folder of an earlier run (its map.json): start unknown, localise in it, track and close "
                      "loops in its frame (run.json: prior)");
+      app.add_flag("--start-unknown", o->start_unknown,
+                   "Hide the ground truth's start pose and re-base the odometry: the run keeps its own frame, as a "
+                   "mission entering without a map (to be placed later by hazmap merge)");
       auto params = addParameterOptions(app, "keys as in --config, e.g. odometry.registration.max_iterations=30");
       app.callback([o, params] { run(*o, *params); });
     }}};

@@ -74,7 +74,8 @@ int main(int argc, char** argv) {
   }
   const fs::path data = argv[1], source = argv[2], out = argv[3];
   try {
-    for (const char* d : {"pcd", "ply", "kitti", "trajectory", "class_table", "hazards_json", "config", "label_spool"})
+    for (const char* d : {"pcd", "ply", "kitti", "trajectory", "class_table", "hazards_json", "config", "label_spool",
+                          "mission_json"})
       fs::create_directories(out / d);
     const auto scan = readKittiScan(data / "kitti-semantic-sample/velodyne/000000.bin",
                                     data / "kitti-semantic-sample/labels/000000.label", ClassTable::defaults());
@@ -152,6 +153,20 @@ int main(int argc, char** argv) {
     icp.class_radius = {{"wall", 0.3}, {"hot", 1.2}};
     writeTextAtomically(out / "config/defaults.yaml", configToYaml(PropertyIcpConfig{}));
     writeTextAtomically(out / "config/section.yaml", configToYaml(icp, "property_icp"));
+    // changes.json of a merge and graph_extras.json of a map folder (issue 34).
+    writeTextAtomically(out / "mission_json/changes.json", R"({"changes": [
+ {"kinds": ["moved"], "class": "heat", "before_id": 2, "after_id": 1, "before": [0.33, 13.01, 0.09],
+  "after": [0.35, 15.08, 0.08], "moved_m": 2.06, "area_before_m2": 0.86, "area_after_m2": 0.81,
+  "value_before": null, "value_after": 61.5, "frames_before": [[0, 4], [29, 32]], "frames_after": [[0, 23]],
+  "confidence": 1.0, "mission": 2},
+ {"kinds": ["gone"], "class": "heat", "before_id": 1, "after_id": 0, "before": [12.6, 1.39, 0.18], "after": null,
+  "moved_m": 0.0, "area_before_m2": 0.41, "area_after_m2": 0.0, "value_before": null, "value_after": null,
+  "frames_before": [[0, 35]], "frames_after": [], "confidence": 1.0}], "counts": {"gone": 1, "moved": 1}}
+)");
+    writeTextAtomically(out / "mission_json/graph_extras.json",
+                        R"({"edges": 2, "loop_edges": [1], "map_anchor_edges": [], "gravity_world": [0, 0, -1],)"
+                        R"( "gravity_priors": [{"node": 0, "down": [0, 0, -1], "sigma": 0.01}, {"node": 2, "down": [0.01, 0, -0.99995], "sigma": 0.02}]})"
+                        "\n");
     // hazards.json as `hazmap run` writes it (two hazards of the demo's map).
     writeTextAtomically(out / "hazards_json/hazards.json", R"({"count": 2, "voxel_size": 0.1, "hazards": [
  {"id": 1, "class": "heat", "class_id": 1, "kind": "heat", "centroid": [12.59, 1.39, 0.21],

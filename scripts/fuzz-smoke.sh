@@ -35,7 +35,7 @@ CC="$cc" CXX="$cxx" cmake -S "$src" -B "$fuzz_build" "${extra[@]}" -DHAZMAP_FUZZ
   -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -gline-tables-only" \
   -DHAZMAP_SANITIZE=OFF > "$log" 2>&1 || { cat "$log"; exit 1; }
 targets=(fuzz_pcd fuzz_ply fuzz_kitti fuzz_trajectory fuzz_class_table fuzz_velodyne fuzz_hesai fuzz_pcap fuzz_ouster fuzz_imu
-         fuzz_mcap fuzz_ros1_bag fuzz_rosbag2 fuzz_ros_messages fuzz_hazards_json fuzz_config)
+         fuzz_mcap fuzz_ros1_bag fuzz_rosbag2 fuzz_ros_messages fuzz_hazards_json fuzz_config fuzz_mission_json)
 cmake --build "$fuzz_build" -j 2 --target "${targets[@]}" hazmap_fuzz_seeds hazmap_fuzz_sensor_seeds \
   hazmap_fuzz_bag_seeds >> "$log" 2>&1 || { tail -50 "$log"; exit 1; }
 seeds="$fuzz_build/seeds"

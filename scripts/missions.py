@@ -57,8 +57,13 @@ def near(a, b, d):
 def score_changes(run_dir, seq_dir, truth_poses, temperature):
     """(true positives, false positives, relevant truths missed, detections as text)."""
     with open(os.path.join(run_dir, "changes.json")) as f:
-        detected = [c for c in json.load(f)["changes"]
-                    if not (len(c["kinds"]) == 1 and c["kinds"][0] in ("unchanged", "not_re_observed", "part_of"))]
+        return score_change_list(json.load(f)["changes"], seq_dir, truth_poses, temperature)
+
+
+def score_change_list(changes, seq_dir, truth_poses, temperature):
+    """score_changes for changes.json's entries `changes`."""
+    detected = [c for c in changes
+                if not (len(c["kinds"]) == 1 and c["kinds"][0] in ("unchanged", "not_re_observed", "part_of"))]
     with open(os.path.join(seq_dir, "changes_truth.json")) as f:
         truth = [t for t in json.load(f)["changes"] if t["kind"] in KIND]
     path = [(p[0][3], p[1][3], p[2][3]) for p in truth_poses]

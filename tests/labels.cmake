@@ -107,13 +107,16 @@ hazmap_label(test_hesai real-data)
 hazmap_label(test_velodyne real-data
   unit "^Velodyne\\.(Hdl32eBlockLayout|ExactAzimuth)|^VelodyneCalibration\\.|^VelodyneCalibrationFile\\.BadFilesAreNamed$")
 hazmap_label(test_viewer unit
-  browser "^ViewerBrowser\\.ShowsTheMap"
+  browser "^ViewerBrowser\\.ShowsTheMap|^ViewerBrowser\\.ShowsTheChanges"
   "browser,scene" "^ViewerBrowser\\.RunWritesAViewer")
 hazmap_label(test_live real-data
   unit "^LiveSpool\\.WriterRoundTrips|^LiveErrors\\."
   scene "^LiveSimulated\\.")
 hazmap_label(test_live_cameras unit
   real-data "^LiveCameraRealFrame\\.")
+hazmap_label(test_merge unit
+  scene "^MergeScene\\."
+  real-data "^MergeReal\\.")
 hazmap_label(test_missions unit
   scene "^PriorMap\\.SecondMission"
   real-data "^PriorMapReal\\.")

@@ -13,6 +13,7 @@
 
 #include "hazmap/core/error.hpp"
 #include "hazmap/io/atomic_file.hpp"
+#include "hazmap/io/ply.hpp"
 #include "hazmap/map/global_map.hpp"
 #include "hazmap/map/hazards.hpp"
 #include "hazmap/map/viewer.hpp"
@@ -177,6 +178,21 @@ TEST(ViewerPage, EmbedsThreeAndTheQuantisedMapAndLinksNothing) {
   EXPECT_LT(meta["qstep"][0].get<double>(), 0.001);  // 12 m / 65535
 }
 
+// A run's (or a merge's) folder with changes.json: `hazmap view` carries the changes into the page.
+TEST(ViewerPage, AFolderWithChangesShowsThem) {
+  const auto dir = test::scratchDir();
+  const Scene s = testScene();
+  writePly(dir / "map.ply", s.scene.map);
+  writeHazardsJson(dir / "hazards.json", s.scene.hazards, 0.1);
+  HazardChange gone;
+  gone.kinds = {"gone"}, gone.class_name = "heat", gone.before = Eigen::Vector3d(2.0, 6.0, 0.15);
+  writeHazardChanges(dir, {gone});
+  const ViewerScene scene = loadRunScene(dir);
+  ASSERT_EQ(scene.changes.size(), 1u);
+  EXPECT_EQ(scene.changes[0].kinds, std::vector<std::string>{"gone"});
+  EXPECT_NE(viewerHtml(scene).find("\"changes\":[{"), std::string::npos);
+}
+
 TEST(ViewerPage, TooLargeOrMissingFilesFailInOneLineAndWriteNothing) {
   const Scene s = testScene();
   const auto dir = test::scratchDir();
@@ -271,6 +287,43 @@ TEST_F(ViewerBrowser, ShowsTheMapHazardTableFlightsAndMeasuresDistances) {
   EXPECT_NEAR(r["distance"].get<double>(), (s.a - s.b).norm(), 0.01);
   EXPECT_NEAR(r["picked"]["world"][2].get<double>(), s.b.z(), 0.01);
   EXPECT_EQ(r["picked"]["class"].get<std::string>(), "none");
+}
+
+// The changes since the prior mission (changes.json of a run with --prior or a merge): a table
+// (changed first), a ring per change with an arrow for a move, a layer that hides them, rows that
+// fly to them. A page without changes carries none.
+TEST_F(ViewerBrowser, ShowsTheChangesSinceThePriorMission) {
+  Scene s = testScene();
+  const auto dir = test::scratchDir();
+  EXPECT_EQ(viewerHtml(s.scene).find("\"changes\":"), std::string::npos);
+  HazardChange unchanged, gone, moved;
+  unchanged.kinds = {"unchanged"}, unchanged.class_name = "water";
+  unchanged.before = unchanged.after = Eigen::Vector3d(8.0, 5.75, 0.15);
+  gone.kinds = {"gone"}, gone.class_name = "heat", gone.before = Eigen::Vector3d(2.0, 6.0, 0.15), gone.confidence = 1;
+  moved.kinds = {"moved"}, moved.class_name = "heat", moved.mission = 2, moved.confidence = 0.8;
+  moved.before = Eigen::Vector3d(2.75, 2.5, 0.15), moved.after = Eigen::Vector3d(9.5, 2.0, 0.15), moved.moved_m = 6.77;
+  s.scene.changes = {unchanged, gone, moved};
+  writeViewer(dir / "viewer.html", s.scene);
+  const std::string driver =
+      "const v=window.hazmapViewer;out.rows=v.changeRows();v.setView('top');v.lookAt(6,4,0,14);"
+      "out.orange=v.countPixels([255,160,30],30);out.red=v.countPixels([255,60,60],30);"
+      "v.setChangesVisible(false);out.orange_off=v.countPixels([255,160,30],30);v.setChangesVisible(true);"
+      "v.clickChange(1,true);out.target=v.camera().target;";
+  const nlohmann::json r = runInBrowser(dir / "viewer.html", dir, driver);
+  ASSERT_FALSE(r.is_null());
+  EXPECT_FALSE(r.contains("exception")) << r["exception"];
+  expectOffline(r);
+  ASSERT_EQ(r["rows"].size(), 3u) << r.dump();
+  // Changed first (in their order), the unchanged puddle last.
+  EXPECT_EQ(r["rows"][0][0], "gone");
+  EXPECT_EQ(r["rows"][1][0], "moved");
+  EXPECT_NE(r["rows"][1][3].get<std::string>().find("mission 2; 6.77 m from 2.8, 2.5"), std::string::npos) << r["rows"][1];
+  EXPECT_EQ(r["rows"][2][0], "unchanged");
+  EXPECT_GT(r["orange"].get<int>(), 50);  // the moved source's ring and arrow
+  EXPECT_GT(r["red"].get<int>(), 50);     // the gone one's ring (beside the heat patch's red points)
+  EXPECT_LT(r["orange_off"].get<int>(), r["orange"].get<int>() / 4);
+  EXPECT_NEAR(r["target"][0].get<double>(), 9.5, 0.01);
+  EXPECT_NEAR(r["target"][1].get<double>(), 2.0, 0.01);
 }
 
 }  // namespace

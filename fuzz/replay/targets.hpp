@@ -9,7 +9,8 @@
 
 #define HAZMAP_FUZZ_REPLAY_TARGETS(X) \
   X(pcd) X(ply) X(kitti) X(trajectory) X(class_table) X(velodyne) X(hesai) X(pcap) X(ouster) X(imu) \
-  X(mcap) X(ros1_bag) X(rosbag2) X(ros_messages) X(hazards_json) X(config) X(label_spool)
+  X(mcap) X(ros1_bag) X(rosbag2) X(ros_messages) X(hazards_json) X(config) X(label_spool) \
+  X(mission_json)
 
 #define HAZMAP_FUZZ_DECLARE(name) extern "C" int hazmapFuzz_##name(const std::uint8_t*, std::size_t);
 HAZMAP_FUZZ_REPLAY_TARGETS(HAZMAP_FUZZ_DECLARE)

@@ -13,6 +13,9 @@ PropertyLandmark landmarkFromJson(const nlohmann::json& j);
 nlohmann::json keyframeJson(const MapKeyframe& k);
 MapKeyframe keyframeFromJson(const nlohmann::json& j);
 std::string hex64(std::uint64_t v);
+/// Applies graph_extras.json (writeGraphExtras) to `graph` read from the same map's graph.g2o.
+/// Throws hazmap::Error naming the file on broken JSON or an edge or node out of range.
+void readGraphExtras(const std::filesystem::path& path, PoseGraph& graph);
 std::uint64_t parseHex64(const std::string& text);
 
 }  // namespace hazmap::map_folder_detail

@@ -92,6 +92,10 @@ MapFolder openMap(const fs::path& dir) {
   requireListed(dir, map.files_, j.at("graph").get<std::string>(), "the pose graph");
   requireListed(dir, map.files_, j.at("hazards").get<std::string>(), "the hazards");
   requireListed(dir, map.files_, j.at("trajectory").get<std::string>(), "the trajectory");
+  if (j.contains("graph_extras")) {
+    map.graph_extras_ = j.at("graph_extras").get<std::string>();
+    requireListed(dir, map.files_, map.graph_extras_, "the graph's extras");
+  }
   for (const auto& k : map.manifest_.keyframes) requireListed(dir, map.files_, k.cloud, "a keyframe cloud");
   map.classes_ = ClassTable::fromYamlString(readTextFile(dir / j.at("classes").get<std::string>()),
                                             (dir / "classes.yaml").string());
@@ -104,7 +108,11 @@ LabeledCloud MapFolder::loadKeyframe(std::size_t k) const {
   return readPcd(dir_ / manifest_.keyframes[k].cloud, classes_);
 }
 
-PoseGraph MapFolder::graph() const { return readG2o(dir_ / "graph.g2o"); }
+PoseGraph MapFolder::graph() const {
+  PoseGraph g = readG2o(dir_ / "graph.g2o");
+  if (!graph_extras_.empty()) readGraphExtras(dir_ / graph_extras_, g);
+  return g;
+}
 
 std::vector<Hazard> MapFolder::hazards() const { return readHazardsJson(dir_ / "hazards.json"); }
 

@@ -52,21 +52,40 @@ void invalidateMapFolder(const fs::path& dir) {
   if (ec) fail((dir / "map.json").string(), "cannot remove the previous manifest: " + ec.message());
 }
 
-std::string writeMapKeyframeCloud(const fs::path& dir, std::size_t frame, const LabeledCloud& cloud) {
+namespace {
+
+// keyframes/NNNNNN.pcd, the folder created.
+std::string keyframeCloudName(const fs::path& dir, std::size_t frame) {
   char name[32];
   std::snprintf(name, sizeof name, "keyframes/%06zu.pcd", frame);
   std::error_code ec;
   fs::create_directories(dir / "keyframes", ec);
   if (ec) fail((dir / "keyframes").string(), "cannot create: " + ec.message());
+  return name;
+}
+
+}  // namespace
+
+std::string writeMapKeyframeCloud(const fs::path& dir, std::size_t frame, const LabeledCloud& cloud) {
+  const std::string name = keyframeCloudName(dir, frame);
   writePcd(dir / name, cloud, PcdEncoding::BinaryCompressed);
   return name;
 }
 
+std::string copyMapKeyframeCloud(const fs::path& dir, std::size_t frame, const fs::path& from) {
+  const std::string name = keyframeCloudName(dir, frame);
+  std::error_code ec;
+  fs::copy_file(from, dir / name, fs::copy_options::overwrite_existing, ec);
+  if (ec) fail(from.string(), "cannot copy into " + (dir / name).string() + ": " + ec.message());
+  return name;
+}
+
 void writeMapManifest(const fs::path& dir, const MapManifest& manifest, const ClassTable& classes,
-                      const std::vector<std::string>& files) {
+                      const std::vector<std::string>& files, const std::string& graph_extras) {
   writeTextAtomically(dir / "classes.yaml", classes.toYamlString());
   std::vector<std::string> listed = files;
   listed.push_back("classes.yaml");
+  if (!graph_extras.empty()) listed.push_back(graph_extras);
   nlohmann::json keyframes = nlohmann::json::array();
   for (const auto& k : manifest.keyframes) {
     keyframes.push_back(keyframeJson(k));
@@ -87,6 +106,7 @@ void writeMapManifest(const fs::path& dir, const MapManifest& manifest, const Cl
   j["classes"] = "classes.yaml";
   j["sensor_height_m"] = std::isfinite(manifest.sensor_height) ? nlohmann::json(manifest.sensor_height) : nlohmann::json();
   j["graph"] = "graph.g2o";
+  if (!graph_extras.empty()) j["graph_extras"] = graph_extras;
   j["hazards"] = "hazards.json";
   j["trajectory"] = "trajectory.kitti";
   j["parameters"] = nlohmann::json::parse(manifest.parameters_json);

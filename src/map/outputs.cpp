@@ -81,6 +81,7 @@ MapOutputs writeMapOutputs(const std::filesystem::path& dir, const GlobalMap& ma
     scene.classes = table;
     scene.colors = config.top_down.colors;
     scene.hazards = out.hazards;
+    scene.changes = config.changes;
     scene.trajectories.push_back({"estimate", positionsOf(estimate), {208, 64, 255}});
     if (ground_truth) scene.trajectories.push_back({"ground truth", positionsOf(*ground_truth), {60, 220, 130}});
     scene.clip_above = config.top_down.clip_above;

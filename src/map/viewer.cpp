@@ -51,13 +51,20 @@ json metaJson(const ViewerScene& scene, const ViewerConfig& config, const viewer
     trajectories.push_back({{"name", t.name}, {"color", css(t.color)}, {"points", points}});
   }
   const auto vec = [](const Eigen::Vector3d& v) { return json::array({v.x(), v.y(), v.z()}); };
-  return {{"title", scene.title}, {"source", scene.source}, {"groups", groups},
+  json meta = {{"title", scene.title}, {"source", scene.source}, {"groups", groups},
           {"points_total", e.total}, {"points_embedded", e.embedded}, {"has_property", e.has_property},
           {"qmin", vec(e.qmin)}, {"qstep", vec(e.qstep)}, {"center", vec(e.center)},
           {"hazards", hazardsMeta(scene.hazards, scene.classes, scene.colors)}, {"trajectories", trajectories},
           {"clip_above", scene.clip_above ? json(*scene.clip_above) : json()},
           {"detail_budget", config.detail_budget}, {"moving_budget", config.moving_budget},
           {"initial_view", config.top_down_first ? "top" : "perspective"}, {"live", config.live}};
+  // Only a page with changes carries the key (every other page stays as it was).
+  if (!scene.changes.empty()) {
+    json changes = json::array();
+    for (const auto& c : scene.changes) changes.push_back(json::parse(hazardChangeJson(c)));
+    meta["changes"] = std::move(changes);
+  }
+  return meta;
 }
 
 // Text placed inside <script>: "</" could end the element early.

@@ -49,6 +49,7 @@ ViewerScene loadRunScene(const std::filesystem::path& run_dir, const ClassTable&
   scene.source = run_dir.string();
   scene.map = readPly(required(run_dir, "map.ply"), classes);
   scene.hazards = readHazardsJson(required(run_dir, "hazards.json"));
+  if (std::filesystem::is_regular_file(run_dir / "changes.json", ec)) scene.changes = readHazardChanges(run_dir / "changes.json");
   auto name = std::filesystem::absolute(run_dir).lexically_normal();
   if (name.filename().empty()) name = name.parent_path();
   scene.title = "hazmap: " + name.filename().string();

@@ -59,7 +59,8 @@ void MapFolderOutput::finish() {
     manifest_.sensor_height = h[h.size() / 2];
   }
   manifest_.parameters_json = configToJson(config_).dump();
-  writeMapManifest(dir_, manifest_, classes_, {"graph.g2o", "trajectory.kitti", "hazards.json"});
+  const std::string extras = writeGraphExtras(dir_, result_.graph);
+  writeMapManifest(dir_, manifest_, classes_, {"graph.g2o", "trajectory.kitti", "hazards.json"}, extras);
 }
 
 }  // namespace hazmap::pipeline_detail

@@ -20,13 +20,6 @@ using namespace pipeline_detail;
 
 namespace {
 
-// After localisation, a loop to the prior may correct the prediction by at most this much: more
-// means the registration found another place, not this one.
-constexpr double kLoopMaxCorrection = 0.5;        // m
-constexpr double kLoopMaxCorrectionAngle = 0.05;  // rad
-// Floors on a loop-to-prior edge's standard deviations (as the map anchors', SlamConfig): the ICP
-// covariance alone is over-confident.
-constexpr double kLoopSigmaTranslation = 0.02, kLoopSigmaRotation = 0.002;
 // The prior keyframes are held by edges this stiff: the prior moves only by millimetres.
 constexpr double kPriorSigmaTranslation = 0.001, kPriorSigmaRotation = 0.0001;
 
@@ -36,27 +29,12 @@ Matrix6d diagonalInformation(double sigma_t, double sigma_r) {
   return d.asDiagonal();
 }
 
-Matrix6d loopInformation(const Matrix6d& covariance) {
-  Matrix6d c = covariance;
-  Vector6d floor;
-  floor << Eigen::Vector3d::Constant(kLoopSigmaTranslation * kLoopSigmaTranslation),
-      Eigen::Vector3d::Constant(kLoopSigmaRotation * kLoopSigmaRotation);
-  c += Matrix6d(floor.asDiagonal());
-  return c.inverse();
-}
-
 // Every pose of the run moved into the prior's frame.
 void moveRun(SlamResult& result, const Eigen::Isometry3d& T) {
   for (auto* t : {&result.estimate, &result.tracked, &result.odometry_only})
     for (auto& p : t->poses) p = normalized(T * p);
   for (auto& p : result.graph.poses) p = normalized(T * p);
 }
-
-struct PriorEdge {
-  std::size_t prior_keyframe = 0, frame = 0;
-  Eigen::Isometry3d T_prior_frame;
-  Matrix6d information;
-};
 
 // The run's graph with the prior's keyframes (held by stiff edges, the first fixed) and the loops
 // to them, solved in the prior's frame; the run's poses taken back.
@@ -83,29 +61,6 @@ void solveJointly(const PriorIndex& prior, const std::vector<PriorEdge>& edges, 
   result.estimate.poses.assign(result.graph.poses.begin(), result.graph.poses.end());
 }
 
-// Loops to the prior: every keyframe registered to the prior keyframes nearest where the
-// localisation puts it.
-std::vector<PriorEdge> loopsToPrior(const PriorIndex& prior, const RunKeyframes& run, const SlamResult& result,
-                                    const ClassTable& classes, const SlamConfig& config, PriorLocalisation& out) {
-  std::vector<PriorEdge> edges;
-  for (std::size_t k = 0; k < run.frames.size(); ++k) {
-    const std::size_t f = run.frames[k];
-    const Eigen::Isometry3d predicted = result.estimate.poses[f];
-    const PriorVerification v = verifyInPrior(prior, run.query(k, result), predicted, classes, config);
-    PriorAttempt a{f, false, v.outcome, v.prior_keyframe, v.T_world_query};
-    const Eigen::Isometry3d correction = predicted.inverse() * v.T_world_query;
-    if (v.accepted && (translationNorm(correction) > kLoopMaxCorrection || rotationAngle(correction) > kLoopMaxCorrectionAngle))
-      a.outcome = "moves the keyframe too far from where the localisation puts it";
-    else if (v.accepted) {
-      a.accepted = true;
-      edges.push_back({v.prior_keyframe, f, prior.pose(v.prior_keyframe).inverse() * v.T_world_query,
-                       loopInformation(v.registration.covariance)});
-    }
-    out.loops.push_back(std::move(a));
-  }
-  return edges;
-}
-
 }  // namespace
 
 PriorLocalisation localiseInPrior(const MapFolder& prior_map, ScanSource& scans, SlamResult& result,
@@ -119,7 +74,7 @@ PriorLocalisation localiseInPrior(const MapFolder& prior_map, ScanSource& scans,
   if (std::isfinite(height) && std::isfinite(prior_height) && std::abs(height - prior_height) > kSensorHeightTolerance)
     out.warnings.push_back(fmt::format("the sensor is {:.2f} m above the floor, {:.2f} m in the prior map", height,
                                        prior_height));
-  searchPrior(prior, run, result, classes, config, out);
+  searchPrior(prior, run, result.estimate.poses, classes, config, out);
   out.search_seconds = secondsSince(t0);
   if (out.state != PriorState::Localised) {
     out.state = PriorState::NeverLocalised;
@@ -127,7 +82,7 @@ PriorLocalisation localiseInPrior(const MapFolder& prior_map, ScanSource& scans,
     return out;
   }
   moveRun(result, out.T_prior_run);
-  const std::vector<PriorEdge> edges = loopsToPrior(prior, run, result, classes, config, out);
+  const std::vector<PriorEdge> edges = loopsToPrior(prior, run, result.estimate.poses, classes, config, out);
   solveJointly(prior, edges, result, config, out);
   out.total_seconds = secondsSince(t0);
   return out;

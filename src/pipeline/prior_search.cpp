@@ -50,13 +50,30 @@ bool agree(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
   return translationNorm(d) <= kAgreeTranslation && rotationAngle(d) <= kAgreeRotation;
 }
 
+// After localisation, a loop to the prior may correct the prediction by at most this much: more
+// means the registration found another place, not this one.
+constexpr double kLoopMaxCorrection = 0.5;        // m
+constexpr double kLoopMaxCorrectionAngle = 0.05;  // rad
+// Floors on a loop-to-prior edge's standard deviations (as the map anchors', SlamConfig): the ICP
+// covariance alone is over-confident.
+constexpr double kLoopSigmaTranslation = 0.02, kLoopSigmaRotation = 0.002;
+
+Matrix6d loopInformation(const Matrix6d& covariance) {
+  Matrix6d c = covariance;
+  Vector6d floor;
+  floor << Eigen::Vector3d::Constant(kLoopSigmaTranslation * kLoopSigmaTranslation),
+      Eigen::Vector3d::Constant(kLoopSigmaRotation * kLoopSigmaRotation);
+  c += Matrix6d(floor.asDiagonal());
+  return c.inverse();
+}
+
 }  // namespace
 
-LabeledCloud RunKeyframes::query(std::size_t k, const SlamResult& result) const {
-  const Eigen::Isometry3d world_k = result.estimate.poses.at(frames.at(k));
+LabeledCloud RunKeyframes::query(std::size_t k, const FramePoses& poses) const {
+  const Eigen::Isometry3d world_k = poses.at(frames.at(k));
   LabeledCloud q = clouds.at(k);
   for (std::size_t j = k > kQueryKeyframesBefore ? k - kQueryKeyframesBefore : 0; j < k; ++j)
-    q.append(clouds[j].transformed(world_k.inverse() * result.estimate.poses.at(frames[j])));
+    q.append(clouds[j].transformed(world_k.inverse() * poses.at(frames[j])));
   return q;
 }
 
@@ -78,20 +95,52 @@ RunKeyframes readRunKeyframes(ScanSource& scans, const SlamResult& result, const
   return run;
 }
 
-PriorIndex::PriorIndex(const MapFolder& prior, const ClassTable& classes, const SlamConfig& config)
-    : global_(config.odometry.global) {
+RunKeyframes mapKeyframes(const MapFolder& map, const ClassTable& classes) {
+  RunKeyframes run;
+  for (std::size_t k = 0; k < map.keyframes().size(); ++k) {
+    const LabeledCloud full = map.loadKeyframe(k);
+    run.frames.push_back(map.keyframes()[k].frame);
+    run.heights.push_back(sensorHeightAboveFloor(full));
+    run.clouds.push_back(downsampled(full, kKeyframeVoxel, classes));
+  }
+  return run;
+}
+
+PriorIndex::PriorIndex(const SlamConfig& config) : global_(config.odometry.global) {
   global_.tracking_registration = config.odometry.registration;
   global_.use_classes = global_.use_classes && config.odometry.registration.use_classes;
+}
+
+PriorIndex::PriorIndex(const MapFolder& prior, const ClassTable& classes, const SlamConfig& config)
+    : PriorIndex(config) {
+  std::vector<Eigen::Isometry3d> poses;
+  std::vector<std::size_t> tags;
+  for (const auto& k : prior.keyframes()) poses.push_back(k.pose), tags.push_back(k.frame);
+  add(prior, poses, tags, classes);
+  prepare(classes, prior.dir().string());
+}
+
+void PriorIndex::add(const MapFolder& map, const std::vector<Eigen::Isometry3d>& poses,
+                     const std::vector<std::size_t>& tags, const ClassTable& classes) {
+  for (std::size_t k = 0; k < map.keyframes().size(); ++k) {
+    const LabeledCloud full = map.loadKeyframe(k);
+    poses_.push_back(poses.at(k));
+    tags_.push_back(tags.at(k));
+    segments_.push_back(segment_count_);
+    clouds_.push_back(downsampled(full, kKeyframeVoxel, classes));
+    overview_clouds_.push_back(downsampled(full, kOverviewVoxel, classes));
+  }
+  ++segment_count_;
+}
+
+void PriorIndex::prepare(const ClassTable& classes, const std::string& where) {
+  if (poses_.empty()) fail(where, "the prior map has no keyframes");
   LabeledCloud all;
   Eigen::Vector3d centre = Eigen::Vector3d::Zero();
-  for (std::size_t k = 0; k < prior.keyframes().size(); ++k) {
-    const LabeledCloud full = prior.loadKeyframe(k);
-    poses_.push_back(prior.keyframes()[k].pose);
-    clouds_.push_back(downsampled(full, kKeyframeVoxel, classes));
-    all.append(downsampled(full, kOverviewVoxel, classes).transformed(poses_.back()));
-    centre += poses_.back().translation();
+  for (std::size_t k = 0; k < poses_.size(); ++k) {
+    all.append(overview_clouds_[k].transformed(poses_[k]));
+    centre += poses_[k].translation();
   }
-  if (poses_.empty()) fail(prior.dir().string(), "the prior map has no keyframes");
   centre /= static_cast<double>(poses_.size());
   overview_ = prepareGlobalTarget(downsampled(all, kOverviewVoxel, classes), classes, global_, centre.cast<float>());
 }
@@ -110,7 +159,8 @@ LabeledCloud PriorIndex::submap(std::size_t k) const {
   LabeledCloud s;
   const std::size_t first = k > kPriorSubmapHalf ? k - kPriorSubmapHalf : 0;
   const std::size_t last = std::min(poses_.size() - 1, k + kPriorSubmapHalf);
-  for (std::size_t j = first; j <= last; ++j) s.append(clouds_[j].transformed(poses_[k].inverse() * poses_[j]));
+  for (std::size_t j = first; j <= last; ++j)
+    if (segments_[j] == segments_[k]) s.append(clouds_[j].transformed(poses_[k].inverse() * poses_[j]));
   return s;
 }
 
@@ -123,6 +173,7 @@ PriorVerification verifyInPrior(const PriorIndex& prior, const LabeledCloud& que
     v.outcome = fmt::format("no prior keyframe within {:.0f} m of the answer", kPriorReach);
     return v;
   }
+  v.in_reach = true;
   const LoopClosureConfig loops = loopClosureConfigFor(config);
   const VerificationConfig& vc = loops.verification;
   const Eigen::Isometry3d& P = prior.pose(v.prior_keyframe);
@@ -141,14 +192,14 @@ PriorVerification verifyInPrior(const PriorIndex& prior, const LabeledCloud& que
   return v;
 }
 
-void searchPrior(const PriorIndex& prior, const RunKeyframes& run, const SlamResult& result, const ClassTable& classes,
+void searchPrior(const PriorIndex& prior, const RunKeyframes& run, const FramePoses& poses, const ClassTable& classes,
                  const SlamConfig& config, PriorLocalisation& out) {
   std::optional<std::pair<std::size_t, Eigen::Isometry3d>> last;  // keyframe, prior ← run
   double attempt_seconds = 0.0;
   for (std::size_t k = 0; k < run.frames.size(); ++k) {
     const auto t = Clock::now();
     const std::size_t f = run.frames[k];
-    const LabeledCloud query = run.query(k, result);
+    const LabeledCloud query = run.query(k, poses);
     const GlobalRegistrationResult g = registerGlobally(query, prior.overview(), classes, prior.globalConfig());
     PriorAttempt a{f, false, "", 0};
     if (!g.success) {
@@ -160,7 +211,7 @@ void searchPrior(const PriorIndex& prior, const RunKeyframes& run, const SlamRes
       a.accepted = v.accepted;
       a.pose = v.T_world_query;
       if (v.accepted) {
-        const Eigen::Isometry3d H = v.T_world_query * result.estimate.poses.at(f).inverse();
+        const Eigen::Isometry3d H = v.T_world_query * poses.at(f).inverse();
         // Two verified answers of two keyframes must agree (composed with the run's estimate).
         if (last && agree(last->second, H)) {
           out.state = PriorState::Localised;
@@ -179,6 +230,27 @@ void searchPrior(const PriorIndex& prior, const RunKeyframes& run, const SlamRes
     if (out.state == PriorState::Localised) break;
   }
   out.seconds_per_attempt = out.search.empty() ? 0.0 : attempt_seconds / static_cast<double>(out.search.size());
+}
+
+std::vector<PriorEdge> loopsToPrior(const PriorIndex& prior, const RunKeyframes& run, const FramePoses& poses,
+                                    const ClassTable& classes, const SlamConfig& config, PriorLocalisation& out) {
+  std::vector<PriorEdge> edges;
+  for (std::size_t k = 0; k < run.frames.size(); ++k) {
+    const std::size_t f = run.frames[k];
+    const Eigen::Isometry3d predicted = poses.at(f);
+    const PriorVerification v = verifyInPrior(prior, run.query(k, poses), predicted, classes, config);
+    PriorAttempt a{f, false, v.outcome, v.prior_keyframe, v.T_world_query, v.in_reach};
+    const Eigen::Isometry3d correction = predicted.inverse() * v.T_world_query;
+    if (v.accepted && (translationNorm(correction) > kLoopMaxCorrection || rotationAngle(correction) > kLoopMaxCorrectionAngle))
+      a.outcome = "moves the keyframe too far from where the localisation puts it";
+    else if (v.accepted) {
+      a.accepted = true;
+      edges.push_back({v.prior_keyframe, f, prior.pose(v.prior_keyframe).inverse() * v.T_world_query,
+                       loopInformation(v.registration.covariance)});
+    }
+    out.loops.push_back(std::move(a));
+  }
+  return edges;
 }
 
 }  // namespace hazmap::pipeline_detail

@@ -13,41 +13,64 @@ namespace hazmap::pipeline_detail {
 /// m: a sensor height this different from the prior's is warned about.
 constexpr double kSensorHeightTolerance = 0.1;
 
+/// Every frame's pose of a run (Trajectory::poses), indexed by frame.
+using FramePoses = std::vector<Eigen::Isometry3d, Eigen::aligned_allocator<Eigen::Isometry3d>>;
+
 /// The run's keyframes (keyframeFrames), their clouds as tracking saw them, downsampled.
 struct RunKeyframes {
   std::vector<std::size_t> frames;
   std::vector<LabeledCloud> clouds;  ///< sensor frame
   std::vector<double> heights;       ///< sensorHeightAboveFloor of the full clouds
-  /// Keyframe k with the keyframes just before it, placed in k's frame with the run's estimate.
-  LabeledCloud query(std::size_t k, const SlamResult& result) const;
+  /// Keyframe k with the keyframes just before it, placed in k's frame with the run's poses.
+  LabeledCloud query(std::size_t k, const FramePoses& poses) const;
   double sensorHeight() const;  ///< median of the finite heights, NaN when none
 };
 RunKeyframes readRunKeyframes(ScanSource& scans, const SlamResult& result, const SlamConfig& config,
                               const ClassTable& classes);
+/// The keyframes of a map folder (a map being merged into another), as a run's.
+RunKeyframes mapKeyframes(const MapFolder& map, const ClassTable& classes);
 
 /// The prior's keyframes, read and prepared once: downsampled clouds, poses, and the global
-/// registration target of all of them in the prior's frame.
+/// registration target of all of them in the prior's frame. A merge (pipeline/merge_maps.hpp)
+/// adds one map after another, each a segment of its own, and prepares the target again.
 class PriorIndex {
  public:
+  /// The prior's keyframes at their poses, prepared.
   PriorIndex(const MapFolder& prior, const ClassTable& classes, const SlamConfig& config);
+  /// Empty: add() maps, then prepare().
+  explicit PriorIndex(const SlamConfig& config);
+  /// Appends `map`'s keyframes as a new segment, keyframe k at poses[k] (prior frame), tagged
+  /// tags[k] (the merge's graph node). Throws hazmap::Error naming a keyframe that cannot be read.
+  void add(const MapFolder& map, const std::vector<Eigen::Isometry3d>& poses, const std::vector<std::size_t>& tags,
+           const ClassTable& classes);
+  /// (Re)builds the global registration target over all keyframes at their current poses.
+  void prepare(const ClassTable& classes, const std::string& where);
   std::size_t size() const { return poses_.size(); }
   const Eigen::Isometry3d& pose(std::size_t k) const { return poses_.at(k); }
+  void setPose(std::size_t k, const Eigen::Isometry3d& pose) { poses_.at(k) = pose; }
+  std::size_t tag(std::size_t k) const { return tags_.at(k); }
+  std::size_t segment(std::size_t k) const { return segments_.at(k); }
   /// The prior keyframe nearest `position` (prior frame) and its distance.
   std::size_t nearest(const Eigen::Vector3d& position, double& distance) const;
-  /// Keyframe k with its neighbours by index, placed in k's frame (the verification target).
+  /// Keyframe k with its neighbours by index in its segment, placed in k's frame (the
+  /// verification target).
   LabeledCloud submap(std::size_t k) const;
   const GlobalRegistrationTarget& overview() const { return overview_; }
   const GlobalRegistrationConfig& globalConfig() const { return global_; }
 
  private:
   std::vector<Eigen::Isometry3d> poses_;
-  std::vector<LabeledCloud> clouds_;
+  std::vector<LabeledCloud> clouds_;           ///< at the keyframe voxel, sensor frame
+  std::vector<LabeledCloud> overview_clouds_;  ///< at the overview voxel, sensor frame
+  std::vector<std::size_t> tags_, segments_;
+  std::size_t segment_count_ = 0;
   GlobalRegistrationConfig global_;
   GlobalRegistrationTarget overview_;
 };
 
 struct PriorVerification {
   bool accepted = false;
+  bool in_reach = false;  ///< a prior keyframe lay within reach of the guess
   std::string outcome;
   std::size_t prior_keyframe = 0;
   Eigen::Isometry3d T_world_query = Eigen::Isometry3d::Identity();  ///< prior world ← query
@@ -62,7 +85,20 @@ PriorVerification verifyInPrior(const PriorIndex& prior, const LabeledCloud& que
 
 /// The search, keyframe by keyframe: global registration against the prior, verification, and
 /// two verified answers of two keyframes that agree. Sets out.state (Localised) and out.T_prior_run.
-void searchPrior(const PriorIndex& prior, const RunKeyframes& run, const SlamResult& result,
+void searchPrior(const PriorIndex& prior, const RunKeyframes& run, const FramePoses& poses,
                  const ClassTable& classes, const SlamConfig& config, PriorLocalisation& out);
+
+/// A verified loop from a prior keyframe to a frame of the run.
+struct PriorEdge {
+  std::size_t prior_keyframe = 0, frame = 0;
+  Eigen::Isometry3d T_prior_frame;
+  Matrix6d information;
+};
+
+/// Loops to the prior once localised (`poses` in the prior's frame): every keyframe registered to
+/// the prior keyframes nearest where the localisation puts it; a correction beyond 0.5 m / 0.05
+/// rad is refused (another place). Each attempt is appended to out.loops.
+std::vector<PriorEdge> loopsToPrior(const PriorIndex& prior, const RunKeyframes& run, const FramePoses& poses,
+                                    const ClassTable& classes, const SlamConfig& config, PriorLocalisation& out);
 
 }  // namespace hazmap::pipeline_detail

@@ -30,6 +30,9 @@ struct HazardChange {
   /// 0–1: how much the run's evidence supports the verdict (frames that saw the hazard, or for
   /// gone the surface points where it was), saturating at kConfidentFrames / kConfidentPoints.
   double confidence = 0.0;
+  /// In a merge (pipeline/merge_maps.hpp): the later mission (1-based input number) compared with
+  /// the first; 0 for a run with --prior (changes.json then has no "mission").
+  int mission = 0;
   bool changed() const;  ///< anything but unchanged, not_re_observed and part_of
 };
 
@@ -37,7 +40,14 @@ struct HazardChange {
 std::vector<HazardChange> compareHazards(const std::vector<Hazard>& before, const std::vector<Hazard>& after,
                                          const LabeledCloud& after_map);
 
-/// changes.json ({"changes": [...], "counts": {kind: n}}) and changes.csv. Atomic.
+/// One entry of changes.json (a JSON object's text; "mission" only when set).
+std::string hazardChangeJson(const HazardChange& change);
+
+/// Reads changes.json back. Throws hazmap::Error naming the file when it is missing or broken.
+std::vector<HazardChange> readHazardChanges(const std::filesystem::path& path);
+
+/// changes.json ({"changes": [...], "counts": {kind: n}}) and changes.csv. Atomic. When any
+/// change has a mission, each entry has "mission" and the CSV a first column `mission`.
 void writeHazardChanges(const std::filesystem::path& dir, const std::vector<HazardChange>& changes);
 
 }  // namespace hazmap

@@ -12,6 +12,8 @@
 //   classes.yaml             the class table the keyframes' class ids refer to
 //   keyframes/NNNNNN.pcd     keyframe clouds as tracking saw them (deskewed), sensor frame
 //   graph.g2o, trajectory.kitti, hazards.json   (written by the run itself)
+//   graph_extras.json        what graph.g2o cannot say: each edge's kind (loop edges carry a
+//                            robust loss) and the gravity priors; optional (older folders)
 #include <Eigen/Geometry>
 #include <cstdint>
 #include <filesystem>
@@ -74,11 +76,20 @@ void invalidateMapFolder(const std::filesystem::path& dir);
 /// relative to `dir`.
 std::string writeMapKeyframeCloud(const std::filesystem::path& dir, std::size_t frame, const LabeledCloud& cloud);
 
+/// Writes graph_extras.json for `graph` (its loop and map-anchor edges by index, its gravity
+/// priors and gravity_world), atomically; returns its path relative to `dir`.
+std::string writeGraphExtras(const std::filesystem::path& dir, const PoseGraph& graph);
+
+/// Copies another map's keyframe cloud file `from` as this folder's keyframes/NNNNNN.pcd (a
+/// merge renumbers the frames) and returns its path relative to `dir`.
+std::string copyMapKeyframeCloud(const std::filesystem::path& dir, std::size_t frame, const std::filesystem::path& from);
+
 /// Writes classes.yaml and, last, map.json listing `files` (relative paths, which must exist:
 /// the run's graph.g2o, trajectory.kitti, hazards.json) and the keyframes' clouds,
 /// each with its size and checksum. Atomic; throws hazmap::Error naming the file.
+/// `graph_extras`: writeGraphExtras' path (named as map.json "graph_extras"; empty = none).
 void writeMapManifest(const std::filesystem::path& dir, const MapManifest& manifest, const ClassTable& classes,
-                      const std::vector<std::string>& files);
+                      const std::vector<std::string>& files, const std::string& graph_extras = {});
 
 /// An opened map: the manifest checked against the folder.
 class MapFolder {
@@ -89,7 +100,10 @@ class MapFolder {
   const ClassTable& classes() const { return classes_; }
   /// Keyframe k's cloud (sensor frame). Throws hazmap::Error naming the file.
   LabeledCloud loadKeyframe(std::size_t k) const;
+  /// graph.g2o, with its edges' kinds and gravity priors from graph_extras.json when the
+  /// manifest names it (else every edge an odometry edge, no priors).
   PoseGraph graph() const;
+  bool graphHasExtras() const { return !graph_extras_.empty(); }
   std::vector<Hazard> hazards() const;
   const std::vector<MapFileEntry>& files() const { return files_; }
 
@@ -99,6 +113,7 @@ class MapFolder {
   MapManifest manifest_;
   ClassTable classes_;
   std::vector<MapFileEntry> files_;
+  std::string graph_extras_;  ///< relative path, empty when the manifest names none
 };
 
 /// Opens a map folder: map.json present and of format hazmap-map/1, every listed file present

@@ -27,6 +27,8 @@ struct MapOutputConfig {
   bool write_viewer = false;
   ViewerConfig viewer;
   std::string viewer_title;  ///< empty = top_down.title
+  /// What changed since the prior mission, shown as the viewer's changes layer and table.
+  std::vector<HazardChange> changes;
   /// Per camera channel, the cameras that gave it (hazards.json's `channels`); channels of
   /// the map not listed here are reported without cameras.
   std::map<std::string, std::vector<std::string>> channel_cameras;

@@ -14,6 +14,7 @@
 #include "hazmap/core/class_table.hpp"
 #include "hazmap/core/labeled_cloud.hpp"
 #include "hazmap/map/export.hpp"
+#include "hazmap/map/hazard_changes.hpp"
 #include "hazmap/map/hazards.hpp"
 
 namespace hazmap {
@@ -32,6 +33,9 @@ struct ViewerScene {
   ClassTable classes = ClassTable::defaults();
   MapColorConfig colors;  ///< the colours of map.ply
   std::vector<Hazard> hazards;
+  /// What changed since the prior mission (changes.json of a run with --prior or a merge): a
+  /// layer of markers (new, gone, moved with its arrow, …) and a table; none, no layer.
+  std::vector<HazardChange> changes;
   std::vector<ViewerTrajectory> trajectories;
   /// Points above this z are hidden at first (an indoor map's ceiling); the page has a slider.
   std::optional<double> clip_above;
@@ -76,7 +80,8 @@ std::string viewerHtml(const ViewerScene& scene, const ViewerConfig& config = {}
 ViewerReport writeViewer(const std::filesystem::path& path, const ViewerScene& scene,
                          const ViewerConfig& config = {});
 
-/// The scene of a `hazmap run` output folder: map.ply and hazards.json (required),
+/// The scene of a `hazmap run` (or `hazmap merge`) output folder: map.ply and hazards.json (required),
+/// changes.json when there is one,
 /// trajectory.kitti (estimate) and, when run.json names a sequence with poses.txt of the same
 /// length, the ground truth. Throws hazmap::Error naming the missing or broken file.
 ViewerScene loadRunScene(const std::filesystem::path& run_dir,

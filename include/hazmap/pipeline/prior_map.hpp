@@ -33,6 +33,8 @@ struct PriorAttempt {
   /// Where the verification put the keyframe (prior world ← keyframe; identity when global
   /// registration found nothing to verify).
   Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  /// A prior keyframe lay within reach of where the keyframe was put (it could be verified).
+  bool in_reach = false;
 };
 
 struct PriorLocalisation {

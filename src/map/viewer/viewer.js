@@ -97,6 +97,36 @@
   let hazardObjects = meta.hazards.map(hazardObject);
   let hazardsVisible = true;
 
+  // Changes since the prior mission (changes.json of a run with --prior or of a merge): a ring
+  // where each hazard is now (or was, when gone), an arrow from before to after when it moved.
+  const CHANGE_COLORS = { new: '#3cdc6e', gone: '#ff3c3c', moved: '#ffa01e', grown: '#f0e040', shrunk: '#f0e040',
+                          value_changed: '#e040f0', not_re_observed: '#8a8f98', unchanged: '#5a7fa8', part_of: '#5a7fa8' };
+  const QUIET_KINDS = ['unchanged', 'part_of', 'not_re_observed'];
+  const changeKind = (c) => c.kinds.find((k) => !QUIET_KINDS.includes(k)) || c.kinds[0];
+  const changeObject = (c) => {
+    const kind = changeKind(c), color = new THREE.Color(CHANGE_COLORS[kind] || '#ffffff');
+    const material = new THREE.MeshBasicMaterial({ color, depthTest: false, side: THREE.DoubleSide });
+    const position = new THREE.Vector3().fromArray(c.after || c.before).sub(center);
+    const group = new THREE.Group();
+    const ring = new THREE.Mesh(new THREE.RingGeometry(0.55, 0.8, 40), material);
+    ring.position.copy(position);
+    group.add(ring);
+    if (c.before && c.after && c.kinds.includes('moved')) {
+      const from = new THREE.Vector3().fromArray(c.before).sub(center), dir = position.clone().sub(from);
+      const arrow = new THREE.ArrowHelper(dir.clone().normalize(), from, dir.length(), color.getHex(), 0.5, 0.35);
+      arrow.line.material.depthTest = false;
+      arrow.cone.material.depthTest = false;
+      group.add(arrow);
+    }
+    group.traverse((o) => { o.renderOrder = 4; });
+    group.visible = !QUIET_KINDS.includes(kind);
+    scene.add(group);
+    return { change: c, kind, group, position };
+  };
+  const changeObjects = (meta.changes || []).map(changeObject)
+    .sort((a, b) => QUIET_KINDS.includes(a.kind) - QUIET_KINDS.includes(b.kind));
+  let changesVisible = true;
+
   // Markers of the selection and of the distance tool.
   const markerMaterial = new THREE.MeshBasicMaterial({ color: 0xffffff, depthTest: false });
   const pickMarker = new THREE.Mesh(new THREE.SphereGeometry(1, 16, 10), markerMaterial);
@@ -386,6 +416,43 @@
       for (const o of hazardObjects) { o.helper.visible = on; }
       requestRender();
     });
+    const shown = changeObjects.filter((o) => !QUIET_KINDS.includes(o.kind));
+    if (changeObjects.length)
+      item('', CHANGE_COLORS.moved, 'changes since the prior mission', shown.length, changesVisible, (on) => {
+        changesVisible = on;
+        for (const o of shown) o.group.visible = on;
+        requestRender();
+      });
+  }
+
+  function changeDetail(c) {
+    const parts = [];
+    if (c.mission) parts.push('mission ' + c.mission);
+    if (c.kinds.includes('moved')) parts.push(fmt(c.moved_m, 2) + ' m from ' + c.before.slice(0, 2).map((v) => fmt(v, 1)).join(', '));
+    if (c.kinds.includes('grown') || c.kinds.includes('shrunk')) parts.push(fmt(c.area_before_m2, 2) + ' → ' + fmt(c.area_after_m2, 2) + ' m²');
+    if (c.kinds.includes('value_changed') && c.value_before !== null && c.value_after !== null)
+      parts.push(fmt(c.value_before, 1) + ' → ' + fmt(c.value_after, 1));
+    if (c.kinds.includes('gone') || c.kinds.includes('new')) parts.push(fmt(c.area_before_m2 || c.area_after_m2, 2) + ' m²');
+    return parts.join('; ');
+  }
+
+  function buildChangeTable() {
+    if (!changeObjects.length) return;
+    $('changes-section').hidden = false;
+    const body = $('changes').querySelector('tbody');
+    body.textContent = '';
+    changeObjects.forEach((o, k) => {
+      const c = o.change, tr = document.createElement('tr');
+      const where = (c.after || c.before).slice(0, 2).map((v) => fmt(v, 1)).join(', ');
+      const cells = ['<span class="dot" style="background:' + (CHANGE_COLORS[o.kind] || '#fff') + '"></span>' +
+        '<span class="change-kind">' + c.kinds.join(', ').replace(/_/g, ' ') + '</span>', c.class, where, changeDetail(c),
+        fmt(c.confidence, 2)];
+      tr.innerHTML = cells.map((t) => '<td>' + t + '</td>').join('');
+      tr.classList.toggle('quiet', QUIET_KINDS.includes(o.kind));
+      tr.addEventListener('click', () => flyTo(o.position.clone(), 8));
+      body.appendChild(tr);
+    });
+    $('change-count').textContent = '(' + changeObjects.filter((o) => !QUIET_KINDS.includes(o.kind)).length + ')';
   }
 
   function buildHazardTable() {
@@ -633,6 +700,7 @@
   if (meta.clip_above !== null) state.clipZ = meta.clip_above;
   buildLegend();
   buildHazardTable();
+  buildChangeTable();
   bindControls();
   setPointSize(state.pointSize);
   setClip(state.clipZ);
@@ -658,6 +726,11 @@
     hazardRows() {
       return Array.from($('hazards').querySelectorAll('tbody tr')).map((tr) => Array.from(tr.cells).map((td) => td.textContent));
     },
+    changeRows() {
+      return Array.from($('changes').querySelectorAll('tbody tr')).map((tr) => Array.from(tr.cells).map((td) => td.textContent));
+    },
+    clickChange(k, instant) { const o = changeObjects[k]; if (!o) return false; flyTo(o.position.clone(), 8, instant); return true; },
+    setChangesVisible(on) { for (const o of changeObjects) if (!QUIET_KINDS.includes(o.kind)) o.group.visible = on; renderNow(); },
     clickRow(k, instant) { const tr = $('hazards').querySelectorAll('tbody tr')[k]; if (!tr) return false;
       if (instant) return selectHazard(k, true); tr.click(); return true; },
     clickScreen,
