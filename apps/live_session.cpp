@@ -48,7 +48,7 @@ void installSignalHandlers() {
 
 SlamConfig liveConfig(const LiveOptions& o, const ParameterOptions& params) {
   SlamConfig config = SlamConfig::forMethod(parseSlamMethod(o.method));
-  config.back_end_thread = true;  // live: tracking never waits for a loop stage (--set slam.back_end_thread=false)
+  config.back_end = BackEndSchedule::OwnThread;  // live: tracking never waits for a loop stage
   if (!o.config.empty()) config.applyYamlFile(o.config);
   config.property_icp = params.propertyIcp(config.property_icp);
   params.applySettings(config);

@@ -1,4 +1,4 @@
-// The asynchronous back end (issue 33 part 3, slam.back_end_thread): latency from a scan's
+// The asynchronous back end (issue 33 part 3, slam.back_end own-thread): latency from a scan's
 // arrival to its pose while loops are verified, and the tracking rate, against tracking alone in
 // the same run. Whole simulated naraha route (seed 1, 163 frames, loops from frame 72), 2 threads.
 //   BM_Paced10Hz        scans released at 10 Hz (a VLP-16's rate) by a source that waits for each
@@ -72,7 +72,7 @@ struct Row {
 Row runRow(SlamMethod method, bool thread, double rate) {
   SlamConfig cfg = SlamConfig::forMethod(method);
   cfg.threads = 2;
-  cfg.back_end_thread = thread;
+  cfg.back_end = thread ? BackEndSchedule::OwnThread : BackEndSchedule::BesideTracking;
   PacedSource source(sequenceScanSource(naraha(), false), rate);
   FrameLatency latency;
   SteadyClock::time_point last_pose;

@@ -11,7 +11,7 @@
 //   BM_Naraha_PropertyIcp                   tracking alone (the peer)
 //   BM_Naraha_PropertyIcpPgo                the defaults (loops searched on every keyframe, each
 //                                           keyframe's loop stage beside the next scan's tracking)
-//   BM_Naraha_PropertyIcpPgo_Sequential     slam.loops_beside_tracking off: the loop stage after
+//   BM_Naraha_PropertyIcpPgo_Sequential     slam.back_end after-frame: the loop stage after
 //                                           tracking (same results; the overlap's gain)
 //   BM_Naraha_PropertyIcpPgo_Every2nd       slam.loop_search_every = 2: half the loop searches
 //                                           (same naraha mean map error over seeds 1–8, but not
@@ -108,7 +108,7 @@ void BM_Naraha_PropertyIcpPgo(benchmark::State& state) {
 }
 void BM_Naraha_PropertyIcpPgo_Sequential(benchmark::State& state) {
   SlamConfig c = SlamConfig::forMethod(SlamMethod::PropertyIcpPgo);
-  c.loops_beside_tracking = false;
+  c.back_end = BackEndSchedule::AfterFrame;
   runConfig(state, c, false);
 }
 void BM_Naraha_PropertyIcpPgo_Every2nd(benchmark::State& state) {

@@ -7,8 +7,8 @@
 # datagrams lost. Each row is `LABEL|ARGS...` (live's own arguments: --method, --set ...).
 #   [METADATA=ouster.json] scripts/live-latency.sh HAZMAP_BIN OUT_DIR CAPTURE RATE SECONDS REPEATS 'label|args' ...
 #   e.g. scripts/live-latency.sh build/apps/hazmap /tmp/lat velodyne_vlp16.pcap 1 30 2 \
-#          'icp|--method icp' 'sync|--method icp+pgo --set slam.back_end_thread=false' \
-#          'async|--method icp+pgo --set slam.back_end_thread=true'
+#          'icp|--method icp' 'sync|--method icp+pgo --set slam.back_end=beside-tracking' \
+#          'async|--method icp+pgo --set slam.back_end=own-thread'
 set -euo pipefail
 h=${1:?hazmap binary}; out=${2:?output folder}; capture=${3:?capture}; rate=${4:?rate}
 seconds=${5:?seconds}; repeats=${6:?repeats}; shift 6

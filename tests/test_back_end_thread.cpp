@@ -1,4 +1,4 @@
-// The asynchronous back end (issue 33 part 3, SlamConfig::back_end_thread): the same final
+// The asynchronous back end (issue 33 part 3, SlamConfig::back_end own-thread): the same final
 // answer as the synchronous schedule, tracking that never waits for a loop stage, and a stream
 // that ends while a loop stage is in flight still gives complete outputs.
 #include <gtest/gtest.h>
@@ -52,7 +52,7 @@ void expectSamePoses(const Trajectory& a, const Trajectory& b) {
 SlamConfig pgoConfig(SlamMethod method, bool thread) {
   SlamConfig c = SlamConfig::forMethod(method);
   c.threads = 2;
-  c.back_end_thread = thread;
+  c.back_end = thread ? BackEndSchedule::OwnThread : BackEndSchedule::BesideTracking;
   return c;
 }
 
@@ -143,8 +143,9 @@ TEST(AsyncBackEnd, TrackingNeverWaitsAndAStreamEndingDuringALoopStageWritesCompl
 
 TEST(AsyncBackEnd, QueueBoundMustBePositive) {
   SlamConfig c = SlamConfig::forMethod(SlamMethod::PropertyIcpPgo);
-  c.applySetting("slam.back_end_thread=true");
-  EXPECT_TRUE(c.back_end_thread);
+  c.applySetting("slam.back_end=own-thread");
+  EXPECT_EQ(c.back_end, BackEndSchedule::OwnThread);
+  EXPECT_THROW(c.applySetting("slam.back_end=sideways"), Error);
   EXPECT_THROW(c.applySetting("slam.back_end_queue_mb=0"), Error);
 }
 

@@ -73,7 +73,7 @@ TEST(LoopSchedule, ARunSearchesOnlyTheScheduledKeyframes) {
   EXPECT_THROW(bad.applySetting("slam.loop_search_every=0"), Error);
 }
 
-// The loop stage beside tracking (SlamConfig::loops_beside_tracking) is a pure speed change: the
+// The loop stage beside tracking (SlamConfig::back_end beside-tracking) is a pure speed change: the
 // same run with it off gives the same trajectory, graph and loop decisions bit for bit. Naraha's
 // first 45 frames hold loop candidates that are verified and rejected (low fitness, the gate).
 TEST(LoopsBesideTracking, SameResultsBitForBit) {
@@ -81,9 +81,9 @@ TEST(LoopsBesideTracking, SameResultsBitForBit) {
   const Sequence seq = Sequence::open(dir);
   SlamConfig beside = SlamConfig::forMethod(SlamMethod::PropertyIcpPgo);
   beside.threads = 2;
-  beside.loops_beside_tracking = true;
+  beside.back_end = BackEndSchedule::BesideTracking;
   SlamConfig after = beside;
-  after.loops_beside_tracking = false;
+  after.back_end = BackEndSchedule::AfterFrame;
   const SlamResult a = runSlam(seq, beside), b = runSlam(seq, after);
   EXPECT_GT(a.loop_candidates, 0u);
   EXPECT_EQ(a.loop_candidates, b.loop_candidates);

@@ -1,5 +1,5 @@
 #pragma once
-// The asynchronous back end (issue 33 part 3, SlamConfig::back_end_thread): the graph's side of a
+// The asynchronous back end (issue 33 part 3, SlamConfig::back_end own-thread): the graph's side of a
 // run (graph_side.hpp: nodes, odometry edges, loop search, verification, optimisation) on a
 // thread of its own, so tracking never waits for a loop stage. What crosses between the two
 // threads is explicit and small: each tracked frame by value (its record, its tracked pose, a

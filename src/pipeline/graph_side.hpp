@@ -3,7 +3,7 @@
 // frame's node chained from the previous (possibly optimised) node, its odometry edge
 // (information = inverse ICP covariance, eq. 3), re-estimated lost frames, and on keyframes the
 // gravity prior and the back end's loop stage. The same code serves both schedules
-// (SlamConfig::back_end_thread): on the tracker's thread (offline, `hazmap run`), or on the
+// (SlamConfig::back_end): on the tracker's thread (offline, `hazmap run`), or on the
 // back end's own thread with copies of the records (back_end_thread.hpp), so both build the same
 // graph from the same sequence of calls.
 #include <mutex>

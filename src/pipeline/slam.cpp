@@ -22,7 +22,7 @@ using namespace pipeline_detail;
 
 // One SLAM run, frame by frame: each public step is one box of the paper's Fig. 1. The graph's
 // side runs on this thread (GraphSide) or on the back end's own (BackEndThread,
-// SlamConfig::back_end_thread); either way it gets the same frames in the same order.
+// SlamConfig::back_end own-thread); either way it gets the same frames in the same order.
 class SlamRun {
  public:
   SlamRun(ScanSource& source, const SlamConfig& config, const SlamSnapshots& hooks)
@@ -54,7 +54,7 @@ class SlamRun {
     tellFrame(scan.cloud);
     if (!keyframe) return;
     graph_->addGravityPrior(scan.gravity);
-    if (config_.loops_beside_tracking)
+    if (config_.back_end == BackEndSchedule::BesideTracking)
       pending_loops_.emplace(PendingLoops{frames() - 1, std::move(scan.cloud)});
     else
       closeLoops(frames() - 1, std::move(scan.cloud));
@@ -118,7 +118,7 @@ class SlamRun {
     // α and the class search radii, set once for tracking and loop verification alike.
     classes_ = config_.property_icp.applyTo(source_.classTable(), where);
     tracker_.emplace(classes_, config_.odometry, start_);
-    if (usesPoseGraph(config_.method) && config_.back_end_thread) {
+    if (usesPoseGraph(config_.method) && config_.back_end == BackEndSchedule::OwnThread) {
       back_end_thread_ = std::make_unique<BackEndThread>(config_, start_, classes_, source_, source_lock_,
                                                          before_loop_stage_);
       return;
@@ -237,7 +237,7 @@ class SlamRun {
   }
 
   /// track(), with the previous keyframe's pending loop stage (if any) running beside it
-  /// (SlamConfig::loops_beside_tracking). The tracker reads nothing the loop stage writes (graph,
+  /// (SlamConfig::back_end beside-tracking). The tracker reads nothing the loop stage writes (graph,
   /// keyframes, loops) and the loop stage nothing the tracker writes, and the next scan's node and
   /// edges join the graph only after both finished, so the results are the same bit for bit.
   FrameRecord trackBesideLoops(Scan& scan, const std::optional<Eigen::Isometry3d>& wheel_increment) {
@@ -287,7 +287,7 @@ class SlamRun {
   std::function<void(std::size_t)> before_loop_stage_;
   std::size_t told_optimisations_ = 0, corrections_ = 0;
   std::mutex source_lock_;
-  // SlamConfig::back_end_thread: the graph on the back end's thread, and the estimate so far as
+  // SlamConfig::back_end own-thread: the graph on the back end's thread, and the estimate so far as
   // the tracker knows it (the back end's newest optimised poses, then the tracked increments).
   std::unique_ptr<BackEndThread> back_end_thread_;
   std::vector<Eigen::Isometry3d> estimate_;

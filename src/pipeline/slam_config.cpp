@@ -32,13 +32,14 @@ const ConfigFields<SlamConfig>& slamSectionFields() {
                    "Search loops on every n-th keyframe (online cost; 1 = every keyframe)")
           .integer("loop_pause_after_accept", &C::loop_pause_after_accept, nonNegative(),
                    "Keyframes not searched for loops after one whose search accepted a loop")
-          .flag("loops_beside_tracking", &C::loops_beside_tracking,
-                "Run a keyframe's loop stage while the next scan is tracked (same results)")
-          .flag("back_end_thread", &C::back_end_thread,
-                "Run the back end (loop search, verification, optimisation) on its own thread: tracking "
-                "never waits for it (same final results; hazmap live's default)")
+          .choice("back_end", &C::back_end,
+                  {{"beside-tracking", BackEndSchedule::BesideTracking},
+                   {"own-thread", BackEndSchedule::OwnThread},
+                   {"after-frame", BackEndSchedule::AfterFrame}},
+                  "When a keyframe's loop stage runs: beside the next scan's tracking, on a thread of its own "
+                  "(tracking never waits; hazmap live's default), or before the next scan (same final results)")
           .number("back_end_queue_mb", &C::back_end_queue_mb, positive(),
-                  "MiB; with back_end_thread: keyframe scans waiting for the back end, at most (then tracking waits)")
+                  "MiB; with back_end own-thread: keyframe scans waiting for the back end, at most (then tracking waits)")
           .number("min_translation_sigma", &C::min_translation_sigma, positive(),
                   "m; floor on an ICP increment's standard deviation before inverting it")
           .number("min_rotation_sigma", &C::min_rotation_sigma, positive(), "rad")

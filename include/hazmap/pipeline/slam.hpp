@@ -34,6 +34,9 @@ struct WheelOdometryNoise {
   Matrix6d information() const;
 };
 
+/// When the graph's side of a keyframe runs relative to tracking (SlamConfig::back_end).
+enum class BackEndSchedule { AfterFrame, BesideTracking, OwnThread };
+
 struct SlamConfig {
   SlamMethod method = SlamMethod::PropertyIcpPgo;
   /// Tracking: preprocessing, (property-)ICP, local map, failure detection. The paper registers
@@ -73,16 +76,14 @@ struct SlamConfig {
   /// neighbour; docs/measurements.md has the cost and the map errors). 1 and 0 = every keyframe.
   std::size_t loop_search_every = 1;
   std::size_t loop_pause_after_accept = 0;
-  /// Run a keyframe's loop stage (search, verification, optimisation) while the next scan is
-  /// tracked, the two sharing the threads; same results bit for bit (the next scan's node joins
-  /// the graph after both).
-  bool loops_beside_tracking = true;
-  /// Run the back end (keyframes' loop search, verification, optimisation) on a thread of its
-  /// own instead: tracking never waits for a loop stage, and the optimised poses come back to it
-  /// at a frame boundary (what `hazmap live` does by default). The final answer is the same as
-  /// with this off; the estimate during the run lags the loops by the back end's delay.
-  bool back_end_thread = false;
-  /// With back_end_thread: keyframe scans waiting for the back end, at most (MiB); beyond it
+  /// When a keyframe's loop stage (search, verification, optimisation) runs; every schedule gives
+  /// the same final answer bit for bit. BesideTracking: while the next scan is tracked, the two
+  /// sharing the threads (the next scan's node joins the graph after both). OwnThread: the whole
+  /// back end on a thread of its own, so tracking never waits for a loop stage and the optimised
+  /// poses come back to it at a frame boundary (`hazmap live`'s default; the estimate during the
+  /// run lags the loops by the back end's delay). AfterFrame: before the next scan (the reference).
+  BackEndSchedule back_end = BackEndSchedule::BesideTracking;
+  /// With OwnThread: keyframe scans waiting for the back end, at most (MiB); beyond it
   /// tracking waits (memory stays bounded when the back end cannot keep up with the sensor).
   double back_end_queue_mb = 256.0;
   int threads = 0;  ///< 0 = TBB default
@@ -211,7 +212,7 @@ struct SlamSnapshots {
   std::function<void(const SlamResult&)> take;
   std::function<void(const SlamFrameEvent&)> frame;
   /// (Optional; tests) called with a keyframe's frame index just before its loop stage, on the
-  /// thread that runs it (the back end's with SlamConfig::back_end_thread).
+  /// thread that runs it (the back end's with SlamConfig::back_end own-thread).
   std::function<void(std::size_t frame)> loop_stage;
 };
 SlamResult runSlam(ScanSource& source, const SlamConfig& config, const FrameProgress& progress,
