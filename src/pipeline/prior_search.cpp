@@ -4,8 +4,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
-#include <cstdlib>
 #include <limits>
 
 #include "hazmap/core/error.hpp"
@@ -38,29 +36,6 @@ LabeledCloud downsampled(const LabeledCloud& cloud, double voxel, const ClassTab
   c.voxel_size = voxel;
   c.vote = ClassVote::PreferProperty;
   return voxelDownsample(cloud, c, classes);
-}
-
-// On an open floor (the tanks' field) the far floor's points outnumber everything else several
-// times over, and global registration's score (the share of the query's points with a partner)
-// then hardly tells one place from the next along a row of identical tanks. So the clouds the
-// search registers keep the floor only near the sensor, where it still fixes height, roll and
-// pitch; labelled points (a puddle) are always kept. Verification and loops use whole clouds.
-constexpr double kFloorBand = 0.25;       // m above the floor seen below the sensor
-constexpr double kFloorKeptRadius = 8.0;  // m, horizontally from the sensor
-
-LabeledCloud nearFloorOnly(const LabeledCloud& cloud, double sensor_height, const ClassTable& classes) {
-  if (!std::isfinite(sensor_height)) return cloud;
-  if (std::getenv("HAZMAP_DEBUG_FULLFLOOR")) return cloud;  // DEBUG (temporary)
-  const double radius = std::getenv("HAZMAP_DEBUG_FLOORR") ? std::atof(std::getenv("HAZMAP_DEBUG_FLOORR")) : kFloorKeptRadius;  // DEBUG
-  const float floor_top = static_cast<float>(kFloorBand - sensor_height);
-  const float r2 = static_cast<float>(radius * radius);
-  std::vector<std::size_t> keep;
-  keep.reserve(cloud.size());
-  for (std::size_t i = 0; i < cloud.size(); ++i) {
-    const Eigen::Vector3f& p = cloud.points[i];
-    if (p.z() > floor_top || p.head<2>().squaredNorm() <= r2 || classes.isProperty(cloud.classes[i])) keep.push_back(i);
-  }
-  return cloud.select(keep);
 }
 
 double median(std::vector<double> v) {
@@ -99,11 +74,7 @@ Matrix6d loopInformation(const Matrix6d& covariance) {
 
 }  // namespace
 
-namespace {
-
-// Keyframe k of `clouds` with the keyframes just before it, in k's frame.
-LabeledCloud assembleQuery(const std::vector<LabeledCloud>& clouds, const std::vector<std::size_t>& frames,
-                           std::size_t k, const FramePoses& poses) {
+LabeledCloud RunKeyframes::query(std::size_t k, const FramePoses& poses) const {
   const Eigen::Isometry3d world_k = poses.at(frames.at(k));
   LabeledCloud q = clouds.at(k);
   for (std::size_t j = k > kQueryKeyframesBefore ? k - kQueryKeyframesBefore : 0; j < k; ++j)
@@ -111,21 +82,10 @@ LabeledCloud assembleQuery(const std::vector<LabeledCloud>& clouds, const std::v
   return q;
 }
 
-}  // namespace
-
-LabeledCloud RunKeyframes::query(std::size_t k, const FramePoses& poses) const {
-  return assembleQuery(clouds, frames, k, poses);
-}
-
-LabeledCloud RunKeyframes::searchQuery(std::size_t k, const FramePoses& poses) const {
-  return assembleQuery(search_clouds, frames, k, poses);
-}
-
 void RunKeyframes::add(std::size_t frame, const LabeledCloud& full, const ClassTable& classes) {
   frames.push_back(frame);
   heights.push_back(sensorHeightAboveFloor(full));
   clouds.push_back(downsampled(full, kKeyframeVoxel, classes));
-  search_clouds.push_back(nearFloorOnly(clouds.back(), heights.back(), classes));
 }
 
 double RunKeyframes::sensorHeight() const { return median(heights); }
@@ -172,7 +132,7 @@ void PriorIndex::add(const MapFolder& map, const std::vector<Eigen::Isometry3d>&
     tags_.push_back(tags.at(k));
     segments_.push_back(segment_count_);
     clouds_.push_back(downsampled(full, kKeyframeVoxel, classes));
-    overview_clouds_.push_back(nearFloorOnly(downsampled(full, kOverviewVoxel, classes), sensorHeightAboveFloor(full), classes));
+    overview_clouds_.push_back(downsampled(full, kOverviewVoxel, classes));
   }
   ++segment_count_;
 }
@@ -243,14 +203,13 @@ void searchPrior(const PriorIndex& prior, const RunKeyframes& run, const FramePo
   for (std::size_t k = 0; k < run.frames.size(); ++k) {
     const auto t = Clock::now();
     const std::size_t f = run.frames[k];
-    if (std::getenv("HAZMAP_DEBUG_GLOBAL")) std::fprintf(stderr, "PRIORDBG frame %zu\n", f);  // DEBUG (temporary)
-    const GlobalRegistrationResult g =
-        registerGlobally(run.searchQuery(k, poses), prior.overview(), classes, prior.globalConfig());
+    const LabeledCloud query = run.query(k, poses);
+    const GlobalRegistrationResult g = registerGlobally(query, prior.overview(), classes, prior.globalConfig());
     PriorAttempt a{f, false, "", 0};
     if (!g.success) {
       a.outcome = std::string("global registration: ") + toString(g.status) + (g.reason.empty() ? "" : " (" + g.reason + ")");
     } else {
-      const PriorVerification v = verifyInPrior(prior, run.query(k, poses), g.transform, classes, config);
+      const PriorVerification v = verifyInPrior(prior, query, g.transform, classes, config);
       a.prior_keyframe = v.prior_keyframe;
       a.outcome = v.outcome;
       a.accepted = v.accepted;

@@ -19,15 +19,12 @@ using FramePoses = std::vector<Eigen::Isometry3d, Eigen::aligned_allocator<Eigen
 /// The run's keyframes (keyframeFrames), their clouds as tracking saw them, downsampled.
 struct RunKeyframes {
   std::vector<std::size_t> frames;
-  std::vector<LabeledCloud> clouds;         ///< sensor frame
-  std::vector<LabeledCloud> search_clouds;  ///< the same, the floor kept only near the sensor
-  std::vector<double> heights;              ///< sensorHeightAboveFloor of the full clouds
+  std::vector<LabeledCloud> clouds;  ///< sensor frame
+  std::vector<double> heights;       ///< sensorHeightAboveFloor of the full clouds
   /// Appends keyframe `frame` from its full cloud (sensor frame).
   void add(std::size_t frame, const LabeledCloud& full, const ClassTable& classes);
   /// Keyframe k with the keyframes just before it, placed in k's frame with the run's poses.
   LabeledCloud query(std::size_t k, const FramePoses& poses) const;
-  /// The same of search_clouds: what global registration searches the prior with.
-  LabeledCloud searchQuery(std::size_t k, const FramePoses& poses) const;
   double sensorHeight() const;  ///< median of the finite heights, NaN when none
 };
 RunKeyframes readRunKeyframes(ScanSource& scans, const SlamResult& result, const SlamConfig& config,
@@ -66,7 +63,7 @@ class PriorIndex {
  private:
   std::vector<Eigen::Isometry3d> poses_;
   std::vector<LabeledCloud> clouds_;           ///< at the keyframe voxel, sensor frame
-  std::vector<LabeledCloud> overview_clouds_;  ///< at the overview voxel, sensor frame, floor near only
+  std::vector<LabeledCloud> overview_clouds_;  ///< at the overview voxel, sensor frame
   std::vector<std::size_t> tags_, segments_;
   std::size_t segment_count_ = 0;
   GlobalRegistrationConfig global_;

@@ -7,8 +7,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
-#include <cstdlib>
-#include <cmath>
 
 #include "global_internal.hpp"
 #include "hazmap/core/error.hpp"
@@ -298,14 +296,6 @@ GlobalRegistrationResult decide(GlobalRegistrationResult r, const std::vector<Ca
   r.refinement = c[0].icp;
   r.from_constellation = c[0].hypothesis.constellation;
   r.second_best_score = c.size() > 1 ? c[1].score.weighted : 0.0;
-  if (std::getenv("HAZMAP_DEBUG_GLOBAL"))  // DEBUG (temporary)
-    for (std::size_t i = 0; i < std::min<std::size_t>(c.size(), 4); ++i) {
-      const auto& T = c[i].hypothesis.transform;
-      std::fprintf(stderr, "GLOBALDBG cand %zu refined %d score %.3f overlap %.3f labels %.3f nlab %zu T %.3f %.3f %.3f yaw %.2f\n", i,
-                   (int)refined(c[i]), c[i].score.weighted, c[i].score.overlap, c[i].score.labels, (size_t)0,
-                   T.translation().x(), T.translation().y(), T.translation().z(),
-                   std::atan2(T.linear()(1, 0), T.linear()(0, 0)) * 180 / M_PI);
-    }
   char text[160];
   if (r.overlap < config.min_overlap) {
     std::snprintf(text, sizeof text, "best hypothesis overlaps %.0f %% of the scan (< %.0f %%)", 100 * r.overlap,
