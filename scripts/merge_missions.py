@@ -7,7 +7,10 @@ merge; merge.json), the inter-session loops (accepted, and wrong = more than 0.3
 as scripts/missions.py counts wrong answers), and the changes (changes.json against each
 mission's changes_truth.json, scored as in scripts/missions.py).
 
-  scripts/merge_missions.py BUILD/apps/hazmap WORK_DIR [--scenes naraha] [--seeds 1-8]
+  scripts/merge_missions.py BUILD/apps/hazmap WORK_DIR [--scenes naraha] [--seeds 1-8] [--reuse]
+
+With --reuse, simulated missions and runs already complete in WORK_DIR are kept (as
+scripts/missions.py --reuse; the same WORK_DIR serves both): only the merges are made again.
 """
 import argparse
 import json
@@ -15,7 +18,7 @@ import os
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from missions import error, pose, read_poses, run, score_change_list  # noqa: E402
+from missions import done, error, pose, read_poses, run, score_change_list  # noqa: E402
 
 
 def wrong_answers(placement, truth):
@@ -32,7 +35,9 @@ def main():
     ap.add_argument("--seeds", default="1-8")
     ap.add_argument("--threads", default="2")
     ap.add_argument("--temperature", action="store_true")
+    ap.add_argument("--reuse", action="store_true")
     a = ap.parse_args()
+    keep = lambda path, name: a.reuse and done(path, name)
     lo, hi = (int(x) for x in a.seeds.split("-"))
     work = os.path.abspath(a.work)
     os.makedirs(work, exist_ok=True)
@@ -45,9 +50,11 @@ def main():
         for seed in range(lo, hi + 1):
             d = lambda n: os.path.join(work, f"{scene}-s{seed}-{n}")
             for k in (1, 2, 3):
-                run([H, "simulate", "--scenario", scene, "--seed", str(seed), "--mission", str(k), "--out", d(f"m{k}"),
-                     "--overwrite"] + temp)
-                run([H, "run", d(f"m{k}"), "--out", d(f"r{k}")] + T + ([] if k == 1 else ["--start-unknown"]))
+                if not keep(d(f"m{k}"), "poses.txt"):
+                    run([H, "simulate", "--scenario", scene, "--seed", str(seed), "--mission", str(k), "--out",
+                         d(f"m{k}"), "--overwrite"] + temp)
+                if not keep(d(f"r{k}"), "map.json"):
+                    run([H, "run", d(f"m{k}"), "--out", d(f"r{k}")] + T + ([] if k == 1 else ["--start-unknown"]))
             run([H, "merge", d("r1"), d("r2"), d("r3"), "--out", d("merged"), "--overwrite"] + T)
             with open(os.path.join(d("merged"), "merge.json")) as f:
                 m = json.load(f)

@@ -9,7 +9,10 @@ position (after; before for gone) lies within 1.5 m of the truth's; a truth chan
 recall when the mission's true path passes within 6 m of it (value_changed only with the
 temperature channel); the moved crate must give no detection.
 
-  scripts/missions.py BUILD/apps/hazmap WORK_DIR [--scenes naraha,tanks] [--seeds 1-4] [--missions 2,3]
+  scripts/missions.py BUILD/apps/hazmap WORK_DIR [--scenes naraha,tanks] [--seeds 1-4] [--missions 2,3] [--reuse]
+
+With --reuse, a simulated mission or a run without --prior whose folder is already complete
+(run.json / poses.txt there) is kept: only the runs with --prior are made again.
 """
 import argparse
 import json
@@ -24,6 +27,10 @@ def run(cmd):
     if r.returncode != 0:
         sys.exit("failed: " + " ".join(cmd) + "\n" + r.stdout)
     return r.stdout
+
+
+def done(path, name):
+    return os.path.exists(os.path.join(path, name))
 
 
 def pose(rows):
@@ -99,9 +106,11 @@ def main():
     ap.add_argument("--missions", default="2,3")
     ap.add_argument("--threads", default="2")
     ap.add_argument("--temperature", action="store_true")
+    ap.add_argument("--reuse", action="store_true")
     a = ap.parse_args()
     lo, hi = (int(x) for x in a.seeds.split("-"))
     os.makedirs(a.work, exist_ok=True)
+    keep = lambda path, name: a.reuse and done(path, name)
     H, T = a.hazmap, ["--threads", a.threads, "--quiet", "--no-viewer"]
     print("scene seed mission | state frame | loc_err_m loc_err_deg | wrong_answers | s_per_attempt | "
           "map_err_prior map_err_known ratio | map_err_m1 | changes tp fp missed")
@@ -110,11 +119,15 @@ def main():
     for scene in a.scenes.split(","):
         for seed in range(lo, hi + 1):
             d = lambda n: os.path.join(a.work, f"{scene}-s{seed}-{n}")
-            run([H, "simulate", "--scenario", scene, "--seed", str(seed), "--mission", "1", "--out", d("m1"), "--overwrite"] + temp)
-            run([H, "run", d("m1"), "--out", d("r1")] + T)
+            if not keep(d("m1"), "poses.txt"):
+                run([H, "simulate", "--scenario", scene, "--seed", str(seed), "--mission", "1", "--out", d("m1"), "--overwrite"] + temp)
+            if not keep(d("r1"), "map.json"):
+                run([H, "run", d("m1"), "--out", d("r1")] + T)
             for k in [int(x) for x in a.missions.split(",")]:
-                run([H, "simulate", "--scenario", scene, "--seed", str(seed), "--mission", str(k), "--out", d(f"m{k}"), "--overwrite"] + temp)
-                run([H, "run", d(f"m{k}"), "--out", d(f"r{k}known")] + T)
+                if not keep(d(f"m{k}"), "changes_truth.json"):
+                    run([H, "simulate", "--scenario", scene, "--seed", str(seed), "--mission", str(k), "--out", d(f"m{k}"), "--overwrite"] + temp)
+                if not keep(d(f"r{k}known"), "map.json"):
+                    run([H, "run", d(f"m{k}"), "--out", d(f"r{k}known")] + T)
                 run([H, "run", d(f"m{k}"), "--prior", d("r1"), "--out", d(f"r{k}prior")] + T)
                 with open(os.path.join(d(f"r{k}prior"), "run.json")) as f:
                     p = json.load(f)["prior"]

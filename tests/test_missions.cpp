@@ -15,6 +15,7 @@
 #include "hazmap/pipeline/run_outputs.hpp"
 #include "hazmap/sim/missions.hpp"
 #include "hazmap/sources/scan_source.hpp"
+#include "pipeline/prior_search.hpp"
 #include "test_helpers.hpp"
 
 using namespace hazmap;
@@ -256,6 +257,41 @@ TEST(PriorMap, StartUnknownHidesTruthAndRebasesOdometry) {
     }
     EXPECT_LT(test::transErr(*s->odometry, first_odometry->inverse() * *p->odometry), 1e-9);
   }
+}
+
+TEST(PriorMap, APlacementMostKeyframesDoNotConfirmIsRefused) {
+  // The rule `run --prior` and `merge` share: after two agreeing answers, at least half the
+  // keyframes that land among the prior's must verify there.
+  const auto localisedWithLoops = [](std::size_t in_reach, std::size_t verified) {
+    PriorLocalisation loc;
+    loc.state = PriorState::Localised;
+    loc.frame = 7;
+    for (std::size_t i = 0; i < in_reach + 3; ++i) {  // 3 more that land where the prior has no keyframe
+      PriorAttempt a;
+      a.in_reach = i < in_reach;
+      a.accepted = i < verified;
+      a.outcome = "verified";
+      loc.loops.push_back(a);
+    }
+    return loc;
+  };
+  using pipeline_detail::placementConfirmed;
+  PriorLocalisation loc = localisedWithLoops(10, 4);
+  EXPECT_FALSE(placementConfirmed(std::vector<pipeline_detail::PriorEdge>(4), "the prior", loc));
+  EXPECT_EQ(loc.state, PriorState::NeverLocalised);
+  expectOneLine(loc.optimisation_note, "placement at frame 7 not confirmed: 4 of its 10 keyframes that land in the prior");
+  for (const auto& a : loc.loops) EXPECT_FALSE(a.accepted) << a.outcome;  // none of its loops is used
+  EXPECT_NE(formatPriorSummary(loc).find("never localised"), std::string::npos) << formatPriorSummary(loc);
+  EXPECT_NE(formatPriorSummary(loc).find("not confirmed"), std::string::npos) << formatPriorSummary(loc);
+
+  loc = localisedWithLoops(10, 5);
+  EXPECT_TRUE(placementConfirmed(std::vector<pipeline_detail::PriorEdge>(5), "the prior", loc));
+  EXPECT_EQ(loc.state, PriorState::Localised);
+  EXPECT_TRUE(loc.loops.front().accepted);
+
+  loc = localisedWithLoops(0, 0);  // nothing verified at all
+  EXPECT_FALSE(placementConfirmed({}, "the prior", loc));
+  EXPECT_EQ(loc.state, PriorState::NeverLocalised);
 }
 
 TEST(PriorMap, PriorCliRefusesBadPriorsInOneLine) {

@@ -272,6 +272,11 @@ TEST(SimCli, UserSceneWithRegionsAndTemperature) {
     else if (scan.classes[i] == 0) cold += temp[i], ++nc;
   EXPECT_GT(hot / nh, 50.0);
   EXPECT_LT(cold / nc, 25.0);
+  // hazmap.yaml names it the sequence's property channel: a run reads it (issue 34: a hotter
+  // source is then observable end to end).
+  EXPECT_EQ(seq.propertyChannel(), "temperature");
+  ASSERT_EQ(scan.property.size(), scan.size());
+  EXPECT_EQ(scan.property, temp);
 }
 
 TEST(SimCli, SceneAndRegionsFilesReproduceTheBuiltinScene) {

@@ -15,11 +15,6 @@ namespace hazmap::pipeline_detail {
 
 namespace {
 
-// A placement stands only when at least this share of the map's keyframes that land among the
-// placed ones verify there: two agreeing answers are not enough where a place looks like one not
-// in the map (a 30-frame corridor map was placed in naraha's corridor with 10 of 25 verified;
-// the naraha missions verify 96 %, the real KITTI halves 2 of 3).
-constexpr double kMinConfirmedShare = 0.5;
 // χ² 99 % bound for 6 degrees of freedom: a loop whose whitened error exceeds it after the solve
 // disagrees with the rest of the evidence.
 constexpr double kLoopChi2Bound = 16.81;
@@ -64,17 +59,10 @@ std::vector<PriorEdge> placeOne(const PriorIndex& index, MergeInput& in, const C
     FramePoses moved = in.poses;
     for (auto& p : moved) p = normalized(loc.T_prior_run * p);
     edges = loopsToPrior(index, run, moved, classes, config, loc);
-    std::size_t in_reach = 0;
-    for (const auto& a : loc.loops) in_reach += a.in_reach;
-    if (edges.empty()) {
-      loc.optimisation_note = "no loop to the maps placed before it verified";
-    } else if (static_cast<double>(edges.size()) < kMinConfirmedShare * static_cast<double>(in_reach)) {
-      loc.optimisation_note = fmt::format("placement not confirmed: {} of its {} keyframes among the placed ones "
-                                          "verified there", edges.size(), in_reach);
-      edges.clear();
-    } else {
+    if (placementConfirmed(edges, "the maps placed before it", loc))
       in.poses = std::move(moved);
-    }
+    else
+      edges.clear();
   } else {
     loc.state = PriorState::NeverLocalised;
   }

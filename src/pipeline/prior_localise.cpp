@@ -40,7 +40,6 @@ void moveRun(SlamResult& result, const Eigen::Isometry3d& T) {
 // to them, solved in the prior's frame; the run's poses taken back.
 void solveJointly(const PriorIndex& prior, const std::vector<PriorEdge>& edges, SlamResult& result,
                   const SlamConfig& config, PriorLocalisation& out) {
-  if (edges.empty()) return void(out.optimisation_note = "no loop to the prior verified");
   PoseGraph g = result.graph;
   const int base = g.numNodes();
   for (std::size_t i = 0; i < prior.size(); ++i) {
@@ -81,9 +80,14 @@ PriorLocalisation localiseInPrior(const MapFolder& prior_map, ScanSource& scans,
     out.total_seconds = secondsSince(t0);
     return out;
   }
-  moveRun(result, out.T_prior_run);
-  const std::vector<PriorEdge> edges = loopsToPrior(prior, run, result.estimate.poses, classes, config, out);
-  solveJointly(prior, edges, result, config, out);
+  FramePoses moved = result.estimate.poses;
+  for (auto& p : moved) p = normalized(out.T_prior_run * p);
+  const std::vector<PriorEdge> edges = loopsToPrior(prior, run, moved, classes, config, out);
+  // As a merge: two agreeing answers are not enough, most keyframes must verify where they land.
+  if (placementConfirmed(edges, "the prior", out)) {
+    moveRun(result, out.T_prior_run);
+    solveJointly(prior, edges, result, config, out);
+  }
   out.total_seconds = secondsSince(t0);
   return out;
 }

@@ -90,8 +90,8 @@ std::string formatPriorSummary(const PriorLocalisation& p) {
   std::string s;
   for (const auto& w : p.warnings) s += "Warning: " + w + "\n";
   if (p.state != PriorState::Localised)
-    return s + fmt::format("Prior map: never localised ({} keyframes searched); the run keeps its own frame.\n",
-                           p.search.size());
+    return s + fmt::format("Prior map: never localised ({} keyframes searched{}); the run keeps its own frame.\n",
+                           p.search.size(), p.optimisation_note.empty() ? "" : "; " + p.optimisation_note);
   return s + fmt::format("Prior map: localised at frame {} ({} keyframes searched, {:.2f} s each), {} loops to the "
                          "prior's keyframes; poses in the prior's frame{}.\n",
                          p.frame, p.search.size(), p.seconds_per_attempt, loops,

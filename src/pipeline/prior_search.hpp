@@ -21,6 +21,8 @@ struct RunKeyframes {
   std::vector<std::size_t> frames;
   std::vector<LabeledCloud> clouds;  ///< sensor frame
   std::vector<double> heights;       ///< sensorHeightAboveFloor of the full clouds
+  /// Appends keyframe `frame` from its full cloud (sensor frame).
+  void add(std::size_t frame, const LabeledCloud& full, const ClassTable& classes);
   /// Keyframe k with the keyframes just before it, placed in k's frame with the run's poses.
   LabeledCloud query(std::size_t k, const FramePoses& poses) const;
   double sensorHeight() const;  ///< median of the finite heights, NaN when none
@@ -100,5 +102,12 @@ struct PriorEdge {
 /// rad is refused (another place). Each attempt is appended to out.loops.
 std::vector<PriorEdge> loopsToPrior(const PriorIndex& prior, const RunKeyframes& run, const FramePoses& poses,
                                     const ClassTable& classes, const SlamConfig& config, PriorLocalisation& out);
+
+/// The confirmation rule, for `run --prior` and `merge` alike: a placement stands only when some
+/// loop to the prior verified and at least kMinConfirmedShare of the keyframes that land among the
+/// prior's keyframes (out.loops' in_reach) verify there. Else the state becomes NeverLocalised,
+/// out.optimisation_note says why (`prior` names what was searched: "the prior", "the maps placed
+/// before it"), every loop is marked refused and false is returned: the placement is not used.
+bool placementConfirmed(const std::vector<PriorEdge>& edges, const std::string& prior, PriorLocalisation& out);
 
 }  // namespace hazmap::pipeline_detail

@@ -59,13 +59,6 @@ Trajectory toTrajectory(const PoseList& poses, const std::vector<RouteSample>& s
   return t;
 }
 
-void writeFloats(const fs::path& path, const std::vector<float>& values) {
-  writeFileAtomically(path, [&](std::ostream& out) {
-    out.write(reinterpret_cast<const char*>(values.data()),
-              static_cast<std::streamsize>(values.size() * sizeof(float)));
-  });
-}
-
 std::string frameName(std::size_t i) {
   char buf[32];
   std::snprintf(buf, sizeof buf, "%06zu", i);
@@ -84,8 +77,9 @@ void writeTrueLabels(const fs::path& path, const std::vector<ClassId>& classes) 
 /// poses.txt; the scans themselves carry the label noise.
 LabeledCloud writeScans(const Simulator& sim, SequenceWriter& writer, const fs::path& dir,
                         SimulationSummary& summary) {
-  const bool temperature = sim.config().temperature.enabled;
-  if (temperature) fs::create_directories(dir / "temperature");
+  // The temperature channel is the sequence's property channel (hazmap.yaml names it): runs read
+  // it, so a hotter source is observable (issue 34's value_changed).
+  if (sim.config().temperature.enabled) writer.setPropertyChannel("temperature");
   // With cameras the noise-free classes are kept per scan too: they judge the camera labels.
   const bool true_labels = !sim.config().cameras.empty();
   if (true_labels) fs::create_directories(dir / "labels_true");
@@ -105,7 +99,6 @@ LabeledCloud writeScans(const Simulator& sim, SequenceWriter& writer, const fs::
     for (std::size_t i = begin; i < end; ++i) {
       const LabeledCloud& scan = scans[i - begin];
       writer.addFrame(scan);
-      if (temperature) writeFloats(dir / "temperature" / (frameName(i) + ".bin"), scan.property);
       if (true_labels) writeTrueLabels(dir / "labels_true" / (frameName(i) + ".label"), truths[i - begin]);
       summary.points += scan.size();
       const Eigen::Isometry3f T = sim.groundTruth()[i].cast<float>();
