@@ -292,6 +292,62 @@ TEST(LiveSimulated, DemoLiveReplaysTheMissionToLiveAndWritesTheRunFolder) {
   EXPECT_EQ(live.at("state").get<std::string>(), "stopped by end of stream");
 }
 
+/// The live view's port from `hazmap live`'s output (0 until it printed it).
+int viewPort(const std::string& log) {
+  const std::string mark = "live view: http://127.0.0.1:";
+  const auto at = log.find(mark);
+  return at == std::string::npos ? 0 : std::stoi(log.substr(at + mark.size()));
+}
+
+std::size_t linesStartingWith(const std::string& text, const std::string& prefix) {
+  std::size_t n = 0;
+  std::istringstream in(text);
+  for (std::string line; std::getline(in, line);) n += line.rfind(prefix, 0) == 0;
+  return n;
+}
+
+// SIGINT while the back end's thread is behind in a loop stage (the simulated naraha route closes
+// loops from frame 72; /status's back_end_backlog says how far behind the graph is): the run
+// folder has every frame tracked, each once in the trajectory and in the graph.
+TEST(LiveSimulated, SigintWhileTheBackEndVerifiesLoopsWritesACompleteRunFolder) {
+  const fs::path dir = scratchDir();
+  const fs::path capture = dir / "naraha.pcap";
+  const auto sim = runCli("simulate --frames 110 --format pcap --overwrite --out '" + capture.string() + "'");
+  ASSERT_EQ(sim.exit_code, 0) << sim.output;
+  const std::uint16_t port = freePortPair();
+  LiveProcess live("--sensor velodyne --no-deskew --no-viewer --listen 127.0.0.1:0 --port " + std::to_string(port) +
+                       " --out '" + (dir / "live").string() + "'",
+                   dir / "live.log");
+  ASSERT_TRUE(live.waitListening()) << live.log();
+  const std::string replay = "exec " + cliPath() + " replay '" + capture.string() + "' --rate 500 --quiet --port " +
+                             std::to_string(port) + " > '" + (dir / "replay.log").string() + "' 2>&1";
+  const char* argv[] = {"/bin/sh", "-c", replay.c_str(), nullptr};
+  pid_t sender = -1;
+  ASSERT_EQ(::posix_spawn(&sender, "/bin/sh", nullptr, nullptr, const_cast<char**>(argv), environ), 0);
+  nlohmann::json busy;  // the status when the back end was seen behind, past the first loop
+  for (int i = 0; i < 600 && busy.is_null(); ++i) {  // at most ~30 s
+    const auto j = nlohmann::json::parse(httpGet(viewPort(live.log()), "/status"), nullptr, false);
+    if (!j.is_discarded() && j.value("frames", 0) >= 75 && j.value("back_end_backlog", 0) >= 3) busy = j;
+    else std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  ASSERT_FALSE(busy.is_null()) << "the back end was never seen behind\n" << live.log();
+  EXPECT_EQ(live.stop(SIGINT), 0) << live.log();
+  ::kill(sender, SIGTERM);
+  ::waitpid(sender, nullptr, 0);
+  const fs::path out = dir / "live";
+  const Trajectory t = readKittiTrajectory(out / "trajectory.kitti");
+  const auto run = nlohmann::json::parse(readTextFile(out / "run.json"));
+  EXPECT_EQ(run.at("live").at("state").get<std::string>(), "stopped by SIGINT");
+  EXPECT_EQ(run.at("frames").get<std::size_t>(), t.size());
+  EXPECT_EQ(linesStartingWith(readTextFile(out / "graph.g2o"), "VERTEX_SE3:QUAT "), t.size());
+  EXPECT_EQ(linesStartingWith(readTextFile(out / "trajectory.kitti"), ""), t.size());
+  EXPECT_GE(t.size(), busy.at("frames").get<std::size_t>());  // every frame tracked before the signal
+  EXPECT_LE(t.size(), 110u);
+  EXPECT_GT(run.at("loop_closure").at("accepted").get<std::size_t>(), 0u) << "no loop was accepted before the signal";
+  const auto view = runCli("view '" + out.string() + "'");  // the folder is one `hazmap view` takes
+  EXPECT_EQ(view.exit_code, 0) << view.output;
+}
+
 TEST(LiveReplay, HesaiBagPacketsGiveTheRunsFramesAndPoses) {
   const std::string bag = sharedData("sensors/hesai-pandar64/1673403880599376836").string();
   const ReplayRun r = replayAgainstRun(bag, "--sensor hesai", "1", SIGINT);

@@ -331,5 +331,66 @@ TEST_F(LiveBrowser, HazardsAppearWithTheirValuesAndHeatIsDrawnRed) {
   EXPECT_GT(browser.eval("hazmapViewer.countPixels([230,25,25],30)").get<int>(), 50);
 }
 
+// A loop correction moves the map the page draws (and the hazard found on it); the status line
+// shows the latency of the recent frames. A feed in this process, as above.
+TEST_F(LiveBrowser, ALoopCorrectionMovesTheDrawnMapAndTheHazardAndTheStatusShowsLatency) {
+  const fs::path dir = scratchDir();
+  LiveViewFeedConfig config;
+  config.server.listen = "127.0.0.1:0";
+  config.hazards_every = 0;
+  LiveViewFeed feed(config, ClassTable::defaults(), nullptr, nullptr);
+  Chromium browser(dir);
+  ASSERT_TRUE(browser.ok());
+  browser.open("http://127.0.0.1:" + std::to_string(feed.port()) + "/");
+  ASSERT_TRUE(eventually([&] { return browser.eval("!!(window.hazmapLive&&hazmapLive.connected)") == true; }))
+      << browser.where();
+  LabeledCloud scan;
+  scan.enableProperty();
+  for (float x = -4; x < 4; x += 0.05f)
+    for (float y = -3; y < 3; y += 0.05f) scan.push_back({x, y, -0.5f}, 0);
+  for (float x = 1; x < 2; x += 0.05f)
+    for (float y = 1; y < 2; y += 0.05f) scan.push_back({x, y, -0.4f}, 1, 0, 0, 75.0f);  // heat, 75 °C
+  std::vector<Eigen::Isometry3d> poses;
+  std::size_t corrections = 0;
+  const auto frame = [&](const Eigen::Isometry3d& pose) {
+    poses.push_back(pose);
+    FrameRecord record;
+    record.index = poses.size() - 1;
+    feed.onFrame(SlamFrameEvent{record, scan, poses, corrections}, 0.0123);
+  };
+  for (int i = 0; i < 6; ++i) frame(Eigen::Isometry3d(Eigen::Translation3d(0.5 * i, 0, 0)));
+  feed.drain();
+  ASSERT_TRUE(eventually([&] { return browser.eval("hazmapViewer.hazardRows().length").get<int>() == 1; }));
+  // The correction: every pose 10 m along y and turned a quarter about z (the map's x → y).
+  const Eigen::Isometry3d moved = Eigen::Translation3d(0, 10, 0) * Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ());
+  for (auto& p : poses) p = moved * p;
+  ++corrections;
+  frame(moved * Eigen::Isometry3d(Eigen::Translation3d(3.0, 0, 0)));
+  feed.drain();
+  ASSERT_TRUE(eventually([&] { return browser.eval("hazmapLive.mapCorrections").get<int>() >= 1; }));
+  // Before: x in [-4, 7), y in [-3, 3). After: x = -y_before in (-3, 3], y = 10 + x_before in [6, 17).
+  const json range = browser.eval(
+      "(()=>{const v=hazmapViewer.live;let n=0,lo=[1e9,1e9,1e9],hi=[-1e9,-1e9,-1e9];"
+      "for(const id of v.groupIds())for(const p of v.pointsOf(id)){++n;"
+      "for(let k=0;k<3;++k){lo[k]=Math.min(lo[k],p[k]);hi[k]=Math.max(hi[k],p[k]);}}return {n,lo,hi};})()");
+  EXPECT_GT(range["n"].get<int>(), 1000) << range;
+  EXPECT_GT(range["lo"][0].get<double>(), -3.0 - 0.2) << range;
+  EXPECT_LT(range["hi"][0].get<double>(), 3.0 + 0.2) << range;
+  EXPECT_GT(range["lo"][1].get<double>(), 6.0 - 0.2) << range;
+  EXPECT_LT(range["hi"][1].get<double>(), 17.0 + 0.2) << range;
+  EXPECT_EQ(browser.eval("hazmapLive.mapPoints").get<int>(), range["n"].get<int>());
+  // The hazard (heat patch: x 1-2, y 1-2 in the scan) moved with its frames: y about 10 + 1.5.
+  ASSERT_TRUE(eventually([&] {
+    const json c = browser.eval("hazmapViewer.meta.hazards.length?hazmapViewer.meta.hazards[0].centroid:null");
+    return c.is_array() && c[1].get<double>() > 10.5 && c[0].get<double>() < -0.5;
+  })) << browser.eval("JSON.stringify(hazmapViewer.meta.hazards)");
+  EXPECT_EQ(browser.eval("hazmapViewer.hazardRows().length").get<int>(), 1);
+  // The status line: p50 / p99 / max of the recent frames' latency (12.3 ms each).
+  ASSERT_TRUE(eventually([&] {
+    return browser.eval("document.getElementById('live-status').textContent").get<std::string>().find(
+               "latency 12 / 12 / 12 ms") != std::string::npos;
+  })) << browser.eval("document.getElementById('live-status').textContent");
+}
+
 }  // namespace
 }  // namespace hazmap::test
