@@ -241,10 +241,16 @@ TEST(LiveViewMessages, ACorrectionMovesTheSegmentsThatMovedAndThePagesPointsFoll
     if (i >= 5) moved_by += (drawn[k] - poses[i] * (corrected[i].inverse() * drawn[k])).norm(), ++moved_points;
   }
   EXPECT_GT(moved_by / double(moved_points), 0.3);  // they did move (from where they were drawn)
-  // A scan at a corrected pose finds its voxels taken by the moved points: next to nothing new.
-  std::size_t fresh = 0;
+  // A scan at a corrected pose finds most of its voxels taken by the moved points (not all: the
+  // moved voxel centres are a turned lattice, which leaves some cells of the world's grid empty);
+  // against the voxels where the points were before, it would find far fewer taken.
+  LiveMapVoxels stale(ClassTable::defaults(), config);
+  for (std::size_t i = 0; i < 12; ++i) stale.add(i, scan, poses[i]);
+  std::size_t fresh = 0, fresh_stale = 0;
   for (const auto& m : voxels.add(12, scan, corrected[8])) sent.push_back(m), fresh += decodeMap(json::parse(m)).size();
-  EXPECT_LT(fresh, voxels.points() / 20);
+  for (const auto& m : stale.add(12, scan, corrected[8])) fresh_stale += decodeMap(json::parse(m)).size();
+  std::cout << "a scan at a corrected pose adds " << fresh << " voxels (" << fresh_stale << " without re-keying)\n";
+  EXPECT_LT(3 * fresh, 2 * fresh_stale);
   // A new browser: every map message, then every segment's pose, draws what the first one does.
   PageModel late;
   for (const auto& m : sent) late.apply(json::parse(m));
@@ -388,16 +394,20 @@ TEST(LiveViewFeed, PublishesFramesCorrectionsHazardsAndTheStatusAndANewBrowserCa
   ASSERT_EQ(trajectory["points"].size(), 6u);
   EXPECT_NEAR(trajectory["points"][0][2].get<double>(), 1.0, 1e-9);
   EXPECT_NEAR(trajectory["points"][5][0].get<double>(), 2.5, 1e-9);
-  // The map and the hazards moved with the correction (every segment 1 m up): the floor at
-  // z = -0.5 and the heat patch at -0.3 are drawn at +0.5 and +0.7.
+  // The map and the hazards moved with the correction (frames 0-4, segment 0, 1 m up; frame 5,
+  // a segment of its own, was tracked after it): the floor at z = -0.5 and the heat patch at -0.3
+  // of segment 0 are drawn at +0.5 and +0.7, frame 5's where it saw them.
   ASSERT_TRUE(eventually([&] { return !early.ofType("anchors").empty(); }));
   PageModel page;
   for (const auto& m : early.copy()) page.apply(m);
   ASSERT_GT(page.local.size(), 100u);
-  for (const auto& p : page.drawn()) EXPECT_GT(p.z(), 0.3);
-  EXPECT_TRUE(eventually([&] {
+  const auto drawn_early = page.drawn();
+  for (std::size_t k = 0; k < drawn_early.size(); ++k)
+    if (page.local[k].first == 0) EXPECT_GT(drawn_early[k].z(), 0.3) << k;
+    else EXPECT_LT(drawn_early[k].z(), 0.0) << k;
+  EXPECT_TRUE(eventually([&] {  // the hazard frames 0-4 saw moved with them
     const auto h = early.ofType("hazards");
-    return std::all_of(h.back()["hazards"].begin(), h.back()["hazards"].end(),
+    return std::any_of(h.back()["hazards"].begin(), h.back()["hazards"].end(),
                        [](const json& x) { return std::abs(x["centroid"][2].get<double>() - 0.7) < 0.15; });
   }));
   const json hazards = early.ofType("hazards").back();
@@ -480,7 +490,7 @@ TEST(LiveViewHook, TellsEveryFrameAndEachCorrectionAndChangesNothing) {
 // The live map on a simulated route with accepted loops (corrections from frame 72): after
 // each online optimisation, the page's points (decoded from the messages as the page decodes
 // them) are where the newest poses put the scans they came from, to within the segments' rigid
-// approximation; drawn where they were first tracked, they would be off by much more.
+// approximation; drawn where they were first tracked, they would be off by more.
 TEST(LiveViewHook, ALoopCorrectionMovesTheMapThePageDrawsToTheCorrectedPlace) {
   const auto dir = test::writeSimulatedSequence("live-map-loop", "naraha", 1, 76);
   SlamConfig config = SlamConfig::forMethod(SlamMethod::PropertyIcpPgo);
@@ -526,9 +536,12 @@ TEST(LiveViewHook, ALoopCorrectionMovesTheMapThePageDrawsToTheCorrectedPlace) {
             << page.anchor_messages << " (" << page.anchor_bytes << " bytes, " << page.segments_moved
             << " segments)\nerror p99 " << p99(error) << " max " << error.back() << "; not moved: p99 " << p99(stale)
             << " max " << stale.back() << "\n";
-  EXPECT_LT(p99(error), 0.05);
-  EXPECT_LT(error.back(), 0.2);
-  EXPECT_GT(stale.back(), 4 * error.back());  // the correction was worth moving for
+  // What is left is the segments' rigid approximation (and float32 poses on the wire): the change
+  // of poses relative to their segment's anchor, well under the 0.2 m voxel. The simulated route's
+  // corrections are small (ICP drifts little there); the unit tests above move by metres.
+  EXPECT_LT(p99(error), 0.02);
+  EXPECT_LT(error.back(), 0.05);
+  EXPECT_GT(p99(stale), 2 * p99(error));  // drawn where first tracked, the map would be off by more
 }
 
 TEST(LiveViewFeed, UrlNamesTheAddressAndTheToken) {
