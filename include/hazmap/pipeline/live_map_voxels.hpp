@@ -49,8 +49,9 @@ struct LiveMapConfig {
 /// A voxel keeps the class of the first point that reached it; after a correction, "reached"
 /// is judged against the moved points. Points beyond int16 voxel indices, or in new voxels once
 /// max_points are sent, are counted (dropped()), not sent. Memory: ~60 bytes per point sent (its
-/// anchor coordinates, its segment, its voxel key, the message kept for new browsers), at most
-/// max_points of them, and 2 poses per segment.
+/// anchor coordinates and segment, 16; its voxel key in a hash set, ~32; the message kept for new
+/// browsers, ~12), at most max_points of them (~60 MB at the default 1,000,000), and one pose per
+/// segment.
 class LiveMapVoxels {
  public:
   explicit LiveMapVoxels(ClassTable classes, LiveMapConfig config = {}, MapColorConfig colors = {});
