@@ -291,25 +291,36 @@ TEST_F(LiveBrowser, ThePageReconnectsAfterTheServerRestarts) {
   EXPECT_EQ(live->stop(SIGINT), 0) << readTextFile(dir / "b.log");
 }
 
-// Hazards appearing live with their values: a feed in this process, frames whose scans carry
-// heat (what a camera-labelled stream will give, issue 33 part 2).
-TEST_F(LiveBrowser, HazardsAppearWithTheirValuesAndHeatIsDrawnRed) {
-  const fs::path dir = scratchDir();
+/// A live view fed from this process (any free port, hazards found after every batch).
+LiveViewFeedConfig inProcessFeed() {
   LiveViewFeedConfig config;
   config.server.listen = "127.0.0.1:0";
   config.hazards_every = 0;
-  LiveViewFeed feed(config, ClassTable::defaults(), nullptr, nullptr);
-  Chromium browser(dir);
-  ASSERT_TRUE(browser.ok());
-  browser.open("http://127.0.0.1:" + std::to_string(feed.port()) + "/");
-  ASSERT_TRUE(eventually([&] { return browser.eval("!!(window.hazmapLive&&hazmapLive.connected)") == true; }))
-      << browser.where();
+  return config;
+}
+
+/// An 8 × 6 m floor with a 1 × 1 m patch of heat (75 °C) above it, in the sensor frame.
+LabeledCloud floorWithHeatPatch() {
   LabeledCloud scan;
   scan.enableProperty();
   for (float x = -4; x < 4; x += 0.05f)
     for (float y = -3; y < 3; y += 0.05f) scan.push_back({x, y, -0.5f}, 0);
   for (float x = 1; x < 2; x += 0.05f)
-    for (float y = 1; y < 2; y += 0.05f) scan.push_back({x, y, -0.4f}, 1, 0, 0, 75.0f);  // heat, 75 °C
+    for (float y = 1; y < 2; y += 0.05f) scan.push_back({x, y, -0.4f}, 1, 0, 0, 75.0f);
+  return scan;
+}
+
+// Hazards appearing live with their values: a feed in this process, frames whose scans carry
+// heat (what a camera-labelled stream will give, issue 33 part 2).
+TEST_F(LiveBrowser, HazardsAppearWithTheirValuesAndHeatIsDrawnRed) {
+  const fs::path dir = scratchDir();
+  LiveViewFeed feed(inProcessFeed(), ClassTable::defaults(), nullptr, nullptr);
+  Chromium browser(dir);
+  ASSERT_TRUE(browser.ok());
+  browser.open("http://127.0.0.1:" + std::to_string(feed.port()) + "/");
+  ASSERT_TRUE(eventually([&] { return browser.eval("!!(window.hazmapLive&&hazmapLive.connected)") == true; }))
+      << browser.where();
+  const LabeledCloud scan = floorWithHeatPatch();
   GlobalMap map;
   std::vector<Eigen::Isometry3d> poses;
   for (std::size_t i = 0; i < 3; ++i) {
@@ -335,21 +346,13 @@ TEST_F(LiveBrowser, HazardsAppearWithTheirValuesAndHeatIsDrawnRed) {
 // shows the latency of the recent frames. A feed in this process, as above.
 TEST_F(LiveBrowser, ALoopCorrectionMovesTheDrawnMapAndTheHazardAndTheStatusShowsLatency) {
   const fs::path dir = scratchDir();
-  LiveViewFeedConfig config;
-  config.server.listen = "127.0.0.1:0";
-  config.hazards_every = 0;
-  LiveViewFeed feed(config, ClassTable::defaults(), nullptr, nullptr);
+  LiveViewFeed feed(inProcessFeed(), ClassTable::defaults(), nullptr, nullptr);
   Chromium browser(dir);
   ASSERT_TRUE(browser.ok());
   browser.open("http://127.0.0.1:" + std::to_string(feed.port()) + "/");
   ASSERT_TRUE(eventually([&] { return browser.eval("!!(window.hazmapLive&&hazmapLive.connected)") == true; }))
       << browser.where();
-  LabeledCloud scan;
-  scan.enableProperty();
-  for (float x = -4; x < 4; x += 0.05f)
-    for (float y = -3; y < 3; y += 0.05f) scan.push_back({x, y, -0.5f}, 0);
-  for (float x = 1; x < 2; x += 0.05f)
-    for (float y = 1; y < 2; y += 0.05f) scan.push_back({x, y, -0.4f}, 1, 0, 0, 75.0f);  // heat, 75 °C
+  const LabeledCloud scan = floorWithHeatPatch();
   std::vector<Eigen::Isometry3d> poses;
   std::size_t corrections = 0;
   const auto frame = [&](const Eigen::Isometry3d& pose) {
