@@ -285,8 +285,10 @@ void runLiveSession(const LiveOptions& o, const ParameterOptions& params,
     last_save = std::chrono::steady_clock::now();
   };
   hooks.frame = [&](const SlamFrameEvent& e) {
-    if (const double newest = newestPointTime(e.scan); newest > 0) s.latency.add(realtimeNow() - newest);
-    if (s.view) s.view->onFrame(e);
+    std::optional<double> latency;
+    if (const double newest = newestPointTime(e.scan); newest > 0) latency = realtimeNow() - newest;
+    if (latency) s.latency.add(*latency);
+    if (s.view) s.view->onFrame(e, latency);
   };
   const SlamResult result = runSlam(s.scans(), s.config, {}, hooks);
   if (s.view) s.view->drain();

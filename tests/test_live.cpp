@@ -12,6 +12,7 @@
 
 #include <chrono>
 #include <fstream>
+#include <iostream>
 #include <functional>
 #include <nlohmann/json.hpp>
 #include <set>
@@ -290,6 +291,66 @@ TEST(LiveSimulated, DemoLiveReplaysTheMissionToLiveAndWritesTheRunFolder) {
   const auto live = liveSection(dir / "live");
   EXPECT_EQ(live.at("lost").get<std::size_t>(), 0u);
   EXPECT_EQ(live.at("state").get<std::string>(), "stopped by end of stream");
+}
+
+/// The live view's port from `hazmap live`'s output (0 until it printed it).
+int viewPort(const std::string& log) {
+  const std::string mark = "live view: http://127.0.0.1:";
+  const auto at = log.find(mark);
+  return at == std::string::npos ? 0 : std::stoi(log.substr(at + mark.size()));
+}
+
+std::size_t linesStartingWith(const std::string& text, const std::string& prefix) {
+  std::size_t n = 0;
+  std::istringstream in(text);
+  for (std::string line; std::getline(in, line);) n += line.rfind(prefix, 0) == 0;
+  return n;
+}
+
+// SIGINT mid-stream while the back end's thread is behind in its loop stages (the simulated naraha
+// route replayed at 50 scans/s: each keyframe's loop search and verification cost more than
+// tracking; /status's back_end_backlog says how many frames the graph lags): the run folder has
+// every frame tracked, each once in the trajectory and in the graph.
+TEST(LiveSimulated, SigintWhileTheBackEndVerifiesLoopsWritesACompleteRunFolder) {
+  const fs::path dir = scratchDir();
+  const fs::path capture = dir / "naraha.pcap";
+  const auto sim = runCli("simulate --frames 163 --format pcap --overwrite --out '" + capture.string() + "'");
+  ASSERT_EQ(sim.exit_code, 0) << sim.output;
+  const std::uint16_t port = freePortPair();
+  LiveProcess live("--sensor velodyne --method icp+pgo --no-deskew --no-viewer --listen 127.0.0.1:0 --port " +
+                       std::to_string(port) +
+                       " --out '" + (dir / "live").string() + "'",
+                   dir / "live.log");
+  ASSERT_TRUE(live.waitListening()) << live.log();
+  const std::string replay = "exec " + cliPath() + " replay '" + capture.string() + "' --rate 500 --quiet --port " +
+                             std::to_string(port) + " > '" + (dir / "replay.log").string() + "' 2>&1";
+  const char* argv[] = {"/bin/sh", "-c", replay.c_str(), nullptr};
+  pid_t sender = -1;
+  ASSERT_EQ(::posix_spawn(&sender, "/bin/sh", nullptr, nullptr, const_cast<char**>(argv), environ), 0);
+  nlohmann::json busy;  // the status when the back end was seen behind, past the first loop
+  for (int i = 0; i < 600 && busy.is_null(); ++i) {  // at most ~30 s
+    const auto j = nlohmann::json::parse(httpGet(viewPort(live.log()), "/status"), nullptr, false);
+    if (!j.is_discarded() && j.value("frames", 0) >= 100 && j.value("back_end_backlog", 0) >= 3) busy = j;
+    else std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  ASSERT_FALSE(busy.is_null()) << "the back end was never seen behind\n" << live.log();
+  std::cout << "SIGINT at frame " << busy["frames"] << ", the back end " << busy["back_end_backlog"] << " frames behind\n";
+  EXPECT_EQ(live.stop(SIGINT), 0) << live.log();
+  ::kill(sender, SIGTERM);
+  ::waitpid(sender, nullptr, 0);
+  const fs::path out = dir / "live";
+  const Trajectory t = readKittiTrajectory(out / "trajectory.kitti");
+  const auto run = nlohmann::json::parse(readTextFile(out / "run.json"));
+  EXPECT_EQ(run.at("live").at("state").get<std::string>(), "stopped by SIGINT");
+  EXPECT_EQ(run.at("frames").get<std::size_t>(), t.size());
+  EXPECT_EQ(linesStartingWith(readTextFile(out / "graph.g2o"), "VERTEX_SE3:QUAT "), t.size());
+  EXPECT_EQ(linesStartingWith(readTextFile(out / "trajectory.kitti"), ""), t.size());
+  std::cout << "the run folder has " << t.size() << " of the capture's 163 frames\n";
+  EXPECT_GE(t.size(), busy.at("frames").get<std::size_t>());  // every frame tracked before the signal
+  EXPECT_LE(t.size(), 163u);
+  EXPECT_GT(run.at("loop_closure").at("keyframes_searched").get<std::size_t>(), 0u);
+  const auto view = runCli("view '" + out.string() + "'");  // the folder is one `hazmap view` takes
+  EXPECT_EQ(view.exit_code, 0) << view.output;
 }
 
 TEST(LiveReplay, HesaiBagPacketsGiveTheRunsFramesAndPoses) {

@@ -291,25 +291,36 @@ TEST_F(LiveBrowser, ThePageReconnectsAfterTheServerRestarts) {
   EXPECT_EQ(live->stop(SIGINT), 0) << readTextFile(dir / "b.log");
 }
 
-// Hazards appearing live with their values: a feed in this process, frames whose scans carry
-// heat (what a camera-labelled stream will give, issue 33 part 2).
-TEST_F(LiveBrowser, HazardsAppearWithTheirValuesAndHeatIsDrawnRed) {
-  const fs::path dir = scratchDir();
+/// A live view fed from this process (any free port, hazards found after every batch).
+LiveViewFeedConfig inProcessFeed() {
   LiveViewFeedConfig config;
   config.server.listen = "127.0.0.1:0";
   config.hazards_every = 0;
-  LiveViewFeed feed(config, ClassTable::defaults(), nullptr, nullptr);
-  Chromium browser(dir);
-  ASSERT_TRUE(browser.ok());
-  browser.open("http://127.0.0.1:" + std::to_string(feed.port()) + "/");
-  ASSERT_TRUE(eventually([&] { return browser.eval("!!(window.hazmapLive&&hazmapLive.connected)") == true; }))
-      << browser.where();
+  return config;
+}
+
+/// An 8 × 6 m floor with a 1 × 1 m patch of heat (75 °C) above it, in the sensor frame.
+LabeledCloud floorWithHeatPatch() {
   LabeledCloud scan;
   scan.enableProperty();
   for (float x = -4; x < 4; x += 0.05f)
     for (float y = -3; y < 3; y += 0.05f) scan.push_back({x, y, -0.5f}, 0);
   for (float x = 1; x < 2; x += 0.05f)
-    for (float y = 1; y < 2; y += 0.05f) scan.push_back({x, y, -0.4f}, 1, 0, 0, 75.0f);  // heat, 75 °C
+    for (float y = 1; y < 2; y += 0.05f) scan.push_back({x, y, -0.4f}, 1, 0, 0, 75.0f);
+  return scan;
+}
+
+// Hazards appearing live with their values: a feed in this process, frames whose scans carry
+// heat (what a camera-labelled stream will give, issue 33 part 2).
+TEST_F(LiveBrowser, HazardsAppearWithTheirValuesAndHeatIsDrawnRed) {
+  const fs::path dir = scratchDir();
+  LiveViewFeed feed(inProcessFeed(), ClassTable::defaults(), nullptr, nullptr);
+  Chromium browser(dir);
+  ASSERT_TRUE(browser.ok());
+  browser.open("http://127.0.0.1:" + std::to_string(feed.port()) + "/");
+  ASSERT_TRUE(eventually([&] { return browser.eval("!!(window.hazmapLive&&hazmapLive.connected)") == true; }))
+      << browser.where();
+  const LabeledCloud scan = floorWithHeatPatch();
   GlobalMap map;
   std::vector<Eigen::Isometry3d> poses;
   for (std::size_t i = 0; i < 3; ++i) {
@@ -329,6 +340,61 @@ TEST_F(LiveBrowser, HazardsAppearWithTheirValuesAndHeatIsDrawnRed) {
   EXPECT_EQ(browser.eval("hazmapLive.hazardsOrigin"), "live");
   browser.eval("hazmapLive.flush();hazmapViewer.setView('top')");
   EXPECT_GT(browser.eval("hazmapViewer.countPixels([230,25,25],30)").get<int>(), 50);
+}
+
+// A loop correction moves the map the page draws (and the hazard found on it); the status line
+// shows the latency of the recent frames. A feed in this process, as above.
+TEST_F(LiveBrowser, ALoopCorrectionMovesTheDrawnMapAndTheHazardAndTheStatusShowsLatency) {
+  const fs::path dir = scratchDir();
+  LiveViewFeed feed(inProcessFeed(), ClassTable::defaults(), nullptr, nullptr);
+  Chromium browser(dir);
+  ASSERT_TRUE(browser.ok());
+  browser.open("http://127.0.0.1:" + std::to_string(feed.port()) + "/");
+  ASSERT_TRUE(eventually([&] { return browser.eval("!!(window.hazmapLive&&hazmapLive.connected)") == true; }))
+      << browser.where();
+  const LabeledCloud scan = floorWithHeatPatch();
+  std::vector<Eigen::Isometry3d> poses;
+  std::size_t corrections = 0;
+  const auto frame = [&](const Eigen::Isometry3d& pose) {
+    poses.push_back(pose);
+    FrameRecord record;
+    record.index = poses.size() - 1;
+    feed.onFrame(SlamFrameEvent{record, scan, poses, corrections}, 0.0123);
+  };
+  for (int i = 0; i < 3; ++i) frame(Eigen::Isometry3d(Eigen::Translation3d(0.3 * i, 0, 0)));
+  feed.drain();
+  ASSERT_TRUE(eventually([&] { return browser.eval("hazmapViewer.hazardRows().length").get<int>() >= 1; }));
+  // The correction: every pose 10 m along y and turned a quarter about z (the map's x → y).
+  const Eigen::Isometry3d moved = Eigen::Translation3d(0, 10, 0) * Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ());
+  for (auto& p : poses) p = moved * p;
+  ++corrections;
+  frame(moved * Eigen::Isometry3d(Eigen::Translation3d(0.9, 0, 0)));
+  feed.drain();
+  ASSERT_TRUE(eventually([&] { return browser.eval("hazmapLive.mapCorrections").get<int>() >= 1; }));
+  // Before: x in [-4, 4.9), y in [-3, 3). After: x = -y_before in (-3, 3], y = 10 + x_before in [6, 14.9).
+  const json range = browser.eval(
+      "(()=>{const v=hazmapViewer.live;let n=0,lo=[1e9,1e9,1e9],hi=[-1e9,-1e9,-1e9];"
+      "for(const id of v.groupIds())for(const p of v.pointsOf(id)){++n;"
+      "for(let k=0;k<3;++k){lo[k]=Math.min(lo[k],p[k]);hi[k]=Math.max(hi[k],p[k]);}}return {n,lo,hi};})()");
+  EXPECT_GT(range["n"].get<int>(), 1000) << range;
+  EXPECT_GT(range["lo"][0].get<double>(), -3.0 - 0.2) << range;
+  EXPECT_LT(range["hi"][0].get<double>(), 3.0 + 0.2) << range;
+  EXPECT_GT(range["lo"][1].get<double>(), 6.0 - 0.2) << range;
+  EXPECT_LT(range["hi"][1].get<double>(), 14.9 + 0.2) << range;
+  EXPECT_EQ(browser.eval("hazmapLive.mapPoints").get<int>(), range["n"].get<int>());
+  // The hazard (the heat patch: x 1-2, y 1-2 in each scan, x up to 2.9 in the world) moved with
+  // its frames: x = -y_before in [-2, -1], y = 10 + x_before in [11, 12.9].
+  ASSERT_TRUE(eventually([&] {
+    const json all = browser.eval("hazmapViewer.meta.hazards.map((h)=>h.centroid)");
+    return all.is_array() && !all.empty() && std::all_of(all.begin(), all.end(), [](const json& c) {
+      return c[0].get<double>() > -2.2 && c[0].get<double>() < -0.8 && c[1].get<double>() > 10.8 && c[1].get<double>() < 14.7;
+    });
+  })) << browser.eval("JSON.stringify(hazmapViewer.meta.hazards)");
+  // The status line: p50 / p99 / max of the recent frames' latency (12.3 ms each).
+  ASSERT_TRUE(eventually([&] {
+    return browser.eval("document.getElementById('live-status').textContent").get<std::string>().find(
+               "latency 12 / 12 / 12 ms") != std::string::npos;
+  })) << browser.eval("document.getElementById('live-status').textContent");
 }
 
 }  // namespace

@@ -93,6 +93,11 @@ void BackEndThread::rethrow() {
   if (failure_) std::rethrow_exception(failure_);
 }
 
+std::size_t BackEndThread::backlog() {
+  std::lock_guard<std::mutex> lock(m_);
+  return queue_.size() + (busy_ ? 1 : 0);
+}
+
 void BackEndThread::run() {
   ::setpriority(PRIO_PROCESS, static_cast<id_t>(::gettid()), kBackEndNice);
   tbb::task_arena alone(1);

@@ -48,6 +48,8 @@ class BackEndThread {
   void push(TrackedFrame frame);
   /// The newest optimised poses (nodes 0..m) not taken yet; null when none came since.
   std::shared_ptr<const std::vector<Eigen::Isometry3d>> takeSolution();
+  /// Frames queued or being applied (not yet in the graph).
+  std::size_t backlog();
   /// Waits until every queued frame is in the graph; then a copy of the back end's result.
   SlamResult snapshot();
   /// Every queued frame, then the final optimisation (BackEnd::finish); the back end's result.

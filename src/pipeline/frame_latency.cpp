@@ -34,6 +34,34 @@ double FrameLatency::quantileMs(double q) const {
   return maxMs();
 }
 
+RecentLatency::RecentLatency(std::size_t capacity) : capacity_(std::max<std::size_t>(capacity, 1)) {
+  ring_.reserve(capacity_);
+}
+
+void RecentLatency::add(double seconds) {
+  if (!std::isfinite(seconds)) return;
+  seconds = std::max(0.0, seconds);
+  if (ring_.size() < capacity_) ring_.push_back(seconds);
+  else ring_[next_] = seconds;
+  next_ = (next_ + 1) % capacity_;
+}
+
+RecentLatency::Summary RecentLatency::summary() const {
+  Summary s;
+  s.frames = ring_.size();
+  if (ring_.empty()) return s;
+  std::vector<double> sorted = ring_;
+  std::sort(sorted.begin(), sorted.end());
+  const auto at = [&](double q) {
+    const auto rank = static_cast<std::size_t>(std::ceil(q * double(sorted.size())));
+    return 1e3 * sorted[std::clamp<std::size_t>(rank, 1, sorted.size()) - 1];
+  };
+  s.p50 = at(0.5);
+  s.p99 = at(0.99);
+  s.max = 1e3 * sorted.back();
+  return s;
+}
+
 double newestPointTime(const LabeledCloud& scan) {
   if (scan.timestamps.empty()) return 0.0;
   return *std::max_element(scan.timestamps.begin(), scan.timestamps.end());

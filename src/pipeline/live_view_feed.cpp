@@ -7,6 +7,7 @@
 #include <chrono>
 #include <condition_variable>
 #include <deque>
+#include <map>
 #include <mutex>
 #include <optional>
 #include <thread>
@@ -21,14 +22,22 @@ namespace {
 using SteadyClock = std::chrono::steady_clock;
 
 struct FrameItem {
+  bool has_frame = true;  ///< false: a correction alone (a save's final poses)
   std::size_t frame = 0;
   Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
   FrameStatus status = FrameStatus::First;
   std::unique_ptr<LabeledCloud> scan;  ///< null: skipped for the view (its queue was full)
   std::size_t bytes = 0;
   bool correction = false;                  ///< earlier poses moved: `corrected` holds them all
-  std::vector<Eigen::Vector3d> corrected;
+  std::vector<Eigen::Isometry3d> corrected;
 };
+
+std::vector<Eigen::Vector3d> translations(const std::vector<Eigen::Isometry3d>& poses) {
+  std::vector<Eigen::Vector3d> out;
+  out.reserve(poses.size());
+  for (const auto& pose : poses) out.push_back(pose.translation());
+  return out;
+}
 
 std::size_t bytesOf(const LabeledCloud& c) {
   return c.size() * (sizeof(Eigen::Vector3f) + sizeof(ClassId)) + c.property.size() * sizeof(float) +
@@ -53,6 +62,28 @@ std::string pageHtml(const LiveViewFeedConfig& config, const ClassTable& classes
   return viewerHtml(scene, viewer);
 }
 
+/// Per frame put into the view's hazard map: the pose it was inserted at, and its newest.
+using PropertyPoses = std::map<std::size_t, std::pair<Eigen::Isometry3d, Eigen::Isometry3d>>;
+
+/// The hazards moved as the frames that saw them moved since they went into the hazard map (the
+/// middle frame of a hazard's first range stands for it): the map keeps its cells where they
+/// were inserted, the page draws each hazard where the corrected poses put it (its box shifted
+/// with its centroid, its values unchanged).
+std::vector<Hazard> movedHazards(std::vector<Hazard> hazards, const PropertyPoses& poses) {
+  for (Hazard& h : hazards) {
+    if (h.frames.empty()) continue;
+    auto it = poses.upper_bound((std::size_t{h.frames[0].first} + h.frames[0].last) / 2);
+    if (it == poses.begin()) continue;
+    --it;
+    const Eigen::Vector3d centroid = it->second.second * (it->second.first.inverse() * h.centroid);
+    const Eigen::Vector3d shift = centroid - h.centroid;
+    h.centroid = centroid;
+    h.min += shift;
+    h.max += shift;
+  }
+  return hazards;
+}
+
 }  // namespace
 
 struct LiveViewFeed::Impl {
@@ -64,6 +95,8 @@ struct LiveViewFeed::Impl {
   bool hazards_dirty = false;
   SteadyClock::time_point hazards_found{};
   std::size_t corrections_seen = 0;  // pipeline thread only
+  PropertyPoses property_poses;      // the view's thread only, as the two below
+  std::vector<Hazard> live_hazards;  // as found on hazard_map (not moved)
 
   mutable std::mutex m;  // everything below
   std::condition_variable wake, idle;
@@ -73,8 +106,11 @@ struct LiveViewFeed::Impl {
   std::vector<std::string> map_messages;  // every map message so far: a new browser's snapshot
   std::vector<Eigen::Vector3d> positions;
   std::string pose_message, hazards_message, status_message;
+  std::string anchors_message;  // every map segment's pose, as of the last correction
+  bool hazards_saved = false;   // the page shows a save's hazards (until the live ones change)
   LiveStatus counts;  // the status line's own fields (frames, hazards, tracking, map_points, saves, …)
   std::deque<SteadyClock::time_point> frame_times;  // the last 2 s: frames/s
+  RecentLatency recent_latency;                      // the last 600 frames
   std::string state_override;
 
   std::unique_ptr<LiveViewServer> server;  // last: its threads call back into the members above
@@ -85,6 +121,7 @@ struct LiveViewFeed::Impl {
 
   void run();
   void process(FrameItem& item);
+  void reanchor(const std::vector<Eigen::Isometry3d>& poses);
   void findHazards();
   void publishStatus();
   LiveStatus status() const;
@@ -115,8 +152,10 @@ void LiveViewFeed::Impl::run() {
 }
 
 void LiveViewFeed::Impl::process(FrameItem& item) {
+  if (item.correction) reanchor(item.corrected);
+  if (!item.has_frame) return;
   if (item.scan) {
-    for (std::string& message : voxels.add(*item.scan, item.pose)) {
+    for (std::string& message : voxels.add(item.frame, *item.scan, item.pose)) {
       {
         std::lock_guard<std::mutex> lock(m);
         map_messages.push_back(message);
@@ -127,35 +166,57 @@ void LiveViewFeed::Impl::process(FrameItem& item) {
     const auto& c = item.scan->classes;
     if (std::any_of(c.begin(), c.end(), [&](ClassId id) { return classes.isProperty(id); })) {
       hazard_map.insert(item.frame, *item.scan, item.pose);
+      property_poses[item.frame] = {item.pose, item.pose};
       hazards_dirty = true;
     }
   }
   const Eigen::Vector3d p = item.pose.translation();
-  std::string trajectory, pose;
+  std::string pose;
   {
     std::lock_guard<std::mutex> lock(m);
-    if (item.correction) positions = std::move(item.corrected);
     if (positions.size() <= item.frame) positions.resize(item.frame + 1, p);
     positions[item.frame] = p;
-    if (item.correction) trajectory = liveTrajectoryMessage(positions);
     pose = pose_message = livePoseMessage(item.frame, item.pose, item.status);
     counts.tracking = toString(item.status);
   }
-  if (!trajectory.empty()) server->publishState("trajectory", std::move(trajectory));
-  else server->publish(liveTrackMessage(item.frame, p));
+  if (!item.correction) server->publish(liveTrackMessage(item.frame, p));  // else: in the redrawn trajectory
   server->publishState("pose", std::move(pose));
+}
+
+// Corrected poses: the trajectory takes them, the map's segments that moved follow (the state for
+// new browsers first, then the update: one joining in between gets both, which is harmless).
+void LiveViewFeed::Impl::reanchor(const std::vector<Eigen::Isometry3d>& poses) {
+  std::string moved = voxels.reanchor(poses), trajectory, hazards;
+  for (auto& [frame, inserted_and_now] : property_poses)
+    if (frame < poses.size()) inserted_and_now.second = poses[frame];
+  if (!live_hazards.empty()) hazards = liveHazardsMessage(movedHazards(live_hazards, property_poses), classes, "live");
+  {
+    std::lock_guard<std::mutex> lock(m);
+    const std::vector<Eigen::Vector3d> corrected = translations(poses);
+    if (corrected.size() >= positions.size()) positions = corrected;
+    else std::copy(corrected.begin(), corrected.end(), positions.begin());
+    trajectory = liveTrajectoryMessage(positions);
+    if (!moved.empty()) anchors_message = voxels.anchorsMessage();
+    if (!moved.empty()) ++counts.map_corrections;
+    if (hazards_saved) hazards.clear();  // the page shows a save's: keep them
+    if (!hazards.empty()) hazards_message = hazards;
+  }
+  if (!hazards.empty()) server->publishState("hazards", std::move(hazards));
+  if (!moved.empty()) server->publish(std::move(moved));
+  server->publishState("trajectory", std::move(trajectory));
 }
 
 void LiveViewFeed::Impl::findHazards() {
   if (!hazards_dirty || secondsSince(hazards_found) < config.hazards_every) return;
   hazards_dirty = false;
   hazards_found = SteadyClock::now();
-  const std::vector<Hazard> found = hazmap::findHazards(hazard_map, config.hazards);
-  std::string message = liveHazardsMessage(found, classes, "live");
+  live_hazards = hazmap::findHazards(hazard_map, config.hazards);
+  std::string message = liveHazardsMessage(movedHazards(live_hazards, property_poses), classes, "live");
   {
     std::lock_guard<std::mutex> lock(m);
     hazards_message = message;
-    counts.hazards = found.size();
+    hazards_saved = false;
+    counts.hazards = live_hazards.size();
   }
   server->publishState("hazards", std::move(message));
 }
@@ -169,6 +230,7 @@ LiveStatus LiveViewFeed::Impl::status() const {
       s.frames_per_s = double(frame_times.size() - 1) /
                        std::max(1e-3, std::chrono::duration<double>(frame_times.back() - frame_times.front()).count());
     s.state = state_override;
+    if (const auto l = recent_latency.summary(); l.frames > 0) s.latency_ms = l;
   }
   std::optional<UdpReceiverStats> r;
   if (receiver) r = receiver();
@@ -213,6 +275,7 @@ void LiveViewFeed::Impl::publishStatus() {
 std::vector<std::string> LiveViewFeed::Impl::snapshot() const {
   std::lock_guard<std::mutex> lock(m);
   std::vector<std::string> out = map_messages;
+  if (!anchors_message.empty()) out.push_back(anchors_message);  // after the map: it moves what they drew
   out.push_back(liveTrajectoryMessage(positions));
   for (const std::string* s : {&hazards_message, &pose_message, &status_message})
     if (!s->empty()) out.push_back(*s);
@@ -244,7 +307,7 @@ LiveViewFeed::~LiveViewFeed() {
 
 int LiveViewFeed::port() const { return impl_->server->port(); }
 
-void LiveViewFeed::onFrame(const SlamFrameEvent& event) {
+void LiveViewFeed::onFrame(const SlamFrameEvent& event, std::optional<double> latency_s) {
   Impl& s = *impl_;
   FrameItem item;
   item.frame = event.record.index;
@@ -253,14 +316,15 @@ void LiveViewFeed::onFrame(const SlamFrameEvent& event) {
   if (event.corrections != s.corrections_seen) {
     s.corrections_seen = event.corrections;
     item.correction = true;
-    item.corrected.reserve(event.poses.size());
-    for (const auto& pose : event.poses) item.corrected.push_back(pose.translation());
+    item.corrected = event.poses;
   }
   const std::size_t bytes = bytesOf(event.scan);
   bool room = false;
   {
     std::lock_guard<std::mutex> lock(s.m);
     ++s.counts.frames;
+    s.counts.back_end_backlog = event.back_end_backlog;
+    if (latency_s) s.recent_latency.add(*latency_s);
     s.frame_times.push_back(SteadyClock::now());
     while (s.frame_times.size() > 2 && secondsSince(s.frame_times.front()) > 2.0) s.frame_times.pop_front();
     room = s.queue_bytes + bytes <= s.config.queue_bytes;
@@ -290,19 +354,26 @@ void LiveViewFeed::setState(const std::string& state) {
 void LiveViewFeed::showSaved(const std::vector<Hazard>& hazards, const Trajectory& trajectory, const std::string& where) {
   Impl& s = *impl_;
   std::string message = liveHazardsMessage(hazards, s.classes, "saved");
-  std::string redrawn;
   {
     std::lock_guard<std::mutex> lock(s.m);
     s.hazards_message = message;
+    s.hazards_saved = true;
     s.counts.hazards = hazards.size();
     ++s.counts.saves;
     s.counts.last_save = where;
-    if (trajectory.size() >= s.positions.size()) s.positions = positionsOf(trajectory);
-    else for (std::size_t i = 0; i < trajectory.size(); ++i) s.positions[i] = trajectory.poses[i].translation();
-    redrawn = liveTrajectoryMessage(s.positions);
   }
   s.server->publishState("hazards", std::move(message));
-  s.server->publishState("trajectory", std::move(redrawn));
+  if (!trajectory.poses.empty()) {  // the saved estimate: the view's thread redraws the trajectory and moves the map
+    FrameItem item;
+    item.has_frame = false;
+    item.correction = true;
+    item.corrected.assign(trajectory.poses.begin(), trajectory.poses.end());
+    {
+      std::lock_guard<std::mutex> lock(s.m);
+      s.queue.push_back(std::move(item));
+    }
+    s.wake.notify_one();
+  }
   s.publishStatus();
 }
 

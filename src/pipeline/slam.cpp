@@ -73,7 +73,8 @@ class SlamRun {
       told_optimisations_ = optimisations;
     }
     const std::vector<Eigen::Isometry3d>& poses = back_end_thread_ ? estimate_ : result_.graph.poses;
-    on_frame_(SlamFrameEvent{result_.frames.back(), cloud, poses, corrections_});
+    const std::size_t backlog = back_end_thread_ ? back_end_thread_->backlog() : 0;
+    on_frame_(SlamFrameEvent{result_.frames.back(), cloud, poses, corrections_, backlog});
   }
 
   /// The result so far, between two scans (nothing runs beside tracking then; the back end's

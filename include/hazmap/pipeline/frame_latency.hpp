@@ -27,6 +27,23 @@ class FrameLatency {
   double max_s_ = 0.0;
 };
 
+/// The latency of the most recent frames (GET /status's `latency_ms`): the last `capacity`
+/// samples in a ring, so a slow start does not hide a fast present, nor the reverse.
+class RecentLatency {
+ public:
+  explicit RecentLatency(std::size_t capacity = 600);
+  void add(double seconds);
+  struct Summary {
+    std::size_t frames = 0;  ///< samples in the window
+    double p50 = 0, p99 = 0, max = 0;  ///< ms; the q-quantile is the ceil(q n)-th smallest
+  };
+  Summary summary() const;
+
+ private:
+  std::vector<double> ring_;
+  std::size_t capacity_, next_ = 0;
+};
+
 /// The newest per-point time of a scan (s, the clock its points were stamped with: a live
 /// stream's receive time); 0 when the scan has no per-point times.
 double newestPointTime(const LabeledCloud& scan);

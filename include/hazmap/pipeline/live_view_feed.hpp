@@ -8,6 +8,7 @@
 // when the view's queue is full a frame's scan is skipped for the view (its pose still goes).
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -16,6 +17,7 @@
 #include "hazmap/map/global_map.hpp"
 #include "hazmap/map/hazards.hpp"
 #include "hazmap/map/live_view_server.hpp"
+#include "hazmap/pipeline/live_map_voxels.hpp"
 #include "hazmap/pipeline/live_view_messages.hpp"
 #include "hazmap/pipeline/slam.hpp"
 #include "hazmap/sources/udp_receiver.hpp"
@@ -51,8 +53,9 @@ class LiveViewFeed {
   LiveViewFeed& operator=(const LiveViewFeed&) = delete;
 
   int port() const;
-  /// The pipeline's hook (SlamSnapshots::frame): copies and returns.
-  void onFrame(const SlamFrameEvent& event);
+  /// The pipeline's hook (SlamSnapshots::frame): copies and returns. `latency_s`: the scan's
+  /// newest point to its pose (the status line's `latency_ms` over the most recent frames).
+  void onFrame(const SlamFrameEvent& event, std::optional<double> latency_s = std::nullopt);
   /// Overrides the status line's state ("saving", "stopped by SIGINT"); empty: computed again.
   void setState(const std::string& state);
   /// A save finished: the run folder's hazards (what hazards.json holds) replace the live ones,

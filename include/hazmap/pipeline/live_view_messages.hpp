@@ -6,7 +6,8 @@
 //   {"type":"pose", "frame", "p":[x,y,z], "yaw", "status"}     the newest pose (a coalesced state)
 //   {"type":"track", "frame", "p":[x,y,z]}                      one trajectory point, in order
 //   {"type":"trajectory", "points":[[x,y,z],…]}                 the whole (corrected) trajectory
-//   {"type":"map", "seq", "voxel", "groups":[…], "xyz", "rgb"}  new map voxels (base64, see below)
+//   {"type":"map", "seq", "voxel", "segment", "pose", "groups":[…], "xyz", "rgb"}  new map voxels
+//   {"type":"anchors", "count", "segments", "poses"}            map segments moved (live_map_voxels.hpp)
 //   {"type":"hazards", "origin":"live"|"saved", "hazards":[…]}  the hazard list (viewer format)
 //   {"type":"status", "status":{…}}                             the status line (= GET /status)
 #include <Eigen/Geometry>
@@ -14,7 +15,6 @@
 #include <cstdint>
 #include <optional>
 #include <string>
-#include <unordered_set>
 #include <vector>
 
 #include "hazmap/core/class_table.hpp"
@@ -23,6 +23,7 @@
 #include "hazmap/map/hazards.hpp"
 #include "hazmap/properties/live_camera.hpp"
 #include "hazmap/odometry/odometry.hpp"
+#include "hazmap/pipeline/frame_latency.hpp"
 
 namespace hazmap {
 
@@ -39,6 +40,8 @@ struct LiveStatus {
   std::size_t queue_datagrams = 0, queue_bytes = 0;
   std::string tracking;        ///< the newest frame's tracking status (tracked, fallback, …)
   std::size_t map_points = 0;  ///< voxels the page has been sent
+  std::size_t map_corrections = 0;  ///< loop corrections (or saves) that moved map segments
+  std::size_t back_end_backlog = 0;  ///< frames tracked, not yet in the back end's graph
   std::size_t view_frames_skipped = 0;  ///< scans the view's thread had no room for (poses still sent)
   std::size_t clients = 0, clients_dropped = 0;
   std::size_t saves = 0;
@@ -47,6 +50,8 @@ struct LiveStatus {
   /// Frames rejected, pipeline errors, frames dropped unused, stalls and scans without a frame,
   /// summed over the cameras.
   std::uint64_t camera_warnings = 0;
+  /// A scan's newest point to its pose over the most recent frames (null before the first).
+  std::optional<RecentLatency::Summary> latency_ms;
 };
 std::string liveStatusJson(const LiveStatus& status);
 /// The cameras' counts as /status has them (a JSON array), for run.json too.
@@ -59,37 +64,5 @@ std::string liveTrajectoryMessage(const std::vector<Eigen::Vector3d>& positions)
 /// `origin`: "live" (the view's own map so far) or "saved" (the run folder's hazards.json).
 std::string liveHazardsMessage(const std::vector<Hazard>& hazards, const ClassTable& classes,
                                const std::string& origin, const MapColorConfig& colors = {});
-
-struct LiveMapConfig {
-  double voxel = 0.2;                  ///< m: one map point per voxel this size
-  std::size_t max_points = 1'000'000;  ///< voxels sent at most (the page's memory, a new browser's snapshot)
-  std::size_t chunk_points = 20'000;   ///< voxels per message at most
-};
-
-/// The map as it grows, for the page: each new voxel once, at its centre, coloured as map.ply
-/// colours it (property classes by kind; plain points grey by height, the height range fixed by
-/// the first scan), grouped by class. A "map" message: seq (0, 1, …: a page that got a message in
-/// its snapshot and again as an update ignores the repeat), groups [{id, name, kind, css, count}] in
-/// the order of the points; xyz = base64 of int16 little-endian voxel indices (x y z per point;
-/// position = (index + 0.5) × voxel); rgb = base64 of 3 bytes per point. A voxel keeps the class
-/// of the first point that reached it. Points beyond int16 voxel indices, or in new voxels once
-/// max_points are sent, are counted (dropped()), not sent.
-class LiveMapVoxels {
- public:
-  explicit LiveMapVoxels(ClassTable classes, LiveMapConfig config = {}, MapColorConfig colors = {});
-  /// The scan (sensor frame) at T_world_sensor: messages for the voxels it adds (may be none).
-  std::vector<std::string> add(const LabeledCloud& scan, const Eigen::Isometry3d& T_world_sensor);
-  std::size_t points() const { return keys_.size(); }
-  std::size_t dropped() const { return dropped_; }  ///< points not sent (see above)
-
- private:
-  ClassTable classes_;
-  LiveMapConfig config_;
-  MapColorConfig colors_;
-  std::unordered_set<std::uint64_t> keys_;
-  std::optional<std::pair<double, double>> height_range_;
-  std::size_t dropped_ = 0;
-  std::size_t messages_ = 0;
-};
 
 }  // namespace hazmap

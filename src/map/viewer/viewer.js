@@ -638,6 +638,32 @@
     applyDetail();
     showDetail();
   }
+  // Moves a group's points in place (a live map's loop corrections): place(i, out) writes point
+  // i's new world position into out and returns true, or returns false to leave it.
+  function movePoints(id, place) {
+    const g = groups.find((x) => x.id === id);
+    if (!g) return 0;
+    const p = g.geometry.attributes.position, w = [0, 0, 0], v = new THREE.Vector3();
+    let moved = 0;
+    for (let i = 0; i < g.count; ++i) {
+      if (!place(i, w)) continue;
+      v.set(w[0] - center.x, w[1] - center.y, w[2] - center.z).toArray(p.array, 3 * i);
+      bounds.expandByPoint(v);
+      ++moved;
+    }
+    p.needsUpdate = true;
+    updateSpan();
+    requestRender();
+    return moved;
+  }
+  // World positions of a group's points (tests).
+  function pointsOf(id) {
+    const g = groups.find((x) => x.id === id);
+    if (!g) return [];
+    const a = g.geometry.attributes.position.array, out = [];
+    for (let i = 0; i < g.count; ++i) out.push([a[3 * i] + center.x, a[3 * i + 1] + center.y, a[3 * i + 2] + center.z]);
+    return out;
+  }
   function clearPoints() {
     for (const g of groups) { scene.remove(g.points); g.geometry.dispose(); }
     groups.length = 0;
@@ -684,7 +710,8 @@
     requestRender();
   }
   const live = {
-    addPoints, clearPoints, setTrajectory, setHazards, setRobot,
+    addPoints, movePoints, pointsOf, clearPoints, setTrajectory, setHazards, setRobot,
+    groupIds() { return groups.map((g) => g.id); },
     fit(instant) { flyTo(bounds.getCenter(new THREE.Vector3()), fitExtent(), instant !== false); },
     setSummary(text) { $('summary').textContent = text; },
     get userMoved() { return !!state.userMoved; },
