@@ -206,7 +206,7 @@ struct SlamFrameEvent {
   /// Counts changes to poses before the newest (an online optimisation, re-estimated lost
   /// frames): when it moves, the whole trajectory was redrawn.
   std::size_t corrections = 0;
-  /// Frames tracked but not yet in the back end's graph (SlamConfig::back_end_thread: it is
+  /// Frames tracked but not yet in the back end's graph (SlamConfig::back_end own-thread: it is
   /// behind, typically verifying loops); 0 in the synchronous schedule.
   std::size_t back_end_backlog = 0;
 };
