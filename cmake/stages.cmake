@@ -1,5 +1,6 @@
-# One static library per pipeline stage (hazmap::<stage>, libhazmap_<stage>.a: every
-# src/<stage>/*.cpp, globbed, so new files need no edit here), linked along the documented data
+# One static library per pipeline stage (hazmap::<stage>, libhazmap_<stage>.a, a .so in a
+# HAZMAP_SANITIZE build (root CMakeLists.txt): every src/<stage>/*.cpp, globbed, so new files
+# need no edit here), linked along the documented data
 # flow (DEVELOPERS.md "Layout"; scripts/check-layers.sh checks the same arrows file by file):
 #
 #   core < io < sources < properties < preprocess < registration < odometry < loop < graph < map
@@ -95,6 +96,10 @@ foreach(folder ${HAZMAP_SRC_FOLDERS})
   endif()
 endforeach()
 
+# Shared stages (sanitizer builds): installed binaries find them in the prefix's library folder.
+if(HAZMAP_STAGE_LIBRARY_TYPE STREQUAL "SHARED")
+  set(CMAKE_INSTALL_RPATH "$ORIGIN/../${CMAKE_INSTALL_LIBDIR}")
+endif()
 add_library(hazmap INTERFACE)
 add_library(hazmap::hazmap ALIAS hazmap)
 target_include_directories(hazmap INTERFACE
@@ -102,7 +107,7 @@ target_include_directories(hazmap INTERFACE
 set(HAZMAP_STAGE_TARGETS)
 foreach(stage ${HAZMAP_STAGES})
   file(GLOB sources CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/src/${stage}/*.cpp)
-  add_library(hazmap_${stage} STATIC ${sources})
+  add_library(hazmap_${stage} ${HAZMAP_STAGE_LIBRARY_TYPE} ${sources})
   add_library(hazmap::${stage} ALIAS hazmap_${stage})
   set_target_properties(hazmap_${stage} PROPERTIES EXPORT_NAME ${stage})
   hazmap_stage_tree(${stage} tree)
