@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <memory>
 #include <string>
 
 #include <tbb/blocked_range.h>
@@ -194,7 +195,8 @@ RegistrationTarget LocalMap::makeTarget(const ClassTable& classes, const Registr
 
   // 2. which cached normals are stale (their neighbourhood changed or the settings did)
   useNormalSettings(config);
-  markStaleNormals();
+  auto near = std::make_shared<NearVoxels>();
+  markStaleNormals(*near);
   // 3. the cached normals in target order, and which are pending
   std::vector<Eigen::Vector3f> normals(points_);
   std::vector<char> pending(points_);
@@ -215,13 +217,13 @@ RegistrationTarget LocalMap::makeTarget(const ClassTable& classes, const Registr
   nc.neighbors = config.normal_neighbors;
   nc.radius = config.normal_radius;
   if (!lazy_normals) {
-    estimatePendingNormals(pending, nc, normals);
+    estimatePendingNormals(pending, nc, *near, normals);
     std::vector<char> none_stale(normals.size(), 0);
     return RegistrationTarget(std::move(out), classes, config, std::move(normals), none_stale);
   }
-  auto lazy = [this, nc](std::size_t j) {
+  auto lazy = [this, nc, near](std::size_t j) {
     const auto [k, i] = owner_[j];
-    return estimateNormal(voxels_[k], i, nc);
+    return estimateNormal(voxels_[k], i, nc, near->row(k));
   };
   return RegistrationTarget(std::move(out), classes, config, std::move(normals), pending, lazy);
 }
@@ -270,33 +272,46 @@ void LocalMap::useNormalSettings(const RegistrationConfig& config) {
 // since its normal was estimated — exact: a change beyond its k-th neighbour cannot enter the
 // set, a removed point beyond it was not in it. With a normal_updates budget, a point past it
 // keeps its normal.
-void LocalMap::markStaleNormals() {
+void LocalMap::markStaleNormals(NearVoxels& near) {
   std::vector<std::uint32_t> stale_voxels;
+  near.row_of.assign(voxels_.size(), -1);
+  const std::size_t ring = normal_offsets_.size();
   for (std::size_t k = 0; k < voxels_.size(); ++k) {
     Voxel& v = voxels_[k];
     v.normals.resize(v.points.size(), Eigen::Vector3f::Zero());
     v.updates.resize(v.points.size(), 0);
     v.reach2.resize(v.points.size(), -1.0f);
-    if (!v.normals_valid) stale_voxels.push_back(static_cast<std::uint32_t>(k));
+    if (v.normals_valid) continue;
+    near.row_of[k] = static_cast<std::int32_t>(stale_voxels.size() * ring);
+    stale_voxels.push_back(static_cast<std::uint32_t>(k));
   }
+  near.voxels.assign(stale_voxels.size() * ring, -1);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, stale_voxels.size(), 8), [&](const auto& range) {
     std::vector<const Voxel*> around;
-    for (std::size_t s_i = range.begin(); s_i < range.end(); ++s_i) markStaleInVoxel(voxels_[stale_voxels[s_i]], around);
+    for (std::size_t s_i = range.begin(); s_i < range.end(); ++s_i)
+      markStaleInVoxel(voxels_[stale_voxels[s_i]], around, near.voxels.data() + s_i * ring);
   });
 }
 
-void LocalMap::markStaleInVoxel(Voxel& v, std::vector<const Voxel*>& around) const {
+// `near` receives the voxels of v's ring (left -1 when v has nothing to re-estimate).
+void LocalMap::markStaleInVoxel(Voxel& v, std::vector<const Voxel*>& around, std::int32_t* near) const {
   const int budget = config_.normal_updates;
   const auto allowed = [&](std::size_t i) { return budget == 0 || v.updates[i] < budget || v.normals[i].isZero(); };
   // With a normal_updates budget most voxels hold only spent points: skip the neighbour
   // lookups (27 hash probes) that would find nothing to do.
   bool any = false;
   for (std::size_t i = 0; i < v.points.size() && !any; ++i) any = allowed(i);
-  if (!any) return;
+  if (!any) {
+    near[0] = NearVoxels::kNotLookedUp;
+    return;
+  }
   around.clear();
-  for (const auto& o : normal_offsets_) {
+  for (std::size_t k = 0; k < normal_offsets_.size(); ++k) {
+    const auto& o = normal_offsets_[k];
     const std::uint32_t* at = findVoxel(index_, v.x + o[0], v.y + o[1], v.z + o[2]);
-    if (at && !voxels_[*at].delta.empty()) around.push_back(&voxels_[*at]);
+    if (!at) continue;
+    near[k] = static_cast<std::int32_t>(*at);
+    if (!voxels_[*at].delta.empty()) around.push_back(&voxels_[*at]);
   }
   for (std::size_t i = 0; i < v.points.size(); ++i) {
     if (!allowed(i)) continue;
@@ -312,22 +327,24 @@ void LocalMap::markStaleInVoxel(Voxel& v, std::vector<const Voxel*>& around) con
 }
 
 void LocalMap::estimatePendingNormals(const std::vector<char>& pending, const NormalConfig& nc,
-                                      std::vector<Eigen::Vector3f>& normals) {
+                                      const NearVoxels& near, std::vector<Eigen::Vector3f>& normals) {
   std::vector<std::size_t> todo;
   for (std::size_t j = 0; j < pending.size(); ++j)
     if (pending[j]) todo.push_back(j);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, todo.size(), 64), [&](const auto& range) {
     for (std::size_t t = range.begin(); t < range.end(); ++t) {
       const auto [k, i] = owner_[todo[t]];
-      normals[todo[t]] = estimateNormal(voxels_[k], i, nc);
+      normals[todo[t]] = estimateNormal(voxels_[k], i, nc, near.row(k));
     }
   });
 }
 
 // The k nearest map points within normal_radius (the map's voxels visited nearest first, voxels
 // beyond the current k-th distance skipped), their PCA normal, cached in the voxel with its reach.
-// Called concurrently for different points: it writes only point i's entries.
-Eigen::Vector3f LocalMap::estimateNormal(Voxel& v, std::size_t i, const NormalConfig& nc) const {
+// Called concurrently for different points: it writes only point i's entries. `near`: v's ring
+// from markStaleNormals (nullptr = look each voxel up).
+Eigen::Vector3f LocalMap::estimateNormal(Voxel& v, std::size_t i, const NormalConfig& nc,
+                                         const std::int32_t* near) const {
   const float r2 = static_cast<float>(nc.radius * nc.radius);
   const std::size_t k_max = static_cast<std::size_t>(std::max(nc.neighbors, 1));
   const float vs = static_cast<float>(config_.voxel_size);
@@ -342,7 +359,8 @@ Eigen::Vector3f LocalMap::estimateNormal(Voxel& v, std::size_t i, const NormalCo
                            static_cast<float>(v.z) * vs);
   const Eigen::Vector3f f = ((p - lo) / vs).cwiseMax(0.0f).cwiseMin(1.0f);  // position in the voxel
   TopK<Candidate> best(buffer, k_max, r2);
-  for (const auto& o : normal_offsets_) {
+  for (std::size_t k = 0; k < normal_offsets_.size(); ++k) {
+    const auto& o = normal_offsets_[k];
     // lower bound of the distance from p to the neighbour voxel's box
     float lb2 = 0.0f;
     for (int a = 0; a < 3; ++a) {
@@ -352,9 +370,14 @@ Eigen::Vector3f LocalMap::estimateNormal(Voxel& v, std::size_t i, const NormalCo
     }
     lb2 *= vs * vs;
     if (lb2 * 0.9999f >= best.bound()) continue;  // margin for the float box position
-    const std::uint32_t* at = findVoxel(index_, v.x + o[0], v.y + o[1], v.z + o[2]);
-    if (!at) continue;
-    for (const Eigen::Vector3f& q : voxels_[*at].points) {
+    std::int64_t at = -1;
+    if (near) {
+      at = near[k];
+    } else if (const std::uint32_t* found = findVoxel(index_, v.x + o[0], v.y + o[1], v.z + o[2])) {
+      at = *found;
+    }
+    if (at < 0) continue;
+    for (const Eigen::Vector3f& q : voxels_[static_cast<std::size_t>(at)].points) {
       const float d2 = (q - p).squaredNorm();
       if (d2 < best.bound()) best.push({d2, q});
     }

@@ -10,6 +10,7 @@
 
 #include "hazmap/core/se3.hpp"
 #include "hazmap/core/stable_sort.hpp"
+#include "hazmap/preprocess/spatial_index.hpp"
 #include "hazmap/registration/registration.hpp"
 
 namespace hazmap {
@@ -70,11 +71,29 @@ LabeledCloud sampleOf(const LabeledCloud& source) {
   return out;
 }
 
+// hypothesisScore from one index of every target point: the score reads only the distance to
+// the nearest target point of any class, which this finds as exactly as the target's per-class
+// indexes (a minimum does not depend on where it is searched), with one search instead of one per
+// class. Built once a search runs (dozens of starts), not for the guess's score alone.
+double anyClassScore(const LabeledCloud& sample, const VoxelHashIndex& all, float radius,
+                     const Eigen::Isometry3d& pose) {
+  if (sample.empty()) return 0.0;
+  const Eigen::Isometry3f T = pose.cast<float>();
+  const float gate2 = kScoreGate * kScoreGate;
+  const float bound = std::min(radius * radius, gate2);  // nearestAnyClass's bound
+  double sum = 0.0;
+  for (std::size_t i = 0; i < sample.size(); ++i) {
+    float d2 = 0.0f;
+    if (all.nearest(T * sample.points[i], bound, d2) >= 0 && d2 <= gate2) sum += 1.0 - d2 / gate2;
+  }
+  return sum / static_cast<double>(sample.size());
+}
+
 // Scores every candidate (in parallel; each score is independent, so the result is deterministic).
 void scoreAll(std::vector<Candidate>& cands, std::size_t from, const LabeledCloud& sample,
-              const RegistrationTarget& target, const Eigen::Isometry3d& previous) {
+              const VoxelHashIndex& all, float radius, const Eigen::Isometry3d& previous) {
   tbb::parallel_for(from, cands.size(), [&](std::size_t i) {
-    cands[i].score = hypothesisScore(sample, target, previous * cands[i].increment);
+    cands[i].score = anyClassScore(sample, all, radius, previous * cands[i].increment);
   });
 }
 
@@ -126,8 +145,9 @@ void addTranslationGrid(std::vector<Candidate>& cands, Candidate centre, double 
 // The guess and the kRefined best other candidates, each refined by a short ICP of the sample
 // (registration space ← previous frame `previous`) and scored again; the guess stays first.
 std::vector<Candidate> refineBest(std::vector<Candidate> cands, const LabeledCloud& sample,
-                                  const RegistrationTarget& target, const Eigen::Isometry3d& previous,
-                                  const ClassTable& classes, const RegistrationConfig& icp, std::size_t& searches) {
+                                  const RegistrationTarget& target, const VoxelHashIndex& all,
+                                  const Eigen::Isometry3d& previous, const ClassTable& classes,
+                                  const RegistrationConfig& icp, std::size_t& searches) {
   // Candidate holds an Isometry3d: not std::stable_sort (its scratch buffer is under-aligned for
   // -march=native Eigen; include/hazmap/core/stable_sort.hpp). The guess stays first.
   const Candidate guess = cands.front();
@@ -147,7 +167,7 @@ std::vector<Candidate> refineBest(std::vector<Candidate> cands, const LabeledClo
     if (r.termination != Termination::Converged && r.termination != Termination::MaxIterations) return;
     ++passes[i];  // scored again
     cands[i].increment = previous.inverse() * r.transform;
-    cands[i].score = hypothesisScore(sample, target, r.transform);
+    cands[i].score = anyClassScore(sample, all, target.defaultRadius(), r.transform);
     cands[i].name += ", refined";
   });
   for (const int p : passes) searches += static_cast<std::size_t>(p) * sample.size();
@@ -199,21 +219,23 @@ HypothesisChoice MotionHypotheses::choose(const LabeledCloud& source, const Regi
   if (source.size() >= kMinScanPoints && (typical_ <= 0.0 || out.guess_score < kPoorRatio * typical_)) {
     out.searched = true;
     addBaseHypotheses(cands, in);
-    scoreAll(cands, 1, sample, target, previous);
+    const float radius = target.defaultRadius();
+    const VoxelHashIndex all(target.cloud().points, {}, kScoreGate, std::min(radius, kScoreGate));
+    scoreAll(cands, 1, sample, all, radius, previous);
     const std::size_t base = cands.size();
     sweepYaw(cands, cands[bestOf(cands)], std::min(config.yaw_range, limits.plausible_rotation));
-    scoreAll(cands, base, sample, target, previous);
+    scoreAll(cands, base, sample, all, radius, previous);
     // No motion known yet (the first step, frames dropped before it): a translation grid.
     // Repeating the last increment for frames dropped mid-run was tried and not adopted
     // (docs/history/2026-12-03-repeated-increments.md).
     const std::size_t swept = cands.size();
     if (!in.last_increment) addTranslationGrid(cands, cands[bestOf(cands)], limits.plausible_translation);
-    scoreAll(cands, swept, sample, target, previous);
+    scoreAll(cands, swept, sample, all, radius, previous);
     out.scored = static_cast<int>(cands.size());
     out.searches = cands.size() * sample.size();
     const Candidate guess = cands[0];
     const std::vector<Candidate> refined =
-        refineBest(std::move(cands), sample, target, previous, classes, icp, out.searches);
+        refineBest(std::move(cands), sample, target, all, previous, classes, icp, out.searches);
     if (const Candidate* start = pickStart(guess, refined, limits)) {
       out.increment = start->increment;
       out.name = start->name;

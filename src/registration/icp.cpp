@@ -447,8 +447,17 @@ void IcpSolver::reportCorrespondences(RegistrationResult& result) const {
 // their score contributions are summed per target point before the outer product.
 void IcpSolver::estimateCovariance(RegistrationResult& result) const {
   CovarianceSums sums;
-  std::vector<Vector6d> per_target(tc_.size(), Vector6d::Zero());
-  std::vector<char> touched(tc_.size(), 0);
+  // Per target point, reused across calls: a target-sized buffer zeroed per ICP cost more than
+  // the pass itself when a few hundred points register against a local map (the motion
+  // hypotheses' refinements). Entries outside `touched` stay zero between calls.
+  thread_local std::vector<Vector6d> per_target;
+  thread_local std::vector<char> seen;
+  thread_local std::vector<std::uint32_t> touched;
+  if (per_target.size() < tc_.size()) {
+    per_target.resize(tc_.size(), Vector6d::Zero());
+    seen.resize(tc_.size(), 0);
+  }
+  touched.clear();
   for (std::size_t k = 0; k < n_; ++k) {
     const Corr& cr = corr_[k];
     if (cr.target < 0) continue;
@@ -460,11 +469,17 @@ void IcpSolver::estimateCovariance(RegistrationResult& result) const {
     detail::withFactor(cr.kind, p, q, normals_, cr.target, cr.residual, config_.property_tangent_weight,
                        [&](const auto& factor) { per_target[cr.target] += factor.addToCovariance(sums, w, kernel, mix_); });
     sums.pairs += w;
-    touched[cr.target] = 1;
+    if (!seen[cr.target]) touched.push_back(static_cast<std::uint32_t>(cr.target));
+    seen[cr.target] = 1;
   }
+  // The meat in target order, as a pass over every target point would add it.
+  std::sort(touched.begin(), touched.end());
   Matrix6d meat = Matrix6d::Zero();
-  for (std::size_t j = 0; j < tc_.size(); ++j)
-    if (touched[j]) meat.noalias() += per_target[j] * per_target[j].transpose();
+  for (const std::uint32_t j : touched) meat.noalias() += per_target[j] * per_target[j].transpose();
+  for (const std::uint32_t j : touched) {  // only these were written
+    per_target[j].setZero();
+    seen[j] = 0;
+  }
   const Matrix6d bread = sums.bread + mix_(sums.bread_t);
   const Matrix6d H = total_.H + mix_(total_.Ht);
   const PoseCovariance pc = poseCovariance(H, bread, meat, sums.wr2, sums.components, sums.pairs,

@@ -84,15 +84,27 @@ class LocalMap {
     bool changed = false;  ///< modified during the current integrate()
     std::vector<std::uint32_t> origins;  ///< the integrate() call that added each point
   };
+  /// The voxels of each stale voxel's normal ring (normal_offsets_ order, -1 = none), looked up
+  /// once for the staleness check and read by every normal estimated in that voxel until the
+  /// map changes (instead of a hash probe per point and ring voxel).
+  struct NearVoxels {
+    static constexpr std::int32_t kNotLookedUp = -2;  ///< a row's first entry: the voxel skipped it
+    std::vector<std::int32_t> row_of;  ///< voxel → first entry in `voxels`, -1 = no row
+    std::vector<std::int32_t> voxels;
+    const std::int32_t* row(std::size_t k) const {
+      if (row_of[k] < 0 || voxels[row_of[k]] == kNotLookedUp) return nullptr;
+      return voxels.data() + row_of[k];
+    }
+  };
   void addPoint(const Eigen::Vector3f& p, ClassId cls, float value, std::uint32_t origin, const ClassTable& table);
-  Eigen::Vector3f estimateNormal(Voxel& v, std::size_t i, const NormalConfig& nc) const;
+  Eigen::Vector3f estimateNormal(Voxel& v, std::size_t i, const NormalConfig& nc, const std::int32_t* near) const;
   std::vector<std::array<std::int64_t, 3>> dropFarVoxels(const Eigen::Vector3d& origin);
   // The steps of makeTarget().
   LabeledCloud gatherPoints(const std::vector<std::size_t>& first) const;
   void useNormalSettings(const RegistrationConfig& config);
-  void markStaleNormals();
-  void markStaleInVoxel(Voxel& v, std::vector<const Voxel*>& around) const;
-  void estimatePendingNormals(const std::vector<char>& pending, const NormalConfig& nc,
+  void markStaleNormals(NearVoxels& near);
+  void markStaleInVoxel(Voxel& v, std::vector<const Voxel*>& around, std::int32_t* near) const;
+  void estimatePendingNormals(const std::vector<char>& pending, const NormalConfig& nc, const NearVoxels& near,
                               std::vector<Eigen::Vector3f>& normals);
   /// Marks the normals of every voxel within the normal ring of (x, y, z) stale.
   void invalidateAround(std::int64_t x, std::int64_t y, std::int64_t z, bool force);
