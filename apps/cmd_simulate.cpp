@@ -85,6 +85,7 @@ struct SimulateOptions {
   bool no_odometry = false;
   double imu_rate = 0.0;
   int mission = 0;  ///< 0: not a mission (the scene as built in)
+  bool closed_route = false;
 };
 
 /// --mission K: the scene as mission K finds it, its part of the route, changes_truth.json.
@@ -335,6 +336,9 @@ void setupSimulate(CLI::App& app) {
   app.add_option("--imu-rate", opt->imu_rate,
                  "Also write imu.txt: gyro + accelerometer samples at this rate (Hz, e.g. 200; noise: imu.* keys)")
       ->check(CLI::Range(1.0, 2000.0));
+  app.add_flag("--closed-route", opt->closed_route,
+               "Drive only the route's closed loop, back to the start heading at its end (simulator key "
+               "closed_route): a capture replayed with hazmap replay --loop goes round without a jump");
   app.add_option("--mission", opt->mission,
                  "Mission K of a site entered again (1 = the scene with a crate; K >= 2 starts elsewhere on "
                  "the route, drives part of it, finds sources moved/removed/hotter, a new puddle and the crate "
@@ -349,12 +353,14 @@ void setupSimulate(CLI::App& app) {
     if (scenario->count() || opt->config.empty()) config.scenario = opt->scenario;
     if (seed->count()) config.seed = opt->seed;
     if (frames->count()) config.max_frames = opt->frames;
+    if (opt->closed_route) config.closed_route = true;
     if (scene->count()) config.scene_file = opt->scene;
     if (regions->count()) config.regions_file = opt->regions;
     if (temperature->count()) config.temperature.enabled = opt->temperature;
     applyCameraOptions(*opt, config.cameras);
     if (opt->image_format != "mono16" && opt->format != "mcap") fail("--image-format", "is for --format mcap");
     if (opt->mission > 0 && opt->format != "folder") fail("--mission", "writes a sequence folder, not --format " + opt->format);
+    if (opt->mission > 1 && config.closed_route) fail("--closed-route", "drives the whole loop; a later --mission drives part of it");
     if (opt->format == "pcap") {
       if (opt->png) fail("--png", "renders a sequence folder; not with --format pcap");
       writeSimulationAsPcap(config, opt->out, opt->overwrite);

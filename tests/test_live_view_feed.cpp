@@ -22,6 +22,7 @@
 #include "hazmap/pipeline/live_view_feed.hpp"
 #include "hazmap/pipeline/live_view_messages.hpp"
 #include "live_test_helpers.hpp"
+#include "pipeline/live_view_queue.hpp"
 #include "test_helpers.hpp"
 
 namespace hazmap {
@@ -542,6 +543,62 @@ TEST(LiveViewHook, ALoopCorrectionMovesTheMapThePageDrawsToTheCorrectedPlace) {
   EXPECT_LT(p99(error), 0.02);
   EXPECT_LT(error.back(), 0.05);
   EXPECT_GT(p99(stale), 2 * p99(error));  // drawn where first tracked, the map would be off by more
+}
+
+// A long mission while the view's thread (lowest priority) is starved: each correction carries
+// every pose so far, so queued corrections would grow with the square of the frames. Only the
+// newest waits; every frame and scan that fits the budget is still queued, in order.
+TEST(LiveViewQueue, OnlyTheNewestCorrectionsPosesWaitAndTheScansStayWithinTheBudget) {
+  LabeledCloud scan;
+  scan.points.assign(1000, Eigen::Vector3f::Zero());
+  scan.classes.assign(1000, kNone);
+  const std::size_t bytes = pipeline_detail::scanBytes(scan);
+  EXPECT_EQ(bytes, 1000 * (sizeof(Eigen::Vector3f) + sizeof(ClassId)));
+  pipeline_detail::LiveViewQueue queue(10 * bytes);
+  std::size_t frames = 0, scans = 0;
+  for (std::size_t f = 0; f < 3000; ++f) {
+    pipeline_detail::LiveViewItem item;
+    item.frame = f;
+    if (queue.reserve(bytes)) {
+      item.scan = std::make_unique<LabeledCloud>(scan);
+      item.bytes = bytes;
+      ++scans;
+    }
+    if (f % 3 == 0) {  // a correction every third frame: all poses so far
+      item.correction = true;
+      item.corrected.assign(f + 1, Eigen::Isometry3d::Identity());
+    }
+    queue.push(std::move(item));
+    ++frames;
+    ASSERT_LE(queue.queuedPoses(), f + 1) << "frame " << f;
+    ASSERT_LE(queue.bytes(), 10 * bytes);
+  }
+  EXPECT_EQ(scans, 10u);  // the budget's worth, the rest skipped for the view
+  EXPECT_EQ(queue.superseded(), 999u);
+  std::deque<pipeline_detail::LiveViewItem> batch = queue.take();
+  ASSERT_EQ(batch.size(), frames);
+  std::size_t corrections = 0;
+  for (std::size_t i = 0; i < batch.size(); ++i) {
+    EXPECT_EQ(batch[i].frame, i);
+    corrections += batch[i].correction;
+  }
+  EXPECT_EQ(corrections, 1u);
+  EXPECT_TRUE(batch[2997].correction);
+  EXPECT_EQ(batch[2997].corrected.size(), 2998u);
+  for (const auto& item : batch) queue.release(item.bytes);
+  EXPECT_EQ(queue.bytes(), 0u);
+  EXPECT_TRUE(queue.reserve(bytes));
+  // A save's correction alone (no frame) that a later one supersedes leaves the queue.
+  pipeline_detail::LiveViewItem saved, later;
+  saved.has_frame = later.has_frame = false;
+  saved.correction = later.correction = true;
+  saved.corrected.assign(5, Eigen::Isometry3d::Identity());
+  later.corrected.assign(6, Eigen::Isometry3d::Identity());
+  queue.push(std::move(saved));
+  queue.push(std::move(later));
+  batch = queue.take();
+  ASSERT_EQ(batch.size(), 1u);
+  EXPECT_EQ(batch[0].corrected.size(), 6u);
 }
 
 TEST(LiveViewFeed, UrlNamesTheAddressAndTheToken) {

@@ -399,6 +399,33 @@ TEST(WholeMap, AKidnappedRobotIsFoundAgainAgainstTheKeyframes) {
   }
 }
 
+// A long mission keeps a keyframe every 2 m: beyond resident_keyframes their scans wait on disk
+// (bounded memory), and the whole map built from them and the local map rebuilt from them are the
+// same bit for bit, so the kidnapped robot is found again exactly as with every scan in memory.
+TEST(WholeMap, KeyframesBeyondTheResidentOnesWaitOnDiskAndGiveTheSameAnswer) {
+  sim::SimulatorConfig sc;
+  sc.max_frames = 40;
+  const sim::Simulator sim(sc);
+  OdometryConfig c = OdometryConfig::defaults();
+  const Teleport all = teleport(sim, c, 34, 6, 6);
+  c.recovery.resident_keyframes = 2;
+  Odometry probe(sim.classTable(), c);
+  for (std::size_t i = 0; i <= 34; ++i)
+    probe.addFrame(sim.scan(i), i ? std::optional(sim.odometry()[i - 1].inverse() * sim.odometry()[i]) : std::nullopt);
+  EXPECT_GT(probe.keyframes(), 8u);  // naraha's first 34 m
+  EXPECT_EQ(probe.residentKeyframes(), 2u);
+  const Teleport spilled = teleport(sim, c, 34, 6, 6);
+  ASSERT_EQ(spilled.frames.size(), all.frames.size());
+  std::size_t whole_map = 0;
+  for (std::size_t k = 0; k < all.frames.size(); ++k) {
+    EXPECT_TRUE(spilled.frames[k].pose.matrix() == all.frames[k].pose.matrix()) << k;
+    EXPECT_EQ(spilled.frames[k].status, all.frames[k].status) << k;
+    EXPECT_EQ(spilled.frames[k].reason, all.frames[k].reason) << k;
+    whole_map += all.frames[k].global.whole_map && all.frames[k].status == FrameStatus::Relocalised;
+  }
+  EXPECT_GT(whole_map, 0u) << "the whole map was never used: the test proves nothing";
+}
+
 // Off, the same kidnapping is never recovered: the frames stay wrong (the test above is not
 // passing by the local recovery alone).
 TEST(WholeMap, WithoutItTheKidnappedRobotStaysLost) {

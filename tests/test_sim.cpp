@@ -367,6 +367,43 @@ TEST(SimRoute, NarahaLoopIsClosedAbout120mAndThenRepeated) {
   EXPECT_LT(samples.size(), 200u);
 }
 
+// closed_route: every built-in scene's loop, driven round and round, steps from its last scan to
+// its first as from any scan to the next (no jump), and the loop is the whole of it.
+TEST(SimRoute, AClosedRouteGoesRoundWithoutAJumpInEveryBuiltinScene) {
+  RobotConfig robot;
+  robot.frame_distance = 0.5;
+  for (const auto& name : builtinSceneNames()) {
+    const Scene s = builtinScene(name);
+    const auto samples = sampleRoute(closedLoop(s.route, name), robot, true);
+    ASSERT_GT(samples.size(), 20u) << name;
+    const RouteSample &first = samples.front(), &last = samples.back();
+    const double step = std::hypot(first.x - last.x, first.y - last.y);
+    const double turn = std::abs(std::remainder(first.yaw - last.yaw, 2 * M_PI));
+    EXPECT_LE(step, robot.frame_distance + 1e-9) << name;
+    EXPECT_LE(turn, robot.frame_turn_deg * kDeg + 1e-9) << name;
+    EXPECT_GT(step + turn, 1e-6) << name << ": the last scan repeats the first";
+    // The open route drives on past its loop (naraha, tanks) or back (corridor): the closed one
+    // ends at the loop's end, where the open one is back at its start.
+    const auto open = sampleRoute(s.route, robot);
+    EXPECT_LE(last.travelled, open.back().travelled + 1e-9) << name;
+  }
+  // The corridor's way back ends facing the wrong way: the closed route turns round on the spot.
+  const auto corridor = sampleRoute(closedLoop(builtinScene("corridor").route, "corridor"), RobotConfig{}, true);
+  std::size_t spins = 0;
+  for (std::size_t i = 1; i < corridor.size(); ++i) spins += corridor[i].travelled == corridor[i - 1].travelled;
+  EXPECT_EQ(spins, 12u + 11u);  // the U-turn (12 × 15°) and the turn back, whose last step is the first scan
+}
+
+TEST(SimRoute, AClosedRouteNeedsALoop) {
+  Route open;
+  open.waypoints = {{0, 0}, {10, 0}, {10, 10}};
+  EXPECT_NE(errorOf([&] { closedLoop(open, "scene x"); }).find("scene x: the route has no closed loop"), std::string::npos);
+  open.loop_waypoints = 3;
+  EXPECT_NE(errorOf([&] { closedLoop(open, "scene x"); }).find("does not end at its first waypoint"), std::string::npos);
+  EXPECT_NE(errorOf([&] { sampleRoute(open, RobotConfig{}, true); }).find("a closed route must end at its first waypoint"),
+            std::string::npos);
+}
+
 TEST(SimScene, RouteHasClearanceInEveryBuiltinScene) {
   for (const auto& name : builtinSceneNames()) {
     const Scene s = builtinScene(name);

@@ -13,6 +13,7 @@
 #include "hazmap/registration/registration_target.hpp"
 
 #include "hazmap/core/se3.hpp"
+#include "hazmap/io/keyframe_spill.hpp"
 #include "hazmap/odometry/odometry.hpp"
 #include "odometry/motion_hypotheses.hpp"
 
@@ -110,9 +111,17 @@ struct Odometry::Impl {
   // --- whole-map re-localisation (odometry_whole_map.cpp) ---
   struct Keyframe {
     std::size_t frame = 0;  ///< index into frames_ (its pose is the current estimate)
-    LabeledCloud scan;      ///< preprocessed, sensor frame
+    LabeledCloud scan;      ///< preprocessed, sensor frame; empty once on disk
+    bool on_disk = false;   ///< beyond RecoveryConfig::resident_keyframes: in keyframe_spill
   };
   std::vector<Keyframe> keyframes;
+  std::optional<KeyframeSpill> keyframe_spill;  ///< created with the first keyframe it takes
+  /// Keyframe k's scan: in memory, or read back from disk into `holder`.
+  const LabeledCloud& keyframeScan(std::size_t k, const ClassTable& classes, LabeledCloud& holder) const {
+    if (!keyframes[k].on_disk) return keyframes[k].scan;
+    holder = keyframe_spill->load(keyframes[k].frame, classes);
+    return holder;
+  }
   std::size_t fallback_streak = 0;
   /// Frame to map (reestimate_lost_frames): the fallback frames since the last verified one, their
   /// preprocessed scans (sensor frame) waiting outside the local map.

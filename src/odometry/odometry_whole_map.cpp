@@ -5,6 +5,7 @@
 // tracking ICP against the same keyframes. Unlike the local recovery there is no bound on the
 // motion (the robot may have been carried anywhere); instead the answer must fit the keyframes
 // well, better than the guess does, and the global registration must not be ambiguous.
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <memory>
@@ -32,20 +33,36 @@ void Odometry::keepKeyframe(const OdometryFrame& f, const LabeledCloud& frame) {
     if (translationNorm(d) < config_.recovery.keyframe_distance && rotationAngle(d) < config_.recovery.keyframe_rotation) return;
   }
   keyframes.push_back({f.index, frame});
+  // Memory stays bounded on a long mission: the oldest resident scan goes to disk.
+  if (keyframes.size() <= config_.recovery.resident_keyframes) return;
+  Impl::Keyframe& oldest = keyframes[keyframes.size() - 1 - config_.recovery.resident_keyframes];
+  if (!impl_->keyframe_spill) impl_->keyframe_spill.emplace();
+  impl_->keyframe_spill->store(oldest.frame, oldest.scan);
+  oldest.scan = LabeledCloud();
+  oldest.on_disk = true;
+}
+
+std::size_t Odometry::keyframes() const { return impl_->keyframes.size(); }
+
+std::size_t Odometry::residentKeyframes() const {
+  return static_cast<std::size_t>(std::count_if(impl_->keyframes.begin(), impl_->keyframes.end(),
+                                                [](const Impl::Keyframe& k) { return !k.on_disk; }));
 }
 
 // The keyframes in the world at their current poses, downsampled to the scan's voxel size, with
 // the global registration's features (normals oriented towards the keyframes' mean position: the
 // map is seen from inside) and the tracking ICP's target. Kept until keyframes are added or moved.
-template <class Keyframes>
-static std::shared_ptr<const WholeMap> buildWholeMap(const Keyframes& keyframes,
+// `scan_of(k, holder)`: keyframe k's scan (Impl::keyframeScan).
+template <class Keyframes, class ScanOf>
+static std::shared_ptr<const WholeMap> buildWholeMap(const Keyframes& keyframes, const ScanOf& scan_of,
                                                      const std::vector<OdometryFrame>& frames,
                                                      const OdometryConfig& config, const ClassTable& classes) {
-  LabeledCloud all;
+  LabeledCloud all, holder;
   Eigen::Vector3d centre = Eigen::Vector3d::Zero();
-  for (const auto& k : keyframes) {
-    all.append(k.scan.transformed(frames[k.frame].pose));
-    centre += frames[k.frame].pose.translation();
+  for (std::size_t k = 0; k < keyframes.size(); ++k) {
+    const Eigen::Isometry3d& pose = frames[keyframes[k].frame].pose;
+    all.append(scan_of(k, holder).transformed(pose));
+    centre += pose.translation();
   }
   centre /= static_cast<double>(keyframes.size());
   VoxelDownsampleConfig vd;
@@ -86,7 +103,10 @@ std::optional<RegistrationResult> Odometry::relocaliseInWholeMap(OdometryFrame& 
   }
   if (!impl_->whole_map || impl_->whole_map_keyframes != impl_->keyframes.size() ||
       impl_->whole_map_version != impl_->reanchors) {
-    impl_->whole_map = buildWholeMap(impl_->keyframes, frames_, config_, classes_);
+    const auto scan_of = [this](std::size_t k, LabeledCloud& holder) -> const LabeledCloud& {
+      return impl_->keyframeScan(k, classes_, holder);
+    };
+    impl_->whole_map = buildWholeMap(impl_->keyframes, scan_of, frames_, config_, classes_);
     impl_->whole_map_keyframes = impl_->keyframes.size();
     impl_->whole_map_version = impl_->reanchors;
   }
@@ -130,10 +150,11 @@ void Odometry::rebuildLocalMapFromKeyframes(const Eigen::Isometry3d& pose) {
   map_.clear();
   std::size_t k = 0;
   const auto& keyframes = impl_->keyframes;
+  LabeledCloud holder;
   for (std::size_t i = 0; i < frames_.size(); ++i) {
     const bool keyframe = k < keyframes.size() && keyframes[k].frame == i;
-    map_.integrate(keyframe ? keyframes[k].scan.transformed(frames_[i].pose) : LabeledCloud(), pose.translation(),
-                   classes_);
+    map_.integrate(keyframe ? impl_->keyframeScan(k, classes_, holder).transformed(frames_[i].pose) : LabeledCloud(),
+                   pose.translation(), classes_);
     k += keyframe;
   }
 }

@@ -14,7 +14,7 @@
 #include "hazmap/loop/loop_closure.hpp"
 #include "hazmap/pipeline/slam.hpp"
 #include "hazmap/sources/scan_source.hpp"
-#include "pipeline/keyframe_spill.hpp"
+#include "hazmap/io/keyframe_spill.hpp"
 #include "pipeline/loop_schedule.hpp"
 #include "pipeline/map_anchors.hpp"
 

@@ -14,6 +14,7 @@
 
 #include "hazmap/map/render.hpp"
 #include "hazmap/map/viewer.hpp"
+#include "pipeline/live_view_queue.hpp"
 
 namespace hazmap {
 
@@ -21,27 +22,13 @@ namespace {
 
 using SteadyClock = std::chrono::steady_clock;
 
-struct FrameItem {
-  bool has_frame = true;  ///< false: a correction alone (a save's final poses)
-  std::size_t frame = 0;
-  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-  FrameStatus status = FrameStatus::First;
-  std::unique_ptr<LabeledCloud> scan;  ///< null: skipped for the view (its queue was full)
-  std::size_t bytes = 0;
-  bool correction = false;                  ///< earlier poses moved: `corrected` holds them all
-  std::vector<Eigen::Isometry3d> corrected;
-};
+using pipeline_detail::LiveViewItem;
 
 std::vector<Eigen::Vector3d> translations(const std::vector<Eigen::Isometry3d>& poses) {
   std::vector<Eigen::Vector3d> out;
   out.reserve(poses.size());
   for (const auto& pose : poses) out.push_back(pose.translation());
   return out;
-}
-
-std::size_t bytesOf(const LabeledCloud& c) {
-  return c.size() * (sizeof(Eigen::Vector3f) + sizeof(ClassId)) + c.property.size() * sizeof(float) +
-         c.intensity.size() * sizeof(float) + c.timestamps.size() * sizeof(double);
 }
 
 /// The calling thread yields to every other (nice 19): on a machine whose cores are all busy,
@@ -100,8 +87,7 @@ struct LiveViewFeed::Impl {
 
   mutable std::mutex m;  // everything below
   std::condition_variable wake, idle;
-  std::deque<FrameItem> queue;
-  std::size_t queue_bytes = 0;
+  pipeline_detail::LiveViewQueue queue;
   bool busy = false, stop = false;
   std::vector<std::string> map_messages;  // every map message so far: a new browser's snapshot
   std::vector<Eigen::Vector3d> positions;
@@ -117,10 +103,11 @@ struct LiveViewFeed::Impl {
   std::thread worker;
 
   Impl(LiveViewFeedConfig c, ClassTable t)
-      : config(std::move(c)), classes(std::move(t)), voxels(classes, config.map), hazard_map(config.hazard_map, classes) {}
+      : config(std::move(c)), classes(std::move(t)), voxels(classes, config.map), hazard_map(config.hazard_map, classes),
+        queue(config.queue_bytes) {}
 
   void run();
-  void process(FrameItem& item);
+  void process(LiveViewItem& item);
   void reanchor(const std::vector<Eigen::Isometry3d>& poses);
   void findHazards();
   void publishStatus();
@@ -131,27 +118,27 @@ struct LiveViewFeed::Impl {
 void LiveViewFeed::Impl::run() {
   lowestPriority();
   for (;;) {
-    std::deque<FrameItem> batch;
+    std::deque<LiveViewItem> batch;
     {
       std::unique_lock<std::mutex> lock(m);
       wake.wait_for(lock, std::chrono::milliseconds(250), [&] { return stop || !queue.empty(); });
       if (stop && queue.empty()) return;
-      batch.swap(queue);
+      batch = queue.take();
       busy = !batch.empty();
     }
-    for (FrameItem& item : batch) process(item);
+    for (LiveViewItem& item : batch) process(item);
     findHazards();
     publishStatus();
     {
       std::lock_guard<std::mutex> lock(m);
-      for (const FrameItem& item : batch) queue_bytes -= item.bytes;
+      for (const LiveViewItem& item : batch) queue.release(item.bytes);
       busy = false;
     }
     idle.notify_all();
   }
 }
 
-void LiveViewFeed::Impl::process(FrameItem& item) {
+void LiveViewFeed::Impl::process(LiveViewItem& item) {
   if (item.correction) reanchor(item.corrected);
   if (!item.has_frame) return;
   if (item.scan) {
@@ -309,7 +296,7 @@ int LiveViewFeed::port() const { return impl_->server->port(); }
 
 void LiveViewFeed::onFrame(const SlamFrameEvent& event, std::optional<double> latency_s) {
   Impl& s = *impl_;
-  FrameItem item;
+  LiveViewItem item;
   item.frame = event.record.index;
   item.pose = event.poses.back();
   item.status = event.record.status;
@@ -318,7 +305,7 @@ void LiveViewFeed::onFrame(const SlamFrameEvent& event, std::optional<double> la
     item.correction = true;
     item.corrected = event.poses;
   }
-  const std::size_t bytes = bytesOf(event.scan);
+  const std::size_t bytes = pipeline_detail::scanBytes(event.scan);
   bool room = false;
   {
     std::lock_guard<std::mutex> lock(s.m);
@@ -327,9 +314,8 @@ void LiveViewFeed::onFrame(const SlamFrameEvent& event, std::optional<double> la
     if (latency_s) s.recent_latency.add(*latency_s);
     s.frame_times.push_back(SteadyClock::now());
     while (s.frame_times.size() > 2 && secondsSince(s.frame_times.front()) > 2.0) s.frame_times.pop_front();
-    room = s.queue_bytes + bytes <= s.config.queue_bytes;
-    if (room) s.queue_bytes += bytes;
-    else ++s.counts.view_frames_skipped;
+    room = s.queue.reserve(bytes);
+    if (!room) ++s.counts.view_frames_skipped;
   }
   if (room) {
     item.scan = std::make_unique<LabeledCloud>(event.scan);  // the copy, outside the lock
@@ -337,7 +323,7 @@ void LiveViewFeed::onFrame(const SlamFrameEvent& event, std::optional<double> la
   }
   {
     std::lock_guard<std::mutex> lock(s.m);
-    s.queue.push_back(std::move(item));
+    s.queue.push(std::move(item));
   }
   s.wake.notify_one();
 }
@@ -364,13 +350,13 @@ void LiveViewFeed::showSaved(const std::vector<Hazard>& hazards, const Trajector
   }
   s.server->publishState("hazards", std::move(message));
   if (!trajectory.poses.empty()) {  // the saved estimate: the view's thread redraws the trajectory and moves the map
-    FrameItem item;
+    LiveViewItem item;
     item.has_frame = false;
     item.correction = true;
     item.corrected.assign(trajectory.poses.begin(), trajectory.poses.end());
     {
       std::lock_guard<std::mutex> lock(s.m);
-      s.queue.push_back(std::move(item));
+      s.queue.push(std::move(item));
     }
     s.wake.notify_one();
   }

@@ -51,7 +51,7 @@ struct Piece {
   }
 };
 
-std::vector<Piece> buildPieces(const Route& route) {
+std::vector<Piece> buildPieces(const Route& route, bool closed) {
   const auto& w = route.waypoints;
   const std::size_t n = w.size();
   std::vector<Eigen::Vector2d> dir(n - 1);
@@ -87,12 +87,17 @@ std::vector<Piece> buildPieces(const Route& route) {
     else
       pieces.push_back({Piece::Spin, w[c], yaw, std::abs(turn[c]), 0.0, sign});
   }
+  if (!closed) return pieces;
+  // Back to the start heading on the spot, so the next drive round starts as this one did.
+  const double end_yaw = std::atan2(dir[n - 2].y(), dir[n - 2].x());
+  const double back = wrapAngle(std::atan2(dir[0].y(), dir[0].x()) - end_yaw);
+  if (std::abs(back) > 1e-9) pieces.push_back({Piece::Spin, w[n - 1], end_yaw, std::abs(back), 0.0, back > 0 ? 1.0 : -1.0});
   return pieces;
 }
 
 }  // namespace
 
-std::vector<RouteSample> sampleRoute(const Route& route, const RobotConfig& robot) {
+std::vector<RouteSample> sampleRoute(const Route& route, const RobotConfig& robot, bool closed) {
   if (route.waypoints.size() < 2) fail("route", "needs at least 2 waypoints");
   for (std::size_t i = 1; i < route.waypoints.size(); ++i)
     if ((route.waypoints[i] - route.waypoints[i - 1]).norm() < 1e-6)
@@ -100,7 +105,9 @@ std::vector<RouteSample> sampleRoute(const Route& route, const RobotConfig& robo
   if (!(robot.frame_distance > 0.0) || !(robot.frame_turn_deg > 0.0) || !(robot.max_speed > 0.0) ||
       !(robot.turn_rate_deg > 0.0))
     fail("robot", "frame_distance, frame_turn_deg, max_speed and turn_rate_deg must be > 0");
-  const std::vector<Piece> pieces = buildPieces(route);
+  if (closed && (route.waypoints.front() - route.waypoints.back()).norm() > 1e-6)
+    fail("route", "a closed route must end at its first waypoint");
+  const std::vector<Piece> pieces = buildPieces(route, closed);
   const double D = robot.frame_distance;
   const double A = robot.frame_turn_deg * M_PI / 180.0;
   const double speed = robot.max_speed;
@@ -138,13 +145,34 @@ std::vector<RouteSample> sampleRoute(const Route& route, const RobotConfig& robo
       d_since = a_since = 0.0;
     }
   }
-  // The end of the route, unless a scan was taken (almost) there already.
+  // The end of the route, unless a scan was taken (almost) there already, or it is the start.
+  if (closed) {
+    const RouteSample& first = samples.front();
+    if (samples.size() > 1 && std::hypot(samples.back().x - first.x, samples.back().y - first.y) < 1e-6 &&
+        std::abs(wrapAngle(samples.back().yaw - first.yaw)) < 1e-6)
+      samples.pop_back();
+    return samples;
+  }
   if (d_since > 0.05 * D || a_since > 0.05 * A) {
     const Piece& last = pieces.back();
     last.at(last.length_u, cur.x, cur.y, cur.yaw);
     samples.push_back(cur);
   }
   return samples;
+}
+
+Route closedLoop(const Route& route, const std::string& where) {
+  Route loop = route;
+  loop.loop_waypoints = 0;
+  const auto& w = route.waypoints;
+  if (route.loop_waypoints >= 3) {
+    loop.waypoints.assign(w.begin(), w.begin() + static_cast<std::ptrdiff_t>(route.loop_waypoints));
+  } else if (w.size() < 2 || (w.front() - w.back()).norm() > 1e-6) {
+    fail(where, "the route has no closed loop (loop_waypoints, or a last waypoint equal to the first)");
+  }
+  if ((loop.waypoints.front() - loop.waypoints.back()).norm() > 1e-6)
+    fail(where, "the route's loop (its first loop_waypoints waypoints) does not end at its first waypoint");
+  return loop;
 }
 
 Eigen::Isometry3d sensorPose(const RouteSample& s, double floor_z, double mount_height) {

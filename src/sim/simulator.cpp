@@ -18,7 +18,9 @@ Simulator::Simulator(const SimulatorConfig& config, Scene scene, ClassTable tabl
 }
 
 void Simulator::init() {
-  samples_ = sampleRoute(scene_.route, config_.robot);
+  samples_ = config_.closed_route
+                 ? sampleRoute(closedLoop(scene_.route, "closed_route (scene " + scene_.name + ")"), config_.robot, true)
+                 : sampleRoute(scene_.route, config_.robot);
   const CrawlerUpsetConfig& u = config_.upsets;
   if (u.drop_probability > 0.0 || u.yaw_kick_probability > 0.0)
     kicks_ = applyCrawlerUpsets(samples_, u, config_.seed);

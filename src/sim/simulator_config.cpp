@@ -269,6 +269,10 @@ const ConfigFields<SimulatorConfig>& configFields(ConfigTag<SimulatorConfig>) {
           .text("class_table", &C::class_table, "default, semantic-kitti or a YAML path")
           .integer("seed", &C::seed, nonNegative(), "Random seed (same seed, same bytes)")
           .integer("frames", &C::max_frames, nonNegative(), "0 = the whole route")
+          .flag("closed_route", &C::closed_route,
+                "Drive only the route's closed loop, back to the start heading at its end: a capture replayed with "
+                "`hazmap replay --loop` goes round without a jump")
+          .writeIf([](const C& c) { return c.closed_route; })  // simulation.yaml as before without it
           .number("reference_voxel", &C::reference_voxel, positive(), "m, voxel size of reference_map.ply")
           .section("sensor", &C::sensor, "")
           .section("labels", &C::labels, "")

@@ -61,6 +61,10 @@ struct RecoveryConfig {
   int whole_map_after = 3;          ///< consecutive fallback frames before the whole map is tried
   double keyframe_distance = 2.0;   ///< m; a verified frame this far from the last keyframe is one
   double keyframe_rotation = 0.5;   ///< rad; …or turned this much
+  /// The newest this many keyframes' scans stay in memory; older ones wait on disk (a temporary
+  /// folder, every channel bit for bit) until the whole map is built or the local map rebuilt
+  /// from them, so a long mission's memory does not grow with its keyframes (one every 2 m).
+  std::size_t resident_keyframes = 64;
   /// Frame to map: a fallback frame's scan (its pose an unverified guess) waits outside the local
   /// map, so a lost frame cannot poison the map the next frames track against. Once a later frame
   /// is verified, the waiting frames are re-registered against the recovered map, each from its
@@ -213,6 +217,10 @@ class Odometry {
                                 const std::optional<Eigen::Matrix3d>& imu_rotation = std::nullopt);
 
   const std::vector<OdometryFrame>& frames() const { return frames_; }
+  /// Whole-map keyframes kept so far, and those of them whose scans are in memory
+  /// (RecoveryConfig::resident_keyframes; the others are on disk).
+  std::size_t keyframes() const;
+  std::size_t residentKeyframes() const;
   Trajectory trajectory() const;
   const LocalMap& localMap() const { return map_; }
   /// Frame to map: tracking continues on a corrected trajectory (issue 14: the map follows the

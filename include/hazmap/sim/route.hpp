@@ -2,6 +2,7 @@
 // The crawler driving its route, and when it takes a scan: every `frame_distance` of travel or
 // `frame_turn_deg` of turning, whichever comes first (the paper's "large movement per frame").
 #include <Eigen/Geometry>
+#include <string>
 #include <vector>
 
 #include "hazmap/sim/scene.hpp"
@@ -26,7 +27,15 @@ struct RouteSample {
 /// Scan poses along the route: the first at the first waypoint (heading along the first leg),
 /// then one at each trigger, and a last one at the end of the route if the robot moved since.
 /// Throws hazmap::Error for a route with < 2 waypoints or non-positive trigger settings.
-std::vector<RouteSample> sampleRoute(const Route& route, const RobotConfig& robot);
+/// `closed` (a route from closedLoop): the route ends where it starts, so the robot turns on the
+/// spot at the end to its start heading and the end is not scanned (it is the first scan's pose):
+/// the scans then repeat without a jump when driven again and again.
+std::vector<RouteSample> sampleRoute(const Route& route, const RobotConfig& robot, bool closed = false);
+
+/// The route's closed loop (SimulatorConfig::closed_route): its first loop_waypoints waypoints,
+/// or the whole route when its last waypoint is its first (an out-and-back route). Throws
+/// hazmap::Error naming `where` for a route without one.
+Route closedLoop(const Route& route, const std::string& where);
 
 /// Sensor pose in the world for a base sample: base at (x, y, floor_z) with yaw, sensor
 /// `mount_height` above it, axes aligned with the base (x forward, y left, z up).

@@ -38,6 +38,9 @@ struct SimulatorConfig {
   std::string class_table = "default";  ///< "default", "semantic-kitti" or a YAML path
   std::uint64_t seed = 1;
   std::size_t max_frames = 0;  ///< 0 = the whole route
+  /// Drive only the route's closed loop and turn back to the start heading at its end, so a
+  /// capture replayed with `hazmap replay --loop` goes round without a jump (sim/route.hpp).
+  bool closed_route = false;
   LidarConfig sensor;
   LabelNoiseConfig labels;
   TemperatureConfig temperature;

@@ -1,4 +1,4 @@
-#include "pipeline/keyframe_spill.hpp"
+#include "hazmap/io/keyframe_spill.hpp"
 
 #include <random>
 

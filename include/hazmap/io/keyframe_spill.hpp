@@ -1,7 +1,8 @@
 #pragma once
-// Keyframe clouds of a stream that cannot be read again (a bag, a capture), kept on disk instead
-// of in memory: the loop detector holds only its newest keyframes and reloads older ones from
-// here when a loop candidate needs them, as it re-reads a sequence folder's scans.
+// Keyframe clouds kept on disk instead of in memory: the loop detector's, for a stream that cannot
+// be read again (a bag, a capture), reloaded when a loop candidate needs them, as it re-reads a
+// sequence folder's scans; tracking's whole-map keyframes beyond the resident ones
+// (RecoveryConfig::resident_keyframes), reloaded when the whole map is built.
 #include <filesystem>
 
 #include "hazmap/core/class_table.hpp"
