@@ -15,6 +15,7 @@
 
 using namespace hazmap;
 using namespace hazmap::sim;
+using hazmap::test::errorOf;
 
 namespace {
 
