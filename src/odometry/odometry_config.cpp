@@ -44,8 +44,6 @@ const ConfigFields<RecoveryConfig>& configFields(ConfigTag<RecoveryConfig>) {
           .number("keyframe_distance", &C::keyframe_distance, positive(),
                   "m; a verified frame this far from the last keyframe becomes one (whole-map re-localisation)")
           .number("keyframe_rotation", &C::keyframe_rotation, positive(), "rad; …or turned this much")
-          .integer("resident_keyframes", &C::resident_keyframes, atLeast(1),
-                   "Keyframe scans kept in memory, the newest; older ones wait on disk until the whole map needs them")
           .flag("reestimate_lost_frames", &C::reestimate_lost_frames,
                 "Frame to map: a fallback frame's scan waits outside the local map; once a later frame is verified "
                 "the waiting frames are re-registered against the recovered map from interpolated poses (verified: "

@@ -64,6 +64,7 @@ struct RecoveryConfig {
   /// The newest this many keyframes' scans stay in memory; older ones wait on disk (a temporary
   /// folder, every channel bit for bit) until the whole map is built or the local map rebuilt
   /// from them, so a long mission's memory does not grow with its keyframes (one every 2 m).
+  /// Not a key: 64 scans are a few tens of MB, and the results do not depend on it (tests lower it).
   std::size_t resident_keyframes = 64;
   /// Frame to map: a fallback frame's scan (its pose an unverified guess) waits outside the local
   /// map, so a lost frame cannot poison the map the next frames track against. Once a later frame
