@@ -2,6 +2,8 @@
 // --autosave-every seconds, at the end). See live_session.hpp.
 #include "live_session.hpp"
 
+#include "background_saves.hpp"
+
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
@@ -92,8 +94,9 @@ nlohmann::json liveJson(const LiveScanSource& source, LiveSensor sensor, const s
 
 constexpr const char* kLabelSpool = "live_labels.bin";
 
-/// POST /save from the browser: answered once the pipeline wrote the run folder between two
-/// frames (a snapshot needs the pipeline's thread), or after `wait` with `pending`.
+/// POST /save from the browser: answered once a save whose snapshot the pipeline took after the
+/// request (between two frames: a snapshot needs the pipeline's thread) is written, or after
+/// `wait` with `pending`.
 class SaveRequests {
  public:
   std::string request(std::chrono::seconds wait) {
@@ -128,6 +131,15 @@ class SaveRequests {
   bool ended_ = false;
 };
 
+/// One save: the result and what run.json says of the stream, taken between two frames on the
+/// pipeline's thread; written there (at the end) or on the saver's (while running).
+struct SaveJob {
+  SlamResult result;
+  nlohmann::json live;  ///< run.json's "live"
+  std::string state;
+  std::uint64_t requests = 0;  ///< the POST /save requests it answers (SaveRequests::waiting)
+};
+
 struct Session {
   const LiveOptions& o;
   SlamConfig config;
@@ -139,17 +151,26 @@ struct Session {
   SaveRequests saves;
   FrameLatency latency;  // a scan's newest point to its pose (pipeline thread only)
 
-  void write(const SlamResult& result, const std::string& state, bool final_write);
-  void save(const SlamResult& result, const std::string& state, bool final_write);
+  SaveJob job(SlamResult result, std::string state);
+  void write(const SaveJob& job, bool final_write);
+  void save(const SaveJob& job, bool final_write);
   void startView();
   ScanSource& scans() { return labelled ? static_cast<ScanSource&>(*labelled) : *source; }
 };
 
-/// The run folder from `result` (the end's or a save's): the map's second pass re-reads the
-/// spool; run.json gains the stream's counts (`live`).
-void Session::write(const SlamResult& result, const std::string& state, bool final_write) {
+/// Between two frames (the pipeline's thread): the spools flushed up to this scan, the stream's
+/// counts read. The save then reads only what is flushed (the receiver appends behind it).
+SaveJob Session::job(SlamResult result, std::string state) {
   source->flushSpool();
   if (labelled) labelled->flush();
+  SaveJob job{std::move(result), liveJson(*source, sensor, state, latency), std::move(state), saves.waiting()};
+  if (cameras) job.live["cameras"] = cameras->json(), job.live["label_spool"] = kLabelSpool;
+  return job;
+}
+
+/// The run folder from the job's result (the end's or a save's): the map's second pass re-reads
+/// the spool; run.json gains the stream's counts (`live`).
+void Session::write(const SaveJob& job, bool final_write) {
   const std::filesystem::path out(o.out);
   ScanSourceOptions options = sourceOptions(o, sensor);
   options.notice = nullptr;  // the live pass said it already
@@ -159,29 +180,29 @@ void Session::write(const SlamResult& result, const std::string& state, bool fin
   outputs.write_viewer = !o.no_viewer;
   if (cameras) outputs.channel_cameras = cameras->channelCameras();
   outputs.write_map_folder = final_write;  // the reopenable map once, at the end (not every autosave)
-  const RunSummary summary = writeRunOutputs(*second_pass, result, config, outputs, out);
+  const RunSummary summary = writeRunOutputs(*second_pass, job.result, config, outputs, out);
   nlohmann::json j = nlohmann::json::parse(readTextFile(out / "run.json"));
-  j["live"] = liveJson(*source, sensor, state, latency);
-  if (cameras) j["live"]["cameras"] = cameras->json(), j["live"]["label_spool"] = kLabelSpool;
+  j["live"] = job.live;
   writeTextAtomically(out / "run.json", j.dump(2) + "\n");
   if (o.quiet) return;
-  if (final_write) std::cout << formatRunSummary(result, summary, out, outputs);
-  else std::cout << fmt::format("{} {} frames to {}\n", state.starts_with("autosave") ? "autosaved" : "saved on request",
-                                result.frames.size(), o.out)
+  if (final_write) std::cout << formatRunSummary(job.result, summary, out, outputs);
+  else std::cout << fmt::format("{} {} frames to {}\n", job.state.starts_with("autosave") ? "autosaved" : "saved on request",
+                                job.result.frames.size(), o.out)
                  << std::flush;
 }
 
 /// write(), told to the browsers (the saved hazards and trajectory) and to a waiting POST /save.
-void Session::save(const SlamResult& result, const std::string& state, bool final_write) {
-  const std::uint64_t requests = saves.waiting();
+void Session::save(const SaveJob& job, bool final_write) {
+  const std::uint64_t requests = job.requests;
+  const SlamResult& result = job.result;
   nlohmann::json answer;
   try {
     if (view) view->setState("saving");
-    write(result, state, final_write);
+    write(job, final_write);
     const auto folder = std::filesystem::absolute(o.out).lexically_normal();
     const std::vector<Hazard> hazards = readHazardsJson(folder / "hazards.json");
     if (view) view->showSaved(hazards, result.estimate, folder.string());
-    answer = {{"saved", folder.string()}, {"frames", result.frames.size()}, {"hazards", hazards.size()}, {"state", state}};
+    answer = {{"saved", folder.string()}, {"frames", result.frames.size()}, {"hazards", hazards.size()}, {"state", job.state}};
   } catch (const Error& e) {
     if (view) view->showSaveError(e.what());
     answer = {{"saved", false}, {"error", e.what()}};
@@ -191,7 +212,7 @@ void Session::save(const SlamResult& result, const std::string& state, bool fina
     }
     std::cerr << "notice: save failed: " << e.what() << "\n";
   }
-  if (view) view->setState(final_write ? state : "");
+  if (view) view->setState(final_write ? job.state : "");
   if (requests > 0 || final_write) saves.answer(requests, answer.dump(), final_write);
 }
 
@@ -274,15 +295,24 @@ void runLiveSession(const LiveOptions& o, const ParameterOptions& params,
                            s.source->dataPort(), toString(s.sensor), s.source->auxiliaryPort(), o.out)
             << std::flush;
   if (listening) listening(s.source->dataPort());
-  auto last_save = std::chrono::steady_clock::now();
+  // Saves while running write on their own thread (a save re-reads the whole spool: its cost
+  // grows with the mission); the interval counts from the end of the last one.
+  BackgroundSaves<SaveJob> saver([&s](SaveJob& job) {
+    try {
+      s.save(job, false);
+    } catch (const std::exception& e) {
+      std::cerr << "notice: save failed: " << e.what() << "\n";
+    }
+  });
   SlamSnapshots hooks;
   hooks.due = [&] {
-    const double since = std::chrono::duration<double>(std::chrono::steady_clock::now() - last_save).count();
+    if (saver.busy()) return false;
+    const double since = std::chrono::duration<double>(std::chrono::steady_clock::now() - saver.lastEnded()).count();
     return s.saves.waiting() > 0 || (o.autosave_every > 0 && since >= o.autosave_every);
   };
-  hooks.take = [&](const SlamResult& snapshot) {
-    s.save(snapshot, s.saves.waiting() > 0 ? "saved on request while running" : "autosave while running", false);
-    last_save = std::chrono::steady_clock::now();
+  hooks.take = [&](SlamResult snapshot) {
+    const char* state = s.saves.waiting() > 0 ? "saved on request while running" : "autosave while running";
+    saver.submit(s.job(std::move(snapshot), state));
   };
   hooks.frame = [&](const SlamFrameEvent& e) {
     std::optional<double> latency;
@@ -290,9 +320,10 @@ void runLiveSession(const LiveOptions& o, const ParameterOptions& params,
     if (latency) s.latency.add(*latency);
     if (s.view) s.view->onFrame(e, latency);
   };
-  const SlamResult result = runSlam(s.scans(), s.config, {}, hooks);
+  SlamResult result = runSlam(s.scans(), s.config, {}, hooks);
+  saver.finish();  // one writer of the run folder at a time
   if (s.view) s.view->drain();
-  s.save(result, stoppedBy(), true);
+  s.save(s.job(std::move(result), stoppedBy()), true);
 }
 
 }  // namespace hazmap::cli

@@ -109,6 +109,7 @@ hazmap_label(test_velodyne real-data
 hazmap_label(test_viewer unit
   browser "^ViewerBrowser\\.ShowsTheMap|^ViewerBrowser\\.ShowsTheChanges"
   "browser,scene" "^ViewerBrowser\\.RunWritesAViewer")
+hazmap_label(test_background_saves unit)
 hazmap_label(test_live real-data
   unit "^LiveSpool\\.WriterRoundTrips|^LiveErrors\\."
   scene "^LiveSimulated\\.")

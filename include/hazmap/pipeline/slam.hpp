@@ -212,7 +212,7 @@ struct SlamFrameEvent {
 };
 struct SlamSnapshots {
   std::function<bool()> due;
-  std::function<void(const SlamResult&)> take;
+  std::function<void(SlamResult)> take;  ///< by value: the snapshot is the hook's to keep
   std::function<void(const SlamFrameEvent&)> frame;
   /// (Optional; tests) called with a keyframe's frame index just before its loop stage, on the
   /// thread that runs it (the back end's with SlamConfig::back_end own-thread).
