@@ -20,14 +20,19 @@ while True:
 "$h" live --sensor velodyne --port "$port" --listen 127.0.0.1:0 --no-viewer "$@" --out "$out/run" > "$out/live.log" 2>&1 &
 pid=$!
 for _ in $(seq 400); do grep -q "listening on UDP port" "$out/live.log" 2>/dev/null && break; sleep 0.05; done
+# HAZMAP_BIN may be a wrapper (heaptrack's script, nice, taskset): the live process itself is the
+# newest one with this run's --out, and it is the one measured and sent SIGINT.
+live=$(pgrep -n -f -- "--out $out/run" || echo "$pid")
 view=$(sed -n 's|^live view: http://127.0.0.1:\([0-9]*\)/.*|\1|p' "$out/live.log")
 "$h" replay "$capture" --to 127.0.0.1 --port "$port" --rate "$rate" --loop --quiet & rpid=$!
+sleep 0.2
+replay=$(pgrep -n -f -- "replay .*--port $port " || echo "$rpid")
 start=$(date +%s)
 printf "elapsed_s\trss_mib\tframes\tp50_ms\tp99_ms\tmax_ms\tbacklog\tmap_points\tcorrections\treceived\tdrops\tspool_mib\n" \
   | tee "$out/samples.tsv"
 while (( $(date +%s) - start < seconds )); do
   sleep "$step"
-  rss=$(awk '/VmRSS/ {printf "%.0f", $2 / 1024}' "/proc/$pid/status")
+  rss=$(awk '/VmRSS/ {printf "%.0f", $2 / 1024}' "/proc/$live/status")
   spool=$(du -m "$out/run/live.pcap" | cut -f1)
   curl -s "http://127.0.0.1:$view/status" | /usr/bin/python3 -c '
 import json, sys
@@ -36,9 +41,9 @@ print("\t".join(str(x) for x in [sys.argv[1], sys.argv[2], s["frames"], l.get("p
       s.get("back_end_backlog"), s["map_points"], s.get("map_corrections"), s["packets"], s["drops"], sys.argv[3]]))
 ' "$(( $(date +%s) - start ))" "$rss" "$spool" | tee -a "$out/samples.tsv"
 done
-kill -TERM "$rpid"; wait "$rpid" || true
+kill -TERM "$replay" "$rpid" 2>/dev/null; wait "$rpid" || true
 sleep 1
-kill -INT "$pid"; wait "$pid"
+kill -INT "$live"; wait "$pid"
 /usr/bin/python3 - "$out/run" <<'PY'
 import json, sys
 j = json.load(open(sys.argv[1] + "/run.json")); l = j["live"]["latency_ms"]
