@@ -32,7 +32,7 @@ const RegisterCommand registration{{
       app.add_option("--classes", o->classes, "Class table: 'default', 'semantic-kitti' or a YAML file");
       app.add_option("--out", o->out, "Output folder (created if missing)")->required();
       app.add_option("--autosave-every", o->autosave_every,
-                     "Write the run folder every this many seconds while running (0: never)");
+                     "Write the run folder while running, this many seconds after the last save ended (0: never)");
       app.add_option("--queue-mb", o->queue_mb,
                      "Datagrams waiting for the decoder, at most (MiB): beyond it they are dropped and counted");
       app.add_option("--threads", o->threads, "Worker threads (0 = all cores)");
