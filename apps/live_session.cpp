@@ -203,7 +203,7 @@ void Session::save(const SaveJob& job, bool final_write) {
     const std::vector<Hazard> hazards = readHazardsJson(folder / "hazards.json");
     if (view) view->showSaved(hazards, result.estimate, folder.string());
     answer = {{"saved", folder.string()}, {"frames", result.frames.size()}, {"hazards", hazards.size()}, {"state", job.state}};
-  } catch (const Error& e) {
+  } catch (const std::exception& e) {  // hazmap::Error, and a full disk's filesystem_error alike
     if (view) view->showSaveError(e.what());
     answer = {{"saved", false}, {"error", e.what()}};
     if (final_write) {
