@@ -415,6 +415,42 @@ TEST(LiveReplay, KillNineLeavesTheLastAutosaveReadable) {
   EXPECT_EQ(j.at("live").at("state").get<std::string>(), "autosave while running");
 }
 
+// A save that fails while running (here: trajectory.kitti cannot be written, a directory stands
+// in its way) is a notice; tracking goes on, and once the way is clear the end writes the folder.
+TEST(LiveReplay, ASaveThatFailsWhileRunningLeavesTheSessionRunning) {
+  const fs::path dir = scratchDir();
+  const std::uint16_t port = freePortPair();
+  const fs::path out = dir / "live";
+  fs::create_directories(out / "trajectory.kitti" / "blocked");
+  LiveProcess live("--sensor velodyne --autosave-every 0.2 --no-viewer --no-view --port " + std::to_string(port) +
+                       " --out '" + out.string() + "'",
+                   dir / "live.log");
+  ASSERT_TRUE(live.waitListening()) << live.log();
+  const std::string replay = "exec " + cliPath() + " replay '" + sharedData(kVlp16).string() +
+                             "' --loop --quiet --port " + std::to_string(port);
+  const char* argv[] = {"/bin/sh", "-c", replay.c_str(), nullptr};
+  pid_t sender = -1;
+  ASSERT_EQ(::posix_spawn(&sender, "/bin/sh", nullptr, nullptr, const_cast<char**>(argv), environ), 0);
+  std::size_t failures = 0;
+  for (int i = 0; i < 400 && failures < 2; ++i) {  // two failed saves, at most 20 s
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    const std::string log = live.log();
+    failures = 0;
+    for (auto at = log.find("notice: save failed"); at != std::string::npos; at = log.find("notice: save failed", at + 1))
+      ++failures;
+  }
+  fs::remove_all(out / "trajectory.kitti");
+  EXPECT_EQ(live.stop(SIGINT), 0) << live.log();
+  ::kill(sender, SIGTERM);
+  ::waitpid(sender, nullptr, 0);
+  EXPECT_GE(failures, 2u) << live.log();
+  const Trajectory t = readKittiTrajectory(out / "trajectory.kitti");
+  EXPECT_GT(t.size(), 0u);
+  const auto j = nlohmann::json::parse(readTextFile(out / "run.json"));
+  EXPECT_EQ(j.at("frames").get<std::size_t>(), t.size());
+  EXPECT_EQ(j.at("live").at("state").get<std::string>(), "stopped by SIGINT");
+}
+
 TEST(LiveSpool, ALossMarkSkipsTheScanItFellInto) {
   const fs::path dir = scratchDir();
   const fs::path capture = sharedData(kVlp16);
