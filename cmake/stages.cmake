@@ -109,7 +109,9 @@ foreach(stage ${HAZMAP_STAGES})
   file(GLOB sources CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/src/${stage}/*.cpp)
   add_library(hazmap_${stage} ${HAZMAP_STAGE_LIBRARY_TYPE} ${sources})
   add_library(hazmap::${stage} ALIAS hazmap_${stage})
-  set_target_properties(hazmap_${stage} PROPERTIES EXPORT_NAME ${stage})
+  # No <target>_EXPORTS macro for shared stages (sanitizer builds; nothing reads it): with it every
+  # stage compiles with its own definition and cannot reuse the stages' one PCH (-Winvalid-pch).
+  set_target_properties(hazmap_${stage} PROPERTIES EXPORT_NAME ${stage} DEFINE_SYMBOL "")
   hazmap_stage_tree(${stage} tree)
   target_include_directories(hazmap_${stage}
     PUBLIC $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}>
