@@ -100,6 +100,31 @@ class LiveProcess {
   bool exited_ = false;
 };
 
+/// `hazmap replay CAPTURE ARGS --quiet --port PORT` in the background until stop() (or the end of
+/// the scope): the sensor a live test listens to.
+class BackgroundReplay {
+ public:
+  BackgroundReplay(const fs::path& capture, std::uint16_t port, const std::string& args) {
+    const std::string command = "exec " + cliPath() + " replay '" + capture.string() + "' " + args +
+                                " --quiet --port " + std::to_string(port);
+    const char* argv[] = {"/bin/sh", "-c", command.c_str(), nullptr};
+    if (::posix_spawn(&pid_, "/bin/sh", nullptr, nullptr, const_cast<char**>(argv), environ) != 0) pid_ = -1;
+  }
+  ~BackgroundReplay() { stop(); }
+  BackgroundReplay(const BackgroundReplay&) = delete;
+  BackgroundReplay& operator=(const BackgroundReplay&) = delete;
+  bool started() const { return pid_ > 0; }
+  void stop() {
+    if (pid_ <= 0) return;
+    ::kill(pid_, SIGTERM);
+    ::waitpid(pid_, nullptr, 0);
+    pid_ = -1;
+  }
+
+ private:
+  pid_t pid_ = -1;
+};
+
 std::size_t datagramsIn(const fs::path& capture) {
   PcapReader reader(capture);
   UdpPacket p;
@@ -322,11 +347,8 @@ TEST(LiveSimulated, SigintWhileTheBackEndVerifiesLoopsWritesACompleteRunFolder) 
                        " --out '" + (dir / "live").string() + "'",
                    dir / "live.log");
   ASSERT_TRUE(live.waitListening()) << live.log();
-  const std::string replay = "exec " + cliPath() + " replay '" + capture.string() + "' --rate 500 --quiet --port " +
-                             std::to_string(port) + " > '" + (dir / "replay.log").string() + "' 2>&1";
-  const char* argv[] = {"/bin/sh", "-c", replay.c_str(), nullptr};
-  pid_t sender = -1;
-  ASSERT_EQ(::posix_spawn(&sender, "/bin/sh", nullptr, nullptr, const_cast<char**>(argv), environ), 0);
+  BackgroundReplay sender(capture, port, "--rate 500");
+  ASSERT_TRUE(sender.started());
   nlohmann::json busy;  // the status when the back end was seen behind, past the first loop
   for (int i = 0; i < 600 && busy.is_null(); ++i) {  // at most ~30 s
     const auto j = nlohmann::json::parse(httpGet(viewPort(live.log()), "/status"), nullptr, false);
@@ -336,8 +358,7 @@ TEST(LiveSimulated, SigintWhileTheBackEndVerifiesLoopsWritesACompleteRunFolder) 
   ASSERT_FALSE(busy.is_null()) << "the back end was never seen behind\n" << live.log();
   std::cout << "SIGINT at frame " << busy["frames"] << ", the back end " << busy["back_end_backlog"] << " frames behind\n";
   EXPECT_EQ(live.stop(SIGINT), 0) << live.log();
-  ::kill(sender, SIGTERM);
-  ::waitpid(sender, nullptr, 0);
+  sender.stop();
   const fs::path out = dir / "live";
   const Trajectory t = readKittiTrajectory(out / "trajectory.kitti");
   const auto run = nlohmann::json::parse(readTextFile(out / "run.json"));
@@ -394,19 +415,15 @@ TEST(LiveReplay, KillNineLeavesTheLastAutosaveReadable) {
                        " --out '" + (dir / "live").string() + "'",
                    dir / "live.log");
   ASSERT_TRUE(live.waitListening()) << live.log();
-  const std::string replay = "exec " + cliPath() + " replay '" + sharedData(kVlp16).string() +
-                             "' --loop --quiet --port " + std::to_string(port);
-  const char* argv[] = {"/bin/sh", "-c", replay.c_str(), nullptr};
-  pid_t sender = -1;
-  ASSERT_EQ(::posix_spawn(&sender, "/bin/sh", nullptr, nullptr, const_cast<char**>(argv), environ), 0);
+  BackgroundReplay sender(sharedData(kVlp16), port, "--loop");
+  ASSERT_TRUE(sender.started());
   bool saved = false;
   for (int i = 0; i < 400 && !saved; ++i) {  // at most 20 s
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
     saved = live.log().find("autosaved") != std::string::npos;
   }
   EXPECT_EQ(live.stop(SIGKILL), 128 + SIGKILL);
-  ::kill(sender, SIGTERM);
-  ::waitpid(sender, nullptr, 0);
+  sender.stop();
   ASSERT_TRUE(saved) << live.log();
   const Trajectory t = readKittiTrajectory(dir / "live" / "trajectory.kitti");
   EXPECT_GT(t.size(), 0u);
@@ -426,11 +443,8 @@ TEST(LiveReplay, ASaveThatFailsWhileRunningLeavesTheSessionRunning) {
                        " --out '" + out.string() + "'",
                    dir / "live.log");
   ASSERT_TRUE(live.waitListening()) << live.log();
-  const std::string replay = "exec " + cliPath() + " replay '" + sharedData(kVlp16).string() +
-                             "' --loop --quiet --port " + std::to_string(port);
-  const char* argv[] = {"/bin/sh", "-c", replay.c_str(), nullptr};
-  pid_t sender = -1;
-  ASSERT_EQ(::posix_spawn(&sender, "/bin/sh", nullptr, nullptr, const_cast<char**>(argv), environ), 0);
+  BackgroundReplay sender(sharedData(kVlp16), port, "--loop");
+  ASSERT_TRUE(sender.started());
   std::size_t failures = 0;
   for (int i = 0; i < 400 && failures < 2; ++i) {  // two failed saves, at most 20 s
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
@@ -441,8 +455,7 @@ TEST(LiveReplay, ASaveThatFailsWhileRunningLeavesTheSessionRunning) {
   }
   fs::remove_all(out / "trajectory.kitti");
   EXPECT_EQ(live.stop(SIGINT), 0) << live.log();
-  ::kill(sender, SIGTERM);
-  ::waitpid(sender, nullptr, 0);
+  sender.stop();
   EXPECT_GE(failures, 2u) << live.log();
   const Trajectory t = readKittiTrajectory(out / "trajectory.kitti");
   EXPECT_GT(t.size(), 0u);
