@@ -96,7 +96,7 @@ hazmap_label(test_registration_real real-data)
 hazmap_label(test_tracking_stress real-data
   unit "^TrackingStress\\.HypothesesAreNotARunKey$")
 hazmap_label(test_relocalise scene
-  unit "^WorstDay\\.(PresetIsRead|KicksAreTrueMotion|NoOdometryFile)|^LabelAxis\\.NoLabelledPointInView"
+  unit "^WorstDay\\.(PresetIsRead|KicksAreTrueMotion|NoOdometryFile)|^LabelAxis\\.NoLabelledPointInView|^ScanSurfaces\\."
   real-data "^Relocalise\\.(AScanWithTooFewPoints|OffLeavesAFailedFrame|KittiWith|OusterOs1128)")
 hazmap_label(test_sources unit
   scene "^SlamStream\\.")

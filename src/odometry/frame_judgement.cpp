@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "hazmap/preprocess/normals.hpp"
 #include "odometry/odometry_checks.hpp"
 
 namespace hazmap {
@@ -142,21 +143,59 @@ std::vector<Vector6d> degenerateBasis(const RegistrationResult& r, const Odometr
   return orthonormalBasis(r.degenerate_directions);
 }
 
+// The scan's own surfaces (normals from the scan alone, over a wider neighbourhood than tracking's
+// so that neighbouring rings make a plane, lines left out) as a point-to-plane Hessian in the
+// world's axes about the sensor (rotation free about the sensor, not the world origin: far from
+// the origin a turn would read as travel), and its weak horizontal axis. It does not read the map: in the
+// corridor worst day with the gyro, walls integrated a few degrees apart and normals of lone rings
+// gave ICP's Hessian an axis that the walls do not have, and 17 frames stood still `tracked`
+// while the robot drove 1 m a frame.
+std::optional<Eigen::Vector3d> scanWeakHorizontalAxis(const LabeledCloud& source, const Eigen::Isometry3d& pose,
+                                                      double ratio) {
+  if (source.size() < 3) return std::nullopt;
+  NormalConfig nc;
+  nc.neighbors = kScanSurfaceNeighbors;
+  nc.radius = kScanSurfaceRadius;
+  const std::vector<Eigen::Vector3f> normals = estimateNormals(source, nc);
+  Matrix6d H = Matrix6d::Zero();
+  for (std::size_t i = 0; i < source.size(); ++i) {
+    if (normals[i].isZero()) continue;
+    const Eigen::Vector3d n = pose.linear() * normals[i].cast<double>();
+    const Eigen::Vector3d p = pose.linear() * source.points[i].cast<double>();  // about the sensor
+    Vector6d J;
+    J << n, p.cross(n);
+    H.selfadjointView<Eigen::Lower>().rankUpdate(J);
+  }
+  H = H.selfadjointView<Eigen::Lower>();
+  return weakHorizontalAxis(H, ratio);
+}
+
 namespace {
 
 // With relocalise_suspect: along a weakly constrained horizontal axis ICP cannot know the motion
 // (a corridor: "no motion" fits as well as the true step), so such a frame is flagged, ICP's
-// answer kept, with the fallback covariance along the axis.
-void flagWeakAxis(OdometryFrame& f, const RegistrationResult& r, Estimate& estimate, const OdometryConfig& config) {
+// answer kept, with the fallback covariance along the axis. Weak in ICP's Hessian, or, without
+// wheel odometry, in the scan's own surfaces (scanWeakHorizontalAxis): there the guess is the
+// constant velocity of frames that may have stood still, and the map's normals can claim what the
+// walls cannot. (With the wheels the guess along the axis is a measurement: asking the scan too
+// moved corridor seeds 1 and 3 by recoveries, 0.5 → 6.7 m, not adopted.)
+void flagWeakAxis(OdometryFrame& f, const RegistrationResult& r, Estimate& estimate, const OdometryConfig& config,
+                  const LabeledCloud& source, const Eigen::Isometry3d& W) {
   if (!config.recovery.relocalise_suspect) return;
-  const std::optional<Eigen::Vector3d> axis = weakHorizontalAxis(r, kFlagWeakAxisRatio);
+  std::optional<Eigen::Vector3d> axis = weakHorizontalAxis(r, kFlagWeakAxisRatio);
+  const char* whose = "";
+  if (!axis && !f.wheel_guess)
+    if (const auto scan_axis = scanWeakHorizontalAxis(source, W * estimate.pose, kScanWeakAxisRatio)) {
+      axis = W.linear().transpose() * *scan_axis;  // world → registration space
+      whose = " in the scan's own surfaces";
+    }
   if (!axis) return;
   Vector6d b = Vector6d::Zero();
   b.head<3>() = *axis;
   estimate.covariance += config.fallback_sigma_translation * config.fallback_sigma_translation * b * b.transpose();
-  char buf[160];
-  std::snprintf(buf, sizeof buf, "weakly constrained along [%.2f %.2f %.2f]: ICP cannot know the motion along it (flagged)",
-                (*axis)(0), (*axis)(1), (*axis)(2));
+  char buf[200];
+  std::snprintf(buf, sizeof buf, "weakly constrained%s along [%.2f %.2f %.2f]: ICP cannot know the motion along it (flagged)",
+                whose, (*axis)(0), (*axis)(1), (*axis)(2));
   f.reason = f.reason.empty() ? std::string(buf) : f.reason + "; " + buf;
   f.status = FrameStatus::Degenerate;
 }
@@ -166,14 +205,14 @@ void flagWeakAxis(OdometryFrame& f, const RegistrationResult& r, Estimate& estim
 // A tracked or relocalised frame: placed along its weak axis by its labels (flagged when not to
 // the centimetre), or flagged for the weak axis as before.
 void labelledOrFlagged(OdometryFrame& f, const RegistrationResult& r, Estimate& estimate, const OdometryConfig& config,
-                       const std::string& label_note, bool label_precise, const std::string& label_doubt) {
-  if (!label_note.empty()) {
-    f.reason += (f.reason.empty() ? "" : "; ") + label_note;
-    if (!label_precise) f.status = FrameStatus::Degenerate;
+                       const LabeledCloud& source, const Eigen::Isometry3d& W, const LabelVerdict& labels) {
+  if (!labels.note.empty()) {
+    f.reason += (f.reason.empty() ? "" : "; ") + labels.note;
+    if (!labels.precise) f.status = FrameStatus::Degenerate;
     return;
   }
-  flagWeakAxis(f, r, estimate, config);
-  if (f.status == FrameStatus::Degenerate && !label_doubt.empty()) f.reason += "; " + label_doubt;
+  flagWeakAxis(f, r, estimate, config, source, W);
+  if (f.status == FrameStatus::Degenerate && !labels.doubt.empty()) f.reason += "; " + labels.doubt;
 }
 
 // With relocalise_suspect: the previous frame was flagged, so its pose is not known along its

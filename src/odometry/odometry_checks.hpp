@@ -36,6 +36,16 @@ constexpr double kSuspectWeakAxisRatio = 0.15;
 /// since flagging keeps ICP's answer (the corridor's frames sit at 0.15-0.25; at 0.15 some stayed
 /// `tracked` 1 m wrong).
 constexpr double kFlagWeakAxisRatio = 0.25;
+/// The same check on the scan's own surfaces (scanWeakHorizontalAxis), for a frame ICP's Hessian
+/// finds constrained: the scan's normals are sparser than the map's, so its ratio sits lower
+/// (naraha's corridor 0.15-0.25 where ICP is right; 0.25 flagged right frames there and moved
+/// corridor seed 3's; 0.15: corridor seed 1 without wheels, with the gyro, 20 → 3 frames silently
+/// wrong, seeds 2-3 unchanged; docs/formats.md, the IMU).
+constexpr double kScanWeakAxisRatio = 0.15;
+/// Normals over 2 m and 30 neighbours for it, so that a plane spans several rings (tracking's 1 m
+/// and 10 neighbours in a local map can fit a lone ring's line in any direction).
+constexpr int kScanSurfaceNeighbors = 30;
+constexpr double kScanSurfaceRadius = 2.0;
 /// A frame after a flagged one whose answer lies farther than this (m) from the guess along that
 /// frame's weakest axis is flagged too: the previous pose's error or a slip moved it (corridor
 /// worst day: 0.49 m off in its increment).
@@ -202,6 +212,8 @@ bool onlyVerticalDegeneracy(const std::vector<Vector6d>& directions);
 /// The registration's weakest horizontal translation axis (unit, registration space) when its
 /// Hessian eigenvalue, rotation marginalised, is below `ratio` × the strongest; else nothing.
 std::optional<Eigen::Vector3d> weakHorizontalAxis(const RegistrationResult& r, double ratio);
+/// The same for a point-to-plane Hessian (translation first, then rotation).
+std::optional<Eigen::Vector3d> weakHorizontalAxis(const Matrix6d& hessian, double ratio);
 
 /// Share of the source points on a target surface at `pose` (W ← source): nearest target point
 /// within the correspondence gate, at most `inlier_distance` from it along its normal.

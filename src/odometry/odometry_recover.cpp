@@ -303,8 +303,12 @@ bool onlyVerticalDegeneracy(const std::vector<Vector6d>& directions) {
 }
 
 std::optional<Eigen::Vector3d> weakHorizontalAxis(const RegistrationResult& r, double ratio) {
-  if (!(ratio > 0.0) || !r.hessian.allFinite() || r.hessian.isZero()) return std::nullopt;
-  const Matrix6d H = 0.5 * (r.hessian + r.hessian.transpose());
+  return weakHorizontalAxis(r.hessian, ratio);
+}
+
+std::optional<Eigen::Vector3d> weakHorizontalAxis(const Matrix6d& hessian, double ratio) {
+  if (!(ratio > 0.0) || !hessian.allFinite() || hessian.isZero()) return std::nullopt;
+  const Matrix6d H = 0.5 * (hessian + hessian.transpose());
   const Eigen::LDLT<Eigen::Matrix3d> rot(H.bottomRightCorner<3, 3>());
   if (rot.info() != Eigen::Success) return std::nullopt;
   // Translation information with the rotation free (Schur complement).
