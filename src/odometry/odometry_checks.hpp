@@ -39,8 +39,8 @@ constexpr double kFlagWeakAxisRatio = 0.25;
 /// The same check on the scan's own surfaces (scanWeakHorizontalAxis), for a frame ICP's Hessian
 /// finds constrained: the scan's normals are sparser than the map's, so its ratio sits lower
 /// (naraha's corridor 0.15-0.25 where ICP is right; 0.25 flagged right frames there and moved
-/// corridor seed 3's; 0.15: corridor seed 1 without wheels, with the gyro, 20 → 3 frames silently
-/// wrong, seeds 2-3 unchanged; docs/formats.md, the IMU).
+/// corridor seed 3's; 0.15, asked without wheel odometry only: corridor seed 1 without wheels, with
+/// the gyro, 20 → 0 frames silently wrong, seeds 2-3 unchanged; docs/formats.md, the IMU).
 constexpr double kScanWeakAxisRatio = 0.15;
 /// Normals over 2 m and 30 neighbours for it, so that a plane spans several rings (tracking's 1 m
 /// and 10 neighbours in a local map can fit a lone ring's line in any direction).
