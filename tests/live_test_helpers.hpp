@@ -10,11 +10,31 @@
 #include <civetweb.h>
 
 #include <cstdint>
+#include <cstdlib>
 #include <string>
 
 #include "hazmap/properties/camera.hpp"
 
 namespace hazmap::test {
+
+#ifndef HAZMAP_TEST_TIME_SCALE_DEFAULT
+#define HAZMAP_TEST_TIME_SCALE_DEFAULT 1.0  // sanitizer builds: 6 (tests/CMakeLists.txt)
+#endif
+
+/// How many times longer than on a plain build a live test waits for a process, a thread or a
+/// browser: `HAZMAP_TEST_TIME_SCALE` from the environment (a slow machine), else the build's
+/// default. Deadlines only, never expectations: no result may depend on it.
+inline double timeScale() {
+  static const double scale = [] {
+    const char* v = std::getenv("HAZMAP_TEST_TIME_SCALE");
+    const double s = v ? std::atof(v) : HAZMAP_TEST_TIME_SCALE_DEFAULT;
+    return s >= 1.0 ? s : 1.0;
+  }();
+  return scale;
+}
+
+/// `n` polling rounds, stretched by timeScale().
+inline int rounds(int n) { return static_cast<int>(n * timeScale()); }
 
 inline int bindUdp(std::uint16_t port) {
   const int s = ::socket(AF_INET, SOCK_DGRAM, 0);

@@ -60,27 +60,27 @@ class LiveProcess {
       ::waitpid(pid_, nullptr, 0);
     }
   }
-  /// Waits (at most 20 s) for the "listening" line; false if the process ended or never said it.
+  /// Waits (at most 20 s × timeScale()) for the "listening" line; false if the process ended or never said it.
   bool waitListening() {
-    for (int i = 0; i < 400; ++i) {
+    for (int i = 0; i < rounds(400); ++i) {
       if (readAll(log_).find("listening on UDP port") != std::string::npos) return true;
       if (::waitpid(pid_, &status_, WNOHANG) == pid_) return exited_ = true, false;
       std::this_thread::sleep_for(std::chrono::milliseconds(50));
     }
     return false;
   }
-  /// Waits (at most 20 s) for `text` in the output.
+  /// Waits (at most 20 s × timeScale()) for `text` in the output.
   bool waitFor(const std::string& text) {
-    for (int i = 0; i < 400; ++i) {
+    for (int i = 0; i < rounds(400); ++i) {
       if (readAll(log_).find(text) != std::string::npos) return true;
       std::this_thread::sleep_for(std::chrono::milliseconds(50));
     }
     return false;
   }
-  /// Sends `signal` and waits for the exit (a SIGKILL after 25 s); the exit code.
+  /// Sends `signal` and waits for the exit (a SIGKILL after 25 s × timeScale()); the exit code.
   int stop(int signal) {
     ::kill(pid_, signal);
-    for (int i = 0; i < 500 && !exited_; ++i) {
+    for (int i = 0; i < rounds(500) && !exited_; ++i) {
       if (::waitpid(pid_, &status_, WNOHANG) == pid_) exited_ = true;
       else std::this_thread::sleep_for(std::chrono::milliseconds(50));
     }
@@ -149,6 +149,13 @@ nlohmann::json liveSection(const fs::path& dir) {
   return nlohmann::json::parse(readTextFile(dir / "run.json")).at("live");
 }
 
+/// The live view's port from `hazmap live`'s output (0 until it printed it).
+int viewPort(const std::string& log) {
+  const std::string mark = "live view: http://127.0.0.1:";
+  const auto at = log.find(mark);
+  return at == std::string::npos ? 0 : std::stoi(log.substr(at + mark.size()));
+}
+
 /// `hazmap run` on the capture, then live + replay at `rate`, stopped by `signal`.
 struct ReplayRun {
   fs::path run_dir, live_dir;
@@ -177,16 +184,24 @@ ReplayRun replayAgainstRun(const std::string& capture, const std::string& live_a
   const auto replay = runCli("replay '" + capture + "' --to 127.0.0.1 --port " + std::to_string(port) +
                              " --rate " + rate + " " + replay_args);
   EXPECT_EQ(replay.exit_code, 0) << replay.output;
-  if (status) {  // /status once the replay ended (the page's address is in the log)
-    const std::string log = live.log(), mark = "live view: http://127.0.0.1:";
-    const auto at = log.find(mark);
-    // The status is refreshed four times a second: asked again until it shows `status_done`.
-    for (int i = 0; at != std::string::npos && i < 200; ++i) {
-      *status = httpGet(std::stoi(log.substr(at + mark.size())), "/status");
-      const auto j = nlohmann::json::parse(*status, nullptr, false);
-      if (!status_done || (!j.is_discarded() && status_done(j))) break;
-      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  // The signal only once live has read all the replay sent: /status's packets no longer grow and
+  // its queue is empty. A slow build (a sanitizer's) is still behind when the replay ends; what is
+  // queued is tracked after the signal, what the kernel still holds would be lost. The status is
+  // refreshed four times a second; `status_done` may ask more of it.
+  const int view = viewPort(live.log());
+  EXPECT_GT(view, 0) << live.log();
+  std::size_t last_packets = SIZE_MAX;
+  for (int i = 0; view > 0 && i < rounds(200); ++i) {
+    const std::string body = httpGet(view, "/status");
+    const auto j = nlohmann::json::parse(body, nullptr, false);
+    if (!j.is_discarded()) {
+      if (status) *status = body;
+      const auto packets = j.value("packets", std::size_t{0});
+      const bool drained = j.value("queue_datagrams", 1) == 0 && packets == last_packets;
+      last_packets = packets;
+      if (drained && (!status_done || status_done(j))) break;
     }
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
   }
   r.live_exit = live.stop(signal);
   r.live_log = live.log();
@@ -318,13 +333,6 @@ TEST(LiveSimulated, DemoLiveReplaysTheMissionToLiveAndWritesTheRunFolder) {
   EXPECT_EQ(live.at("state").get<std::string>(), "stopped by end of stream");
 }
 
-/// The live view's port from `hazmap live`'s output (0 until it printed it).
-int viewPort(const std::string& log) {
-  const std::string mark = "live view: http://127.0.0.1:";
-  const auto at = log.find(mark);
-  return at == std::string::npos ? 0 : std::stoi(log.substr(at + mark.size()));
-}
-
 std::size_t linesStartingWith(const std::string& text, const std::string& prefix) {
   std::size_t n = 0;
   std::istringstream in(text);
@@ -350,7 +358,7 @@ TEST(LiveSimulated, SigintWhileTheBackEndVerifiesLoopsWritesACompleteRunFolder) 
   BackgroundReplay sender(capture, port, "--rate 500");
   ASSERT_TRUE(sender.started());
   nlohmann::json busy;  // the status when the back end was seen behind, past the first loop
-  for (int i = 0; i < 600 && busy.is_null(); ++i) {  // at most ~30 s
+  for (int i = 0; i < rounds(600) && busy.is_null(); ++i) {  // at most ~30 s
     const auto j = nlohmann::json::parse(httpGet(viewPort(live.log()), "/status"), nullptr, false);
     if (!j.is_discarded() && j.value("frames", 0) >= 100 && j.value("back_end_backlog", 0) >= 3) busy = j;
     else std::this_thread::sleep_for(std::chrono::milliseconds(20));
@@ -418,7 +426,7 @@ TEST(LiveReplay, KillNineLeavesTheLastAutosaveReadable) {
   BackgroundReplay sender(sharedData(kVlp16), port, "--loop");
   ASSERT_TRUE(sender.started());
   bool saved = false;
-  for (int i = 0; i < 400 && !saved; ++i) {  // at most 20 s
+  for (int i = 0; i < rounds(400) && !saved; ++i) {  // at most 20 s
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
     saved = live.log().find("autosaved") != std::string::npos;
   }
@@ -446,7 +454,7 @@ TEST(LiveReplay, ASaveThatFailsWhileRunningLeavesTheSessionRunning) {
   BackgroundReplay sender(sharedData(kVlp16), port, "--loop");
   ASSERT_TRUE(sender.started());
   std::size_t failures = 0;
-  for (int i = 0; i < 400 && failures < 2; ++i) {  // two failed saves, at most 20 s
+  for (int i = 0; i < rounds(400) && failures < 2; ++i) {  // two failed saves, at most 20 s
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
     const std::string log = live.log();
     failures = 0;

@@ -57,7 +57,7 @@ pid_t spawnShell(const std::string& command) {
 int stopProcess(pid_t pid, int signal) {
   ::kill(pid, signal);
   int status = 0;
-  for (int i = 0; i < 500; ++i) {
+  for (int i = 0; i < rounds(500); ++i) {
     if (::waitpid(pid, &status, WNOHANG) == pid)
       return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
@@ -68,7 +68,7 @@ int stopProcess(pid_t pid, int signal) {
 }
 
 bool eventually(const std::function<bool()>& done, int seconds = 20) {
-  const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(seconds);
+  const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds * timeScale());
   while (!done()) {
     if (std::chrono::steady_clock::now() > until) return false;
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
@@ -121,7 +121,7 @@ class Chromium {
     const int id = ++next_id_;
     const std::string text = json{{"id", id}, {"method", method}, {"params", params}}.dump();
     mg_websocket_client_write(conn_, MG_WEBSOCKET_OPCODE_TEXT, text.data(), text.size());
-    if (!got_.wait_for(lock, std::chrono::seconds(30), [&] { return replies_.count(id) > 0; })) {
+    if (!got_.wait_for(lock, std::chrono::duration<double>(30 * timeScale()), [&] { return replies_.count(id) > 0; })) {
       ADD_FAILURE() << method << ": no answer from chromium";
       return {};
     }

@@ -32,7 +32,7 @@ namespace fs = std::filesystem;
 /// Waits (at most `seconds`) until `done()`.
 template <class Done>
 bool waitUntil(Done done, double seconds = 10.0) {
-  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds * timeScale());
   while (!done()) {
     if (std::chrono::steady_clock::now() > end) return false;
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
