@@ -171,6 +171,36 @@ TEST(LocalMapNormals, CachedAcrossFramesEqualsFreshAndThreadIndependent) {
   EXPECT_EQ(runs[0], runs[1]);
 }
 
+// Voxels dropped, moved (the map swap-removes) and added back frame after frame, the robot driving
+// to and fro past the map's bound: every cached normal stays the one a fresh estimate gives, so
+// no voxel misses the change of a neighbour (the map keeps each voxel's neighbours as a table).
+TEST(LocalMapNormals, CachedNormalsSurviveVoxelsDroppedAndAddedBack) {
+  const ClassTable table = ClassTable::semanticKitti();
+  VoxelDownsampleConfig vd;
+  vd.voxel_size = 0.5;
+  const LabeledCloud scan = voxelDownsample(test::kittiScan(0, table), vd, table);
+  RegistrationConfig rc;
+  LocalMapConfig mc;
+  mc.max_distance = 12.0;
+  LocalMap map(mc);
+  const double xs[] = {0.0, 9.0, 18.0, 9.0, 0.0, -9.0, 4.5, 13.5};
+  for (int i = 0; i < 8; ++i) {
+    const Eigen::Isometry3d T(Eigen::Translation3d(0.3 * i, 0.2 * (i % 3), 0.0));
+    const std::size_t before = map.voxels();
+    map.integrate(scan.transformed(T), Eigen::Vector3d(xs[i], 0, 0), table);
+    const RegistrationTarget cached = map.makeTarget(table, rc);
+    const RegistrationTarget fresh(map.cloud(), table, rc);
+    ASSERT_EQ(cached.normals().size(), fresh.normals().size());
+    std::size_t same = 0;
+    for (std::size_t k = 0; k < cached.size(); ++k) {
+      const Eigen::Vector3f a = cached.normals()[k], b = fresh.normals()[k];
+      same += (a.isZero() && b.isZero()) || (!a.isZero() && !b.isZero() && std::abs(a.dot(b)) > 0.9999f);
+    }
+    EXPECT_LE(cached.size() - same, cached.size() / 10000) << "frame " << i << ", voxels " << before << " -> "
+                                                           << map.voxels();
+  }
+}
+
 // Lazy normals (what the odometry uses): between frames only some points' normals are asked for,
 // as ICP pairs them; whenever one is asked for, and at the end for all, it equals the eager map's.
 TEST(LocalMapNormals, LazyNormalsEqualEagerOnes) {

@@ -53,7 +53,10 @@ void LocalMap::addPoint(const Eigen::Vector3f& p, ClassId cls, float value, std:
   std::uint64_t key = 0;
   if (!voxelOfPoint(p.x() * inv, p.y() * inv, p.z() * inv, c, key)) return;  // beyond ±2^20 voxels
   const auto [slot, inserted] = index_.tryEmplace(key, static_cast<std::uint32_t>(voxels_.size()));
-  if (inserted) voxels_.push_back(Voxel{c[0], c[1], c[2], {}, {}, {}, 0, {}, {}, {}, {}, true, false, true, {}});
+  if (inserted) {
+    voxels_.push_back(Voxel{c[0], c[1], c[2], {}, {}, {}, 0, {}, {}, {}, {}, true, false, true, {}, {}});
+    linkNeighbours(static_cast<std::uint32_t>(voxels_.size() - 1));
+  }
   Voxel& v = voxels_[*slot];
   const bool prop = table.isProperty(cls);
   if (min_d2 > 0.0f) {
@@ -103,7 +106,12 @@ void LocalMap::integrate(const LabeledCloud& scan, const Eigen::Vector3d& origin
   for (Voxel& v : voxels_) {
     if (!v.changed) continue;
     v.changed = false;
-    invalidateAround(v.x, v.y, v.z, false);
+    if (normal_ring_ == 1) {  // the ring is the neighbour table
+      for (const std::int32_t at : v.neighbours)
+        if (at >= 0) voxels_[at].normals_valid = false;
+    } else {
+      invalidateAround(v.x, v.y, v.z, false);
+    }
   }
   for (const auto& d : dropped) invalidateAround(d[0], d[1], d[2], true);
 }
@@ -150,13 +158,43 @@ std::vector<std::array<std::int64_t, 3>> LocalMap::dropFarVoxels(const Eigen::Ve
     std::uint64_t key = 0;
     voxelKey(v.x, v.y, v.z, key);  // in range: the voxel was added with it
     index_.erase(key);
+    unlinkNeighbours(static_cast<std::uint32_t>(k));
     if (k + 1 != voxels_.size()) {
-      voxels_[k] = std::move(voxels_.back());
+      moveVoxel(static_cast<std::uint32_t>(voxels_.size() - 1), static_cast<std::uint32_t>(k));
       *findVoxel(index_, voxels_[k].x, voxels_[k].y, voxels_[k].z) = static_cast<std::uint32_t>(k);
     }
     voxels_.pop_back();
   }
   return dropped;
+}
+
+// A new voxel k and the voxels around it point at each other.
+void LocalMap::linkNeighbours(std::uint32_t k) {
+  Voxel& v = voxels_[k];
+  for (int dx = -1; dx <= 1; ++dx)
+    for (int dy = -1; dy <= 1; ++dy)
+      for (int dz = -1; dz <= 1; ++dz) {
+        const int slot = neighbourSlot(dx, dy, dz);
+        const std::uint32_t* at = slot == 13 ? &k : findVoxel(index_, v.x + dx, v.y + dy, v.z + dz);
+        v.neighbours[slot] = at ? static_cast<std::int32_t>(*at) : -1;
+        if (at && slot != 13) voxels_[*at].neighbours[26 - slot] = static_cast<std::int32_t>(k);
+      }
+}
+
+// Voxel k is going: the voxels around it forget it.
+void LocalMap::unlinkNeighbours(std::uint32_t k) {
+  const Voxel& v = voxels_[k];
+  for (int slot = 0; slot < 27; ++slot)
+    if (slot != 13 && v.neighbours[slot] >= 0) voxels_[v.neighbours[slot]].neighbours[26 - slot] = -1;
+}
+
+// Voxel `from` moves to position `to` (a swap-remove): the voxels around it follow.
+void LocalMap::moveVoxel(std::uint32_t from, std::uint32_t to) {
+  voxels_[to] = std::move(voxels_[from]);
+  Voxel& v = voxels_[to];
+  v.neighbours[13] = static_cast<std::int32_t>(to);
+  for (int slot = 0; slot < 27; ++slot)
+    if (slot != 13 && v.neighbours[slot] >= 0) voxels_[v.neighbours[slot]].neighbours[26 - slot] = static_cast<std::int32_t>(to);
 }
 
 void LocalMap::invalidateAround(std::int64_t x, std::int64_t y, std::int64_t z, bool force) {
@@ -308,10 +346,15 @@ void LocalMap::markStaleInVoxel(Voxel& v, std::vector<const Voxel*>& around, std
   around.clear();
   for (std::size_t k = 0; k < normal_offsets_.size(); ++k) {
     const auto& o = normal_offsets_[k];
-    const std::uint32_t* at = findVoxel(index_, v.x + o[0], v.y + o[1], v.z + o[2]);
-    if (!at) continue;
-    near[k] = static_cast<std::int32_t>(*at);
-    if (!voxels_[*at].delta.empty()) around.push_back(&voxels_[*at]);
+    std::int32_t at = -1;
+    if (normal_ring_ == 1) {
+      at = v.neighbours[neighbourSlot(o[0], o[1], o[2])];
+    } else if (const std::uint32_t* found = findVoxel(index_, v.x + o[0], v.y + o[1], v.z + o[2])) {
+      at = static_cast<std::int32_t>(*found);
+    }
+    if (at < 0) continue;
+    near[k] = at;
+    if (!voxels_[at].delta.empty()) around.push_back(&voxels_[at]);
   }
   for (std::size_t i = 0; i < v.points.size(); ++i) {
     if (!allowed(i)) continue;

@@ -37,9 +37,9 @@ VoxelHashIndex::VoxelHashIndex(std::span<const Eigen::Vector3f> points,
   // Sized for the voxels, not the points (several points share a voxel; a small table stays in
   // cache for the queries): start at n/4 and double whenever it is half full.
   table_mask_ = std::bit_ceil(std::max<std::uint64_t>(16, n / 4)) - 1;
-  table_.assign(table_mask_ + 1, Slot{kEmpty, 0});
+  table_.assign(table_mask_ + 1, Slot{kEmpty, 0, 0});
   const auto grow = [&] {
-    std::vector<Slot> old(2 * (table_mask_ + 1), Slot{kEmpty, 0});
+    std::vector<Slot> old(2 * (table_mask_ + 1), Slot{kEmpty, 0, 0});
     old.swap(table_);
     table_mask_ = table_.size() - 1;
     for (const Slot& e : old) {
@@ -66,19 +66,26 @@ VoxelHashIndex::VoxelHashIndex(std::span<const Eigen::Vector3f> points,
     while (table_[slot].key != kEmpty && table_[slot].key != key) slot = (slot + 1) & table_mask_;
     if (table_[slot].key == kEmpty) {
       table_[slot].key = key;
-      table_[slot].cell = static_cast<std::uint32_t>(counts.size());
+      table_[slot].begin = static_cast<std::uint32_t>(counts.size());
       counts.push_back(0);
     }
-    cell_of[i] = table_[slot].cell;
+    cell_of[i] = table_[slot].begin;
     ++counts[cell_of[i]];
     if (2 * counts.size() > table_mask_ + 1) grow();  // moves the slots: `slot` is stale after it
   }
-  cell_begin_.assign(counts.size() + 1, 0);
-  for (std::size_t c = 0; c < counts.size(); ++c) cell_begin_[c + 1] = cell_begin_[c] + counts[c];
-  const std::size_t stored = cell_begin_.back();
+  voxels_ = counts.size();
+  std::vector<std::uint32_t> cell_begin(counts.size() + 1, 0);
+  for (std::size_t c = 0; c < counts.size(); ++c) cell_begin[c + 1] = cell_begin[c] + counts[c];
+  const std::size_t stored = cell_begin.back();
   points_.resize(stored);
   ids_.resize(stored);
-  std::vector<std::uint32_t> fill(cell_begin_.begin(), cell_begin_.end() - 1);
+  for (Slot& e : table_) {
+    if (e.key == kEmpty) continue;
+    const std::uint32_t c = e.begin;  // the voxel id until now
+    e.begin = cell_begin[c];
+    e.end = cell_begin[c + 1];
+  }
+  std::vector<std::uint32_t> fill(cell_begin.begin(), cell_begin.end() - 1);
   for (std::size_t i = 0; i < n; ++i) {
     if (cell_of[i] == ~0u) continue;
     const std::uint32_t id = ids.empty() ? static_cast<std::uint32_t>(i) : ids[i];
@@ -104,15 +111,14 @@ VoxelHashIndex::VoxelHashIndex(std::span<const Eigen::Vector3f> points,
   });
 }
 
-inline std::int64_t VoxelHashIndex::findCell(std::int64_t x, std::int64_t y, std::int64_t z) const {
+inline const VoxelHashIndex::Slot* VoxelHashIndex::findCell(std::int64_t x, std::int64_t y, std::int64_t z) const {
   std::uint64_t key;
-  if (!voxelKey(x, y, z, key)) return -1;
+  if (!voxelKey(x, y, z, key)) return nullptr;
   std::uint64_t slot = hashKey(key) & table_mask_;
   while (true) {
     const Slot& e = table_[slot];
-    if (e.key == key) return e.cell;
-    const std::uint64_t k = e.key;
-    if (k == kEmpty) return -1;
+    if (e.key == key) return &e;
+    if (e.key == kEmpty) return nullptr;
     slot = (slot + 1) & table_mask_;
   }
 }
@@ -131,10 +137,9 @@ std::int64_t VoxelHashIndex::nearest(const Eigen::Vector3f& q, float max_distanc
     return d > 0 ? static_cast<float>(d) - f : (d < 0 ? f - static_cast<float>(d + 1) : 0.0f);
   };
   const auto scan = [&](std::int64_t x, std::int64_t y, std::int64_t z) {
-    const std::int64_t cell = findCell(x, y, z);
-    if (cell < 0) return;
-    const std::uint32_t end = cell_begin_[cell + 1];
-    for (std::uint32_t i = cell_begin_[cell]; i < end; ++i) {
+    const Slot* cell = findCell(x, y, z);
+    if (!cell) return;
+    for (std::uint32_t i = cell->begin, end = cell->end; i < end; ++i) {
       const float d2 = (points_[i] - q).squaredNorm();
       if (d2 < best) {
         best = d2;
@@ -190,10 +195,9 @@ void VoxelHashIndex::kNearest(const Eigen::Vector3f& q, int k, float max_distanc
     if (o.lower_bound2 * c2 >= best.bound()) break;
     const float gx = gap(o.dx, fx), gy = gap(o.dy, fy), gz = gap(o.dz, fz);
     if ((gx * gx + gy * gy + gz * gz) * c2 >= best.bound()) continue;
-    const std::int64_t cell = findCell(cx + o.dx, cy + o.dy, cz + o.dz);
-    if (cell < 0) continue;
-    const std::uint32_t end = cell_begin_[cell + 1];
-    for (std::uint32_t i = cell_begin_[cell]; i < end; ++i) {
+    const Slot* cell = findCell(cx + o.dx, cy + o.dy, cz + o.dz);
+    if (!cell) continue;
+    for (std::uint32_t i = cell->begin, end = cell->end; i < end; ++i) {
       const float d2 = (points_[i] - q).squaredNorm();
       if (d2 < best.bound()) best.push({ids_[i], d2});
     }

@@ -83,7 +83,15 @@ class LocalMap {
     bool normals_valid = false;
     bool changed = false;  ///< modified during the current integrate()
     std::vector<std::uint32_t> origins;  ///< the integrate() call that added each point
+    /// The 27 voxels around it, itself included, at neighbourSlot(dx, dy, dz) (-1 = none): kept
+    /// as voxels come and go, so the staleness passes of a one-voxel normal ring (the default)
+    /// read them instead of hashing 27 keys per changed or stale voxel.
+    std::array<std::int32_t, 27> neighbours;
   };
+  static constexpr int neighbourSlot(int dx, int dy, int dz) { return (dx + 1) * 9 + (dy + 1) * 3 + (dz + 1); }
+  void linkNeighbours(std::uint32_t k);
+  void unlinkNeighbours(std::uint32_t k);
+  void moveVoxel(std::uint32_t from, std::uint32_t to);
   /// The voxels of each stale voxel's normal ring (normal_offsets_ order, -1 = none), looked up
   /// once for the staleness check and read by every normal estimated in that voxel until the
   /// map changes (instead of a hash probe per point and ring voxel).

@@ -43,24 +43,28 @@ class VoxelHashIndex final : public NeighborIndex {
                 std::vector<Neighbor>& out) const override;
   std::size_t size() const override { return ids_.size(); }
   float cellSize() const { return cell_; }
-  std::size_t voxels() const { return cell_begin_.size() - 1; }
+  std::size_t voxels() const { return voxels_; }
 
  private:
   struct Offset {
     int dx, dy, dz;
     float lower_bound2;  ///< in cell units², min distance from any point of the centre voxel
   };
-  std::int64_t findCell(std::int64_t x, std::int64_t y, std::int64_t z) const;
+  struct Slot {
+    std::uint64_t key;    ///< kEmpty = unused
+    std::uint32_t begin;  ///< the voxel holds points_[begin, end) (while building: its voxel id)
+    std::uint32_t end;
+  };
+  /// The voxel's slot, or nullptr when it holds no point.
+  const Slot* findCell(std::int64_t x, std::int64_t y, std::int64_t z) const;
 
   float cell_, inv_cell_;
   std::vector<Eigen::Vector3f> points_;  ///< sorted by voxel
   std::vector<std::uint32_t> ids_;       ///< original index of points_[i]
-  std::vector<std::uint32_t> cell_begin_;  ///< voxel v holds points_[cell_begin_[v], cell_begin_[v+1])
-  struct Slot {
-    std::uint64_t key;   ///< kEmpty = unused
-    std::uint32_t cell;
-  };
-  std::vector<Slot> table_;  ///< open addressing; key and cell side by side (one cache line per probe)
+  std::size_t voxels_ = 0;
+  /// Open addressing; a voxel's key and its point range side by side, 16 bytes: a probe that
+  /// finds the voxel has its range in the same cache line (no second lookup per visited voxel).
+  std::vector<Slot> table_;
   std::uint64_t table_mask_ = 0;
   std::vector<Offset> offsets_;  ///< sorted by lower_bound2
   int ring_ = 1;                 ///< voxels within this Chebyshev distance can hold a neighbour
