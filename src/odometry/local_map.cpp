@@ -2,9 +2,11 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cmath>
 #include <memory>
 #include <string>
+#include <utility>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -41,29 +43,39 @@ void LocalMap::clear() {
   points_ = 0;
 }
 
-// One point into its voxel: appended while the voxel has room, else a property point replaces the
-// oldest unlabelled one (while property points hold at most half of it). `origin` = the
-// integrate() call that brought it (reanchor() moves it with that call's correction).
+// One point into its voxel (reanchor's path; integrate() does the same scan by scan in batches).
 void LocalMap::addPoint(const Eigen::Vector3f& p, ClassId cls, float value, std::uint32_t origin,
                         const ClassTable& table) {
-  const double inv = inverse_voxel_;
-  const float min_d2 = min_point_distance2_;
   if (!p.allFinite()) return;
   std::array<std::int64_t, 3> c;
   std::uint64_t key = 0;
+  const double inv = inverse_voxel_;
   if (!voxelOfPoint(p.x() * inv, p.y() * inv, p.z() * inv, c, key)) return;  // beyond ±2^20 voxels
   const auto [slot, inserted] = index_.tryEmplace(key, static_cast<std::uint32_t>(voxels_.size()));
   if (inserted) {
-    voxels_.push_back(Voxel{c[0], c[1], c[2], {}, {}, {}, 0, {}, {}, {}, {}, true, false, true, {}, {}});
+    voxels_.push_back(newVoxel(c));
     linkNeighbours(static_cast<std::uint32_t>(voxels_.size() - 1));
   }
-  Voxel& v = voxels_[*slot];
+  points_ += insertIntoVoxel(voxels_[*slot], p, cls, value, origin, table);
+}
+
+LocalMap::Voxel LocalMap::newVoxel(const std::array<std::int64_t, 3>& c) {
+  return Voxel{c[0], c[1], c[2], {}, {}, {}, 0, {}, {}, {}, {}, true, false, true, {}, {}};
+}
+
+// A point into voxel v: appended while the voxel has room, else a property point replaces the
+// oldest unlabelled one (while property points hold at most half of it). `origin` = the
+// integrate() call that brought it (reanchor() moves it with that call's correction). Touches v
+// alone; 1 when the map gained a point.
+std::size_t LocalMap::insertIntoVoxel(Voxel& v, const Eigen::Vector3f& p, ClassId cls, float value,
+                                      std::uint32_t origin, const ClassTable& table) const {
+  const float min_d2 = min_point_distance2_;
   const bool prop = table.isProperty(cls);
   if (min_d2 > 0.0f) {
     bool close = false;
     for (std::size_t k = 0; k < v.points.size() && !close; ++k)
       close = (v.points[k] - p).squaredNorm() < min_d2 && (!prop || v.classes[k] == cls);
-    if (close) return;
+    if (close) return 0;
   }
   if (static_cast<int>(v.points.size()) < config_.max_points_per_voxel) {
     v.points.push_back(p);
@@ -73,32 +85,81 @@ void LocalMap::addPoint(const Eigen::Vector3f& p, ClassId cls, float value, std:
     v.property_points += prop;
     v.delta.push_back(p);
     v.changed = true;
-    ++points_;
-  } else if (prop && 2 * v.property_points < config_.max_points_per_voxel) {
-    // Replace the oldest unlabelled point.
-    for (std::size_t k = 0; k < v.points.size(); ++k) {
-      if (table.isProperty(v.classes[k])) continue;
-      v.delta.push_back(v.points[k]);
-      v.delta.push_back(p);
-      v.points[k] = p;
-      v.classes[k] = cls;
-      v.values[k] = value;
-      v.origins[k] = origin;
-      if (k < v.normals.size()) v.normals[k].setZero();  // estimated anew
-      if (k < v.updates.size()) v.updates[k] = 0;
-      if (k < v.reach2.size()) v.reach2[k] = -1.0f;
-      ++v.property_points;
-      v.changed = true;
-      break;
-    }
+    return 1;
   }
+  if (!prop || 2 * v.property_points >= config_.max_points_per_voxel) return 0;
+  // Replace the oldest unlabelled point.
+  for (std::size_t k = 0; k < v.points.size(); ++k) {
+    if (table.isProperty(v.classes[k])) continue;
+    v.delta.push_back(v.points[k]);
+    v.delta.push_back(p);
+    v.points[k] = p;
+    v.classes[k] = cls;
+    v.values[k] = value;
+    v.origins[k] = origin;
+    if (k < v.normals.size()) v.normals[k].setZero();  // estimated anew
+    if (k < v.updates.size()) v.updates[k] = 0;
+    if (k < v.reach2.size()) v.reach2[k] = -1.0f;
+    ++v.property_points;
+    v.changed = true;
+    break;
+  }
+  return 0;
+}
+
+// The scan's points into their voxels exactly as addPoint() one after the other would put them:
+// the voxels numbered in the order of their first point (serial: one hash probe per point), then
+// each voxel's points in scan order with the voxels in parallel (a voxel's state depends on its
+// own points only), then the new voxels linked to their neighbours in parallel.
+void LocalMap::addScan(const LabeledCloud& scan, bool values, const ClassTable& table) {
+  const std::size_t n = scan.size(), first_new = voxels_.size();
+  constexpr std::uint32_t kNone = ~std::uint32_t{0};
+  std::vector<std::uint32_t> voxel_of(n, kNone);
+  const double inv = inverse_voxel_;
+  for (std::size_t i = 0; i < n; ++i) {
+    const Eigen::Vector3f& p = scan.points[i];
+    if (!p.allFinite()) continue;
+    std::array<std::int64_t, 3> c;
+    std::uint64_t key = 0;
+    if (!voxelOfPoint(p.x() * inv, p.y() * inv, p.z() * inv, c, key)) continue;  // beyond ±2^20 voxels
+    const auto [slot, inserted] = index_.tryEmplace(key, static_cast<std::uint32_t>(voxels_.size()));
+    if (inserted) voxels_.push_back(newVoxel(c));
+    voxel_of[i] = *slot;
+  }
+  // The touched voxels' points grouped by a counting sort (scan order kept inside a voxel).
+  std::vector<std::uint32_t> touched, start(voxels_.size() + 1, 0);
+  for (std::size_t i = 0; i < n; ++i)
+    if (voxel_of[i] != kNone && start[voxel_of[i] + 1]++ == 0) touched.push_back(voxel_of[i]);
+  for (std::size_t k = 0; k < voxels_.size(); ++k) start[k + 1] += start[k];
+  std::vector<std::uint32_t> grouped(start.back());
+  {
+    std::vector<std::uint32_t> fill(start.begin(), start.end() - 1);
+    for (std::size_t i = 0; i < n; ++i)
+      if (voxel_of[i] != kNone) grouped[fill[voxel_of[i]]++] = static_cast<std::uint32_t>(i);
+  }
+  const auto origin = static_cast<std::uint32_t>(integrations_);
+  std::atomic<std::size_t> added{0};
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, touched.size(), 64), [&](const auto& range) {
+    std::size_t here = 0;
+    for (std::size_t t = range.begin(); t < range.end(); ++t) {
+      const std::uint32_t k = touched[t];
+      for (std::uint32_t g = start[k]; g < start[k + 1]; ++g) {
+        const std::uint32_t i = grouped[g];
+        here += insertIntoVoxel(voxels_[k], scan.points[i], scan.classes[i], values ? scan.property[i] : 0.0f,
+                                origin, table);
+      }
+    }
+    added += here;
+  });
+  points_ += added.load();
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(first_new, voxels_.size(), 64), [&](const auto& range) {
+    for (std::size_t k = range.begin(); k < range.end(); ++k) linkNeighbours(static_cast<std::uint32_t>(k), first_new);
+  });
 }
 
 void LocalMap::integrate(const LabeledCloud& scan, const Eigen::Vector3d& origin, const ClassTable& table) {
   if (points_ == 0) has_values_ = scan.hasProperty();
-  const bool values = has_values_ && scan.hasProperty();
-  for (std::size_t i = 0; i < scan.size(); ++i)
-    addPoint(scan.points[i], scan.classes[i], values ? scan.property[i] : 0.0f, integrations_, table);
+  addScan(scan, has_values_ && scan.hasProperty(), table);
   ++integrations_;
   // Bound the map: drop voxels far from the robot.
   const std::vector<std::array<std::int64_t, 3>> dropped = dropFarVoxels(origin);
@@ -168,16 +229,18 @@ std::vector<std::array<std::int64_t, 3>> LocalMap::dropFarVoxels(const Eigen::Ve
   return dropped;
 }
 
-// A new voxel k and the voxels around it point at each other.
-void LocalMap::linkNeighbours(std::uint32_t k) {
+// A new voxel k and the voxels around it point at each other. Voxels from `first_new` on are
+// new in the same batch and each writes its own entries; an older voxel's entry for k is written
+// by k alone. So a batch links in parallel: no entry is written twice.
+void LocalMap::linkNeighbours(std::uint32_t k, std::size_t first_new) {
   Voxel& v = voxels_[k];
   for (int dx = -1; dx <= 1; ++dx)
     for (int dy = -1; dy <= 1; ++dy)
       for (int dz = -1; dz <= 1; ++dz) {
         const int slot = neighbourSlot(dx, dy, dz);
-        const std::uint32_t* at = slot == 13 ? &k : findVoxel(index_, v.x + dx, v.y + dy, v.z + dz);
+        const std::uint32_t* at = slot == 13 ? &k : findVoxel(std::as_const(index_), v.x + dx, v.y + dy, v.z + dz);
         v.neighbours[slot] = at ? static_cast<std::int32_t>(*at) : -1;
-        if (at && slot != 13) voxels_[*at].neighbours[26 - slot] = static_cast<std::int32_t>(k);
+        if (at && slot != 13 && *at < first_new) voxels_[*at].neighbours[26 - slot] = static_cast<std::int32_t>(k);
       }
 }
 

@@ -89,7 +89,8 @@ class LocalMap {
     std::array<std::int32_t, 27> neighbours;
   };
   static constexpr int neighbourSlot(int dx, int dy, int dz) { return (dx + 1) * 9 + (dy + 1) * 3 + (dz + 1); }
-  void linkNeighbours(std::uint32_t k);
+  /// Links voxel k; voxels from `first_new` on link themselves (default: only k is new).
+  void linkNeighbours(std::uint32_t k, std::size_t first_new = SIZE_MAX);
   void unlinkNeighbours(std::uint32_t k);
   void moveVoxel(std::uint32_t from, std::uint32_t to);
   /// The voxels of each stale voxel's normal ring (normal_offsets_ order, -1 = none), looked up
@@ -105,6 +106,10 @@ class LocalMap {
     }
   };
   void addPoint(const Eigen::Vector3f& p, ClassId cls, float value, std::uint32_t origin, const ClassTable& table);
+  void addScan(const LabeledCloud& scan, bool values, const ClassTable& table);
+  static Voxel newVoxel(const std::array<std::int64_t, 3>& c);
+  std::size_t insertIntoVoxel(Voxel& v, const Eigen::Vector3f& p, ClassId cls, float value, std::uint32_t origin,
+                              const ClassTable& table) const;
   Eigen::Vector3f estimateNormal(Voxel& v, std::size_t i, const NormalConfig& nc, const std::int32_t* near) const;
   std::vector<std::array<std::int64_t, 3>> dropFarVoxels(const Eigen::Vector3d& origin);
   // The steps of makeTarget().
