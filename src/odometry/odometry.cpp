@@ -320,7 +320,7 @@ bool Odometry::placeAlongWeakAxis(const LabeledCloud& source, const Registration
     impl_->label_doubt = lp.why;
     return false;
   }
-  if (!applyPlacementIfGeometryAllows(source, target, r, *axis, lp, config_)) {
+  if (!applyPlacementIfGeometryAllows(source, target, r, *axis, lp)) {
     impl_->label_doubt = "the labels' position fits the geometry worse";
     return false;
   }

@@ -267,8 +267,7 @@ bool placeByLabels(const LabelView& view, const LabeledCloud& source, const Regi
 /// when the scan still fits the target as well there (surface fit within kRecoveryAmbiguity: a
 /// corridor fits anywhere along it, a room does not).
 bool applyPlacementIfGeometryAllows(const LabeledCloud& source, const RegistrationTarget& target, RegistrationResult& r,
-                                    const Eigen::Vector3d& axis, const LabelPlacement& placement,
-                                    const OdometryConfig& config);
+                                    const Eigen::Vector3d& axis, const LabelPlacement& placement);
 /// An answer the geometry placed (not weak) that its labels, decided, put more than
 /// kDistinctTranslation elsewhere along its weakest horizontal axis: why it is refused
 /// (empty when they agree, cannot tell, or their position fits the geometry worse). A recovery

@@ -111,7 +111,7 @@ std::string describeNoGain(const Verified& v, double guess_fit) {
 // that by kProbeGain (a slip along a corridor-like stretch the encoders lied about:
 // naraha, ICP from the guess 0.55 on a surface, the probe 0.94). A distinct answer that fits as
 // well as the winner makes the frame ambiguous. Returns verified.size() when nothing is used.
-std::size_t pickAnswer(std::vector<Verified>& verified, const OdometryConfig& config, std::string& outcome,
+std::size_t pickAnswer(std::vector<Verified>& verified, std::string& outcome,
                        const std::string& rejected, const LabelResolver& resolve) {
   const auto rank = [&](const Verified& v) { return v.fit + (v.from_guess ? kRecoveryMinGain : 0.0); };
   std::size_t best = verified.size(), probe = verified.size();
@@ -198,7 +198,7 @@ bool resolveByLabels(const LabelView& view, const LabeledCloud& source, const Re
   if (!best.label_note.empty()) return std::abs(line.dot(best.label_axis)) > 0.9;
   const LabelPlacement lp = placeAlongAxisByLabels(view, classes, best.registration.transform, line, config);
   if (!lp.decided) return false;
-  if (!applyPlacementIfGeometryAllows(source, target, best.registration, line, lp, config)) return false;
+  if (!applyPlacementIfGeometryAllows(source, target, best.registration, line, lp)) return false;
   best.label_note = describe(lp);
   best.label_precise = lp.precise;
   best.label_axis = line;
@@ -242,8 +242,7 @@ void applyLabelPlacement(RegistrationResult& r, const Eigen::Vector3d& axis, con
 }
 
 bool applyPlacementIfGeometryAllows(const LabeledCloud& source, const RegistrationTarget& target, RegistrationResult& r,
-                                    const Eigen::Vector3d& axis, const LabelPlacement& placement,
-                                    const OdometryConfig& config) {
+                                    const Eigen::Vector3d& axis, const LabelPlacement& placement) {
   if (std::abs(placement.offset) <= kLabelAxisConfirm) return true;
   const double before = surfaceFit(source, target, r.transform, kSurfaceInlierDistance);
   const double after = surfaceFit(source, target, shiftedAlong(r.transform, axis, placement.offset),
@@ -284,7 +283,7 @@ bool placeByLabels(const LabelView& view, const LabeledCloud& source, const Regi
     if (!doubt.empty()) doubt += "; " + lp.why;
     return doubt.empty();
   }
-  if (!applyPlacementIfGeometryAllows(source, target, answer, *axis, lp, config)) {  // as undecided
+  if (!applyPlacementIfGeometryAllows(source, target, answer, *axis, lp)) {  // as undecided
     if (!doubt.empty()) doubt += "; the labels' position fits the geometry worse";
     return doubt.empty();
   }
@@ -409,7 +408,7 @@ std::optional<Odometry::Recovery> Odometry::recover(OdometryFrame& f, const Labe
   const LabelResolver resolve = [&](Verified& best, const Verified& other) {
     return labelsDecideAxes(config_) && resolveByLabels(impl_->labelView(), source, target, classes_, config_, best, other);
   };
-  const std::size_t best = pickAnswer(verified, config_, f.global.outcome, rejected, resolve);
+  const std::size_t best = pickAnswer(verified, f.global.outcome, rejected, resolve);
   if (best == verified.size()) return std::nullopt;
   // When ICP from the guess failed, the frame falls back to the guess itself: an answer must fit
   // clearly better than that pose does, or tracking keeps the guess (and flags the frame).

@@ -69,8 +69,7 @@ std::size_t countAgreeing(const Eigen::Isometry3d& T, const std::vector<Eigen::V
 }
 
 // Sorted by votes (descending; ties by insertion order) and thinned to pairwise distinct poses.
-std::vector<Hypothesis> bestDistinct(std::vector<Hypothesis> all, const GlobalRegistrationConfig& config,
-                                     std::size_t keep) {
+std::vector<Hypothesis> bestDistinct(std::vector<Hypothesis> all, std::size_t keep) {
   // Hypothesis holds an Isometry3d: std::stable_sort's scratch buffer would misalign it under AVX.
   stableSortAligned(all, [](const Hypothesis& a, const Hypothesis& b) { return a.votes > b.votes; });
   std::vector<Hypothesis> out;
@@ -178,7 +177,7 @@ std::vector<Hypothesis> ransacBlock(std::uint64_t seed, int draws, const std::ve
       std::push_heap(best.begin(), best.end(), fewerVotes);
     }
   }
-  return bestDistinct(std::move(best), config, keep);
+  return bestDistinct(std::move(best), keep);
 }
 
 }  // namespace
@@ -227,7 +226,7 @@ std::vector<Hypothesis> ransacHypotheses(const std::vector<Eigen::Vector3f>& src
   });
   std::vector<Hypothesis> all;
   for (auto& v : per_block) all.insert(all.end(), v.begin(), v.end());
-  all = bestDistinct(std::move(all), config, keep);
+  all = bestDistinct(std::move(all), keep);
   // Re-fit each on the matches that agree with it (the triple alone is noisy).
   const float d2 = static_cast<float>(config.inlier_distance * config.inlier_distance);
   for (auto& h : all) {
@@ -243,7 +242,7 @@ std::vector<Hypothesis> ransacHypotheses(const std::vector<Eigen::Vector3f>& src
     const double votes = static_cast<double>(countAgreeing(refit, src, dst, m, d2));
     if (votes >= h.votes) h = {refit, votes, false};
   }
-  return bestDistinct(std::move(all), config, keep);
+  return bestDistinct(std::move(all), keep);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -283,7 +282,7 @@ std::vector<Hypothesis> constellationHypotheses(const std::vector<Landmark>& s, 
         all.push_back(h);
       }
     }
-  return bestDistinct(std::move(all), config, keep);
+  return bestDistinct(std::move(all), keep);
 }
 
 }  // namespace hazmap::global

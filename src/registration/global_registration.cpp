@@ -234,7 +234,7 @@ void refineOne(Candidate& c, const global::FeatureCloud& src, const GlobalRegist
 
 // Refined first (the winner must be a refined one), each group by score; then pairwise distinct
 // (candidates that ICP brought to the same pose are one).
-void sortAndThin(std::vector<Candidate>& v, const GlobalRegistrationConfig& config) {
+void sortAndThin(std::vector<Candidate>& v) {
   stableSortAligned(v, [](const Candidate& a, const Candidate& b) {  // holds Isometry3d: not std::stable_sort
     return refined(a) != refined(b) ? refined(a) : a.score.weighted > b.score.weighted;
   });
@@ -258,18 +258,18 @@ std::vector<Candidate> refineCandidates(const std::vector<global::Hypothesis>& h
     constexpr std::size_t kRankingPoints = 800;
     scored[k] = {hypotheses[k], scoreOf(hypotheses[k].transform, src, tgt, config, kRankingPoints), {}};
   });
-  sortAndThin(scored, config);
+  sortAndThin(scored);
   // Refine the best few; none that scores below half the best (ICP would not lift it to a rival).
   std::size_t refine = std::min<std::size_t>(scored.size(), kCandidatesRefined);
   while (refine > 1 && scored[refine - 1].score.weighted < 0.5 * scored[0].score.weighted) --refine;
   tbb::parallel_for(std::size_t{0}, refine, [&](std::size_t k) { refineOne(scored[k], src, tgt, classes, config); });
-  sortAndThin(scored, config);
+  sortAndThin(scored);
   constexpr int kMoreRivals = 4;
   for (int extra = 0; extra < kMoreRivals && scored.size() > 1 && !refined(scored[1]); ++extra) {
     auto rival = std::find_if(scored.begin(), scored.end(), [](const Candidate& c) { return !refined(c); });
     if (rival->score.weighted < 0.5 * scored[0].score.weighted) break;
     refineOne(*rival, src, tgt, classes, config);
-    sortAndThin(scored, config);
+    sortAndThin(scored);
   }
   return scored;
 }
