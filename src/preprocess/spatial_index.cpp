@@ -22,6 +22,20 @@ inline std::uint64_t hashKey(std::uint64_t key) { return voxelProbeHash(key); }
 
 inline bool finite(const Eigen::Vector3f& p) { return std::isfinite(p.x()) && std::isfinite(p.y()) && std::isfinite(p.z()); }
 
+// Doubles an open-addressing table of slots {key, …} (kEmpty = unused) and re-inserts its keys.
+template <class Slot>
+void growTable(std::vector<Slot>& table, std::uint64_t& mask) {
+  std::vector<Slot> old(2 * (mask + 1), Slot{kEmpty, 0, 0});
+  old.swap(table);
+  mask = table.size() - 1;
+  for (const Slot& e : old) {
+    if (e.key == kEmpty) continue;
+    std::uint64_t slot = hashKey(e.key) & mask;
+    while (table[slot].key != kEmpty) slot = (slot + 1) & mask;
+    table[slot] = e;
+  }
+}
+
 }  // namespace
 
 VoxelHashIndex::VoxelHashIndex(std::span<const Eigen::Vector3f> points,
@@ -38,17 +52,6 @@ VoxelHashIndex::VoxelHashIndex(std::span<const Eigen::Vector3f> points,
   // cache for the queries): start at n/4 and double whenever it is half full.
   table_mask_ = std::bit_ceil(std::max<std::uint64_t>(16, n / 4)) - 1;
   table_.assign(table_mask_ + 1, Slot{kEmpty, 0, 0});
-  const auto grow = [&] {
-    std::vector<Slot> old(2 * (table_mask_ + 1), Slot{kEmpty, 0, 0});
-    old.swap(table_);
-    table_mask_ = table_.size() - 1;
-    for (const Slot& e : old) {
-      if (e.key == kEmpty) continue;
-      std::uint64_t slot = hashKey(e.key) & table_mask_;
-      while (table_[slot].key != kEmpty) slot = (slot + 1) & table_mask_;
-      table_[slot] = e;
-    }
-  };
 
   std::vector<std::uint32_t> cell_of(n, ~0u);
   std::vector<std::uint32_t> counts;
@@ -71,7 +74,7 @@ VoxelHashIndex::VoxelHashIndex(std::span<const Eigen::Vector3f> points,
     }
     cell_of[i] = table_[slot].begin;
     ++counts[cell_of[i]];
-    if (2 * counts.size() > table_mask_ + 1) grow();  // moves the slots: `slot` is stale after it
+    if (2 * counts.size() > table_mask_ + 1) growTable(table_, table_mask_);  // `slot` is stale after it
   }
   voxels_ = counts.size();
   std::vector<std::uint32_t> cell_begin(counts.size() + 1, 0);
