@@ -43,22 +43,6 @@ void LocalMap::clear() {
   points_ = 0;
 }
 
-// One point into its voxel (reanchor's path; integrate() does the same scan by scan in batches).
-void LocalMap::addPoint(const Eigen::Vector3f& p, ClassId cls, float value, std::uint32_t origin,
-                        const ClassTable& table) {
-  if (!p.allFinite()) return;
-  std::array<std::int64_t, 3> c;
-  std::uint64_t key = 0;
-  const double inv = inverse_voxel_;
-  if (!voxelOfPoint(p.x() * inv, p.y() * inv, p.z() * inv, c, key)) return;  // beyond ±2^20 voxels
-  const auto [slot, inserted] = index_.tryEmplace(key, static_cast<std::uint32_t>(voxels_.size()));
-  if (inserted) {
-    voxels_.push_back(newVoxel(c));
-    linkNeighbours(static_cast<std::uint32_t>(voxels_.size() - 1));
-  }
-  points_ += insertIntoVoxel(voxels_[*slot], p, cls, value, origin, table);
-}
-
 LocalMap::Voxel LocalMap::newVoxel(const std::array<std::int64_t, 3>& c) {
   return Voxel{c[0], c[1], c[2], {}, {}, {}, 0, {}, {}, {}, {}, true, false, true, {}, {}};
 }
@@ -107,11 +91,13 @@ std::size_t LocalMap::insertIntoVoxel(Voxel& v, const Eigen::Vector3f& p, ClassI
   return 0;
 }
 
-// The scan's points into their voxels exactly as addPoint() one after the other would put them:
-// the voxels numbered in the order of their first point (serial: one hash probe per point), then
-// each voxel's points in scan order with the voxels in parallel (a voxel's state depends on its
-// own points only), then the new voxels linked to their neighbours in parallel.
-void LocalMap::addScan(const LabeledCloud& scan, bool values, const ClassTable& table) {
+// The scan's points into their voxels exactly as one point after the other would go: the voxels
+// numbered in the order of their first point (serial: one hash probe per point), then each
+// voxel's points in scan order with the voxels in parallel (a voxel's state depends on its own
+// points only), then the new voxels linked to their neighbours in parallel. Point i came with
+// integrate() call origins[i] (empty: the current one).
+void LocalMap::addScan(const LabeledCloud& scan, bool values, std::span<const std::uint32_t> origins,
+                       const ClassTable& table) {
   const std::size_t n = scan.size(), first_new = voxels_.size();
   constexpr std::uint32_t kNone = ~std::uint32_t{0};
   std::vector<std::uint32_t> voxel_of(n, kNone);
@@ -137,7 +123,7 @@ void LocalMap::addScan(const LabeledCloud& scan, bool values, const ClassTable& 
     for (std::size_t i = 0; i < n; ++i)
       if (voxel_of[i] != kNone) grouped[fill[voxel_of[i]]++] = static_cast<std::uint32_t>(i);
   }
-  const auto origin = static_cast<std::uint32_t>(integrations_);
+  const auto current = static_cast<std::uint32_t>(integrations_);
   std::atomic<std::size_t> added{0};
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, touched.size(), 64), [&](const auto& range) {
     std::size_t here = 0;
@@ -146,7 +132,7 @@ void LocalMap::addScan(const LabeledCloud& scan, bool values, const ClassTable& 
       for (std::uint32_t g = start[k]; g < start[k + 1]; ++g) {
         const std::uint32_t i = grouped[g];
         here += insertIntoVoxel(voxels_[k], scan.points[i], scan.classes[i], values ? scan.property[i] : 0.0f,
-                                origin, table);
+                                origins.empty() ? current : origins[i], table);
       }
     }
     added += here;
@@ -159,7 +145,7 @@ void LocalMap::addScan(const LabeledCloud& scan, bool values, const ClassTable& 
 
 void LocalMap::integrate(const LabeledCloud& scan, const Eigen::Vector3d& origin, const ClassTable& table) {
   if (points_ == 0) has_values_ = scan.hasProperty();
-  addScan(scan, has_values_ && scan.hasProperty(), table);
+  addScan(scan, has_values_ && scan.hasProperty(), {}, table);
   ++integrations_;
   // Bound the map: drop voxels far from the robot.
   const std::vector<std::array<std::int64_t, 3>> dropped = dropFarVoxels(origin);
@@ -191,12 +177,18 @@ void LocalMap::reanchor(const std::vector<Eigen::Isometry3d>& corrections, const
   points_ = 0;
   std::vector<Eigen::Matrix4f> moves(corrections.size());
   for (std::size_t f = 0; f < corrections.size(); ++f) moves[f] = corrections[f].matrix().cast<float>();
+  LabeledCloud moved;  // in the old voxel order, each point with its value and its scan
+  moved.enableProperty();
+  std::vector<std::uint32_t> origins;
   for (const Voxel& v : old)
     for (std::size_t i = 0; i < v.points.size(); ++i) {
       const Eigen::Matrix4f& m = moves[v.origins[i]];
-      const Eigen::Vector3f p = m.topLeftCorner<3, 3>() * v.points[i] + m.topRightCorner<3, 1>();
-      addPoint(p, v.classes[i], v.values[i], v.origins[i], table);
+      moved.push_back(m.topLeftCorner<3, 3>() * v.points[i] + m.topRightCorner<3, 1>(), v.classes[i], 0.0f, 0.0,
+                      v.values[i]);
+      origins.push_back(v.origins[i]);
     }
+  old.clear();
+  addScan(moved, true, origins, table);
   dropFarVoxels(origin);
   for (Voxel& v : voxels_) v.changed = false;
 }

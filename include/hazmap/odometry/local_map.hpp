@@ -7,6 +7,7 @@
 #include <Eigen/Geometry>
 #include <array>
 #include <cstdint>
+#include <span>
 #include <vector>
 
 #include "hazmap/core/class_table.hpp"
@@ -89,8 +90,8 @@ class LocalMap {
     std::array<std::int32_t, 27> neighbours;
   };
   static constexpr int neighbourSlot(int dx, int dy, int dz) { return (dx + 1) * 9 + (dy + 1) * 3 + (dz + 1); }
-  /// Links voxel k; voxels from `first_new` on link themselves (default: only k is new).
-  void linkNeighbours(std::uint32_t k, std::size_t first_new = SIZE_MAX);
+  /// Links new voxel k; the voxels from `first_new` on are new too and link themselves.
+  void linkNeighbours(std::uint32_t k, std::size_t first_new);
   void unlinkNeighbours(std::uint32_t k);
   void moveVoxel(std::uint32_t from, std::uint32_t to);
   /// The voxels of each stale voxel's normal ring (normal_offsets_ order, -1 = none), looked up
@@ -105,8 +106,7 @@ class LocalMap {
       return voxels.data() + row_of[k];
     }
   };
-  void addPoint(const Eigen::Vector3f& p, ClassId cls, float value, std::uint32_t origin, const ClassTable& table);
-  void addScan(const LabeledCloud& scan, bool values, const ClassTable& table);
+  void addScan(const LabeledCloud& scan, bool values, std::span<const std::uint32_t> origins, const ClassTable& table);
   static Voxel newVoxel(const std::array<std::int64_t, 3>& c);
   std::size_t insertIntoVoxel(Voxel& v, const Eigen::Vector3f& p, ClassId cls, float value, std::uint32_t origin,
                               const ClassTable& table) const;
