@@ -9,9 +9,12 @@
 
 #include <civetweb.h>
 
+#include <chrono>
 #include <cstdint>
 #include <cstdlib>
+#include <functional>
 #include <string>
+#include <thread>
 
 #include "hazmap/properties/camera.hpp"
 
@@ -35,6 +38,18 @@ inline double timeScale() {
 
 /// `n` polling rounds, stretched by timeScale().
 inline int rounds(int n) { return static_cast<int>(n * timeScale()); }
+
+/// Polls `done` every `poll` until it holds (true) or `seconds` × timeScale() have passed (false),
+/// so that a failure cannot hang the suite.
+inline bool waitUntil(const std::function<bool()>& done, double seconds = 10.0,
+                      std::chrono::milliseconds poll = std::chrono::milliseconds(20)) {
+  const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds * timeScale());
+  while (!done()) {
+    if (std::chrono::steady_clock::now() > until) return false;
+    std::this_thread::sleep_for(poll);
+  }
+  return true;
+}
 
 inline int bindUdp(std::uint16_t port) {
   const int s = ::socket(AF_INET, SOCK_DGRAM, 0);

@@ -68,12 +68,7 @@ int stopProcess(pid_t pid, int signal) {
 }
 
 bool eventually(const std::function<bool()>& done, int seconds = 20) {
-  const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds * timeScale());
-  while (!done()) {
-    if (std::chrono::steady_clock::now() > until) return false;
-    std::this_thread::sleep_for(std::chrono::milliseconds(100));
-  }
-  return true;
+  return waitUntil(done, seconds, std::chrono::milliseconds(100));
 }
 
 /// Headless Chromium (SwiftShader WebGL) with one page, driven over the DevTools protocol.

@@ -29,16 +29,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-/// Waits (at most `seconds`) until `done()`.
-template <class Done>
-bool waitUntil(Done done, double seconds = 10.0) {
-  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds * timeScale());
-  while (!done()) {
-    if (std::chrono::steady_clock::now() > end) return false;
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  }
-  return true;
-}
 
 /// The real frame's camera as a camera.yaml: plumb-bob lens and extrinsic from the data's JSON,
 /// channel `temperature` read 1:1 from 8-bit grey (so the built-in heat rule, >= 60, splits the

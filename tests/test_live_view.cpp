@@ -53,12 +53,7 @@ Response request(int port, const std::string& method, const std::string& path, c
 
 /// Waits (up to 10 s, so a failure cannot hang the suite) until `done` holds.
 bool eventually(const std::function<bool()>& done) {
-  const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(10 * hazmap::test::timeScale());
-  while (!done()) {
-    if (std::chrono::steady_clock::now() > until) return false;
-    std::this_thread::sleep_for(std::chrono::milliseconds(1));
-  }
-  return true;
+  return hazmap::test::waitUntil(done, 10, std::chrono::milliseconds(1));
 }
 
 struct Browser {

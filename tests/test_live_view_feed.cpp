@@ -336,12 +336,7 @@ bool connect(Browser& b, int port) {
 }
 
 bool eventually(const std::function<bool()>& done) {
-  const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(10 * test::timeScale());
-  while (!done()) {
-    if (std::chrono::steady_clock::now() > until) return false;
-    std::this_thread::sleep_for(std::chrono::milliseconds(5));
-  }
-  return true;
+  return test::waitUntil(done, 10, std::chrono::milliseconds(5));
 }
 
 std::int64_t nowNs(double seconds_ago) {
