@@ -3,6 +3,7 @@
 // records in run.json, and the rule that loops and PGO never make the map worse.
 #include <algorithm>
 #include <array>
+#include <cstring>
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -74,6 +75,27 @@ TEST(ChainCovariance, StraightChainAddsUpAndRotatesIntoTheStartFrame) {
   EXPECT_TRUE(r.isApprox(Ad * s * Ad.transpose(), 1e-12));
   EXPECT_NEAR(r(5, 5), s(5, 5), 1e-15);
   EXPECT_THROW(chainCovariance(poses, steps, 0, 5), Error);
+}
+
+// The map anchors keep only their non-zero steps (issue 33): the sparse sum is the dense one bit
+// for bit, both ways round and over spans that start or end on a zero step.
+TEST(ChainCovariance, SparseStepsGiveTheDenseSumBitForBit) {
+  std::vector<Eigen::Isometry3d> poses{pose(0, 0, 0)};
+  std::vector<Matrix6d> dense{Matrix6d::Zero()};
+  SparseSteps sparse;
+  for (int k = 1; k < 12; ++k) {
+    poses.push_back(poses.back() * pose(0.7, 0.1 * k, 0.05 * k));
+    dense.push_back(k % 3 == 1 ? isotropic(0.01 * k, 0.002 * k) : Matrix6d::Zero());
+    if (k % 3 == 1) sparse.emplace_back(k, dense.back());
+  }
+  for (std::size_t from = 0; from < poses.size(); ++from)
+    for (std::size_t to = 0; to < poses.size(); ++to) {
+      const Matrix6d a = chainCovariance(poses, dense, from, to), b = chainCovariance(poses, sparse, from, to);
+      EXPECT_EQ(0, std::memcmp(a.data(), b.data(), sizeof(double) * 36)) << from << " -> " << to;
+    }
+  EXPECT_TRUE(chainCovariance(poses, sparse, 0, 11).isApprox(chainCovariance(poses, dense, 0, 11)));
+  EXPECT_FALSE(chainCovariance(poses, sparse, 0, 11).isZero());
+  EXPECT_THROW(chainCovariance(poses, sparse, 0, 12), Error);
 }
 
 TEST(ChainCovariance, MatchesMonteCarlo) {

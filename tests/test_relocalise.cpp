@@ -417,6 +417,44 @@ TEST(LostFrames, AreReestimatedOnceTrackingRecovers) {
   EXPECT_GT(rotationAngle(increment_error(left, 8)), 20 * kDeg);
 }
 
+// A long mission keeps only the newest frames in full (issue 33): the same scans with a lost frame
+// re-estimated (frame 8, as above) track bit for bit alike, every frame keeps its stamp, status
+// and pose, and only the newest lost_frames_max + 2 records stay.
+TEST(LostFrames, KeepingOnlyTheNewestFramesTracksTheSame) {
+  sim::SimulatorConfig sc;
+  sc.max_frames = 12;
+  const sim::Simulator sim(sc);
+  OdometryConfig c = OdometryConfig::defaults();
+  c.recovery.relocalise = false;
+  Odometry all(sim.classTable(), c), newest(sim.classTable(), c);
+  newest.keepNewestFrames(0);
+  const auto& truth = sim.groundTruth();
+  for (std::size_t i = 0; i < sim.frames(); ++i) {
+    std::optional<Eigen::Isometry3d> inc;
+    if (i > 0) inc = truth[i - 1].inverse() * truth[i];
+    if (i == 8) *inc = *inc * Eigen::AngleAxisd(30 * kDeg, Eigen::Vector3d::UnitZ());
+    if (i == 9) inc = all.frames()[8].pose.inverse() * truth[9];
+    all.addFrame(sim.scan(i), inc);
+    newest.addFrame(sim.scan(i), inc);
+  }
+  const std::size_t keep = static_cast<std::size_t>(c.recovery.lost_frames_max) + 2;
+  ASSERT_EQ(newest.frames().size(), keep);
+  EXPECT_EQ(newest.history().firstKept(), sim.frames() - keep);
+  EXPECT_EQ(newest.history().size(), sim.frames());
+  EXPECT_THROW(newest.history().full(0), std::out_of_range);
+  EXPECT_EQ(all.frames()[8].status, FrameStatus::Relocalised);
+  for (std::size_t i = 0; i < sim.frames(); ++i) {
+    EXPECT_TRUE(newest.history().pose(i).matrix() == all.frames()[i].pose.matrix()) << i;
+    EXPECT_EQ(newest.history().status(i), all.frames()[i].status) << i;
+    EXPECT_EQ(newest.history().stamp(i), all.frames()[i].stamp) << i;
+  }
+  for (std::size_t i = newest.history().firstKept(); i < sim.frames(); ++i) {
+    EXPECT_TRUE(newest.history().full(i).increment.matrix() == all.frames()[i].increment.matrix()) << i;
+    EXPECT_EQ(newest.history().full(i).reason, all.frames()[i].reason) << i;
+  }
+  EXPECT_EQ(newest.trajectory().stamps, all.trajectory().stamps);
+}
+
 // A kidnapped robot: after frame 34 of naraha the robot is carried back to where it was at frame
 // 6 while the encoders report an ordinary step. The first frames there fall back (a 4 m bound
 // keeps the local recovery from jumping, and the local map now holds wrong scans); after

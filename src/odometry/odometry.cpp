@@ -1,5 +1,6 @@
 #include "hazmap/odometry/odometry.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -159,8 +160,12 @@ const OdometryFrame& Odometry::addFrame(const LabeledCloud& scan,
   if (labelsDecideAxes(config_)) impl_->frame_labels.push_back({f.index, std::move(impl_->scan_labels)});
   f.total_ms = msSince(t_start);
   f.registration_ms = f.total_ms - f.preprocess_ms;
-  frames_.push_back(std::move(f));
+  frames_.push(std::move(f));
   return frames_.back();
+}
+
+void Odometry::keepNewestFrames(std::size_t n) {
+  frames_.keepNewest(std::max(n, static_cast<std::size_t>(config_.recovery.lost_frames_max) + 2));
 }
 
 std::optional<Eigen::Matrix3d> verifiedRotation(const OdometryFrame& f) {
@@ -335,11 +340,11 @@ void Odometry::prepareLabels(const LabeledCloud& scan) {
   const Eigen::Vector3d here = frames_.back().pose.translation();
   const double reach = kRecoveryMapRadius + config_.label_axis.range;
   for (const auto& [index, labels] : impl_->frame_labels) {
-    const OdometryFrame& k = frames_[index];
+    const Eigen::Isometry3d& pose = frames_.pose(index);
     // Not a fallback's guess; a flagged weak-axis frame's pose is ICP's (its labels starve the map
     // otherwise: the frames after the first could never be placed).
-    const bool verified = k.status != FrameStatus::Fallback;
-    if (verified && !labels.empty() && (k.pose.translation() - here).norm() <= reach) placed.push_back({k.pose, &labels});
+    const bool verified = frames_.status(index) != FrameStatus::Fallback;
+    if (verified && !labels.empty() && (pose.translation() - here).norm() <= reach) placed.push_back({pose, &labels});
   }
   impl_->label_map = labelMapOf(placed, classes_);
 }
@@ -349,7 +354,7 @@ void Odometry::remember(OdometryFrame& f, const LabeledCloud& frame) {
   if (f.global.whole_map && f.status == FrameStatus::Relocalised) {
     rebuildLocalMapFromKeyframes(f.pose);
     for (const auto& lost : impl_->lost)  // carried: where they were in between is unknown
-      frames_[lost.frame].reason += "; left as it was: the robot was found again against the whole map";
+      frames_.full(lost.frame).reason += "; left as it was: the robot was found again against the whole map";
     impl_->lost.clear();
   }
   if (config_.mode == OdometryMode::FrameToMap) {
@@ -364,7 +369,7 @@ void Odometry::remember(OdometryFrame& f, const LabeledCloud& frame) {
         // Lost for long (a corridor nothing can place along): the map must follow the robot, so the
         // oldest waiting scan enters at its guessed pose, as it would have without waiting.
         if (impl_->lost.size() > static_cast<std::size_t>(config_.recovery.lost_frames_max)) {
-          scan_world = impl_->lost.front().scan.transformed(frames_[impl_->lost.front().frame].pose);
+          scan_world = impl_->lost.front().scan.transformed(frames_.pose(impl_->lost.front().frame));
           impl_->lost.erase(impl_->lost.begin());
         }
       } else if (!impl_->lost.empty()) {
@@ -381,7 +386,7 @@ void Odometry::remember(OdometryFrame& f, const LabeledCloud& frame) {
 
 Trajectory Odometry::trajectory() const {
   Trajectory t;
-  for (const auto& f : frames_) t.push_back(f.stamp, f.pose);
+  for (std::size_t i = 0; i < frames_.size(); ++i) t.push_back(frames_.stamp(i), frames_.pose(i));
   return t;
 }
 

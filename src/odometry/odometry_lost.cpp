@@ -66,8 +66,8 @@ LabeledCloud Odometry::reestimateLostFrames(OdometryFrame& f, const LabeledCloud
   const std::size_t before = lost.front().frame - 1;  // the last frame before the gap
   const auto span = static_cast<double>(f.index - before);
   for (const Impl::LostFrame& l : lost) {
-    OdometryFrame& lf = frames_[l.frame];
-    const Eigen::Isometry3d& prev = frames_[l.frame - 1].pose;
+    OdometryFrame& lf = frames_.full(l.frame);
+    const Eigen::Isometry3d& prev = frames_.pose(l.frame - 1);
     // From the (re-estimated) previous frame towards the verified one, at constant velocity.
     const double s = 1.0 / (span - static_cast<double>(l.frame - 1 - before));
     const Eigen::Isometry3d guess = interpolate(prev, f.pose, s);
@@ -95,7 +95,7 @@ LabeledCloud Odometry::reestimateLostFrames(OdometryFrame& f, const LabeledCloud
     // no better than that guess, so the frame stays flagged though its own pose is re-registered
     // (used as relocalised, a corridor's such frames were 12-18 deg off in their increments).
     // Placed by labels, but not to the centimetre: the labels' pose, still flagged.
-    const bool after_unverified = frames_[l.frame - 1].status == FrameStatus::Fallback || !label_precise;
+    const bool after_unverified = frames_.status(l.frame - 1) == FrameStatus::Fallback || !label_precise;
     if (why.empty()) {
       lf.pose = normalized(r.transform);
       if (!after_unverified) lf.status = FrameStatus::Relocalised;
@@ -116,8 +116,8 @@ LabeledCloud Odometry::reestimateLostFrames(OdometryFrame& f, const LabeledCloud
     if (lf.status == FrameStatus::Fallback) lf.covariance = fallbackCovariance(config_);
   }
   // The verified frame's increment now starts from the re-estimated last lost frame.
-  f.increment = normalized(frames_[lost.back().frame].pose.inverse() * f.pose);
-  if (frames_[lost.back().frame].status == FrameStatus::Fallback) {  // an increment from a guessed pose
+  f.increment = normalized(frames_.pose(lost.back().frame).inverse() * f.pose);
+  if (frames_.status(lost.back().frame) == FrameStatus::Fallback) {  // an increment from a guessed pose
     f.covariance = fallbackCovariance(config_);
     f.reason += f.reason.empty() ? "" : "; ";
     f.reason += "increment from an interpolated pose (loose covariance)";

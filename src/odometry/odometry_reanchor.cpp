@@ -18,10 +18,10 @@ void Odometry::reanchor(const std::vector<Eigen::Isometry3d>& poses) {
   if (config_.mode != OdometryMode::FrameToMap || frames_.empty()) return;
   // One integrate() per frame (Odometry::remember), so the map's scan i is frame i.
   std::vector<Eigen::Isometry3d> corrections(frames_.size());
-  for (std::size_t i = 0; i < frames_.size(); ++i) corrections[i] = normalized(poses[i] * frames_[i].pose.inverse());
+  for (std::size_t i = 0; i < frames_.size(); ++i) corrections[i] = normalized(poses[i] * frames_.pose(i).inverse());
   map_.reanchor(corrections, poses.back().translation(), classes_);
   ++impl_->reanchors;  // the whole-map target (keyframes at their poses) is stale
-  for (std::size_t i = 0; i < frames_.size(); ++i) frames_[i].pose = poses[i];
+  for (std::size_t i = 0; i < frames_.size(); ++i) frames_.setPose(i, poses[i]);
 }
 
 }  // namespace hazmap

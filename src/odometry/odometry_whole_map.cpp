@@ -29,7 +29,7 @@ void Odometry::keepKeyframe(const OdometryFrame& f, const LabeledCloud& frame) {
     return;  // a flagged frame's pose is (partly) a guess
   auto& keyframes = impl_->keyframes;
   if (!keyframes.empty()) {
-    const Eigen::Isometry3d d = frames_[keyframes.back().frame].pose.inverse() * f.pose;
+    const Eigen::Isometry3d d = frames_.pose(keyframes.back().frame).inverse() * f.pose;
     if (translationNorm(d) < config_.recovery.keyframe_distance && rotationAngle(d) < config_.recovery.keyframe_rotation) return;
   }
   keyframes.push_back({f.index, frame});
@@ -55,12 +55,12 @@ std::size_t Odometry::residentKeyframes() const {
 // `scan_of(k, holder)`: keyframe k's scan (Impl::keyframeScan).
 template <class Keyframes, class ScanOf>
 static std::shared_ptr<const WholeMap> buildWholeMap(const Keyframes& keyframes, const ScanOf& scan_of,
-                                                     const std::vector<OdometryFrame>& frames,
+                                                     const FrameHistory& frames,
                                                      const OdometryConfig& config, const ClassTable& classes) {
   LabeledCloud all, holder;
   Eigen::Vector3d centre = Eigen::Vector3d::Zero();
   for (std::size_t k = 0; k < keyframes.size(); ++k) {
-    const Eigen::Isometry3d& pose = frames[keyframes[k].frame].pose;
+    const Eigen::Isometry3d& pose = frames.pose(keyframes[k].frame);
     all.append(scan_of(k, holder).transformed(pose));
     centre += pose.translation();
   }
@@ -153,7 +153,7 @@ void Odometry::rebuildLocalMapFromKeyframes(const Eigen::Isometry3d& pose) {
   LabeledCloud holder;
   for (std::size_t i = 0; i < frames_.size(); ++i) {
     const bool keyframe = k < keyframes.size() && keyframes[k].frame == i;
-    map_.integrate(keyframe ? impl_->keyframeScan(k, classes_, holder).transformed(frames_[i].pose) : LabeledCloud(),
+    map_.integrate(keyframe ? impl_->keyframeScan(k, classes_, holder).transformed(frames_.pose(i)) : LabeledCloud(),
                    pose.translation(), classes_);
     k += keyframe;
   }

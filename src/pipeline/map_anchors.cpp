@@ -9,8 +9,9 @@
 namespace hazmap::pipeline_detail {
 
 void MapAnchors::addStep(const FrameRecord& rec, const Matrix6d& edge_covariance) {
-  if (rec.index == 0) return guess_steps_.push_back(Matrix6d::Zero());
-  guess_steps_.push_back(rec.icp_used ? rec.guess_covariance : edge_covariance);
+  if (rec.index == 0) return;
+  const Matrix6d& step = rec.icp_used ? rec.guess_covariance : edge_covariance;
+  if (!(step.array() == 0.0).all()) guess_steps_.emplace_back(rec.index, step);
 }
 
 // The shared part: the chained covariance of every increment's share that no registration

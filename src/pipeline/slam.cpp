@@ -50,7 +50,10 @@ class SlamRun {
     const std::vector<std::size_t> changed = takeReestimatedLostFrames();
     if (graph_) graph_->replaceFrames(changed);
     const bool keyframe = isKeyframe(pose);
-    if (back_end_thread_) return passToBackEnd(scan, pose, changed, keyframe);
+    if (back_end_thread_) {
+      passToBackEnd(scan, pose, changed, keyframe);
+      return forgetOldRecords();
+    }
     tellFrame(scan.cloud);
     if (!keyframe) return;
     graph_->addGravityPrior(scan.gravity);
@@ -60,7 +63,7 @@ class SlamRun {
       closeLoops(frames() - 1, std::move(scan.cloud));
   }
 
-  std::size_t frames() const { return result_.frames.size(); }
+  std::size_t frames() const { return first_record_ + result_.frames.size(); }
 
   /// The live view's hook: the frame just added, and whether earlier poses moved since the last
   /// call (an online optimisation ran beside this frame's tracking or came back from the back
@@ -90,14 +93,17 @@ class SlamRun {
   }
 
   SlamResult finish() {
+    Trajectory tracked = trajectoryOf(tracked_);  // before the back end's records replace ours
     if (back_end_thread_) {
       result_ = withTrackerSide(back_end_thread_->finish());
+      first_record_ = 0;
+      past_records_.clear();
     } else {
       runPendingLoops();
       graph_->finish();
     }
     result_.source = source_.describe();  // after the scans: a decoder knows its sensor by then
-    result_.tracked = trajectoryOf(tracked_);
+    result_.tracked = std::move(tracked);
     if (hasBackEnd()) result_.estimate = trajectoryOf(result_.graph.poses);
     else if (config_.method == SlamMethod::Odometry) result_.estimate = result_.odometry_only;
     else result_.estimate = result_.tracked;
@@ -119,6 +125,7 @@ class SlamRun {
     // α and the class search radii, set once for tracking and loop verification alike.
     classes_ = config_.property_icp.applyTo(source_.classTable(), where);
     tracker_.emplace(classes_, config_.odometry, start_);
+    tracker_->keepNewestFrames(0);  // the frames' records are ours (result_.frames); a long mission's memory stays bounded
     if (usesPoseGraph(config_.method) && config_.back_end == BackEndSchedule::OwnThread) {
       back_end_thread_ = std::make_unique<BackEndThread>(config_, start_, classes_, source_, source_lock_,
                                                          before_loop_stage_);
@@ -196,14 +203,14 @@ class SlamRun {
     if (!tracker_ || !usesIcp(config_.method) || !config_.odometry.recovery.relocalise_suspect ||
         !config_.odometry.recovery.reestimate_lost_frames)
       return changed;
-    const std::vector<OdometryFrame>& tf = tracker_->frames();
-    const std::size_t n = result_.frames.size(), back = static_cast<std::size_t>(config_.odometry.recovery.lost_frames_max) + 2;
+    const FrameHistory& tf = tracker_->history();
+    const std::size_t n = frames(), back = static_cast<std::size_t>(config_.odometry.recovery.lost_frames_max) + 2;
     for (std::size_t k = n > back ? n - back : 1; k < n && k < tf.size(); ++k)
-      if (takeReestimate(result_.frames[k], tf[k])) changed.push_back(k);
+      if (takeReestimate(record(k), tf.full(k))) changed.push_back(k);
     if (changed.empty()) return changed;
     if (changed.front() + 1 < n) ++corrections_;  // poses before the newest moved
-    chainFrom(tracked_, result_.frames, changed.front());
-    if (back_end_thread_) chainFrom(estimate_, result_.frames, changed.front());
+    chain(tracked_, changed.front());
+    if (back_end_thread_) chain(estimate_, changed.front());
     return changed;
   }
 
@@ -214,14 +221,14 @@ class SlamRun {
     if (const auto solution = back_end_thread_->takeSolution()) {
       const std::size_t m = std::min(solution->size(), estimate_.size());
       std::copy(solution->begin(), solution->begin() + static_cast<std::ptrdiff_t>(m), estimate_.begin());
-      chainFrom(estimate_, result_.frames, m);
+      chain(estimate_, m);
       ++corrections_;
     }
     tellFrame(scan.cloud);
     TrackedFrame f;
     f.record = result_.frames.back();
     f.tracked_pose = pose;
-    for (std::size_t k : changed) f.reestimated.push_back(result_.frames[k]);
+    for (std::size_t k : changed) f.reestimated.push_back(record(k));
     f.keyframe = keyframe;
     if (keyframe) {
       f.gravity = scan.gravity;
@@ -262,8 +269,31 @@ class SlamRun {
 
   Trajectory trajectoryOf(const std::vector<Eigen::Isometry3d>& poses) const {
     Trajectory t;
-    for (std::size_t i = 0; i < poses.size(); ++i) t.push_back(result_.frames[i].stamp, poses[i]);
+    for (std::size_t i = 0; i < poses.size(); ++i)
+      t.push_back(i < first_record_ ? past_records_[i].stamp : record(i).stamp, poses[i]);
     return t;
+  }
+
+  FrameRecord& record(std::size_t k) { return result_.frames.at(k - first_record_); }
+  const FrameRecord& record(std::size_t k) const { return result_.frames.at(k - first_record_); }
+
+  /// poses[k] = poses[k − 1] · increment of frame k, from `first` on (graph_side.hpp chainFrom).
+  void chain(std::vector<Eigen::Isometry3d>& poses, std::size_t first) const {
+    for (std::size_t k = std::max<std::size_t>(first, 1); k < poses.size() && k < frames(); ++k)
+      poses[k] = normalized(poses[k - 1] * (k < first_record_ ? past_records_[k].T_prev_curr : record(k).T_prev_curr));
+  }
+
+  /// With the back end on its own thread the run's records are the copies it was sent: ours keep
+  /// the newest in full (what re-estimating lost frames rewrites) and the older ones' stamp and
+  /// increment (issue 33: ~0.9 kB a frame, ~30 MB an hour at 10 scans/s).
+  void forgetOldRecords() {
+    const std::size_t keep = static_cast<std::size_t>(config_.odometry.recovery.lost_frames_max) + 2;
+    if (result_.frames.size() <= keep) return;
+    const auto drop = static_cast<std::ptrdiff_t>(result_.frames.size() - keep);
+    for (auto r = result_.frames.begin(); r != result_.frames.begin() + drop; ++r)
+      past_records_.push_back({r->stamp, r->T_prev_curr});
+    result_.frames.erase(result_.frames.begin(), result_.frames.begin() + drop);
+    first_record_ += static_cast<std::size_t>(drop);
   }
 
   ScanSource& source_;
@@ -292,6 +322,12 @@ class SlamRun {
   // the tracker knows it (the back end's newest optimised poses, then the tracked increments).
   std::unique_ptr<BackEndThread> back_end_thread_;
   std::vector<Eigen::Isometry3d> estimate_;
+  struct PastRecord {
+    double stamp;
+    Eigen::Isometry3d T_prev_curr;
+  };
+  std::vector<PastRecord> past_records_;  // own thread: frames 0 … first_record_ − 1 (forgetOldRecords)
+  std::size_t first_record_ = 0;
 };
 
 }  // namespace

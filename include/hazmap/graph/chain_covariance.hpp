@@ -4,6 +4,8 @@
 // Used to gate loops honestly (loop/consistency.hpp, innovationGate): the test is as strict as
 // the calibrated edges say the estimate is, not as a hand-set drift rate.
 #include <Eigen/Geometry>
+#include <cstddef>
+#include <utility>
 #include <vector>
 
 #include "hazmap/core/se3.hpp"
@@ -17,5 +19,12 @@ namespace hazmap {
 /// of range.
 Matrix6d chainCovariance(const std::vector<Eigen::Isometry3d>& poses, const std::vector<Matrix6d>& step_covariance,
                          std::size_t from, std::size_t to);
+
+/// Steps that are zero but for a few: (k, covariance of the increment k−1 → k) for the non-zero
+/// ones, ascending k (the dead-reckoned shares of a run's increments: pipeline/map_anchors).
+using SparseSteps = std::vector<std::pair<std::size_t, Matrix6d>>;
+/// The same sum over sparse steps; the zero terms are skipped, so it equals the dense one bit for bit.
+Matrix6d chainCovariance(const std::vector<Eigen::Isometry3d>& poses, const SparseSteps& steps, std::size_t from,
+                         std::size_t to);
 
 }  // namespace hazmap
