@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <cstring>
 #include <chrono>
 #include <condition_variable>
 #include <fstream>
@@ -17,6 +18,7 @@
 #include "hazmap/pipeline/run_outputs.hpp"
 #include "hazmap/pipeline/slam.hpp"
 #include "hazmap/sources/forwarding_source.hpp"
+#include "pipeline/frame_record_store.hpp"
 #include "test_helpers.hpp"
 
 namespace hazmap {
@@ -47,6 +49,27 @@ void expectSamePoses(const Trajectory& a, const Trajectory& b) {
     EXPECT_LE(translationNorm(d), 1e-3) << "frame " << i;
     EXPECT_LE(rotationAngle(d) * 180.0 / M_PI, 0.01) << "frame " << i;
   }
+}
+
+bool sameBits(const double* a, const double* b, std::size_t n) { return std::memcmp(a, b, n * sizeof(double)) == 0; }
+
+// Every field, bit for bit (the wall time only for copies of one record).
+void expectSameRecord(const FrameRecord& a, const FrameRecord& b, bool same_run = true) {
+  EXPECT_EQ(a.index, b.index);
+  EXPECT_TRUE(sameBits(&a.stamp, &b.stamp, 1)) << a.index;
+  EXPECT_TRUE(sameBits(a.T_prev_curr.matrix().data(), b.T_prev_curr.matrix().data(), 16)) << a.index;
+  EXPECT_TRUE(sameBits(a.covariance.data(), b.covariance.data(), 36)) << a.index;
+  EXPECT_TRUE(sameBits(a.guess_covariance.data(), b.guess_covariance.data(), 36)) << a.index;
+  EXPECT_EQ(a.icp_used, b.icp_used);
+  EXPECT_EQ(a.status, b.status);
+  EXPECT_EQ(a.fallback_reason, b.fallback_reason);
+  EXPECT_TRUE(sameBits(&a.fitness, &b.fitness, 1) && sameBits(&a.rmse, &b.rmse, 1)) << a.index;
+  EXPECT_EQ(a.iterations, b.iterations);
+  EXPECT_EQ(a.stalled, b.stalled);
+  if (same_run) EXPECT_TRUE(sameBits(&a.milliseconds, &b.milliseconds, 1)) << a.index;
+  EXPECT_EQ(a.points, b.points);
+  ASSERT_EQ(a.deskew_velocity.has_value(), b.deskew_velocity.has_value()) << a.index;
+  if (a.deskew_velocity) EXPECT_TRUE(sameBits(a.deskew_velocity->data(), b.deskew_velocity->data(), 6)) << a.index;
 }
 
 SlamConfig pgoConfig(SlamMethod method, bool thread) {
@@ -92,10 +115,55 @@ TEST(AsyncBackEnd, FinalAnswerEqualsTheSynchronousOne) {
   for (std::size_t i = 0; i < sync.tracked.size(); ++i)
     EXPECT_TRUE(async.tracked.poses[i].matrix() == sync.tracked.poses[i].matrix()) << i;
   EXPECT_GT(async.timings.tracking_s, 0.0);
+  // The back end's thread journals all but its newest records: read back whole, bit for bit.
+  ASSERT_EQ(async.frames.size(), sync.frames.size());
+  for (std::size_t i = 0; i < sync.frames.size(); ++i) expectSameRecord(async.frames[i], sync.frames[i], false);
   ASSERT_TRUE(snapshot.has_value());
   EXPECT_EQ(snapshot->frames.size(), 50u);
+  for (std::size_t i = 0; i < 50; ++i) expectSameRecord(snapshot->frames[i], sync.frames[i], false);
   EXPECT_EQ(snapshot->graph.poses.size(), 50u);
   EXPECT_EQ(snapshot->estimate.size(), 50u);
+}
+
+// The journal keeps every field of a record, a reason of any length and an optional deskew
+// velocity included; the newest stay in the list, an old one is refused there and read from the
+// file, and restoreAll gives the list back whole.
+TEST(FrameRecordStore, JournalsOldRecordsAndReadsThemBackBitForBit) {
+  std::vector<FrameRecord> made, list;
+  pipeline_detail::FrameRecordStore store(list);
+  store.push(FrameRecord{});  // before the journal: moved into it when it starts
+  made.push_back(FrameRecord{});
+  store.journalOlderThan(3);
+  for (std::size_t i = 1; i < 40; ++i) {
+    FrameRecord r;
+    r.index = i;
+    r.stamp = 0.1 * static_cast<double>(i) + 1e-17;
+    r.T_prev_curr = Eigen::Translation3d(0.1 * i, -0.2, 1.0 / 3.0) * Eigen::AngleAxisd(0.01 * i, Eigen::Vector3d(1, 2, 3).normalized());
+    r.covariance = Matrix6d::Random() * 1e-3;
+    if (i % 4 == 0) r.guess_covariance = Matrix6d::Random();
+    r.icp_used = i % 5 != 0;
+    r.status = static_cast<FrameStatus>(i % 5);
+    r.fallback_reason = std::string(i * 7, static_cast<char>('a' + i % 26));
+    r.fitness = 1.0 / static_cast<double>(i), r.rmse = std::nextafter(0.02, 1.0);
+    r.iterations = static_cast<int>(i), r.stalled = i % 3 == 0, r.milliseconds = 1.5 * i, r.points = 1000 + i;
+    if (i % 2 == 0) r.deskew_velocity = Vector6d::Random();
+    made.push_back(r);
+    store.push(r);
+  }
+  EXPECT_EQ(store.size(), 40u);
+  EXPECT_EQ(list.size(), 3u);
+  EXPECT_EQ(store.back().index, 39u);
+  EXPECT_THROW(store.at(10), std::out_of_range);
+  expectSameRecord(store.read(10), made[10]);
+  expectSameRecord(store.read(0), made[0]);
+  const std::vector<FrameRecord> all = store.all();
+  ASSERT_EQ(all.size(), made.size());
+  for (std::size_t i = 0; i < made.size(); ++i) expectSameRecord(all[i], made[i]);
+  store.restoreAll();
+  ASSERT_EQ(list.size(), made.size());
+  for (std::size_t i = 0; i < made.size(); ++i) expectSameRecord(list[i], made[i]);
+  store.push(made[1]);  // no journal any more
+  EXPECT_EQ(list.size(), made.size() + 1);
 }
 
 // Tracking never waits for a loop stage: the first keyframe's loop stage is held until the stream

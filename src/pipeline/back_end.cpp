@@ -10,8 +10,9 @@
 
 namespace hazmap::pipeline_detail {
 
-BackEnd::BackEnd(const SlamConfig& config, SlamResult& result, const std::vector<Eigen::Isometry3d>& tracked)
-    : config_(config), result_(result), tracked_(tracked),
+BackEnd::BackEnd(const SlamConfig& config, SlamResult& result, const FrameRecordStore& records,
+                 const std::vector<Eigen::Isometry3d>& tracked)
+    : config_(config), result_(result), records_(records), tracked_(tracked),
       schedule_(config.loop_search_every, config.loop_pause_after_accept), anchors_(config) {}
 
 void BackEnd::start(const ClassTable& classes, ScanSource& source, std::mutex* source_lock) {
@@ -27,7 +28,7 @@ void BackEnd::start(const ClassTable& classes, ScanSource& source, std::mutex* s
       if (source_lock) lock = std::unique_lock<std::mutex>(*source_lock);
       LabeledCloud cloud = source.reread(f);
       if (lock) lock.unlock();
-      redoDeskew(cloud, result_.frames.at(f));
+      redoDeskew(cloud, records_.read(f));
       return cloud;
     });
   } else {
@@ -54,15 +55,15 @@ void BackEnd::addGravityPrior(const std::optional<GravitySample>& gravity) {
   double sigma = config_.graph.gravity_sigma_deg > 0.0 ? config_.graph.gravity_sigma_deg * M_PI / 180.0
                                                       : gravity->sigmaRad();
   if (config_.odometry.mode == OdometryMode::FrameToMap) sigma *= kGravitySigmaScaleFrameToMap;
-  result_.graph.addGravityPrior(static_cast<int>(result_.frames.size() - 1), gravity->down, sigma);
+  result_.graph.addGravityPrior(static_cast<int>(records_.size() - 1), gravity->down, sigma);
 }
 
 void BackEnd::closeLoops(LabeledCloud cloud) {
   const auto t_loop = Clock::now();
-  keyframe_frames_.push_back(result_.frames.size() - 1);
+  keyframe_frames_.push_back(records_.size() - 1);
   if (spill_) spill_->store(keyframe_frames_.back(), cloud);
   const std::size_t k = loops_->addKeyframe(std::move(cloud));
-  if (const auto anchor = anchors_.anchorNewest(keyframe_frames_, tracked_, result_.frames, result_.graph))
+  if (const auto anchor = anchors_.anchorNewest(keyframe_frames_, tracked_, records_.back(), result_.graph))
     result_.anchors.push_back(*anchor);
   if (!schedule_.searches(k)) return void(result_.timings.loop_s += secondsSince(t_loop));
   ++result_.keyframes_searched;

@@ -15,6 +15,7 @@
 #include "hazmap/pipeline/slam.hpp"
 #include "hazmap/sources/scan_source.hpp"
 #include "hazmap/io/keyframe_spill.hpp"
+#include "pipeline/frame_record_store.hpp"
 #include "pipeline/loop_schedule.hpp"
 #include "pipeline/map_anchors.hpp"
 
@@ -22,8 +23,10 @@ namespace hazmap::pipeline_detail {
 
 class BackEnd {
  public:
-  /// `tracked` = the tracked poses (T_world_sensor per frame), read when keyframes are anchored.
-  BackEnd(const SlamConfig& config, SlamResult& result, const std::vector<Eigen::Isometry3d>& tracked);
+  /// `tracked` = the tracked poses (T_world_sensor per frame), read when keyframes are anchored;
+  /// `records` = the run's frame records (result.frames, or the newest of them and a journal).
+  BackEnd(const SlamConfig& config, SlamResult& result, const FrameRecordStore& records,
+          const std::vector<Eigen::Isometry3d>& tracked);
 
   /// The loop detector over the run's classes; old keyframes are re-read from `source` when a
   /// loop needs them (or from copies on disk when the source cannot re-read), holding
@@ -54,6 +57,7 @@ class BackEnd {
 
   const SlamConfig& config_;
   SlamResult& result_;
+  const FrameRecordStore& records_;
   const std::vector<Eigen::Isometry3d>& tracked_;
   std::unique_ptr<LoopDetector> loops_;
   LoopSchedule schedule_;

@@ -33,6 +33,8 @@ BackEndThread::BackEndThread(const SlamConfig& config, const Eigen::Isometry3d& 
   result_.method = config.method;
   result_.graph.dimension = 3;
   graph_.start(classes, source, &source_lock);
+  // Only a save reads the old records; the tracker re-estimates at most lost_frames_max + 2 back.
+  graph_.records().journalOlderThan(2 * (static_cast<std::size_t>(config.odometry.recovery.lost_frames_max) + 2));
   thread_ = std::thread([this] { run(); });
 }
 
@@ -69,7 +71,9 @@ SlamResult BackEndThread::snapshot() {
   std::unique_lock<std::mutex> lock(m_);
   waitIdle(lock);
   rethrow();
-  return result_;  // the back end waits for a frame meanwhile: nothing writes it
+  SlamResult s = result_;  // the back end waits for a frame meanwhile: nothing writes it
+  s.frames = graph_.records().all();
+  return s;
 }
 
 SlamResult BackEndThread::finish() {
@@ -81,6 +85,7 @@ SlamResult BackEndThread::finish() {
   wake_.notify_all();
   thread_.join();
   rethrow();
+  graph_.records().restoreAll();
   graph_.finish();
   return std::move(result_);
 }
@@ -143,19 +148,19 @@ void BackEndThread::run() {
 void BackEndThread::apply(TrackedFrame& f) {
   tracked_.push_back(f.tracked_pose);
   graph_.addFrame(f.record);
-  result_.frames.push_back(std::move(f.record));
+  graph_.records().push(std::move(f.record));
   if (!f.reestimated.empty()) {
     std::vector<std::size_t> changed;
     for (FrameRecord& r : f.reestimated) {
       changed.push_back(r.index);
-      result_.frames.at(r.index) = std::move(r);
+      graph_.records().at(r.index) = std::move(r);
     }
-    chainFrom(tracked_, result_.frames, changed.front());
+    chainFrom(tracked_, graph_.records(), changed.front());
     graph_.replaceFrames(changed);
   }
   if (!f.keyframe) return;
   graph_.addGravityPrior(f.gravity);
-  if (before_loop_stage_) before_loop_stage_(result_.frames.size() - 1);
+  if (before_loop_stage_) before_loop_stage_(graph_.records().size() - 1);
   graph_.closeLoops(std::move(f.cloud));
 }
 

@@ -7,11 +7,11 @@ namespace hazmap::pipeline_detail {
 
 GraphSide::GraphSide(const SlamConfig& config, SlamResult& result, const std::vector<Eigen::Isometry3d>& tracked,
                      const Eigen::Isometry3d& start)
-    : config_(config), result_(result), tracked_(tracked), start_(start) {}
+    : config_(config), result_(result), records_(result.frames), tracked_(tracked), start_(start) {}
 
 void GraphSide::start(const ClassTable& classes, ScanSource& source, std::mutex* source_lock) {
   if (!usesPoseGraph(config_.method)) return;
-  back_end_.emplace(config_, result_, tracked_);
+  back_end_.emplace(config_, result_, records_, tracked_);
   back_end_->start(classes, source, source_lock);
 }
 
@@ -35,7 +35,7 @@ void GraphSide::addFrame(const FrameRecord& rec) {
 void GraphSide::replaceFrames(const std::vector<std::size_t>& changed) {
   if (changed.empty()) return;
   for (std::size_t k : changed) {
-    const FrameRecord& rec = result_.frames[k];
+    const FrameRecord& rec = records_.at(k);
     const EdgeNoise noise = odometryEdgeNoise(rec, config_);
     if (back_end_) back_end_->replaceStep(k, noise.covariance);
     for (PoseGraphEdge& e : result_.graph.edges)
@@ -44,7 +44,7 @@ void GraphSide::replaceFrames(const std::vector<std::size_t>& changed) {
         e.information = noise.information;
       }
   }
-  chainFrom(result_.graph.poses, result_.frames, changed.front());
+  chainFrom(result_.graph.poses, records_, changed.front());
 }
 
 void GraphSide::addGravityPrior(const std::optional<GravitySample>& gravity) {
@@ -59,9 +59,9 @@ void GraphSide::finish() {
   if (back_end_) back_end_->finish();
 }
 
-void chainFrom(std::vector<Eigen::Isometry3d>& poses, const std::vector<FrameRecord>& frames, std::size_t first) {
-  for (std::size_t k = std::max<std::size_t>(first, 1); k < poses.size() && k < frames.size(); ++k)
-    poses[k] = normalized(poses[k - 1] * frames[k].T_prev_curr);
+void chainFrom(std::vector<Eigen::Isometry3d>& poses, const FrameRecordStore& records, std::size_t first) {
+  for (std::size_t k = std::max<std::size_t>(first, 1); k < poses.size() && k < records.size(); ++k)
+    poses[k] = normalized(poses[k - 1] * records.at(k).T_prev_curr);
 }
 
 }  // namespace hazmap::pipeline_detail

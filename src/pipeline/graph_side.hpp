@@ -13,6 +13,7 @@
 #include "hazmap/io/gravity.hpp"
 #include "hazmap/pipeline/slam.hpp"
 #include "pipeline/back_end.hpp"
+#include "pipeline/frame_record_store.hpp"
 
 namespace hazmap::pipeline_detail {
 
@@ -38,16 +39,20 @@ class GraphSide {
   /// The newest keyframe's loop stage: anchor edge, loop search and verification, optimisation.
   void closeLoops(LabeledCloud cloud);
   void finish();
+  /// The records the graph's side reads: a view of result.frames unless journalled.
+  FrameRecordStore& records() { return records_; }
 
  private:
   const SlamConfig& config_;
   SlamResult& result_;
+  FrameRecordStore records_;
   const std::vector<Eigen::Isometry3d>& tracked_;
   Eigen::Isometry3d start_;
   std::optional<BackEnd> back_end_;
 };
 
-/// poses[k] = poses[k - 1] · frames[k].T_prev_curr for k from `first` on (the chain of increments).
-void chainFrom(std::vector<Eigen::Isometry3d>& poses, const std::vector<FrameRecord>& frames, std::size_t first);
+/// poses[k] = poses[k - 1] · record k's T_prev_curr for k from `first` on (the chain of increments;
+/// records from `first` on must be in the store's list).
+void chainFrom(std::vector<Eigen::Isometry3d>& poses, const FrameRecordStore& records, std::size_t first);
 
 }  // namespace hazmap::pipeline_detail

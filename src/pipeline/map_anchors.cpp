@@ -22,7 +22,7 @@ void MapAnchors::addStep(const FrameRecord& rec, const Matrix6d& edge_covariance
 // docs/pose_graph.md).
 std::optional<std::pair<std::size_t, std::size_t>> MapAnchors::anchorNewest(const std::vector<std::size_t>& keyframe_frames,
                                                                            const std::vector<Eigen::Isometry3d>& tracked,
-                                                                           const std::vector<FrameRecord>& frames,
+                                                                           const FrameRecord& newest,
                                                                            PoseGraph& graph) {
   if (config_.odometry.mode != OdometryMode::FrameToMap || config_.anchor_radius <= 0.0) return std::nullopt;
   const std::size_t n = keyframe_frames.size(), gap = config_.loop_closure.candidates.min_index_gap;
@@ -34,7 +34,7 @@ std::optional<std::pair<std::size_t, std::size_t>> MapAnchors::anchorNewest(cons
     if (d <= best_d) best_d = d, best = keyframe_frames[k];
   }
   if (!best) return std::nullopt;
-  Matrix6d own = registrationEdgeCovariance(frames[j], config_);
+  Matrix6d own = registrationEdgeCovariance(newest, config_);
   const double t = config_.anchor_sigma_translation, r = config_.anchor_sigma_rotation;
   own.diagonal() += translationRotationDiagonal(t * t, r * r);
   const Anchor a{*best, j, own, chainCovariance(graph.poses, guess_steps_, *best, j)};

@@ -22,11 +22,11 @@ class MapAnchors {
   /// The next frame's step: the share of its increment no registration vouched for (its whole
   /// edge covariance when it fell back; zero for the first frame).
   void addStep(const FrameRecord& rec, const Matrix6d& edge_covariance);
-  /// The anchor edge of the newest keyframe into `graph`, if an older keyframe is near enough;
-  /// returns its (from, to) frames.
+  /// The anchor edge of the newest keyframe (the newest frame, `newest` its record) into `graph`,
+  /// if an older keyframe is near enough; returns its (from, to) frames.
   std::optional<std::pair<std::size_t, std::size_t>> anchorNewest(const std::vector<std::size_t>& keyframe_frames,
                                                                   const std::vector<Eigen::Isometry3d>& tracked,
-                                                                  const std::vector<FrameRecord>& frames, PoseGraph& graph);
+                                                                  const FrameRecord& newest, PoseGraph& graph);
   /// The anchors' information with the shared drift counted once (before every optimisation).
   void refreshInformation(PoseGraph& graph) const;
 

@@ -1,0 +1,172 @@
+#include "pipeline/frame_record_store.hpp"
+
+#include <algorithm>
+#include <cerrno>
+#include <cstring>
+#include <string>
+
+#include "hazmap/core/error.hpp"
+
+namespace hazmap::pipeline_detail {
+
+namespace {
+
+constexpr const char* kWhere = "frame record journal";
+
+// A record as bytes: every field, doubles as they are (the journal is this process's own, read back
+// by the same binary), the reason as its length and characters.
+class Writer {
+ public:
+  template <typename T>
+  void put(const T& v) {
+    const auto* p = reinterpret_cast<const char*>(&v);
+    bytes_.insert(bytes_.end(), p, p + sizeof(T));
+  }
+  void putDoubles(const double* d, std::size_t n) {
+    const auto* p = reinterpret_cast<const char*>(d);
+    bytes_.insert(bytes_.end(), p, p + n * sizeof(double));
+  }
+  const std::vector<char>& bytes() const { return bytes_; }
+
+ private:
+  std::vector<char> bytes_;
+};
+
+class Reader {
+ public:
+  explicit Reader(const std::vector<char>& bytes) : bytes_(bytes) {}
+  template <typename T>
+  T get() {
+    T v;
+    take(&v, sizeof(T));
+    return v;
+  }
+  void getDoubles(double* d, std::size_t n) { take(d, n * sizeof(double)); }
+  std::string getString(std::size_t n) {
+    std::string s(n, '\0');
+    take(s.data(), n);
+    return s;
+  }
+
+ private:
+  void take(void* out, std::size_t n) {
+    if (at_ + n > bytes_.size()) fail(kWhere, "a record is cut short");
+    std::memcpy(out, bytes_.data() + at_, n);
+    at_ += n;
+  }
+  const std::vector<char>& bytes_;
+  std::size_t at_ = 0;
+};
+
+std::vector<char> encode(const FrameRecord& r) {
+  Writer w;
+  w.put(static_cast<std::uint64_t>(r.index));
+  w.put(r.stamp);
+  w.putDoubles(r.T_prev_curr.matrix().data(), 16);
+  w.putDoubles(r.covariance.data(), 36);
+  w.put(static_cast<std::uint8_t>(r.icp_used));
+  w.put(static_cast<std::int32_t>(r.status));
+  w.put(static_cast<std::uint64_t>(r.fallback_reason.size()));
+  for (char c : r.fallback_reason) w.put(c);
+  w.put(r.fitness);
+  w.put(r.rmse);
+  w.put(static_cast<std::int32_t>(r.iterations));
+  w.put(static_cast<std::uint8_t>(r.stalled));
+  w.put(r.milliseconds);
+  w.put(static_cast<std::uint64_t>(r.points));
+  w.put(static_cast<std::uint8_t>(r.deskew_velocity.has_value()));
+  if (r.deskew_velocity) w.putDoubles(r.deskew_velocity->data(), 6);
+  w.putDoubles(r.guess_covariance.data(), 36);
+  return w.bytes();
+}
+
+FrameRecord decode(const std::vector<char>& bytes) {
+  Reader in(bytes);
+  FrameRecord r;
+  r.index = static_cast<std::size_t>(in.get<std::uint64_t>());
+  r.stamp = in.get<double>();
+  in.getDoubles(r.T_prev_curr.matrix().data(), 16);
+  in.getDoubles(r.covariance.data(), 36);
+  r.icp_used = in.get<std::uint8_t>() != 0;
+  r.status = static_cast<FrameStatus>(in.get<std::int32_t>());
+  r.fallback_reason = in.getString(static_cast<std::size_t>(in.get<std::uint64_t>()));
+  r.fitness = in.get<double>();
+  r.rmse = in.get<double>();
+  r.iterations = in.get<std::int32_t>();
+  r.stalled = in.get<std::uint8_t>() != 0;
+  r.milliseconds = in.get<double>();
+  r.points = static_cast<std::size_t>(in.get<std::uint64_t>());
+  if (in.get<std::uint8_t>() != 0) {
+    Vector6d v;
+    in.getDoubles(v.data(), 6);
+    r.deskew_velocity = v;
+  }
+  in.getDoubles(r.guess_covariance.data(), 36);
+  return r;
+}
+
+std::string lastError() { return std::strerror(errno); }
+
+}  // namespace
+
+void FrameRecordStore::journalOlderThan(std::size_t keep) {
+  keep_ = std::max<std::size_t>(keep, 1);
+  if (!journal_) {
+    journal_.reset(std::tmpfile());
+    if (!journal_) fail(kWhere, "cannot create a temporary file: " + lastError());
+  }
+  if (frames_.size() > keep_) journalFront(frames_.size() - keep_);
+}
+
+void FrameRecordStore::push(FrameRecord record) {
+  frames_.push_back(std::move(record));
+  if (keep_ > 0 && frames_.size() > keep_) journalFront(frames_.size() - keep_);
+}
+
+void FrameRecordStore::journalFront(std::size_t count) {
+  std::FILE* f = journal_.get();
+  if (std::fseek(f, 0, SEEK_END) != 0) fail(kWhere, "cannot seek: " + lastError());
+  for (std::size_t k = 0; k < count; ++k) {
+    const std::vector<char> bytes = encode(frames_[k]);
+    const std::uint64_t n = bytes.size();
+    if (std::fwrite(&n, sizeof n, 1, f) != 1 || std::fwrite(bytes.data(), 1, bytes.size(), f) != bytes.size())
+      fail(kWhere, "cannot write: " + lastError());
+    offsets_.push_back(end_);
+    end_ += sizeof n + n;
+  }
+  if (std::fflush(f) != 0) fail(kWhere, "cannot write: " + lastError());
+  frames_.erase(frames_.begin(), frames_.begin() + static_cast<std::ptrdiff_t>(count));
+  first_ += count;
+}
+
+FrameRecord FrameRecordStore::read(std::size_t k) const {
+  if (k >= first_) return frames_.at(k - first_);
+  std::FILE* f = journal_.get();
+  std::uint64_t n = 0;
+  if (fseeko(f, static_cast<off_t>(offsets_[k]), SEEK_SET) != 0 || std::fread(&n, sizeof n, 1, f) != 1)
+    fail(kWhere, "cannot read record " + std::to_string(k) + ": " + lastError());
+  std::vector<char> bytes(n);
+  if (std::fread(bytes.data(), 1, bytes.size(), f) != bytes.size())
+    fail(kWhere, "record " + std::to_string(k) + " is cut short");
+  return decode(bytes);
+}
+
+std::vector<FrameRecord> FrameRecordStore::all() const {
+  std::vector<FrameRecord> out;
+  out.reserve(size());
+  for (std::size_t k = 0; k < first_; ++k) out.push_back(read(k));
+  out.insert(out.end(), frames_.begin(), frames_.end());
+  return out;
+}
+
+void FrameRecordStore::restoreAll() {
+  if (first_ == 0) return;
+  frames_ = all();
+  first_ = 0;
+  offsets_.clear();
+  end_ = 0;
+  keep_ = 0;
+  journal_.reset();
+}
+
+}  // namespace hazmap::pipeline_detail
