@@ -19,6 +19,7 @@
 #include <unistd.h>
 
 #include "hazmap/core/error.hpp"
+#include "hazmap/core/memory.hpp"
 #include "hazmap/io/atomic_file.hpp"
 #include "hazmap/io/trajectory.hpp"
 #include "hazmap/pipeline/frame_latency.hpp"
@@ -93,6 +94,9 @@ nlohmann::json liveJson(const LiveScanSource& source, LiveSensor sensor, const s
 }
 
 constexpr const char* kLabelSpool = "live_labels.bin";
+// How often the pipeline's thread gives free memory back (releaseFreedMemory): a trim takes
+// milliseconds and the next frame faults its scratch pages in again, so not every frame.
+constexpr std::chrono::seconds kReleaseFreedMemoryEvery{30};
 
 /// POST /save from the browser: answered once a save whose snapshot the pipeline took after the
 /// request (between two frames: a snapshot needs the pipeline's thread) is written, or after
@@ -303,7 +307,9 @@ void runLiveSession(const LiveOptions& o, const ParameterOptions& params,
     } catch (const std::exception& e) {
       std::cerr << "notice: save failed: " << e.what() << "\n";
     }
+    releaseFreedMemory();  // the save's map, freed in the middle of the heap
   });
+  auto last_release = std::chrono::steady_clock::now();
   SlamSnapshots hooks;
   hooks.due = [&] {
     if (saver.busy()) return false;
@@ -319,6 +325,12 @@ void runLiveSession(const LiveOptions& o, const ParameterOptions& params,
     if (const double newest = newestPointTime(e.scan); newest > 0) latency = realtimeNow() - newest;
     if (latency) s.latency.add(*latency);
     if (s.view) s.view->onFrame(e, latency);
+    // A long mission's resident memory follows what is in use (core/memory.hpp); the cost, one
+    // frame's page faults again, is paid once per interval.
+    if (std::chrono::steady_clock::now() - last_release >= kReleaseFreedMemoryEvery) {
+      releaseFreedMemory();
+      last_release = std::chrono::steady_clock::now();
+    }
   };
   SlamResult result = runSlam(s.scans(), s.config, {}, hooks);
   saver.finish();  // one writer of the run folder at a time

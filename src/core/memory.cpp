@@ -20,4 +20,13 @@ bool retainFreedMemory() {
 #endif
 }
 
+bool releaseFreedMemory() {
+#if defined(__GLIBC__) && !defined(__SANITIZE_ADDRESS__)
+  malloc_trim(0);
+  return true;
+#else
+  return false;
+#endif
+}
+
 }  // namespace hazmap
