@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <cstdlib>
 #include <cstring>
 #include <chrono>
 #include <condition_variable>
@@ -164,6 +165,21 @@ TEST(FrameRecordStore, JournalsOldRecordsAndReadsThemBackBitForBit) {
   for (std::size_t i = 0; i < made.size(); ++i) expectSameRecord(list[i], made[i]);
   store.push(made[1]);  // no journal any more
   EXPECT_EQ(list.size(), made.size() + 1);
+}
+
+// The journal lives in the temporary folder: one that does not exist is a one-line error.
+TEST(FrameRecordStore, AMissingTemporaryFolderIsAnError) {
+  const char* before = std::getenv("TMPDIR");
+  const std::string saved = before ? before : "";
+  ::setenv("TMPDIR", "/nonexistent/hazmap-test", 1);
+  std::vector<FrameRecord> list(2);
+  pipeline_detail::FrameRecordStore store(list);
+  EXPECT_THROW(store.journalOlderThan(1), Error);
+  if (before) ::setenv("TMPDIR", saved.c_str(), 1);
+  else ::unsetenv("TMPDIR");
+  store.push(FrameRecord{});  // still a plain list
+  EXPECT_EQ(list.size(), 3u);
+  EXPECT_EQ(store.size(), 3u);
 }
 
 // Tracking never waits for a loop stage: the first keyframe's loop stage is held until the stream

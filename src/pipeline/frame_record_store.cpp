@@ -1,8 +1,11 @@
 #include "pipeline/frame_record_store.hpp"
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <cerrno>
 #include <cstring>
+#include <filesystem>
 #include <string>
 
 #include "hazmap/core/error.hpp"
@@ -107,14 +110,30 @@ FrameRecord decode(const std::vector<char>& bytes) {
 
 std::string lastError() { return std::strerror(errno); }
 
+// In the system's temporary folder (TMPDIR), as the keyframe spill's, unlinked at once: the file
+// goes with the process however it ends.
+std::FILE* openJournal() {
+  std::error_code ec;
+  const std::filesystem::path base = std::filesystem::temp_directory_path(ec);
+  if (ec) fail(kWhere, "no temporary folder: " + ec.message());
+  std::string path = (base / "hazmap-records-XXXXXX").string();
+  const int fd = ::mkstemp(path.data());
+  if (fd < 0) fail(path, "cannot create the frame record journal: " + lastError());
+  ::unlink(path.c_str());
+  std::FILE* f = ::fdopen(fd, "w+b");
+  if (!f) {
+    const std::string why = lastError();
+    ::close(fd);
+    fail(path, "cannot open the frame record journal: " + why);
+  }
+  return f;
+}
+
 }  // namespace
 
 void FrameRecordStore::journalOlderThan(std::size_t keep) {
+  if (!journal_) journal_.reset(openJournal());  // first: a store whose journal failed stays as it was
   keep_ = std::max<std::size_t>(keep, 1);
-  if (!journal_) {
-    journal_.reset(std::tmpfile());
-    if (!journal_) fail(kWhere, "cannot create a temporary file: " + lastError());
-  }
   if (frames_.size() > keep_) journalFront(frames_.size() - keep_);
 }
 

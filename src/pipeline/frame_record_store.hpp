@@ -17,7 +17,7 @@ class FrameRecordStore {
   explicit FrameRecordStore(std::vector<FrameRecord>& frames) : frames_(frames) {}
 
   /// From now on only the newest `keep` records (at least one) stay in the list; the older ones go
-  /// to an unnamed temporary file, removed with the store.
+  /// to a file in the temporary folder (TMPDIR), unlinked at once.
   void journalOlderThan(std::size_t keep);
   std::size_t size() const { return first_ + frames_.size(); }
   void push(FrameRecord record);
