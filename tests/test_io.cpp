@@ -1,7 +1,10 @@
 // io: the real shared data loads with known counts and values; every format round-trips.
 #include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <cmath>
+#include <cstdlib>
 #include <fstream>
 #include <limits>
 #include <random>
@@ -10,6 +13,7 @@
 #include "hazmap/core/se3.hpp"
 #include "hazmap/io/atomic_file.hpp"
 #include "hazmap/io/cloud_file.hpp"
+#include "hazmap/io/keyframe_spill.hpp"
 #include "hazmap/io/kitti.hpp"
 #include "hazmap/io/pcd.hpp"
 #include "hazmap/io/ply.hpp"
@@ -197,6 +201,44 @@ TEST(IoRoundTrip, KittiBinAndLabels) {
   LabeledCloud plain = readKittiBin(dir / "a.bin");
   writeCloud(dir / "b.bin", plain);
   EXPECT_FALSE(fs::exists(dir / "b.label"));
+}
+
+// Keyframe clouds on disk: each back bit for bit, the folder gone with the store; folders left by
+// processes that ended without removing theirs (kill -9) go when the next store starts, those of
+// a live process (and ones not named by a process) stay.
+TEST(KeyframeSpill, RoundTripAndStaleFoldersOfDeadProcessesGo) {
+  const auto dir = test::scratchDir();
+  const char* before = std::getenv("TMPDIR");
+  const std::string saved = before ? before : "";
+  ::setenv("TMPDIR", dir.c_str(), 1);
+  const pid_t child = ::fork();
+  if (child == 0) ::_exit(0);
+  ::waitpid(child, nullptr, 0);  // its id is now a process that does not exist
+  const fs::path stale = dir / ("hazmap-keyframes-" + std::to_string(child) + "-42");
+  const fs::path alive = dir / ("hazmap-keyframes-" + std::to_string(::getppid()) + "-7");
+  const fs::path foreign = dir / "hazmap-keyframes-123456";
+  for (const auto& d : {stale, alive, foreign}) {
+    fs::create_directories(d);
+    std::ofstream(d / "0.pcd") << "x";
+  }
+  const LabeledCloud cloud = richCloud(300);
+  {
+    KeyframeSpill spill;
+    EXPECT_FALSE(fs::exists(stale));
+    EXPECT_TRUE(fs::exists(alive));
+    EXPECT_TRUE(fs::exists(foreign));
+    spill.store(7, cloud);
+    const LabeledCloud back = spill.load(7, ClassTable::defaults());
+    EXPECT_EQ(back.points, cloud.points);
+    EXPECT_EQ(back.classes, cloud.classes);
+    EXPECT_EQ(back.intensity, cloud.intensity);
+  }
+  std::size_t ours = 0;
+  for (const auto& e : fs::directory_iterator(dir))
+    ours += e.path().filename().string().starts_with("hazmap-keyframes-" + std::to_string(::getpid()) + "-");
+  EXPECT_EQ(ours, 0u);  // removed with the store
+  if (before) ::setenv("TMPDIR", saved.c_str(), 1);
+  else ::unsetenv("TMPDIR");
 }
 
 TEST(IoRoundTrip, PcdAllEncodingsKeepEveryChannel) {

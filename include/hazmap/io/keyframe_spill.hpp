@@ -12,7 +12,8 @@ namespace hazmap {
 
 class KeyframeSpill {
  public:
-  /// A fresh folder under the system's temporary folder, removed with the object.
+  /// A fresh folder under the system's temporary folder (TMPDIR), removed with the object; the
+  /// folders left by processes that ended without removing theirs are removed first.
   KeyframeSpill();
   ~KeyframeSpill();
   KeyframeSpill(const KeyframeSpill&) = delete;
@@ -26,5 +27,9 @@ class KeyframeSpill {
   std::filesystem::path fileOf(std::size_t frame) const;
   std::filesystem::path dir_;
 };
+
+/// Removes the keyframe folders under `base` whose process no longer exists (a kill -9, a power
+/// cut); KeyframeSpill's constructor calls it.
+void removeStaleKeyframeSpills(const std::filesystem::path& base);
 
 }  // namespace hazmap
