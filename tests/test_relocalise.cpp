@@ -377,6 +377,17 @@ TEST(WorstDay, AFrameAfterAFlaggedOneFarFromItsGuessIsFlagged) {
   EXPECT_EQ(s.silently_wrong, 0u);
 }
 
+// The wheel increment into frame i of the lost-frame scenario below: the true one, but frame 8's
+// turned 30 deg (nothing verifies it: the frame falls back to it) and frame 9's from wherever
+// `odo` placed frame 8 (the encoders catch up: its guess is right in the world).
+std::optional<Eigen::Isometry3d> lostFrameWheelIncrement(const sim::Simulator& sim, std::size_t i, const Odometry& odo) {
+  const auto& truth = sim.groundTruth();
+  if (i == 0) return std::nullopt;
+  if (i == 8) return truth[7].inverse() * truth[8] * Eigen::AngleAxisd(30 * kDeg, Eigen::Vector3d::UnitZ());
+  if (i == 9) return odo.history().pose(8).inverse() * truth[9];
+  return truth[i - 1].inverse() * truth[i];
+}
+
 // A lost frame is made good once tracking recovers: frame 8 of naraha gets a wheel increment 30 deg
 // off and no recovery (relocalise off), so it falls back to that guess; frame 9's encoders catch up
 // (its guess is right in the world). With reestimate_lost_frames frame 8's scan waited outside the
@@ -391,13 +402,8 @@ TEST(LostFrames, AreReestimatedOnceTrackingRecovers) {
     c.recovery.relocalise = false;
     c.recovery.reestimate_lost_frames = reestimate;
     Odometry odo(sim.classTable(), c);
-    const auto& truth = sim.groundTruth();
     for (std::size_t i = 0; i < sim.frames(); ++i) {
-      std::optional<Eigen::Isometry3d> inc;
-      if (i > 0) inc = truth[i - 1].inverse() * truth[i];
-      if (i == 8) *inc = *inc * Eigen::AngleAxisd(30 * kDeg, Eigen::Vector3d::UnitZ());
-      if (i == 9) inc = odo.frames()[8].pose.inverse() * truth[9];  // the encoders catch up
-      const OdometryFrame& f = odo.addFrame(sim.scan(i), inc);
+      const OdometryFrame& f = odo.addFrame(sim.scan(i), lostFrameWheelIncrement(sim, i, odo));
       if (i == 8) EXPECT_EQ(f.status, FrameStatus::Fallback) << f.reason;
     }
     return odo.frames();
@@ -428,12 +434,8 @@ TEST(LostFrames, KeepingOnlyTheNewestFramesTracksTheSame) {
   c.recovery.relocalise = false;
   Odometry all(sim.classTable(), c), newest(sim.classTable(), c);
   newest.keepNewestFrames(0);
-  const auto& truth = sim.groundTruth();
   for (std::size_t i = 0; i < sim.frames(); ++i) {
-    std::optional<Eigen::Isometry3d> inc;
-    if (i > 0) inc = truth[i - 1].inverse() * truth[i];
-    if (i == 8) *inc = *inc * Eigen::AngleAxisd(30 * kDeg, Eigen::Vector3d::UnitZ());
-    if (i == 9) inc = all.frames()[8].pose.inverse() * truth[9];
+    const std::optional<Eigen::Isometry3d> inc = lostFrameWheelIncrement(sim, i, all);
     all.addFrame(sim.scan(i), inc);
     newest.addFrame(sim.scan(i), inc);
   }
