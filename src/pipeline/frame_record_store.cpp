@@ -9,6 +9,7 @@
 #include <string>
 
 #include "hazmap/core/error.hpp"
+#include "sources/byte_cursor.hpp"
 
 namespace hazmap::pipeline_detail {
 
@@ -22,46 +23,24 @@ class Writer {
  public:
   template <typename T>
   void put(const T& v) {
-    const auto* p = reinterpret_cast<const char*>(&v);
+    const auto* p = reinterpret_cast<const std::uint8_t*>(&v);
     bytes_.insert(bytes_.end(), p, p + sizeof(T));
   }
   void putDoubles(const double* d, std::size_t n) {
-    const auto* p = reinterpret_cast<const char*>(d);
+    const auto* p = reinterpret_cast<const std::uint8_t*>(d);
     bytes_.insert(bytes_.end(), p, p + n * sizeof(double));
   }
-  const std::vector<char>& bytes() const { return bytes_; }
+  const std::vector<std::uint8_t>& bytes() const { return bytes_; }
 
  private:
-  std::vector<char> bytes_;
+  std::vector<std::uint8_t> bytes_;
 };
 
-class Reader {
- public:
-  explicit Reader(const std::vector<char>& bytes) : bytes_(bytes) {}
-  template <typename T>
-  T get() {
-    T v;
-    take(&v, sizeof(T));
-    return v;
-  }
-  void getDoubles(double* d, std::size_t n) { take(d, n * sizeof(double)); }
-  std::string getString(std::size_t n) {
-    std::string s(n, '\0');
-    take(s.data(), n);
-    return s;
-  }
+void readDoubles(sources::ByteCursor& in, double* d, std::size_t n) {
+  for (std::size_t i = 0; i < n; ++i) d[i] = in.read<double>();
+}
 
- private:
-  void take(void* out, std::size_t n) {
-    if (at_ + n > bytes_.size()) fail(kWhere, "a record is cut short");
-    std::memcpy(out, bytes_.data() + at_, n);
-    at_ += n;
-  }
-  const std::vector<char>& bytes_;
-  std::size_t at_ = 0;
-};
-
-std::vector<char> encode(const FrameRecord& r) {
+std::vector<std::uint8_t> encode(const FrameRecord& r) {
   Writer w;
   w.put(static_cast<std::uint64_t>(r.index));
   w.put(r.stamp);
@@ -83,28 +62,28 @@ std::vector<char> encode(const FrameRecord& r) {
   return w.bytes();
 }
 
-FrameRecord decode(const std::vector<char>& bytes) {
-  Reader in(bytes);
+FrameRecord decode(sources::ByteCursor& in) {
   FrameRecord r;
-  r.index = static_cast<std::size_t>(in.get<std::uint64_t>());
-  r.stamp = in.get<double>();
-  in.getDoubles(r.T_prev_curr.matrix().data(), 16);
-  in.getDoubles(r.covariance.data(), 36);
-  r.icp_used = in.get<std::uint8_t>() != 0;
-  r.status = static_cast<FrameStatus>(in.get<std::int32_t>());
-  r.fallback_reason = in.getString(static_cast<std::size_t>(in.get<std::uint64_t>()));
-  r.fitness = in.get<double>();
-  r.rmse = in.get<double>();
-  r.iterations = in.get<std::int32_t>();
-  r.stalled = in.get<std::uint8_t>() != 0;
-  r.milliseconds = in.get<double>();
-  r.points = static_cast<std::size_t>(in.get<std::uint64_t>());
-  if (in.get<std::uint8_t>() != 0) {
+  r.index = static_cast<std::size_t>(in.read<std::uint64_t>());
+  r.stamp = in.read<double>();
+  readDoubles(in, r.T_prev_curr.matrix().data(), 16);
+  readDoubles(in, r.covariance.data(), 36);
+  r.icp_used = in.read<std::uint8_t>() != 0;
+  r.status = static_cast<FrameStatus>(in.read<std::int32_t>());
+  const auto reason = in.bytes(in.read<std::uint64_t>(), "reason");
+  r.fallback_reason.assign(reinterpret_cast<const char*>(reason.data()), reason.size());
+  r.fitness = in.read<double>();
+  r.rmse = in.read<double>();
+  r.iterations = in.read<std::int32_t>();
+  r.stalled = in.read<std::uint8_t>() != 0;
+  r.milliseconds = in.read<double>();
+  r.points = static_cast<std::size_t>(in.read<std::uint64_t>());
+  if (in.read<std::uint8_t>() != 0) {
     Vector6d v;
-    in.getDoubles(v.data(), 6);
+    readDoubles(in, v.data(), 6);
     r.deskew_velocity = v;
   }
-  in.getDoubles(r.guess_covariance.data(), 36);
+  readDoubles(in, r.guess_covariance.data(), 36);
   return r;
 }
 
@@ -146,7 +125,7 @@ void FrameRecordStore::journalFront(std::size_t count) {
   std::FILE* f = journal_.get();
   if (std::fseek(f, 0, SEEK_END) != 0) fail(kWhere, "cannot seek: " + lastError());
   for (std::size_t k = 0; k < count; ++k) {
-    const std::vector<char> bytes = encode(frames_[k]);
+    const std::vector<std::uint8_t> bytes = encode(frames_[k]);
     const std::uint64_t n = bytes.size();
     if (std::fwrite(&n, sizeof n, 1, f) != 1 || std::fwrite(bytes.data(), 1, bytes.size(), f) != bytes.size())
       fail(kWhere, "cannot write: " + lastError());
@@ -164,10 +143,11 @@ FrameRecord FrameRecordStore::read(std::size_t k) const {
   std::uint64_t n = 0;
   if (fseeko(f, static_cast<off_t>(offsets_[k]), SEEK_SET) != 0 || std::fread(&n, sizeof n, 1, f) != 1)
     fail(kWhere, "cannot read record " + std::to_string(k) + ": " + lastError());
-  std::vector<char> bytes(n);
+  std::vector<std::uint8_t> bytes(n);
   if (std::fread(bytes.data(), 1, bytes.size(), f) != bytes.size())
     fail(kWhere, "record " + std::to_string(k) + " is cut short");
-  return decode(bytes);
+  sources::ByteCursor in(bytes, std::string(kWhere) + " record " + std::to_string(k));
+  return decode(in);
 }
 
 std::vector<FrameRecord> FrameRecordStore::all() const {
