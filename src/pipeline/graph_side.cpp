@@ -60,8 +60,7 @@ void GraphSide::finish() {
 }
 
 void chainFrom(std::vector<Eigen::Isometry3d>& poses, const FrameRecordStore& records, std::size_t first) {
-  for (std::size_t k = std::max<std::size_t>(first, 1); k < poses.size() && k < records.size(); ++k)
-    poses[k] = normalized(poses[k - 1] * records.at(k).T_prev_curr);
+  chainFrom(poses, first, records.size(), [&](std::size_t k) -> const Eigen::Isometry3d& { return records.at(k).T_prev_curr; });
 }
 
 }  // namespace hazmap::pipeline_detail

@@ -6,10 +6,12 @@
 // (SlamConfig::back_end): on the tracker's thread (offline, `hazmap run`), or on the
 // back end's own thread with copies of the records (back_end_thread.hpp), so both build the same
 // graph from the same sequence of calls.
+#include <algorithm>
 #include <mutex>
 #include <optional>
 #include <vector>
 
+#include "hazmap/core/se3.hpp"
 #include "hazmap/io/gravity.hpp"
 #include "hazmap/pipeline/slam.hpp"
 #include "pipeline/back_end.hpp"
@@ -51,8 +53,14 @@ class GraphSide {
   std::optional<BackEnd> back_end_;
 };
 
-/// poses[k] = poses[k - 1] · record k's T_prev_curr for k from `first` on (the chain of increments;
-/// records from `first` on must be in the store's list).
+/// poses[k] = poses[k - 1] · increment(k) for k from `first` on, below `frames` (the chain of
+/// increments).
+template <class IncrementOf>
+void chainFrom(std::vector<Eigen::Isometry3d>& poses, std::size_t first, std::size_t frames, IncrementOf increment) {
+  for (std::size_t k = std::max<std::size_t>(first, 1); k < poses.size() && k < frames; ++k)
+    poses[k] = normalized(poses[k - 1] * increment(k));
+}
+/// The same with the records' T_prev_curr (records from `first` on must be in the store's list).
 void chainFrom(std::vector<Eigen::Isometry3d>& poses, const FrameRecordStore& records, std::size_t first);
 
 }  // namespace hazmap::pipeline_detail

@@ -269,18 +269,19 @@ class SlamRun {
 
   Trajectory trajectoryOf(const std::vector<Eigen::Isometry3d>& poses) const {
     Trajectory t;
-    for (std::size_t i = 0; i < poses.size(); ++i)
-      t.push_back(i < first_record_ ? past_records_[i].stamp : record(i).stamp, poses[i]);
+    for (std::size_t i = 0; i < poses.size(); ++i) t.push_back(stampOf(i), poses[i]);
     return t;
   }
 
   FrameRecord& record(std::size_t k) { return result_.frames.at(k - first_record_); }
   const FrameRecord& record(std::size_t k) const { return result_.frames.at(k - first_record_); }
 
-  /// poses[k] = poses[k − 1] · increment of frame k, from `first` on (graph_side.hpp chainFrom).
+  double stampOf(std::size_t k) const { return k < first_record_ ? past_records_[k].stamp : record(k).stamp; }
+  const Eigen::Isometry3d& incrementOf(std::size_t k) const {
+    return k < first_record_ ? past_records_[k].T_prev_curr : record(k).T_prev_curr;
+  }
   void chain(std::vector<Eigen::Isometry3d>& poses, std::size_t first) const {
-    for (std::size_t k = std::max<std::size_t>(first, 1); k < poses.size() && k < frames(); ++k)
-      poses[k] = normalized(poses[k - 1] * (k < first_record_ ? past_records_[k].T_prev_curr : record(k).T_prev_curr));
+    chainFrom(poses, first, frames(), [this](std::size_t k) -> const Eigen::Isometry3d& { return incrementOf(k); });
   }
 
   /// With the back end on its own thread the run's records are the copies it was sent: ours keep
