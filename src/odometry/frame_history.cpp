@@ -2,6 +2,8 @@
 
 #include <algorithm>
 
+#include "hazmap/core/retire_oldest.hpp"
+
 namespace hazmap {
 
 void FrameHistory::keepNewest(std::size_t n) {
@@ -15,11 +17,7 @@ void FrameHistory::push(OdometryFrame f) {
 }
 
 void FrameHistory::trim() {
-  if (kept_.size() <= keep_) return;
-  const auto drop = static_cast<std::ptrdiff_t>(kept_.size() - keep_);
-  for (auto f = kept_.begin(); f != kept_.begin() + drop; ++f) past_.push_back({f->stamp, f->status, f->pose});
-  kept_.erase(kept_.begin(), kept_.begin() + drop);
-  first_kept_ += static_cast<std::size_t>(drop);
+  first_kept_ += retireOldest(kept_, keep_, [&](const OdometryFrame& f) { past_.push_back({f.stamp, f.status, f.pose}); });
 }
 
 }  // namespace hazmap

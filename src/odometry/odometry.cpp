@@ -165,7 +165,7 @@ const OdometryFrame& Odometry::addFrame(const LabeledCloud& scan,
 }
 
 void Odometry::keepNewestFrames(std::size_t n) {
-  frames_.keepNewest(std::max(n, static_cast<std::size_t>(config_.recovery.lost_frames_max) + 2));
+  frames_.keepNewest(std::max(n, reestimationReach(config_.recovery)));
 }
 
 std::optional<Eigen::Matrix3d> verifiedRotation(const OdometryFrame& f) {

@@ -33,8 +33,9 @@ BackEndThread::BackEndThread(const SlamConfig& config, const Eigen::Isometry3d& 
   result_.method = config.method;
   result_.graph.dimension = 3;
   graph_.start(classes, source, &source_lock);
-  // Only a save reads the old records; the tracker re-estimates at most lost_frames_max + 2 back.
-  graph_.records().journalOlderThan(2 * (static_cast<std::size_t>(config.odometry.recovery.lost_frames_max) + 2));
+  // Only a save reads the old records; re-estimation rewrites at most reestimationReach() back
+  // (twice that kept: a margin, not a bound anything relies on).
+  graph_.records().journalOlderThan(2 * reestimationReach(config.odometry.recovery));
   thread_ = std::thread([this] { run(); });
 }
 

@@ -9,6 +9,7 @@
 #include <string>
 
 #include "hazmap/core/error.hpp"
+#include "hazmap/core/retire_oldest.hpp"
 #include "sources/byte_cursor.hpp"
 
 namespace hazmap::pipeline_detail {
@@ -113,28 +114,26 @@ std::FILE* openJournal() {
 void FrameRecordStore::journalOlderThan(std::size_t keep) {
   if (!journal_) journal_.reset(openJournal());  // first: a store whose journal failed stays as it was
   keep_ = std::max<std::size_t>(keep, 1);
-  if (frames_.size() > keep_) journalFront(frames_.size() - keep_);
+  journalBeyond(keep_);
 }
 
 void FrameRecordStore::push(FrameRecord record) {
   frames_.push_back(std::move(record));
-  if (keep_ > 0 && frames_.size() > keep_) journalFront(frames_.size() - keep_);
+  if (keep_ > 0) journalBeyond(keep_);
 }
 
-void FrameRecordStore::journalFront(std::size_t count) {
+void FrameRecordStore::journalBeyond(std::size_t keep) {
   std::FILE* f = journal_.get();
   if (std::fseek(f, 0, SEEK_END) != 0) fail(kWhere, "cannot seek: " + lastError());
-  for (std::size_t k = 0; k < count; ++k) {
-    const std::vector<std::uint8_t> bytes = encode(frames_[k]);
+  first_ += retireOldest(frames_, keep, [&](const FrameRecord& r) {
+    const std::vector<std::uint8_t> bytes = encode(r);
     const std::uint64_t n = bytes.size();
     if (std::fwrite(&n, sizeof n, 1, f) != 1 || std::fwrite(bytes.data(), 1, bytes.size(), f) != bytes.size())
       fail(kWhere, "cannot write: " + lastError());
     offsets_.push_back(end_);
     end_ += sizeof n + n;
-  }
+  });
   if (std::fflush(f) != 0) fail(kWhere, "cannot write: " + lastError());
-  frames_.erase(frames_.begin(), frames_.begin() + static_cast<std::ptrdiff_t>(count));
-  first_ += count;
 }
 
 FrameRecord FrameRecordStore::read(std::size_t k) const {

@@ -33,7 +33,7 @@ class FrameRecordStore {
   void restoreAll();
 
  private:
-  void journalFront(std::size_t count);
+  void journalBeyond(std::size_t keep);  // the records older than the newest `keep` into the journal
 
   std::vector<FrameRecord>& frames_;  // records first_ … size() − 1
   std::size_t first_ = 0;

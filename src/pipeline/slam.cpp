@@ -8,6 +8,7 @@
 #include <mutex>
 
 #include "hazmap/core/error.hpp"
+#include "hazmap/core/retire_oldest.hpp"
 #include "hazmap/core/se3.hpp"
 #include "pipeline/back_end_thread.hpp"
 #include "pipeline/clock.hpp"
@@ -204,7 +205,7 @@ class SlamRun {
         !config_.odometry.recovery.reestimate_lost_frames)
       return changed;
     const FrameHistory& tf = tracker_->history();
-    const std::size_t n = frames(), back = static_cast<std::size_t>(config_.odometry.recovery.lost_frames_max) + 2;
+    const std::size_t n = frames(), back = reestimationReach(config_.odometry.recovery);
     for (std::size_t k = n > back ? n - back : 1; k < n && k < tf.size(); ++k)
       if (takeReestimate(record(k), tf.full(k))) changed.push_back(k);
     if (changed.empty()) return changed;
@@ -288,13 +289,8 @@ class SlamRun {
   /// the newest in full (what re-estimating lost frames rewrites) and the older ones' stamp and
   /// increment (issue 33: ~0.9 kB a frame, ~30 MB an hour at 10 scans/s).
   void forgetOldRecords() {
-    const std::size_t keep = static_cast<std::size_t>(config_.odometry.recovery.lost_frames_max) + 2;
-    if (result_.frames.size() <= keep) return;
-    const auto drop = static_cast<std::ptrdiff_t>(result_.frames.size() - keep);
-    for (auto r = result_.frames.begin(); r != result_.frames.begin() + drop; ++r)
-      past_records_.push_back({r->stamp, r->T_prev_curr});
-    result_.frames.erase(result_.frames.begin(), result_.frames.begin() + drop);
-    first_record_ += static_cast<std::size_t>(drop);
+    first_record_ += retireOldest(result_.frames, reestimationReach(config_.odometry.recovery),
+                                  [&](const FrameRecord& r) { past_records_.push_back({r.stamp, r.T_prev_curr}); });
   }
 
   ScanSource& source_;

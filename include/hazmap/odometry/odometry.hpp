@@ -138,6 +138,12 @@ OdometryConfig odometryConfigFromYaml(const std::string& yaml, const std::string
 OdometryConfig loadOdometryConfig(const std::string& path,
                                   const OdometryConfig& base = OdometryConfig::defaults());
 
+/// How many frames back a verified frame's re-estimation of the lost frames before it rewrites
+/// (recovery.lost_frames_max + 2: the lost frames, the one before them and the verified one).
+inline std::size_t reestimationReach(const RecoveryConfig& recovery) {
+  return static_cast<std::size_t>(recovery.lost_frames_max) + 2;
+}
+
 /// A scan as tracking enters it into the local map (and registers it, unless source_voxel_size
 /// is coarser): cropped to [min_range, max_range], downsampled to voxel_size keeping property classes.
 LabeledCloud preprocessForTracking(const LabeledCloud& scan, const OdometryConfig& config, const ClassTable& classes);
@@ -169,7 +175,7 @@ class Odometry {
   /// Every frame's stamp, status and pose; the newest (or all) in full.
   const FrameHistory& history() const { return frames_; }
   /// A long mission's bounded memory (issue 33): from now on only the newest `n` frames are kept
-  /// in full (at least the lost frames re-estimation reads: recovery.lost_frames_max + 2).
+  /// in full (at least reestimationReach(): what re-estimating lost frames reads).
   void keepNewestFrames(std::size_t n);
   /// Whole-map keyframes kept so far, and those of them whose scans are in memory
   /// (RecoveryConfig::resident_keyframes; the others are on disk).
