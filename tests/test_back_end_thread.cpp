@@ -111,6 +111,18 @@ TEST(AsyncBackEnd, FinalAnswerEqualsTheSynchronousOne) {
   EXPECT_EQ(async.optimisations.size(), sync.optimisations.size());
   EXPECT_EQ(frames_told, sync.frames.size());
   expectSamePoses(async.estimate, sync.estimate);
+  // The same graph, bit for bit: the gate chained step covariances and the anchors read tracked
+  // poses from the back end's journals (all but the newest frames are there), as the synchronous
+  // run did from memory.
+  ASSERT_EQ(async.graph.poses.size(), sync.graph.poses.size());
+  for (std::size_t i = 0; i < sync.graph.poses.size(); ++i)
+    EXPECT_TRUE(sameBits(async.graph.poses[i].matrix().data(), sync.graph.poses[i].matrix().data(), 16)) << i;
+  for (std::size_t i = 0; i < sync.graph.edges.size() && i < async.graph.edges.size(); ++i) {
+    const PoseGraphEdge &a = async.graph.edges[i], &b = sync.graph.edges[i];
+    EXPECT_TRUE(a.from == b.from && a.to == b.to && a.kind == b.kind) << "edge " << i;
+    EXPECT_TRUE(sameBits(a.T_from_to.matrix().data(), b.T_from_to.matrix().data(), 16)) << "edge " << i;
+    EXPECT_TRUE(sameBits(a.information.data(), b.information.data(), 36)) << "edge " << i;
+  }
   // Tracking keeps only its newest records (the back end has the run's): the same poses and stamps, bit for bit.
   EXPECT_EQ(async.tracked.stamps, sync.tracked.stamps);
   for (std::size_t i = 0; i < sync.tracked.size(); ++i)

@@ -10,6 +10,7 @@
 #include <limits>
 #include <random>
 
+#include "hazmap/core/journaled_list.hpp"
 #include "hazmap/core/memory.hpp"
 #include "hazmap/core/class_table.hpp"
 #include "hazmap/core/error.hpp"
@@ -257,6 +258,68 @@ TEST(Memory, ReleaseFreedMemoryReturnsWhatIsFreed) {
   EXPECT_EQ(after[0], 1);
 }
 #endif
+
+// A journaled list (issue 33) gives back every entry exactly as it was pushed, wherever it is
+// (memory or journal), by index, by cursor across block boundaries and whole; the newest stay in
+// memory and writable, an older one is not, and pushing on after journaling keeps the order.
+TEST(JournaledList, EntriesComeBackBitForBitFromMemoryAndJournal) {
+  std::mt19937_64 rng(11);
+  std::normal_distribution<double> g(0.0, 10.0);
+  std::vector<Eigen::Isometry3d> pushed;
+  JournaledList<Eigen::Isometry3d> list("test journal");
+  auto pushRandom = [&](int n) {
+    for (int i = 0; i < n; ++i) {
+      Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+      T.linear() = Eigen::AngleAxisd(g(rng), Eigen::Vector3d(g(rng), g(rng), g(rng)).normalized()).toRotationMatrix();
+      T.translation() = Eigen::Vector3d(g(rng), g(rng), g(rng));
+      if (i == 7) T.translation().x() = std::nextafter(1.0, 2.0);  // the last bit matters
+      pushed.push_back(T);
+      list.push_back(T);
+    }
+  };
+  pushRandom(5000);
+  EXPECT_EQ(list.firstInMemory(), 0u);  // a plain list until told
+  list.keepNewest(24);
+  pushRandom(4500);  // the journal now spans more than one of the cursor's blocks (4096)
+  ASSERT_EQ(list.size(), pushed.size());
+  EXPECT_EQ(list.firstInMemory(), pushed.size() - 24);
+  auto same = [](const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
+    return std::memcmp(a.matrix().data(), b.matrix().data(), sizeof(double) * 16) == 0;
+  };
+  for (std::size_t k : {std::size_t{0}, std::size_t{7}, std::size_t{4095}, std::size_t{4096}, pushed.size() - 25,
+                        pushed.size() - 24, pushed.size() - 1})
+    EXPECT_TRUE(same(list.at(k), pushed[k])) << k;
+  const std::vector<Eigen::Isometry3d> all = list.all();
+  ASSERT_EQ(all.size(), pushed.size());
+  for (std::size_t k = 0; k < all.size(); ++k) ASSERT_TRUE(same(all[k], pushed[k])) << k;
+  JournaledList<Eigen::Isometry3d>::Cursor from_middle(list);
+  for (std::size_t k = 3000; k < pushed.size(); k += 3) ASSERT_TRUE(same(from_middle(k), pushed[k])) << k;
+  EXPECT_THROW(list[pushed.size() - 25], std::out_of_range);
+  list[pushed.size() - 1].translation().z() = 42.0;  // the newest are writable (re-estimated frames)
+  EXPECT_EQ(list.at(pushed.size() - 1).translation().z(), 42.0);
+  EXPECT_EQ(list.back().translation().z(), 42.0);
+}
+
+TEST(JournaledList, AMissingTemporaryFolderIsAOneLineErrorAndTheListStaysWhole) {
+  const char* before = std::getenv("TMPDIR");
+  const std::string saved = before ? before : "";
+  ::setenv("TMPDIR", "/nonexistent/hazmap-test", 1);
+  JournaledList<Matrix6d> list("step covariance journal");
+  list.push_back(Matrix6d::Identity());
+  try {
+    list.keepNewest(1);
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("hazmap-test"), std::string::npos) << e.what();
+    EXPECT_EQ(std::string(e.what()).find('\n'), std::string::npos) << e.what();
+  }
+  if (before) ::setenv("TMPDIR", saved.c_str(), 1);
+  else ::unsetenv("TMPDIR");
+  list.push_back(2.0 * Matrix6d::Identity());
+  ASSERT_EQ(list.size(), 2u);
+  EXPECT_EQ(list.firstInMemory(), 0u);
+  EXPECT_EQ(list.at(1)(0, 0), 2.0);
+}
 
 // voxelOfPoint (the per-point path of the downsampling and the local map) must give exactly what
 // voxelCoordinate on each axis then voxelKey give: same coordinates, same key, same refusals.

@@ -11,7 +11,7 @@
 namespace hazmap::pipeline_detail {
 
 BackEnd::BackEnd(const SlamConfig& config, SlamResult& result, const FrameRecordStore& records,
-                 const std::vector<Eigen::Isometry3d>& tracked)
+                 const TrackedPoses& tracked)
     : config_(config), result_(result), records_(records), tracked_(tracked),
       schedule_(config.loop_search_every, config.loop_pause_after_accept), anchors_(config) {}
 
@@ -108,7 +108,9 @@ void BackEnd::recordLoops(const std::vector<LoopClosure>& consistent) {
 // Using the map anchor's covariance instead when one links the two keyframes was measured worse
 // (corridor seed 1 0.129 → 0.142 m, docs/pose_graph.md).
 Matrix6d BackEnd::relativeCovariance(std::size_t from, std::size_t to) const {
-  return chainCovariance(result_.graph.poses, step_covariance_, keyframe_frames_.at(from), keyframe_frames_.at(to));
+  JournaledList<Matrix6d>::Cursor step(step_covariance_);
+  return chainCovariance(result_.graph.poses, keyframe_frames_.at(from), keyframe_frames_.at(to),
+                         [&](std::size_t k) { return &step(k); });
 }
 
 void BackEnd::reject(const LoopClosure& l, LoopRejection why, std::string detail) {

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "hazmap/core/journaled_list.hpp"
 #include "hazmap/io/gravity.hpp"
 #include "hazmap/loop/loop_closure.hpp"
 #include "hazmap/pipeline/slam.hpp"
@@ -18,6 +19,7 @@
 #include "pipeline/frame_record_store.hpp"
 #include "pipeline/loop_schedule.hpp"
 #include "pipeline/map_anchors.hpp"
+#include "pipeline/tracked_poses.hpp"
 
 namespace hazmap::pipeline_detail {
 
@@ -26,7 +28,7 @@ class BackEnd {
   /// `tracked` = the tracked poses (T_world_sensor per frame), read when keyframes are anchored;
   /// `records` = the run's frame records (result.frames, or the newest of them and a journal).
   BackEnd(const SlamConfig& config, SlamResult& result, const FrameRecordStore& records,
-          const std::vector<Eigen::Isometry3d>& tracked);
+          const TrackedPoses& tracked);
 
   /// The loop detector over the run's classes; old keyframes are re-read from `source` when a
   /// loop needs them (or from copies on disk when the source cannot re-read), holding
@@ -35,7 +37,9 @@ class BackEnd {
   /// The newest frame's odometry edge covariance (what the loop gate chains) and its share no
   /// registration vouched for (what the anchors chain). replaceStep: a re-estimated frame's.
   void addStep(const FrameRecord& rec, const Matrix6d& edge_covariance);
-  void replaceStep(std::size_t frame, const Matrix6d& edge_covariance) { step_covariance_.at(frame) = edge_covariance; }
+  void replaceStep(std::size_t frame, const Matrix6d& edge_covariance) { step_covariance_[frame] = edge_covariance; }
+  /// From now on the gate's step covariances beyond the newest `keep` frames go to a journal.
+  void journalStepsOlderThan(std::size_t keep) { step_covariance_.keepNewest(keep); }
   /// The newest frame's gravity-direction prior when its scan has an IMU measurement.
   void addGravityPrior(const std::optional<GravitySample>& gravity);
   /// The newest frame becomes a keyframe: its anchor edge, loop candidates verified by ICP, and
@@ -58,12 +62,12 @@ class BackEnd {
   const SlamConfig& config_;
   SlamResult& result_;
   const FrameRecordStore& records_;
-  const std::vector<Eigen::Isometry3d>& tracked_;
+  const TrackedPoses& tracked_;
   std::unique_ptr<LoopDetector> loops_;
   LoopSchedule schedule_;
   std::optional<KeyframeSpill> spill_;
   std::vector<std::size_t> keyframe_frames_;  // keyframe index → frame index
-  std::vector<Matrix6d> step_covariance_;      // frame index → its odometry edge's covariance
+  JournaledList<Matrix6d> step_covariance_{"step covariance journal"};  // frame → its odometry edge's covariance
   MapAnchors anchors_;
 };
 

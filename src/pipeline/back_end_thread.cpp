@@ -33,9 +33,12 @@ BackEndThread::BackEndThread(const SlamConfig& config, const Eigen::Isometry3d& 
   result_.method = config.method;
   result_.graph.dimension = 3;
   graph_.start(classes, source, &source_lock);
-  // Only a save reads the old records; re-estimation rewrites at most reestimationReach() back
-  // (twice that kept: a margin, not a bound anything relies on).
-  graph_.records().journalOlderThan(2 * reestimationReach(config.odometry.recovery));
+  // Only a save reads the old records (and the map anchors old keyframes' tracked poses, the gate
+  // a chain of step covariances); re-estimation rewrites at most reestimationReach() back (twice
+  // that kept: a margin, not a bound anything relies on).
+  const std::size_t keep = 2 * reestimationReach(config.odometry.recovery);
+  graph_.journalOlderThan(keep);
+  tracked_.keepNewest(keep);
   thread_ = std::thread([this] { run(); });
 }
 

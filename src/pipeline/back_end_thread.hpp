@@ -63,7 +63,7 @@ class BackEndThread {
 
   const SlamConfig& config_;
   SlamResult result_;                        // back end's thread only, except while idle
-  std::vector<Eigen::Isometry3d> tracked_;  // back end's thread only
+  TrackedPoses tracked_{"tracked pose journal"};  // back end's thread only
   GraphSide graph_;
   std::function<void(std::size_t)> before_loop_stage_;
   std::size_t optimisations_published_ = 0;

@@ -1,11 +1,6 @@
 #include "pipeline/frame_record_store.hpp"
 
-#include <unistd.h>
-
 #include <algorithm>
-#include <cerrno>
-#include <cstring>
-#include <filesystem>
 #include <string>
 
 #include "hazmap/core/error.hpp"
@@ -88,31 +83,10 @@ FrameRecord decode(sources::ByteCursor& in) {
   return r;
 }
 
-std::string lastError() { return std::strerror(errno); }
-
-// In the system's temporary folder (TMPDIR), as the keyframe spill's, unlinked at once: the file
-// goes with the process however it ends.
-std::FILE* openJournal() {
-  std::error_code ec;
-  const std::filesystem::path base = std::filesystem::temp_directory_path(ec);
-  if (ec) fail(kWhere, "no temporary folder: " + ec.message());
-  std::string path = (base / "hazmap-records-XXXXXX").string();
-  const int fd = ::mkstemp(path.data());
-  if (fd < 0) fail(path, "cannot create the frame record journal: " + lastError());
-  ::unlink(path.c_str());
-  std::FILE* f = ::fdopen(fd, "w+b");
-  if (!f) {
-    const std::string why = lastError();
-    ::close(fd);
-    fail(path, "cannot open the frame record journal: " + why);
-  }
-  return f;
-}
-
 }  // namespace
 
 void FrameRecordStore::journalOlderThan(std::size_t keep) {
-  if (!journal_) journal_.reset(openJournal());  // first: a store whose journal failed stays as it was
+  if (!journal_) journal_ = std::make_unique<JournalFile>(kWhere);  // first: a store whose journal failed stays as it was
   keep_ = std::max<std::size_t>(keep, 1);
   journalBeyond(keep_);
 }
@@ -123,28 +97,18 @@ void FrameRecordStore::push(FrameRecord record) {
 }
 
 void FrameRecordStore::journalBeyond(std::size_t keep) {
-  std::FILE* f = journal_.get();
-  if (std::fseek(f, 0, SEEK_END) != 0) fail(kWhere, "cannot seek: " + lastError());
   first_ += retireOldest(frames_, keep, [&](const FrameRecord& r) {
     const std::vector<std::uint8_t> bytes = encode(r);
-    const std::uint64_t n = bytes.size();
-    if (std::fwrite(&n, sizeof n, 1, f) != 1 || std::fwrite(bytes.data(), 1, bytes.size(), f) != bytes.size())
-      fail(kWhere, "cannot write: " + lastError());
-    offsets_.push_back(end_);
-    end_ += sizeof n + n;
+    offsets_.push_back(journal_->append(bytes.data(), bytes.size()));
   });
-  if (std::fflush(f) != 0) fail(kWhere, "cannot write: " + lastError());
 }
 
+// Record k's bytes run from its offset to the next record's (or the journal's end).
 FrameRecord FrameRecordStore::read(std::size_t k) const {
   if (k >= first_) return frames_.at(k - first_);
-  std::FILE* f = journal_.get();
-  std::uint64_t n = 0;
-  if (fseeko(f, static_cast<off_t>(offsets_[k]), SEEK_SET) != 0 || std::fread(&n, sizeof n, 1, f) != 1)
-    fail(kWhere, "cannot read record " + std::to_string(k) + ": " + lastError());
-  std::vector<std::uint8_t> bytes(n);
-  if (std::fread(bytes.data(), 1, bytes.size(), f) != bytes.size())
-    fail(kWhere, "record " + std::to_string(k) + " is cut short");
+  const std::uint64_t end = k + 1 < offsets_.size() ? offsets_[k + 1] : journal_->size();
+  std::vector<std::uint8_t> bytes(end - offsets_.at(k));
+  journal_->read(offsets_[k], bytes.data(), bytes.size());
   sources::ByteCursor in(bytes, std::string(kWhere) + " record " + std::to_string(k));
   return decode(in);
 }
@@ -162,7 +126,6 @@ void FrameRecordStore::restoreAll() {
   frames_ = all();
   first_ = 0;
   offsets_.clear();
-  end_ = 0;
   keep_ = 0;
   journal_.reset();
 }

@@ -4,10 +4,10 @@
 // the older ones appended to a journal file (issue 33: a record is ~0.9 kB, ~30 MB an hour at 10
 // scans/s, and only a save reads the old ones), read back whole for a save.
 #include <cstdint>
-#include <cstdio>
 #include <memory>
 #include <vector>
 
+#include "hazmap/core/journal_file.hpp"
 #include "hazmap/pipeline/slam.hpp"
 
 namespace hazmap::pipeline_detail {
@@ -38,12 +38,8 @@ class FrameRecordStore {
   std::vector<FrameRecord>& frames_;  // records first_ … size() − 1
   std::size_t first_ = 0;
   std::size_t keep_ = 0;  // 0: no journal
-  struct Close {
-    void operator()(std::FILE* f) const { std::fclose(f); }
-  };
-  std::unique_ptr<std::FILE, Close> journal_;
+  std::unique_ptr<JournalFile> journal_;
   std::vector<std::uint64_t> offsets_;  // record k's place in the journal, k < first_
-  std::uint64_t end_ = 0;
 };
 
 }  // namespace hazmap::pipeline_detail

@@ -5,7 +5,7 @@
 
 namespace hazmap::pipeline_detail {
 
-GraphSide::GraphSide(const SlamConfig& config, SlamResult& result, const std::vector<Eigen::Isometry3d>& tracked,
+GraphSide::GraphSide(const SlamConfig& config, SlamResult& result, const TrackedPoses& tracked,
                      const Eigen::Isometry3d& start)
     : config_(config), result_(result), records_(result.frames), tracked_(tracked), start_(start) {}
 
@@ -47,6 +47,11 @@ void GraphSide::replaceFrames(const std::vector<std::size_t>& changed) {
   chainFrom(result_.graph.poses, records_, changed.front());
 }
 
+void GraphSide::journalOlderThan(std::size_t keep) {
+  records_.journalOlderThan(keep);
+  if (back_end_) back_end_->journalStepsOlderThan(keep);
+}
+
 void GraphSide::addGravityPrior(const std::optional<GravitySample>& gravity) {
   if (back_end_) back_end_->addGravityPrior(gravity);
 }
@@ -57,10 +62,6 @@ void GraphSide::closeLoops(LabeledCloud cloud) {
 
 void GraphSide::finish() {
   if (back_end_) back_end_->finish();
-}
-
-void chainFrom(std::vector<Eigen::Isometry3d>& poses, const FrameRecordStore& records, std::size_t first) {
-  chainFrom(poses, first, records.size(), [&](std::size_t k) -> const Eigen::Isometry3d& { return records.at(k).T_prev_curr; });
 }
 
 }  // namespace hazmap::pipeline_detail

@@ -16,6 +16,7 @@
 #include "hazmap/pipeline/slam.hpp"
 #include "pipeline/back_end.hpp"
 #include "pipeline/frame_record_store.hpp"
+#include "pipeline/tracked_poses.hpp"
 
 namespace hazmap::pipeline_detail {
 
@@ -23,7 +24,7 @@ class GraphSide {
  public:
   /// `result`: the graph, the records (frames) and the loop records; `tracked`: the tracked pose
   /// of each frame (read by the map anchors). Both are the caller's, appended by the caller.
-  GraphSide(const SlamConfig& config, SlamResult& result, const std::vector<Eigen::Isometry3d>& tracked,
+  GraphSide(const SlamConfig& config, SlamResult& result, const TrackedPoses& tracked,
             const Eigen::Isometry3d& start);
 
   /// PGO methods: the back end over the run's classes. `source_lock` (may be null) is held while
@@ -43,24 +44,31 @@ class GraphSide {
   void finish();
   /// The records the graph's side reads: a view of result.frames unless journalled.
   FrameRecordStore& records() { return records_; }
+  /// From now on the records and the loop gate's step covariances beyond the newest `keep` frames
+  /// go to journals (the back end on its own thread: a long mission's memory stays bounded).
+  void journalOlderThan(std::size_t keep);
 
  private:
   const SlamConfig& config_;
   SlamResult& result_;
   FrameRecordStore records_;
-  const std::vector<Eigen::Isometry3d>& tracked_;
+  const TrackedPoses& tracked_;
   Eigen::Isometry3d start_;
   std::optional<BackEnd> back_end_;
 };
 
 /// poses[k] = poses[k - 1] · increment(k) for k from `first` on, below `frames` (the chain of
-/// increments).
-template <class IncrementOf>
-void chainFrom(std::vector<Eigen::Isometry3d>& poses, std::size_t first, std::size_t frames, IncrementOf increment) {
+/// increments). `poses`: a list of poses (std::vector, or a JournaledList whose entries from
+/// first − 1 on are in memory).
+template <class Poses, class IncrementOf>
+void chainFrom(Poses& poses, std::size_t first, std::size_t frames, IncrementOf increment) {
   for (std::size_t k = std::max<std::size_t>(first, 1); k < poses.size() && k < frames; ++k)
     poses[k] = normalized(poses[k - 1] * increment(k));
 }
 /// The same with the records' T_prev_curr (records from `first` on must be in the store's list).
-void chainFrom(std::vector<Eigen::Isometry3d>& poses, const FrameRecordStore& records, std::size_t first);
+template <class Poses>
+void chainFrom(Poses& poses, const FrameRecordStore& records, std::size_t first) {
+  chainFrom(poses, first, records.size(), [&](std::size_t k) -> const Eigen::Isometry3d& { return records.at(k).T_prev_curr; });
+}
 
 }  // namespace hazmap::pipeline_detail

@@ -21,16 +21,17 @@ void MapAnchors::addStep(const FrameRecord& rec, const Matrix6d& edge_covariance
 // seed 8: anchors 25-42 cm and 20-38 mrad off, claiming 2-3 cm, turned the whole route 5 deg;
 // docs/pose_graph.md).
 std::optional<std::pair<std::size_t, std::size_t>> MapAnchors::anchorNewest(const std::vector<std::size_t>& keyframe_frames,
-                                                                           const std::vector<Eigen::Isometry3d>& tracked,
+                                                                           const TrackedPoses& tracked,
                                                                            const FrameRecord& newest,
                                                                            PoseGraph& graph) {
   if (config_.odometry.mode != OdometryMode::FrameToMap || config_.anchor_radius <= 0.0) return std::nullopt;
   const std::size_t n = keyframe_frames.size(), gap = config_.loop_closure.candidates.min_index_gap;
   const std::size_t j = keyframe_frames.back();
+  const Eigen::Isometry3d T_world_j = tracked.at(j);
   std::optional<std::size_t> best;
   double best_d = config_.anchor_radius;
   for (std::size_t k = 0; k + gap < n; ++k) {
-    const double d = (tracked.at(keyframe_frames[k]).translation() - tracked.at(j).translation()).norm();
+    const double d = (tracked.at(keyframe_frames[k]).translation() - T_world_j.translation()).norm();
     if (d <= best_d) best_d = d, best = keyframe_frames[k];
   }
   if (!best) return std::nullopt;
@@ -39,7 +40,7 @@ std::optional<std::pair<std::size_t, std::size_t>> MapAnchors::anchorNewest(cons
   own.diagonal() += translationRotationDiagonal(t * t, r * r);
   const Anchor a{*best, j, own, chainCovariance(graph.poses, guess_steps_, *best, j)};
   anchors_.push_back(a);
-  graph.addEdge(static_cast<int>(*best), static_cast<int>(j), normalized(tracked.at(*best).inverse() * tracked.at(j)),
+  graph.addEdge(static_cast<int>(*best), static_cast<int>(j), normalized(tracked.at(*best).inverse() * T_world_j),
                 inverseOf(a.own + a.shared), EdgeKind::MapAnchor);
   return std::pair{*best, j};
 }

@@ -12,6 +12,7 @@
 #include "hazmap/graph/chain_covariance.hpp"
 #include "hazmap/graph/pose_graph.hpp"
 #include "hazmap/pipeline/slam.hpp"
+#include "pipeline/tracked_poses.hpp"
 
 namespace hazmap::pipeline_detail {
 
@@ -25,7 +26,7 @@ class MapAnchors {
   /// The anchor edge of the newest keyframe (the newest frame, `newest` its record) into `graph`,
   /// if an older keyframe is near enough; returns its (from, to) frames.
   std::optional<std::pair<std::size_t, std::size_t>> anchorNewest(const std::vector<std::size_t>& keyframe_frames,
-                                                                  const std::vector<Eigen::Isometry3d>& tracked,
+                                                                  const TrackedPoses& tracked,
                                                                   const FrameRecord& newest, PoseGraph& graph);
   /// The anchors' information with the shared drift counted once (before every optimisation).
   void refreshInformation(PoseGraph& graph) const;

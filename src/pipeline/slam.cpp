@@ -86,7 +86,7 @@ class SlamRun {
   SlamResult snapshot() {
     SlamResult s = back_end_thread_ ? withTrackerSide(back_end_thread_->snapshot()) : result_;
     s.source = source_.describe();
-    s.tracked = trajectoryOf(tracked_);
+    s.tracked = trajectoryOf(tracked_.all());
     s.estimate = hasBackEnd() ? trajectoryOf(s.graph.poses)
                  : config_.method == SlamMethod::Odometry ? s.odometry_only
                                                           : s.tracked;
@@ -94,11 +94,10 @@ class SlamRun {
   }
 
   SlamResult finish() {
-    Trajectory tracked = trajectoryOf(tracked_);  // before the back end's records replace ours
+    Trajectory tracked = trajectoryOf(tracked_.all());  // before the back end's records replace ours
     if (back_end_thread_) {
       result_ = withTrackerSide(back_end_thread_->finish());
       first_record_ = 0;
-      past_records_.clear();
     } else {
       runPendingLoops();
       graph_->finish();
@@ -130,6 +129,11 @@ class SlamRun {
     if (usesPoseGraph(config_.method) && config_.back_end == BackEndSchedule::OwnThread) {
       back_end_thread_ = std::make_unique<BackEndThread>(config_, start_, classes_, source_, source_lock_,
                                                          before_loop_stage_);
+      // The run's poses and records are the back end's: ours keep the newest in memory (what
+      // re-estimating lost frames rewrites), the older ones in journals (a long mission, issue 33).
+      tracked_.keepNewest(2 * reestimationReach(config_.odometry.recovery));
+      past_stamps_.keepNewest(1);
+      past_increments_.keepNewest(1);
       return;
     }
     graph_.emplace(config_, result_, tracked_, start_);
@@ -270,27 +274,30 @@ class SlamRun {
 
   Trajectory trajectoryOf(const std::vector<Eigen::Isometry3d>& poses) const {
     Trajectory t;
-    for (std::size_t i = 0; i < poses.size(); ++i) t.push_back(stampOf(i), poses[i]);
+    JournaledList<double>::Cursor past_stamp(past_stamps_);
+    for (std::size_t i = 0; i < poses.size(); ++i) t.push_back(i < first_record_ ? past_stamp(i) : record(i).stamp, poses[i]);
     return t;
   }
 
   FrameRecord& record(std::size_t k) { return result_.frames.at(k - first_record_); }
   const FrameRecord& record(std::size_t k) const { return result_.frames.at(k - first_record_); }
 
-  double stampOf(std::size_t k) const { return k < first_record_ ? past_records_[k].stamp : record(k).stamp; }
-  const Eigen::Isometry3d& incrementOf(std::size_t k) const {
-    return k < first_record_ ? past_records_[k].T_prev_curr : record(k).T_prev_curr;
+  Eigen::Isometry3d incrementOf(std::size_t k) const {
+    return k < first_record_ ? past_increments_.at(k) : record(k).T_prev_curr;
   }
-  void chain(std::vector<Eigen::Isometry3d>& poses, std::size_t first) const {
-    chainFrom(poses, first, frames(), [this](std::size_t k) -> const Eigen::Isometry3d& { return incrementOf(k); });
+  template <class Poses>
+  void chain(Poses& poses, std::size_t first) const {
+    chainFrom(poses, first, frames(), [this](std::size_t k) { return incrementOf(k); });
   }
 
   /// With the back end on its own thread the run's records are the copies it was sent: ours keep
   /// the newest in full (what re-estimating lost frames rewrites) and the older ones' stamp and
-  /// increment (issue 33: ~0.9 kB a frame, ~30 MB an hour at 10 scans/s).
+  /// increment (issue 33: ~0.9 kB a frame, ~30 MB an hour at 10 scans/s), journalled.
   void forgetOldRecords() {
-    first_record_ += retireOldest(result_.frames, reestimationReach(config_.odometry.recovery),
-                                  [&](const FrameRecord& r) { past_records_.push_back({r.stamp, r.T_prev_curr}); });
+    first_record_ += retireOldest(result_.frames, reestimationReach(config_.odometry.recovery), [&](const FrameRecord& r) {
+      past_stamps_.push_back(r.stamp);
+      past_increments_.push_back(r.T_prev_curr);
+    });
   }
 
   ScanSource& source_;
@@ -303,7 +310,7 @@ class SlamRun {
   StreamDeskewer deskewer_;
   ImuStreamMotion imu_;
   std::optional<Odometry> tracker_;
-  std::vector<Eigen::Isometry3d> tracked_;
+  TrackedPoses tracked_{"tracked pose journal"};
   std::optional<Eigen::Isometry3d> last_keyframe_;
   std::optional<GraphSide> graph_;  // the graph on this thread (every method records one)
   struct PendingLoops {
@@ -319,11 +326,9 @@ class SlamRun {
   // the tracker knows it (the back end's newest optimised poses, then the tracked increments).
   std::unique_ptr<BackEndThread> back_end_thread_;
   std::vector<Eigen::Isometry3d> estimate_;
-  struct PastRecord {
-    double stamp;
-    Eigen::Isometry3d T_prev_curr;
-  };
-  std::vector<PastRecord> past_records_;  // own thread: frames 0 … first_record_ − 1 (forgetOldRecords)
+  // Own thread: stamp and increment of frames 0 … first_record_ − 1 (forgetOldRecords).
+  JournaledList<double> past_stamps_{"frame stamp journal"};
+  JournaledList<Eigen::Isometry3d> past_increments_{"frame increment journal"};
   std::size_t first_record_ = 0;
 };
 
