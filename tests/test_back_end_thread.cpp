@@ -3,6 +3,7 @@
 // that ends while a loop stage is in flight still gives complete outputs.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cstdlib>
 #include <cstring>
@@ -10,6 +11,7 @@
 #include <condition_variable>
 #include <fstream>
 #include <mutex>
+#include <random>
 #include <string>
 
 #include "hazmap/core/error.hpp"
@@ -19,6 +21,7 @@
 #include "hazmap/pipeline/run_outputs.hpp"
 #include "hazmap/pipeline/slam.hpp"
 #include "hazmap/sources/forwarding_source.hpp"
+#include "pipeline/edge_journal.hpp"
 #include "pipeline/frame_record_store.hpp"
 #include "test_helpers.hpp"
 
@@ -135,6 +138,20 @@ TEST(AsyncBackEnd, FinalAnswerEqualsTheSynchronousOne) {
   EXPECT_EQ(snapshot->frames.size(), 50u);
   for (std::size_t i = 0; i < 50; ++i) expectSameRecord(snapshot->frames[i], sync.frames[i], false);
   EXPECT_EQ(snapshot->graph.poses.size(), 50u);
+  // Its graph has every edge, those in the back end's journal too: the odometry edges are the
+  // synchronous run's, bit for bit.
+  std::size_t odometry_edges = 0;
+  for (const PoseGraphEdge& e : snapshot->graph.edges) {
+    if (e.kind != EdgeKind::Odometry) continue;
+    ++odometry_edges;
+    const auto same = std::find_if(sync.graph.edges.begin(), sync.graph.edges.end(), [&](const PoseGraphEdge& s) {
+      return s.kind == EdgeKind::Odometry && s.to == e.to && s.from == e.from &&
+             sameBits(s.T_from_to.matrix().data(), e.T_from_to.matrix().data(), 16) &&
+             sameBits(s.information.data(), e.information.data(), 36);
+    });
+    EXPECT_NE(same, sync.graph.edges.end()) << "odometry edge into frame " << e.to;
+  }
+  EXPECT_EQ(odometry_edges, 49u);
   EXPECT_EQ(snapshot->estimate.size(), 50u);
 }
 
@@ -192,6 +209,54 @@ TEST(FrameRecordStore, AMissingTemporaryFolderIsAnError) {
   store.push(FrameRecord{});  // still a plain list
   EXPECT_EQ(list.size(), 3u);
   EXPECT_EQ(store.size(), 3u);
+}
+
+// The edge journal moves a prefix of the graph's edges (every kind) up to the newest frames'
+// odometry edges, only in batches; restored, the graph's edge list is the one never journaled,
+// order and bits; a snapshot sees every edge without changing the graph.
+TEST(EdgeJournal, APrefixGoesAndComesBackInItsOrderBitForBit) {
+  PoseGraph graph;
+  std::mt19937_64 rng(5);
+  std::normal_distribution<double> g;
+  for (int i = 0; i < 200; ++i) graph.addNode(Eigen::Isometry3d::Identity());
+  auto edge = [&](int from, int to, EdgeKind kind) {
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.translation() = Eigen::Vector3d(g(rng), g(rng), g(rng));
+    Matrix6d A = Matrix6d::Random();
+    graph.addEdge(from, to, T, A * A.transpose() + Matrix6d::Identity() * (1.0 + std::abs(g(rng))), kind);
+  };
+  for (int k = 1; k < 200; ++k) {
+    edge(k - 1, k, EdgeKind::Odometry);
+    if (k % 10 == 0) edge(k - 10, k, EdgeKind::MapAnchor);
+    if (k % 37 == 0) edge(3, k, EdgeKind::Loop);
+  }
+  const std::vector<PoseGraphEdge> whole = graph.edges;
+  auto sameEdges = [&](const std::vector<PoseGraphEdge>& a) {
+    ASSERT_EQ(a.size(), whole.size());
+    for (std::size_t i = 0; i < a.size(); ++i) {
+      EXPECT_TRUE(a[i].from == whole[i].from && a[i].to == whole[i].to && a[i].kind == whole[i].kind) << i;
+      EXPECT_EQ(std::memcmp(a[i].T_from_to.matrix().data(), whole[i].T_from_to.matrix().data(), 16 * sizeof(double)), 0) << i;
+      EXPECT_EQ(std::memcmp(a[i].information.data(), whole[i].information.data(), 36 * sizeof(double)), 0) << i;
+    }
+  };
+  pipeline_detail::EdgeJournal journal;
+  journal.journalBefore(graph, 150, 1000);  // fewer than a batch: nothing goes
+  EXPECT_EQ(journal.size(), 0u);
+  journal.journalBefore(graph, 150, 32);
+  ASSERT_GT(journal.size(), 149u);
+  ASSERT_FALSE(graph.edges.empty());
+  EXPECT_EQ(graph.edges.front().kind, EdgeKind::Odometry);  // the kept part starts at frame 150's edge
+  EXPECT_EQ(graph.edges.front().to, 150);
+  EXPECT_EQ(journal.size() + graph.edges.size(), whole.size());
+  sameEdges(journal.allEdges(graph));
+  journal.journalBefore(graph, 190, 32);  // a second block appended behind the first
+  sameEdges(journal.allEdges(graph));
+  journal.restore(graph);
+  EXPECT_EQ(journal.size(), 0u);
+  sameEdges(graph.edges);
+  journal.journalBefore(graph, 100, 32);  // the journal is reused after a restore
+  journal.restore(graph);
+  sameEdges(graph.edges);
 }
 
 // Tracking never waits for a loop stage: the first keyframe's loop stage is held until the stream

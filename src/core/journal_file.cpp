@@ -48,6 +48,11 @@ std::uint64_t JournalFile::append(const void* bytes, std::size_t n) {
   return at;
 }
 
+void JournalFile::clear() {
+  if (::ftruncate(fd_, 0) != 0) fail(what_, "cannot empty: " + lastError());
+  end_ = 0;
+}
+
 void JournalFile::read(std::uint64_t offset, void* bytes, std::size_t n) const {
   if (offset + n > end_)
     fail(what_, "cannot read " + std::to_string(n) + " bytes at " + std::to_string(offset) + ": it holds " +

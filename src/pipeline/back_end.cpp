@@ -37,6 +37,20 @@ void BackEnd::start(const ClassTable& classes, ScanSource& source, std::mutex* s
   }
 }
 
+void BackEnd::journalOlderThan(std::size_t keep) {
+  step_covariance_.keepNewest(keep);
+  journal_keep_ = std::max<std::size_t>(keep, 1);
+}
+
+// At least this many edges (~14 kB) at a time, at a keyframe: the list in memory stays short, and so
+// does each keyframe's scan for what may go.
+constexpr std::size_t kEdgeJournalBatch = 32;
+
+void BackEnd::journalOldEdges() {
+  if (journal_keep_ == 0 || records_.size() <= journal_keep_) return;
+  edges_.journalBefore(result_.graph, records_.size() - journal_keep_, kEdgeJournalBatch);
+}
+
 void BackEnd::addStep(const FrameRecord& rec, const Matrix6d& edge_covariance) {
   step_covariance_.push_back(edge_covariance);
   anchors_.addStep(rec, edge_covariance);
@@ -60,6 +74,7 @@ void BackEnd::addGravityPrior(const std::optional<GravitySample>& gravity) {
 
 void BackEnd::closeLoops(LabeledCloud cloud) {
   const auto t_loop = Clock::now();
+  journalOldEdges();
   keyframe_frames_.push_back(records_.size() - 1);
   if (spill_) spill_->store(keyframe_frames_.back(), cloud);
   const std::size_t k = loops_->addKeyframe(std::move(cloud));
@@ -85,6 +100,8 @@ void BackEnd::recordDetection(const LoopDetection& detection) {
 }
 
 void BackEnd::finish() {
+  edges_.restore(result_.graph);  // the run's graph whole from here on
+  journal_keep_ = 0;
   result_.keyframes = keyframe_frames_.size();
   optimiseWithLoops();
   anchors_.refreshInformation(result_.graph);  // the graph written out carries what the last solve used
@@ -122,10 +139,17 @@ void BackEnd::dropLoop(const LoopClosure& l, LoopRejection why, const std::strin
   reject(l, why, detail);
 }
 
+// On the whole graph: its loop edges are replaced, its anchors refreshed, all of it solved.
+void BackEnd::optimiseWithLoops() {
+  edges_.restore(result_.graph);
+  solveWithConsistentLoops();
+  journalOldEdges();
+}
+
 // The pairwise-consistent loops into the graph and one optimisation; a loop the solution cannot
 // agree with (its whitened residual beyond the gate's χ² quantile) or a failed solve is dropped,
 // recorded, and the previous estimate kept (then re-solved without the loop).
-void BackEnd::optimiseWithLoops() {
+void BackEnd::solveWithConsistentLoops() {
   for (int attempt = 0; attempt < 3; ++attempt) {
     const std::vector<LoopClosure> consistent = loops_->consistentLoops(keyframeEstimate());
     if (consistent.empty()) return;

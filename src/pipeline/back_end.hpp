@@ -16,6 +16,7 @@
 #include "hazmap/pipeline/slam.hpp"
 #include "hazmap/sources/scan_source.hpp"
 #include "hazmap/io/keyframe_spill.hpp"
+#include "pipeline/edge_journal.hpp"
 #include "pipeline/frame_record_store.hpp"
 #include "pipeline/loop_schedule.hpp"
 #include "pipeline/map_anchors.hpp"
@@ -38,8 +39,11 @@ class BackEnd {
   /// registration vouched for (what the anchors chain). replaceStep: a re-estimated frame's.
   void addStep(const FrameRecord& rec, const Matrix6d& edge_covariance);
   void replaceStep(std::size_t frame, const Matrix6d& edge_covariance) { step_covariance_[frame] = edge_covariance; }
-  /// From now on the gate's step covariances beyond the newest `keep` frames go to a journal.
-  void journalStepsOlderThan(std::size_t keep) { step_covariance_.keepNewest(keep); }
+  /// From now on the gate's step covariances and the graph's edges older than the newest `keep`
+  /// frames go to journals (the back end on its own thread: a long mission).
+  void journalOlderThan(std::size_t keep);
+  /// Every edge of the graph (those in the journal first), the graph left as it is.
+  std::vector<PoseGraphEdge> allEdges() const { return edges_.allEdges(result_.graph); }
   /// The newest frame's gravity-direction prior when its scan has an IMU measurement.
   void addGravityPrior(const std::optional<GravitySample>& gravity);
   /// The newest frame becomes a keyframe: its anchor edge, loop candidates verified by ICP, and
@@ -51,6 +55,8 @@ class BackEnd {
  private:
   Matrix6d relativeCovariance(std::size_t from, std::size_t to) const;
   void optimiseWithLoops();
+  void solveWithConsistentLoops();
+  void journalOldEdges();
   std::string optimise();
   void reject(const LoopClosure& l, LoopRejection why, std::string detail);
   void dropLoop(const LoopClosure& l, LoopRejection why, const std::string& detail);
@@ -69,6 +75,8 @@ class BackEnd {
   std::vector<std::size_t> keyframe_frames_;  // keyframe index → frame index
   JournaledList<Matrix6d> step_covariance_{"step covariance journal"};  // frame → its odometry edge's covariance
   MapAnchors anchors_;
+  EdgeJournal edges_;
+  std::size_t journal_keep_ = 0;  // 0: the graph's edges all in memory
 };
 
 }  // namespace hazmap::pipeline_detail

@@ -77,6 +77,7 @@ SlamResult BackEndThread::snapshot() {
   rethrow();
   SlamResult s = result_;  // the back end waits for a frame meanwhile: nothing writes it
   s.frames = graph_.records().all();
+  s.graph.edges = graph_.allEdges();
   return s;
 }
 

@@ -1,5 +1,8 @@
 #include "pipeline/graph_side.hpp"
 
+#include <string>
+
+#include "hazmap/core/error.hpp"
 #include "hazmap/core/se3.hpp"
 #include "pipeline/edge_noise.hpp"
 
@@ -38,18 +41,26 @@ void GraphSide::replaceFrames(const std::vector<std::size_t>& changed) {
     const FrameRecord& rec = records_.at(k);
     const EdgeNoise noise = odometryEdgeNoise(rec, config_);
     if (back_end_) back_end_->replaceStep(k, noise.covariance);
+    bool replaced = false;
     for (PoseGraphEdge& e : result_.graph.edges)
       if (e.kind == EdgeKind::Odometry && e.from == static_cast<int>(k - 1) && e.to == static_cast<int>(k)) {
         e.T_from_to = rec.T_prev_curr;
         e.information = noise.information;
+        replaced = true;
       }
+    // Kept in memory by the journals' margin (BackEndThread); never a silent miss.
+    if (!replaced) fail("pose graph", "frame " + std::to_string(k) + "'s odometry edge is not in memory to be re-estimated");
   }
   chainFrom(result_.graph.poses, records_, changed.front());
 }
 
 void GraphSide::journalOlderThan(std::size_t keep) {
   records_.journalOlderThan(keep);
-  if (back_end_) back_end_->journalStepsOlderThan(keep);
+  if (back_end_) back_end_->journalOlderThan(keep);
+}
+
+std::vector<PoseGraphEdge> GraphSide::allEdges() const {
+  return back_end_ ? back_end_->allEdges() : result_.graph.edges;
 }
 
 void GraphSide::addGravityPrior(const std::optional<GravitySample>& gravity) {

@@ -47,6 +47,8 @@ class GraphSide {
   /// From now on the records and the loop gate's step covariances beyond the newest `keep` frames
   /// go to journals (the back end on its own thread: a long mission's memory stays bounded).
   void journalOlderThan(std::size_t keep);
+  /// Every edge of the run's graph (some may be in the journal), the graph left as it is.
+  std::vector<PoseGraphEdge> allEdges() const;
 
  private:
   const SlamConfig& config_;

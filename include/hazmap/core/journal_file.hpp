@@ -22,6 +22,8 @@ class JournalFile {
   /// Reads `n` bytes from `offset`; throws hazmap::Error when the file does not hold them.
   void read(std::uint64_t offset, void* bytes, std::size_t n) const;
   std::uint64_t size() const { return end_; }
+  /// Empties the file (what was appended is gone; the next append starts at 0).
+  void clear();
   const std::string& what() const { return what_; }
 
  private:
