@@ -282,12 +282,13 @@ class SlamRun {
   FrameRecord& record(std::size_t k) { return result_.frames.at(k - first_record_); }
   const FrameRecord& record(std::size_t k) const { return result_.frames.at(k - first_record_); }
 
-  Eigen::Isometry3d incrementOf(std::size_t k) const {
-    return k < first_record_ ? past_increments_.at(k) : record(k).T_prev_curr;
-  }
+  /// poses[k] from poses[k − 1] and frame k's increment, for k from `first` on.
   template <class Poses>
   void chain(Poses& poses, std::size_t first) const {
-    chainFrom(poses, first, frames(), [this](std::size_t k) { return incrementOf(k); });
+    JournaledList<Eigen::Isometry3d>::Cursor past_increment(past_increments_);
+    chainFrom(poses, first, frames(), [&](std::size_t k) -> const Eigen::Isometry3d& {
+      return k < first_record_ ? past_increment(k) : record(k).T_prev_curr;
+    });
   }
 
   /// With the back end on its own thread the run's records are the copies it was sent: ours keep
