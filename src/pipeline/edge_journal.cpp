@@ -2,19 +2,25 @@
 
 #include <algorithm>
 
+#include "hazmap/core/journaled_list.hpp"
+
 namespace hazmap::pipeline_detail {
 
 namespace {
 
-// An edge as doubles: from, to, kind (small integers, exact), the measurement, the information.
-constexpr std::size_t kDoubles = 3 + 16 + 36;
+// An edge as doubles: from, to, kind (small integers, exact), then the measurement and the
+// information as the journaled lists write them (core/journaled_list.hpp's codecs).
+using PoseCodec = JournalCodec<Eigen::Isometry3d>;
+using InformationCodec = JournalCodec<Matrix6d>;
+constexpr std::size_t kInformationAt = 3 + PoseCodec::kDoubles;
+constexpr std::size_t kDoubles = kInformationAt + InformationCodec::kDoubles;
 
 void put(const PoseGraphEdge& e, double* d) {
   d[0] = e.from;
   d[1] = e.to;
   d[2] = static_cast<double>(e.kind);
-  std::copy_n(e.T_from_to.matrix().data(), 16, d + 3);
-  std::copy_n(e.information.data(), 36, d + 19);
+  PoseCodec::put(e.T_from_to, d + 3);
+  InformationCodec::put(e.information, d + kInformationAt);
 }
 
 PoseGraphEdge get(const double* d) {
@@ -22,8 +28,8 @@ PoseGraphEdge get(const double* d) {
   e.from = static_cast<int>(d[0]);
   e.to = static_cast<int>(d[1]);
   e.kind = static_cast<EdgeKind>(static_cast<int>(d[2]));
-  std::copy_n(d + 3, 16, e.T_from_to.matrix().data());
-  std::copy_n(d + 19, 36, e.information.data());
+  e.T_from_to = PoseCodec::get(d + 3);
+  e.information = InformationCodec::get(d + kInformationAt);
   return e;
 }
 

@@ -44,8 +44,9 @@ class GraphSide {
   void finish();
   /// The records the graph's side reads: a view of result.frames unless journalled.
   FrameRecordStore& records() { return records_; }
-  /// From now on the records and the loop gate's step covariances beyond the newest `keep` frames
-  /// go to journals (the back end on its own thread: a long mission's memory stays bounded).
+  /// From now on the records, the loop gate's step covariances and the graph's edges older than the
+  /// newest `keep` frames go to journals (the back end on its own thread: a long mission's memory
+  /// stays bounded).
   void journalOlderThan(std::size_t keep);
   /// Every edge of the run's graph (some may be in the journal), the graph left as it is.
   std::vector<PoseGraphEdge> allEdges() const;
