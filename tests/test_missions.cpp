@@ -294,6 +294,53 @@ TEST(PriorMap, APlacementMostKeyframesDoNotConfirmIsRefused) {
   EXPECT_EQ(loc.state, PriorState::NeverLocalised);
 }
 
+TEST(PriorMap, TheStoredSearchOverviewSearchesAsTheKeyframesWouldBitForBit) {
+  // A run's map folder keeps the search overview a later mission would otherwise rebuild from
+  // every keyframe (issue 34's cost); prepared from it, the search must be the same search.
+  const MapFolder stored = openMap(corridorRun());
+  ASSERT_TRUE(stored.manifest().search_overview.has_value());
+  const fs::path plain_dir = copyOfRun();  // the same folder as an older hazmap left it
+  editManifest(plain_dir, [](nlohmann::json& j) { j.erase("search_overview"); });
+  const MapFolder plain = openMap(plain_dir);
+  const SlamConfig config = SlamConfig::forMethod(SlamMethod::PropertyIcpPgo);
+  const ClassTable classes = config.property_icp.applyTo(stored.classes());
+  using namespace pipeline_detail;
+  const PriorIndex from_overview(stored, classes, config), from_keyframes(plain, classes, config);
+  EXPECT_TRUE(from_overview.usedStoredOverview());
+  EXPECT_FALSE(from_keyframes.usedStoredOverview());
+  EXPECT_EQ(from_overview.keyframesRead(), 0u);  // nothing read before a submap needs it
+  EXPECT_EQ(from_keyframes.keyframesRead(), plain.keyframes().size());
+  ASSERT_GT(from_overview.overview().size(), 1000u);
+  EXPECT_EQ(from_overview.overview().size(), from_keyframes.overview().size());
+  EXPECT_EQ(from_overview.overview().features(), from_keyframes.overview().features());
+  EXPECT_EQ(from_overview.overview().landmarks(), from_keyframes.overview().landmarks());
+  // The run's own keyframes searched in its map: every attempt alike, poses bit for bit.
+  const RunKeyframes queries = mapKeyframes(stored, classes);
+  FramePoses poses(stored.manifest().frames);
+  for (const auto& k : stored.keyframes()) poses[k.frame] = k.pose;
+  PriorLocalisation a, b;
+  searchPrior(from_overview, queries, poses, classes, config, a);
+  searchPrior(from_keyframes, queries, poses, classes, config, b);
+  ASSERT_EQ(a.search.size(), b.search.size());
+  EXPECT_EQ(a.state, PriorState::Localised);
+  EXPECT_EQ(a.state, b.state);
+  for (std::size_t i = 0; i < a.search.size(); ++i) {
+    EXPECT_EQ(a.search[i].outcome, b.search[i].outcome) << i;
+    EXPECT_TRUE(a.search[i].pose.matrix() == b.search[i].pose.matrix()) << i;
+  }
+  EXPECT_GT(from_overview.keyframesRead(), 0u);
+  EXPECT_LT(from_overview.keyframesRead(), stored.keyframes().size());
+  // Another choice of property classes makes another overview: rebuilt, never the stored one.
+  ClassTable other = classes;
+  ClassInfo heat = other.at(1);
+  heat.kind = PropertyKind::None;
+  other.add(heat);
+  EXPECT_FALSE(PriorIndex(stored, other, config).usedStoredOverview());
+  // The overview is one of the map's checked files.
+  std::ofstream(plain_dir / "search_overview.pcd", std::ios::app) << "x";
+  expectOneLine(openError(plain_dir), "search_overview.pcd has");
+}
+
 TEST(PriorMap, PriorCliRefusesBadPriorsInOneLine) {
   const fs::path seq = test::writeSimulatedSequence("missions-cli", "corridor", 2, 4);
   const fs::path out = test::scratchDir() / "out";

@@ -91,6 +91,7 @@ void writeMapManifest(const fs::path& dir, const MapManifest& manifest, const Cl
     keyframes.push_back(keyframeJson(k));
     listed.push_back(k.cloud);
   }
+  if (manifest.search_overview) listed.push_back(manifest.search_overview->cloud);
   nlohmann::json file_list = nlohmann::json::array();
   for (const auto& f : listed) {
     std::error_code ec;
@@ -111,6 +112,8 @@ void writeMapManifest(const fs::path& dir, const MapManifest& manifest, const Cl
   j["trajectory"] = "trajectory.kitti";
   j["parameters"] = nlohmann::json::parse(manifest.parameters_json);
   j["keyframes"] = std::move(keyframes);
+  if (const auto& o = manifest.search_overview)
+    j["search_overview"] = {{"cloud", o->cloud}, {"voxel", o->voxel}, {"property_classes", o->property_classes}};
   j["files"] = std::move(file_list);
   writeTextAtomically(dir / "map.json", j.dump(1) + "\n");
 }

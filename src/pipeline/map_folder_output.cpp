@@ -7,6 +7,7 @@
 #include "hazmap/core/config_fields.hpp"
 #include "hazmap/core/se3.hpp"
 #include "hazmap/loop/landmarks.hpp"
+#include "pipeline/prior_overview.hpp"
 
 namespace hazmap::pipeline_detail {
 
@@ -60,6 +61,9 @@ void MapFolderOutput::finish() {
   }
   manifest_.parameters_json = configToJson(config_).dump();
   const std::string extras = writeGraphExtras(dir_, result_.graph);
+  // What a later mission's localisation in this map would otherwise rebuild from every keyframe.
+  manifest_.search_overview =
+      writeSearchOverview(dir_, manifest_, classes_, config_.property_icp.applyTo(classes_, dir_.string()));
   writeMapManifest(dir_, manifest_, classes_, {"graph.g2o", "trajectory.kitti", "hazards.json"}, extras);
 }
 

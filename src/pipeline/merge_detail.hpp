@@ -39,8 +39,10 @@ PoseGraph placeMaps(std::vector<MergeInput>& inputs, const ClassTable& classes, 
 /// Writes the merged map folder's files into `dir`: keyframes/, trajectory.kitti, graph.g2o, the
 /// map of all keyframes (map.ply/.pcd, hazards.json/.csv, PNGs, viewer.html), changes.json/.csv
 /// and, last, map.json.
+/// `classes`: the first map's with the property classes its runs used (the search overview's).
 void writeMergedFolder(const std::filesystem::path& dir, const std::vector<MergeInput>& inputs,
-                       const PoseGraph& graph, const MergeOptions& options, MergeReport& report);
+                       const PoseGraph& graph, const ClassTable& classes, const MergeOptions& options,
+                       MergeReport& report);
 
 /// The map error over the keyframes (first map alone, merged, each map in the merge) when every
 /// placed map's sequence (map.json "source") has poses.txt; else report.map_error_note says why.

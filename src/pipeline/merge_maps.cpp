@@ -23,7 +23,7 @@ MergeReport mergeMaps(const std::vector<std::filesystem::path>& maps, const std:
   const PoseGraph graph = placeMaps(inputs, classes, config, report);
   TemporaryFolder tmp{temporarySibling(out)};
   std::filesystem::create_directories(tmp.path);
-  writeMergedFolder(tmp.path, inputs, graph, options, report);
+  writeMergedFolder(tmp.path, inputs, graph, classes, options, report);
   measureMergeMapError(inputs, report);
   report.seconds = secondsSince(t0);
   writeTextAtomically(tmp.path / "merge.json", mergeJson(report));

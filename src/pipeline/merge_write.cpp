@@ -8,6 +8,7 @@
 #include "hazmap/map/outputs.hpp"
 #include "hazmap/pipeline/run_outputs.hpp"
 #include "pipeline/merge_detail.hpp"
+#include "pipeline/prior_overview.hpp"
 
 namespace hazmap::pipeline_detail {
 
@@ -58,7 +59,7 @@ MapOutputConfig mapFiles(const OutputConfig& outputs, const MergeOptions& option
 }  // namespace
 
 void writeMergedFolder(const fs::path& dir, const std::vector<MergeInput>& inputs, const PoseGraph& graph,
-                       const MergeOptions& options, MergeReport& report) {
+                       const ClassTable& classes, const MergeOptions& options, MergeReport& report) {
   const MapFolder& first = inputs[0].map;
   const OutputConfig outputs;
   MapManifest manifest;
@@ -92,6 +93,7 @@ void writeMergedFolder(const fs::path& dir, const std::vector<MergeInput>& input
   const MapOutputs written = writeMapOutputs(dir, merged, trajectory, nullptr, nullptr, files);
   report.hazards = written.hazards.size();
   const std::string extras = writeGraphExtras(dir, graph);
+  manifest.search_overview = writeSearchOverview(dir, manifest, first.classes(), classes);
   writeMapManifest(dir, manifest, first.classes(), {"graph.g2o", "trajectory.kitti", "hazards.json"}, extras);
 }
 

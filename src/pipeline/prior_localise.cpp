@@ -68,7 +68,11 @@ PriorLocalisation localiseInPrior(const MapFolder& prior_map, ScanSource& scans,
   PriorLocalisation out;
   const ClassTable classes = config.property_icp.applyTo(scans.classTable(), scans.describe());
   const RunKeyframes run = readRunKeyframes(scans, result, config, classes);
+  const auto t_prepare = Clock::now();
   const PriorIndex prior(prior_map, classes, config);
+  out.prepare_seconds = secondsSince(t_prepare);
+  out.stored_overview = prior.usedStoredOverview();
+  out.prior_keyframes = prior.size();
   const double height = run.sensorHeight(), prior_height = prior_map.manifest().sensor_height;
   if (std::isfinite(height) && std::isfinite(prior_height) && std::abs(height - prior_height) > kSensorHeightTolerance)
     out.warnings.push_back(fmt::format("the sensor is {:.2f} m above the floor, {:.2f} m in the prior map", height,
@@ -77,6 +81,7 @@ PriorLocalisation localiseInPrior(const MapFolder& prior_map, ScanSource& scans,
   out.search_seconds = secondsSince(t0);
   if (out.state != PriorState::Localised) {
     out.state = PriorState::NeverLocalised;
+    out.prior_keyframes_read = prior.keyframesRead();
     out.total_seconds = secondsSince(t0);
     return out;
   }
@@ -88,6 +93,7 @@ PriorLocalisation localiseInPrior(const MapFolder& prior_map, ScanSource& scans,
     moveRun(result, out.T_prior_run);
     solveJointly(prior, edges, result, config, out);
   }
+  out.prior_keyframes_read = prior.keyframesRead();
   out.total_seconds = secondsSince(t0);
   return out;
 }

@@ -74,7 +74,10 @@ std::string priorJson(const PriorLocalisation& p, const std::filesystem::path& p
   nlohmann::json j = {{"map", prior_dir.string()}, {"state", toString(p.state)}, {"warnings", p.warnings},
                       {"search", attempts(p.search)}, {"loops_to_prior", attempts(p.loops)},
                       {"search_seconds", p.search_seconds}, {"seconds_per_attempt", p.seconds_per_attempt},
-                      {"total_seconds", p.total_seconds}, {"optimised", p.optimised}};
+                      {"total_seconds", p.total_seconds}, {"optimised", p.optimised},
+                      {"prepare_seconds", p.prepare_seconds},
+                      {"search_overview", p.stored_overview ? "stored in the map" : "rebuilt from the keyframes"},
+                      {"prior_keyframes", p.prior_keyframes}, {"prior_keyframes_read", p.prior_keyframes_read}};
   if (!p.optimisation_note.empty()) j["optimisation_note"] = p.optimisation_note;
   if (p.state == PriorState::Localised) {
     j["localised_at_frame"] = p.frame;

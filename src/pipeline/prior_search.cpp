@@ -12,15 +12,15 @@
 #include "pipeline/clock.hpp"
 #include "pipeline/loop_edges.hpp"
 #include "pipeline/map_folder_output.hpp"
+#include "pipeline/prior_overview.hpp"
 
 namespace hazmap::pipeline_detail {
 
 namespace {
 
 // Keyframe clouds are kept at loop closure's default keyframe voxel; the prior's overview (the
-// global registration target) is coarser, as the registration downsamples to 0.5 m anyway.
+// global registration target, prior_overview.hpp) is coarser.
 constexpr double kKeyframeVoxel = 0.15;
-constexpr double kOverviewVoxel = 0.25;
 // A query = the keyframe and this many before it (a VLP-16 scan alone is sparse).
 constexpr std::size_t kQueryKeyframesBefore = 2;
 // Verification target: the nearest prior keyframe and this many on each side.
@@ -120,33 +120,63 @@ PriorIndex::PriorIndex(const MapFolder& prior, const ClassTable& classes, const 
   std::vector<Eigen::Isometry3d> poses;
   std::vector<std::size_t> tags;
   for (const auto& k : prior.keyframes()) poses.push_back(k.pose), tags.push_back(k.frame);
-  add(prior, poses, tags, classes);
-  prepare(classes, prior.dir().string());
+  std::optional<LabeledCloud> stored = storedSearchOverview(prior, classes);
+  if (!stored) {
+    add(prior, poses, tags, classes);
+    prepare(classes, prior.dir().string());
+    return;
+  }
+  if (poses.empty()) fail(prior.dir().string(), "the prior map has no keyframes");
+  poses_ = std::move(poses);
+  tags_ = std::move(tags);
+  segments_.assign(poses_.size(), 0);
+  segment_count_ = 1;
+  clouds_.resize(poses_.size());
+  lazy_map_ = std::make_shared<const MapFolder>(prior);
+  lazy_classes_ = std::make_shared<const ClassTable>(classes);
+  prepareTarget(*stored, classes);
+  used_stored_overview_ = true;
 }
 
 void PriorIndex::add(const MapFolder& map, const std::vector<Eigen::Isometry3d>& poses,
                      const std::vector<std::size_t>& tags, const ClassTable& classes) {
+  if (lazy_map_) throw std::logic_error("PriorIndex::add on an index prepared from a stored overview");
   for (std::size_t k = 0; k < map.keyframes().size(); ++k) {
     const LabeledCloud full = map.loadKeyframe(k);
     poses_.push_back(poses.at(k));
     tags_.push_back(tags.at(k));
     segments_.push_back(segment_count_);
-    clouds_.push_back(downsampled(full, kKeyframeVoxel, classes));
-    overview_clouds_.push_back(downsampled(full, kOverviewVoxel, classes));
+    clouds_.emplace_back(downsampled(full, kKeyframeVoxel, classes));
+    overview_clouds_.push_back(keyframeOverview(full, classes));
   }
   ++segment_count_;
 }
 
 void PriorIndex::prepare(const ClassTable& classes, const std::string& where) {
   if (poses_.empty()) fail(where, "the prior map has no keyframes");
-  LabeledCloud all;
+  if (lazy_map_) throw std::logic_error("PriorIndex::prepare on an index prepared from a stored overview");
+  SearchOverviewBuilder all;
+  for (std::size_t k = 0; k < poses_.size(); ++k) all.add(overview_clouds_[k], poses_[k]);
+  prepareTarget(all.finish(classes), classes);
+}
+
+void PriorIndex::prepareTarget(const LabeledCloud& overview, const ClassTable& classes) {
   Eigen::Vector3d centre = Eigen::Vector3d::Zero();
-  for (std::size_t k = 0; k < poses_.size(); ++k) {
-    all.append(overview_clouds_[k].transformed(poses_[k]));
-    centre += poses_[k].translation();
-  }
+  for (const auto& p : poses_) centre += p.translation();
   centre /= static_cast<double>(poses_.size());
-  overview_ = prepareGlobalTarget(downsampled(all, kOverviewVoxel, classes), classes, global_, centre.cast<float>());
+  overview_ = prepareGlobalTarget(overview, classes, global_, centre.cast<float>());
+}
+
+const LabeledCloud& PriorIndex::cloud(std::size_t k) const {
+  std::lock_guard lock(clouds_mutex_);
+  std::optional<LabeledCloud>& c = clouds_.at(k);
+  if (!c) c = downsampled(lazy_map_->loadKeyframe(k), kKeyframeVoxel, *lazy_classes_);
+  return *c;
+}
+
+std::size_t PriorIndex::keyframesRead() const {
+  std::lock_guard lock(clouds_mutex_);
+  return static_cast<std::size_t>(std::count_if(clouds_.begin(), clouds_.end(), [](const auto& c) { return c.has_value(); }));
 }
 
 std::size_t PriorIndex::nearest(const Eigen::Vector3d& position, double& distance) const {
@@ -164,7 +194,7 @@ LabeledCloud PriorIndex::submap(std::size_t k) const {
   const std::size_t first = k > kPriorSubmapHalf ? k - kPriorSubmapHalf : 0;
   const std::size_t last = std::min(poses_.size() - 1, k + kPriorSubmapHalf);
   for (std::size_t j = first; j <= last; ++j)
-    if (segments_[j] == segments_[k]) s.append(clouds_[j].transformed(poses_[k].inverse() * poses_[j]));
+    if (segments_[j] == segments_[k]) s.append(cloud(j).transformed(poses_[k].inverse() * poses_[j]));
   return s;
 }
 

@@ -2,6 +2,9 @@
 // The pieces of localisation in a prior map (pipeline/prior_map.hpp): the run's keyframes, the
 // prior's keyframes prepared once, the property-ICP verification against the prior, the search.
 #include <Eigen/Geometry>
+#include <memory>
+#include <mutex>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -32,9 +35,13 @@ RunKeyframes readRunKeyframes(ScanSource& scans, const SlamResult& result, const
 /// The keyframes of a map folder (a map being merged into another), as a run's.
 RunKeyframes mapKeyframes(const MapFolder& map, const ClassTable& classes);
 
-/// The prior's keyframes, read and prepared once: downsampled clouds, poses, and the global
-/// registration target of all of them in the prior's frame. A merge (pipeline/merge_maps.hpp)
-/// adds one map after another, each a segment of its own, and prepares the target again.
+/// The prior's keyframes, prepared once: their poses, the global registration target of all of
+/// them in the prior's frame, and their clouds for the verification's submaps. A prior whose map
+/// folder holds a search overview made as this build would make it (prior_overview.hpp) is
+/// prepared from it and reads a keyframe's cloud only when a submap needs it; otherwise every
+/// keyframe is read and the overview made here, to the same bits. A merge
+/// (pipeline/merge_maps.hpp) adds one map after another, each a segment of its own, and prepares
+/// the target again.
 class PriorIndex {
  public:
   /// The prior's keyframes at their poses, prepared.
@@ -55,19 +62,32 @@ class PriorIndex {
   /// The prior keyframe nearest `position` (prior frame) and its distance.
   std::size_t nearest(const Eigen::Vector3d& position, double& distance) const;
   /// Keyframe k with its neighbours by index in its segment, placed in k's frame (the
-  /// verification target).
+  /// verification target). Throws hazmap::Error naming a keyframe cloud that cannot be read.
   LabeledCloud submap(std::size_t k) const;
   const GlobalRegistrationTarget& overview() const { return overview_; }
   const GlobalRegistrationConfig& globalConfig() const { return global_; }
+  /// The target came from the map folder's stored overview (not rebuilt from the keyframes).
+  bool usedStoredOverview() const { return used_stored_overview_; }
+  /// Keyframe clouds read so far (all of them unless the stored overview was used).
+  std::size_t keyframesRead() const;
 
  private:
+  /// Keyframe k's cloud at the keyframe voxel (sensor frame), read on first use.
+  const LabeledCloud& cloud(std::size_t k) const;
+  void prepareTarget(const LabeledCloud& overview, const ClassTable& classes);
+
   std::vector<Eigen::Isometry3d> poses_;
-  std::vector<LabeledCloud> clouds_;           ///< at the keyframe voxel, sensor frame
-  std::vector<LabeledCloud> overview_clouds_;  ///< at the overview voxel, sensor frame
   std::vector<std::size_t> tags_, segments_;
   std::size_t segment_count_ = 0;
+  // Read on demand from the map (prepared from its stored overview), else filled by add().
+  std::shared_ptr<const MapFolder> lazy_map_;
+  std::shared_ptr<const ClassTable> lazy_classes_;
+  mutable std::mutex clouds_mutex_;
+  mutable std::vector<std::optional<LabeledCloud>> clouds_;  ///< at the keyframe voxel, sensor frame
+  std::vector<LabeledCloud> overview_clouds_;  ///< keyframeOverview of each (add() only)
   GlobalRegistrationConfig global_;
   GlobalRegistrationTarget overview_;
+  bool used_stored_overview_ = false;
 };
 
 struct PriorVerification {

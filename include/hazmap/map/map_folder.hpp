@@ -14,6 +14,9 @@
 //   graph.g2o, trajectory.kitti, hazards.json   (written by the run itself)
 //   graph_extras.json        what graph.g2o cannot say: each edge's kind (loop edges carry a
 //                            robust loss) and the gravity priors; optional (older folders)
+//   search_overview.pcd      the keyframes at their poses, downsampled once: the input of the
+//                            global registration that localises a later mission in this map
+//                            (pipeline/prior_map.hpp); optional (older folders, merges)
 #include <Eigen/Geometry>
 #include <cstdint>
 #include <filesystem>
@@ -41,6 +44,15 @@ struct MapKeyframe {
   std::vector<PropertyLandmark> landmarks;  ///< in the keyframe's sensor frame
 };
 
+/// map.json "search_overview": what the overview cloud was made with, so a reader can tell
+/// whether it is the one it would make itself (else it rebuilds it from the keyframes).
+struct MapSearchOverview {
+  std::string cloud;  ///< relative path (binary PCD, class ids of the map's classes)
+  double voxel = 0.0;  ///< m, both downsamplings (each keyframe, then the union)
+  /// The class ids that were property classes (the downsampling's vote prefers them).
+  std::vector<ClassId> property_classes;
+};
+
 /// What map.json describes (without the clouds, which are read on demand).
 struct MapManifest {
   std::string format = kMapFormat;
@@ -53,6 +65,7 @@ struct MapManifest {
   std::vector<MapKeyframe> keyframes;
   /// The run's parameters (run.json "parameters") as JSON text.
   std::string parameters_json = "{}";
+  std::optional<MapSearchOverview> search_overview;  ///< absent in older folders
 };
 
 /// One file of the folder as map.json lists it.
@@ -85,8 +98,8 @@ std::string writeGraphExtras(const std::filesystem::path& dir, const PoseGraph& 
 std::string copyMapKeyframeCloud(const std::filesystem::path& dir, std::size_t frame, const std::filesystem::path& from);
 
 /// Writes classes.yaml and, last, map.json listing `files` (relative paths, which must exist:
-/// the run's graph.g2o, trajectory.kitti, hazards.json) and the keyframes' clouds,
-/// each with its size and checksum. Atomic; throws hazmap::Error naming the file.
+/// the run's graph.g2o, trajectory.kitti, hazards.json), the keyframes' clouds and the search
+/// overview's (when the manifest has one), each with its size and checksum. Atomic; throws hazmap::Error naming the file.
 /// `graph_extras`: writeGraphExtras' path (named as map.json "graph_extras"; empty = none).
 void writeMapManifest(const std::filesystem::path& dir, const MapManifest& manifest, const ClassTable& classes,
                       const std::vector<std::string>& files, const std::string& graph_extras = {});
@@ -100,6 +113,9 @@ class MapFolder {
   const ClassTable& classes() const { return classes_; }
   /// Keyframe k's cloud (sensor frame). Throws hazmap::Error naming the file.
   LabeledCloud loadKeyframe(std::size_t k) const;
+  /// The search overview's cloud (map frame). Throws hazmap::Error when the map has none or the
+  /// file cannot be read.
+  LabeledCloud loadSearchOverview() const;
   /// graph.g2o, with its edges' kinds and gravity priors from graph_extras.json when the
   /// manifest names it (else every edge an odometry edge, no priors).
   PoseGraph graph() const;
@@ -117,7 +133,7 @@ class MapFolder {
 };
 
 /// Opens a map folder: map.json present and of format hazmap-map/1, every listed file present
-/// with its size and checksum. Throws hazmap::Error with one line naming the folder and what is
+/// with its size and checksum (the checksums computed side by side on the task arena's threads). Throws hazmap::Error with one line naming the folder and what is
 /// missing or wrong (no map.json: an older run or one that did not finish; another format; a
 /// missing, truncated or changed file; a broken manifest).
 MapFolder openMap(const std::filesystem::path& dir);

@@ -48,6 +48,12 @@ struct PriorLocalisation {
   std::vector<PriorAttempt> loops;   ///< keyframes after: loops to the prior keyframes
   std::vector<std::string> warnings; ///< differences from the prior that are not errors
   double search_seconds = 0.0, total_seconds = 0.0;
+  /// Preparing the prior's search (its global registration target) and where it came from: the
+  /// map folder's stored search overview, or rebuilt from every keyframe (older folders, another
+  /// class table).
+  double prepare_seconds = 0.0;
+  bool stored_overview = false;
+  std::size_t prior_keyframes = 0, prior_keyframes_read = 0;  ///< read: clouds the run needed
   /// Mean of search_seconds over the keyframes searched (the cost of one localisation attempt).
   double seconds_per_attempt = 0.0;
   bool optimised = false;  ///< the joint graph was solved (else the poses are only moved by T)

@@ -1,0 +1,58 @@
+#include "pipeline/prior_overview.hpp"
+
+#include "hazmap/io/pcd.hpp"
+#include "hazmap/preprocess/voxel_downsample.hpp"
+
+namespace hazmap::pipeline_detail {
+
+namespace {
+
+constexpr const char* kOverviewFile = "search_overview.pcd";
+
+LabeledCloud atOverviewVoxel(const LabeledCloud& cloud, const ClassTable& classes) {
+  VoxelDownsampleConfig c;
+  c.voxel_size = kOverviewVoxel;
+  c.vote = ClassVote::PreferProperty;
+  return voxelDownsample(cloud, c, classes);
+}
+
+std::vector<ClassId> propertyClasses(const ClassTable& classes) {
+  std::vector<ClassId> ids;
+  for (ClassId id : classes.ids())
+    if (classes.isProperty(id)) ids.push_back(id);
+  return ids;
+}
+
+}  // namespace
+
+LabeledCloud keyframeOverview(const LabeledCloud& full, const ClassTable& classes) {
+  return atOverviewVoxel(full, classes);
+}
+
+void SearchOverviewBuilder::add(const LabeledCloud& keyframe_overview, const Eigen::Isometry3d& pose) {
+  all_.append(keyframe_overview.transformed(pose));
+}
+
+LabeledCloud SearchOverviewBuilder::finish(const ClassTable& classes) const { return atOverviewVoxel(all_, classes); }
+
+MapSearchOverview searchOverviewKey(const std::string& cloud, const ClassTable& classes) {
+  return {cloud, kOverviewVoxel, propertyClasses(classes)};
+}
+
+MapSearchOverview writeSearchOverview(const std::filesystem::path& dir, const MapManifest& manifest,
+                                      const ClassTable& map_classes, const ClassTable& classes) {
+  SearchOverviewBuilder builder;
+  for (const auto& k : manifest.keyframes)
+    builder.add(keyframeOverview(readPcd(dir / k.cloud, map_classes), classes), k.pose);
+  writePcd(dir / kOverviewFile, builder.finish(classes), PcdEncoding::BinaryCompressed);
+  return searchOverviewKey(kOverviewFile, classes);
+}
+
+std::optional<LabeledCloud> storedSearchOverview(const MapFolder& map, const ClassTable& classes) {
+  const auto& stored = map.manifest().search_overview;
+  if (!stored || stored->voxel != kOverviewVoxel || stored->property_classes != propertyClasses(classes))
+    return std::nullopt;
+  return map.loadSearchOverview();
+}
+
+}  // namespace hazmap::pipeline_detail

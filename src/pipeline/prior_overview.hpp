@@ -1,0 +1,47 @@
+#pragma once
+// The search overview of a map folder (map/map_folder.hpp, "search_overview"): every keyframe
+// downsampled, placed at its pose, and the union downsampled again — the cloud whose FPFH
+// features a later mission's global registration searches (pipeline/prior_search.hpp). Made
+// the same way whether a run writes it into its map folder or a reader rebuilds it from the
+// keyframes, so a localisation does not depend on which of the two it used.
+#include <Eigen/Geometry>
+#include <filesystem>
+#include <optional>
+#include <vector>
+
+#include "hazmap/core/class_table.hpp"
+#include "hazmap/core/labeled_cloud.hpp"
+#include "hazmap/map/map_folder.hpp"
+
+namespace hazmap::pipeline_detail {
+
+/// m: both downsamplings of the overview (the global registration downsamples to 0.5 m anyway).
+constexpr double kOverviewVoxel = 0.25;
+
+/// One keyframe's contribution (sensor frame): its cloud at kOverviewVoxel.
+LabeledCloud keyframeOverview(const LabeledCloud& full, const ClassTable& classes);
+
+/// The keyframes' overviews placed at their poses (in order) and downsampled again.
+class SearchOverviewBuilder {
+ public:
+  void add(const LabeledCloud& keyframe_overview, const Eigen::Isometry3d& pose);
+  LabeledCloud finish(const ClassTable& classes) const;
+
+ private:
+  LabeledCloud all_;
+};
+
+/// What map.json records with the overview made with `classes`' property classes.
+MapSearchOverview searchOverviewKey(const std::string& cloud, const ClassTable& classes);
+
+/// Builds the overview of the keyframes `manifest` lists in `dir` (clouds already written, read
+/// with `map_classes`; downsampled with `classes`), writes it as search_overview.pcd (atomically)
+/// and returns its key for the manifest. Throws hazmap::Error naming a file that cannot be read.
+MapSearchOverview writeSearchOverview(const std::filesystem::path& dir, const MapManifest& manifest,
+                                      const ClassTable& map_classes, const ClassTable& classes);
+
+/// `map`'s overview when it has one made as this build makes it with `classes` (same voxel,
+/// same property classes); nullopt otherwise (rebuild it from the keyframes).
+std::optional<LabeledCloud> storedSearchOverview(const MapFolder& map, const ClassTable& classes);
+
+}  // namespace hazmap::pipeline_detail
