@@ -13,6 +13,7 @@
 #include "hazmap/map/map_folder.hpp"
 #include "hazmap/pipeline/merge_maps.hpp"
 #include "hazmap/pipeline/run_outputs.hpp"
+#include "pipeline/prior_search.hpp"
 #include "test_helpers.hpp"
 
 using namespace hazmap;
@@ -192,6 +193,12 @@ TEST(MergeScene, TwoMissionsGiveOneMapFolderThatMergesAgain) {
   EXPECT_EQ(merged.keyframes().size(), m1.keyframes().size() + m2.keyframes().size());
   EXPECT_EQ(merged.manifest().frames, m1.manifest().frames + m2.manifest().frames);
   EXPECT_EQ(merged.graph().numNodes(), static_cast<int>(merged.manifest().frames));
+  // ... with its search overview: a later mission localises in it without reading every keyframe.
+  ASSERT_TRUE(merged.manifest().search_overview.has_value());
+  const SlamConfig config = SlamConfig::forMethod(SlamMethod::PropertyIcpPgo);
+  const pipeline_detail::PriorIndex index(merged, config.property_icp.applyTo(merged.classes()), config);
+  EXPECT_TRUE(index.usedStoredOverview());
+  EXPECT_EQ(index.size(), merged.keyframes().size());
   // What changed, mission 2 against mission 1: the removed source gone, the machine moved 2 m.
   std::set<std::string> kinds;
   const nlohmann::json changes = readJson(dir / "merged" / "changes.json");
