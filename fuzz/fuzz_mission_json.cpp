@@ -1,5 +1,6 @@
 // libFuzzer target: the missions' JSON readers (issue 34): changes.json (`hazmap view` reads a
-// run's or a merge's changes) and a map folder's graph_extras.json (applied to a small graph).
+// run's or a merge's changes), a map folder's graph_extras.json (applied to a small graph) and
+// its map.json (the manifest a `--prior` or a `merge` opens first, before any file of the folder).
 #include <cmath>
 #include <cstdlib>
 
@@ -22,6 +23,24 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     hazmap::map_folder_detail::readGraphExtras(path, graph);
     for (const auto& p : graph.gravity_priors)
       if (p.node < 0 || p.node >= graph.numNodes() || !(p.sigma > 0.0)) std::abort();  // addGravityPrior checks
+  } catch (const hazmap::Error&) {
+  }
+  try {
+    const auto parsed = hazmap::map_folder_detail::parseMapManifest(std::string(data, data + size), "fuzz-map");
+    // What openMap relies on once the manifest parsed: keyframes within the run, every file it
+    // names listed, nothing listed outside the folder, an overview voxel that can downsample.
+    const auto listed = [&](const std::string& path) {
+      for (const auto& f : parsed.files)
+        if (f.path == path) return true;
+      return false;
+    };
+    for (const auto& k : parsed.manifest.keyframes)
+      if (k.frame >= parsed.manifest.frames || !listed(k.cloud)) std::abort();
+    for (const auto& f : parsed.files)
+      if (f.path.empty() || f.path.front() == '/' || f.path.find("..") != std::string::npos) std::abort();
+    if (!listed(parsed.classes) || !listed(parsed.graph) || !listed(parsed.hazards) || !listed(parsed.trajectory))
+      std::abort();
+    if (const auto& o = parsed.manifest.search_overview; o && (!(o->voxel > 0.0) || !listed(o->cloud))) std::abort();
   } catch (const hazmap::Error&) {
   }
   return 0;

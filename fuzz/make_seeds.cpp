@@ -167,6 +167,30 @@ int main(int argc, char** argv) {
                         R"({"edges": 2, "loop_edges": [1], "map_anchor_edges": [], "gravity_world": [0, 0, -1],)"
                         R"( "gravity_priors": [{"node": 0, "down": [0, 0, -1], "sigma": 0.01}, {"node": 2, "down": [0.01, 0, -0.99995], "sigma": 0.02}]})"
                         "\n");
+    // map.json as `hazmap run` writes it (two keyframes, one landmark, the search overview).
+    writeTextAtomically(out / "mission_json/map.json", R"({
+ "format": "hazmap-map/1", "method": "property-icp+pgo", "source": "naraha", "frames": 30,
+ "classes": "classes.yaml", "sensor_height_m": 0.5, "graph": "graph.g2o", "graph_extras": "graph_extras.json",
+ "hazards": "hazards.json", "trajectory": "trajectory.kitti",
+ "parameters": {"slam": {"keyframe_distance": 0.9}},
+ "keyframes": [
+  {"frame": 0, "stamp": 0.0, "pose": [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0], "cloud": "keyframes/000000.pcd",
+   "points": 28000, "landmarks": []},
+  {"frame": 4, "stamp": 0.4, "pose": [1, 0, 0, 1.2, 0, 1, 0, 0, 0, 0, 1, 0], "cloud": "keyframes/000004.pcd",
+   "points": 28100, "landmarks": [{"axes": [0.97, -0.25, 0.03, -0.01, 0.11, 0.99, -0.25, -0.96, 0.10],
+   "box_max": [13.13, 1.50, 0.69], "box_min": [11.98, 1.37, -0.23], "centroid": [12.40, 1.42, 0.30], "class": 1,
+   "extent": [0.42, 0.32, 0.04], "points": 15, "purity": 0.88, "mean_property": 61.5}]}],
+ "search_overview": {"cloud": "search_overview.pcd", "voxel": 0.25, "property_classes": [1, 2, 3]},
+ "files": [
+  {"path": "graph.g2o", "bytes": 1200, "fnv1a": "00000000000004d2"},
+  {"path": "trajectory.kitti", "bytes": 300, "fnv1a": "0123456789abcdef"},
+  {"path": "hazards.json", "bytes": 90, "fnv1a": "fedcba9876543210"},
+  {"path": "classes.yaml", "bytes": 400, "fnv1a": "0000000000000001"},
+  {"path": "graph_extras.json", "bytes": 120, "fnv1a": "0000000000000002"},
+  {"path": "keyframes/000000.pcd", "bytes": 390000, "fnv1a": "0000000000000003"},
+  {"path": "keyframes/000004.pcd", "bytes": 391000, "fnv1a": "0000000000000004"},
+  {"path": "search_overview.pcd", "bytes": 816563, "fnv1a": "0000000000000005"}]}
+)");
     // hazards.json as `hazmap run` writes it (two hazards of the demo's map).
     writeTextAtomically(out / "hazards_json/hazards.json", R"({"count": 2, "voxel_size": 0.1, "hazards": [
  {"id": 1, "class": "heat", "class_id": 1, "kind": "heat", "centroid": [12.59, 1.39, 0.21],

@@ -18,4 +18,15 @@ std::string hex64(std::uint64_t v);
 void readGraphExtras(const std::filesystem::path& path, PoseGraph& graph);
 std::uint64_t parseHex64(const std::string& text);
 
+/// map.json as openMap reads it, before the folder's files are looked at.
+struct ParsedMapManifest {
+  MapManifest manifest;
+  std::vector<MapFileEntry> files;  ///< as listed, each path inside the folder
+  std::string classes, graph, hazards, trajectory, graph_extras;  ///< relative paths (extras: "" = none)
+};
+/// map.json's text checked on its own: the required keys, the format, keyframes within the run's
+/// frames, every file it names listed among its files, no listed path outside `dir`. Throws
+/// hazmap::Error in one line naming `dir` or its map.json.
+ParsedMapManifest parseMapManifest(const std::string& text, const std::filesystem::path& dir);
+
 }  // namespace hazmap::map_folder_detail
