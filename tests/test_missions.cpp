@@ -138,6 +138,11 @@ TEST(MapFolder, ABrokenManifestIsOneLine) {
   fs::copy(corridorRun(), outside, fs::copy_options::recursive);
   editManifest(outside, [](nlohmann::json& j) { j["files"][0]["path"] = "../secret"; });
   expectOneLine(openError(outside), "outside the folder");
+  // A named piece of the wrong type, or an impossible overview: the manifest named, one line.
+  editManifest(outside, [&](nlohmann::json& j) { j = nlohmann::json::parse(text); j["classes"] = 5; });
+  expectOneLine(openError(outside), (outside / "map.json").string() + ": broken manifest");
+  editManifest(outside, [&](nlohmann::json& j) { j = nlohmann::json::parse(text); j["search_overview"]["voxel"] = 0; });
+  expectOneLine(openError(outside), "broken manifest: search_overview voxel must be positive");
 }
 
 TEST(MapFolder, ARewriteInvalidatesTheOldManifestFirst) {
