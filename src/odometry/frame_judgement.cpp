@@ -177,25 +177,32 @@ namespace {
 // answer kept, with the fallback covariance along the axis. Weak in ICP's Hessian, or, without
 // wheel odometry, in the scan's own surfaces (scanWeakHorizontalAxis): there the guess is the
 // constant velocity of frames that may have stood still, and the map's normals can claim what the
-// walls cannot. (With the wheels the guess along the axis is a measurement: asking the scan too
-// moved corridor seeds 1 and 3 by recoveries, 0.5 → 6.7 m, not adopted.)
+// walls cannot. With the wheels the guess along the axis is a measurement (asking the scan alone
+// moved corridor seeds 1 and 3 by recoveries, 0.5 → 6.7 m, not adopted): such a frame is flagged
+// only where ICP's answer left the wheels along the scan's weak axis (kFlagWheelDisagreement).
 void flagWeakAxis(OdometryFrame& f, const RegistrationResult& r, Estimate& estimate, const OdometryConfig& config,
-                  const LabeledCloud& source, const Eigen::Isometry3d& W) {
+                  const LabeledCloud& source, const Eigen::Isometry3d& W, const Eigen::Isometry3d& guess) {
   if (!config.recovery.relocalise_suspect) return;
   std::optional<Eigen::Vector3d> axis = weakHorizontalAxis(r, kFlagWeakAxisRatio);
   const char* whose = "";
-  if (!axis && !f.wheel_guess)
+  char wheels[80] = "";
+  if (!axis)
     if (const auto scan_axis = scanWeakHorizontalAxis(source, W * estimate.pose, kScanWeakAxisRatio)) {
-      axis = W.linear().transpose() * *scan_axis;  // world → registration space
-      whose = " in the scan's own surfaces";
+      const Eigen::Vector3d in_w = W.linear().transpose() * *scan_axis;  // world → registration space
+      const double from_wheels = in_w.dot(estimate.pose.translation() - guess.translation());
+      if (!f.wheel_guess || std::abs(from_wheels) > kFlagWheelDisagreement) {
+        axis = in_w;
+        whose = " in the scan's own surfaces";
+        if (f.wheel_guess) std::snprintf(wheels, sizeof wheels, ", %+.2f m from the wheels along it", from_wheels);
+      }
     }
   if (!axis) return;
   Vector6d b = Vector6d::Zero();
   b.head<3>() = *axis;
   estimate.covariance += config.fallback_sigma_translation * config.fallback_sigma_translation * b * b.transpose();
-  char buf[200];
-  std::snprintf(buf, sizeof buf, "weakly constrained%s along [%.2f %.2f %.2f]: ICP cannot know the motion along it (flagged)",
-                whose, (*axis)(0), (*axis)(1), (*axis)(2));
+  char buf[300];
+  std::snprintf(buf, sizeof buf, "weakly constrained%s along [%.2f %.2f %.2f]%s: ICP cannot know the motion along it (flagged)",
+                whose, (*axis)(0), (*axis)(1), (*axis)(2), wheels);
   f.reason = f.reason.empty() ? std::string(buf) : f.reason + "; " + buf;
   f.status = FrameStatus::Degenerate;
 }
@@ -205,13 +212,14 @@ void flagWeakAxis(OdometryFrame& f, const RegistrationResult& r, Estimate& estim
 // A tracked or relocalised frame: placed along its weak axis by its labels (flagged when not to
 // the centimetre), or flagged for the weak axis as before.
 void labelledOrFlagged(OdometryFrame& f, const RegistrationResult& r, Estimate& estimate, const OdometryConfig& config,
-                       const LabeledCloud& source, const Eigen::Isometry3d& W, const LabelVerdict& labels) {
+                       const LabeledCloud& source, const Eigen::Isometry3d& W, const Eigen::Isometry3d& guess,
+                       const LabelVerdict& labels) {
   if (!labels.note.empty()) {
     f.reason += (f.reason.empty() ? "" : "; ") + labels.note;
     if (!labels.precise) f.status = FrameStatus::Degenerate;
     return;
   }
-  flagWeakAxis(f, r, estimate, config, source, W);
+  flagWeakAxis(f, r, estimate, config, source, W, guess);
   if (f.status == FrameStatus::Degenerate && !labels.doubt.empty()) f.reason += "; " + labels.doubt;
 }
 

@@ -37,9 +37,10 @@ struct LabelVerdict {
 };
 /// A tracked or relocalised frame placed along its weak axis by its labels, or flagged for it
 /// (weak in ICP's Hessian or in the scan's own surfaces; `source` in the sensor frame, the
-/// estimate in registration space W).
+/// estimate and ICP's start `guess` in registration space W).
 void labelledOrFlagged(OdometryFrame& f, const RegistrationResult& r, Estimate& estimate, const OdometryConfig& config,
-                       const LabeledCloud& source, const Eigen::Isometry3d& W, const LabelVerdict& labels);
+                       const LabeledCloud& source, const Eigen::Isometry3d& W, const Eigen::Isometry3d& guess,
+                       const LabelVerdict& labels);
 /// The weak horizontal axis (world) of the scan's own surfaces at `pose` (world ← sensor), below
 /// `ratio` × the strongest: what the scan can observe, whatever the map's normals claim.
 std::optional<Eigen::Vector3d> scanWeakHorizontalAxis(const LabeledCloud& source, const Eigen::Isometry3d& pose,

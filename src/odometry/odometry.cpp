@@ -257,7 +257,7 @@ Odometry::Judgement Odometry::judge(OdometryFrame& f, const LabeledCloud& source
                       !(config_.recovery.relocalise_suspect &&
                         weakHorizontalAxis(r, kSuspectWeakAxisRatio));
   if (f.status == FrameStatus::Tracked || f.status == FrameStatus::Relocalised)
-    labelledOrFlagged(f, r, j.estimate, config_, source, a.W, {impl_->label_note, impl_->label_precise, impl_->label_doubt});
+    labelledOrFlagged(f, r, j.estimate, config_, source, a.W, a.guess, {impl_->label_note, impl_->label_precise, impl_->label_doubt});
   flagAfterFlagged(f, frames_.back(), j.estimate.pose, a.guess, a.W, config_);
   return j;
 }

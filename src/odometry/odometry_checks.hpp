@@ -50,6 +50,12 @@ constexpr double kScanSurfaceRadius = 2.0;
 /// frame's weakest axis is flagged too: the previous pose's error or a slip moved it (corridor
 /// worst day: 0.49 m off in its increment).
 constexpr double kFlagCorrectionAfterFlagged = 0.15;
+/// With wheel odometry: an answer farther than this (m) from the wheels' guess along the scan's
+/// own weak horizontal axis is flagged. The walls cannot have moved it there, so the map did (a
+/// feature integrated where an earlier flagged frame put it) or the wheels slipped: the data
+/// cannot tell which (corridor worst day, seed 3: frames 66 and 80 `tracked` 0.22-0.24 m off
+/// along the corridor, pulled from wheels that were within 4 cm).
+constexpr double kFlagWheelDisagreement = 0.15;
 
 // --- recovery's starts and how its answers are scored ---
 /// m; recovery also starts ICP at ±1 and ±2 steps along a weak axis (a corridor's repeated bays).
