@@ -13,7 +13,8 @@
 //                                      same folder without it (an older map), every keyframe read.
 //                                      Counters: open_s (checksums), prepare_s, attempt_s (per
 //                                      attempt), ready_s = open_s + prepare_s + attempt_s (a
-//                                      first answer), keyframes_read.
+//                                      first answer), keyframes_read, target_points (the same
+//                                      with and without the stored overview).
 //   BM_PriorAttempt/<copies>/<threads>: one keyframe's attempt (a query of three keyframes,
 //                                      global registration against the whole prior, property-ICP
 //                                      verification of its answer): what the 1 s target covers.
@@ -163,6 +164,7 @@ void BM_PriorPrepare(benchmark::State& state) {
     state.counters["attempt_s"] = attempt;
     state.counters["ready_s"] = seconds(t0, t2) + attempt;
     state.counters["keyframes_read"] = static_cast<double>(index.keyframesRead());
+    state.counters["target_points"] = static_cast<double>(index.overview().size());  // stored = rebuilt
   }
 }
 // Before the first iteration: the simulated run and the replicated maps (Prepared too).

@@ -30,10 +30,11 @@ LabeledCloud keyframeOverview(const LabeledCloud& full, const ClassTable& classe
 }
 
 void SearchOverviewBuilder::add(const LabeledCloud& keyframe_overview, const Eigen::Isometry3d& pose) {
+  if (all_.size() + keyframe_overview.size() > kOverviewUnionPoints) all_ = atOverviewVoxel(all_, classes_);
   all_.append(keyframe_overview.transformed(pose));
 }
 
-LabeledCloud SearchOverviewBuilder::finish(const ClassTable& classes) const { return atOverviewVoxel(all_, classes); }
+LabeledCloud SearchOverviewBuilder::finish() const { return atOverviewVoxel(all_, classes_); }
 
 MapSearchOverview searchOverviewKey(const std::string& cloud, const ClassTable& classes) {
   return {cloud, kOverviewVoxel, propertyClasses(classes)};
@@ -41,10 +42,10 @@ MapSearchOverview searchOverviewKey(const std::string& cloud, const ClassTable& 
 
 MapSearchOverview writeSearchOverview(const std::filesystem::path& dir, const MapManifest& manifest,
                                       const ClassTable& map_classes, const ClassTable& classes) {
-  SearchOverviewBuilder builder;
+  SearchOverviewBuilder builder(classes);
   for (const auto& k : manifest.keyframes)
     builder.add(keyframeOverview(readPcd(dir / k.cloud, map_classes), classes), k.pose);
-  writePcd(dir / kOverviewFile, builder.finish(classes), PcdEncoding::BinaryCompressed);
+  writePcd(dir / kOverviewFile, builder.finish(), PcdEncoding::BinaryCompressed);
   return searchOverviewKey(kOverviewFile, classes);
 }
 

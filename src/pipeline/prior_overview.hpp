@@ -21,13 +21,21 @@ constexpr double kOverviewVoxel = 0.25;
 /// One keyframe's contribution (sensor frame): its cloud at kOverviewVoxel.
 LabeledCloud keyframeOverview(const LabeledCloud& full, const ClassTable& classes);
 
-/// The keyframes' overviews placed at their poses (in order) and downsampled again.
+/// Points the union may hold before it is downsampled on the way (about 60 MB): a map of up to
+/// about 330 keyframes is downsampled once, as a whole; a longer mission's in steps, so a save at
+/// the end of an hour does not hold every keyframe's points at once.
+constexpr std::size_t kOverviewUnionPoints = 2'000'000;
+
+/// The keyframes' overviews placed at their poses (in order) and downsampled again (whenever the
+/// union exceeds kOverviewUnionPoints, and at the end). The same calls give the same bits.
 class SearchOverviewBuilder {
  public:
+  explicit SearchOverviewBuilder(const ClassTable& classes) : classes_(classes) {}
   void add(const LabeledCloud& keyframe_overview, const Eigen::Isometry3d& pose);
-  LabeledCloud finish(const ClassTable& classes) const;
+  LabeledCloud finish() const;
 
  private:
+  const ClassTable& classes_;
   LabeledCloud all_;
 };
 

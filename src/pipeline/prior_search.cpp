@@ -155,9 +155,9 @@ void PriorIndex::add(const MapFolder& map, const std::vector<Eigen::Isometry3d>&
 void PriorIndex::prepare(const ClassTable& classes, const std::string& where) {
   if (poses_.empty()) fail(where, "the prior map has no keyframes");
   if (lazy_map_) throw std::logic_error("PriorIndex::prepare on an index prepared from a stored overview");
-  SearchOverviewBuilder all;
+  SearchOverviewBuilder all(classes);
   for (std::size_t k = 0; k < poses_.size(); ++k) all.add(overview_clouds_[k], poses_[k]);
-  prepareTarget(all.finish(classes), classes);
+  prepareTarget(all.finish(), classes);
 }
 
 void PriorIndex::prepareTarget(const LabeledCloud& overview, const ClassTable& classes) {
