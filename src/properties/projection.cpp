@@ -33,44 +33,21 @@ namespace {
 constexpr float kFar = std::numeric_limits<float>::infinity();
 
 /// Separable min filter of radius r over a cw × ch grid (in → out, using out as scratch too).
-// Min filter over a (2 rx + 1) × (2 ry + 1) window, separable.
-void minFilter(const std::vector<float>& in, std::vector<float>& tmp, std::vector<float>& out, int cw, int ch, int rx,
-               int ry) {
+void minFilter(const std::vector<float>& in, std::vector<float>& tmp, std::vector<float>& out, int cw, int ch, int r) {
   tmp.resize(in.size());
   out.resize(in.size());
   for (int y = 0; y < ch; ++y)
     for (int x = 0; x < cw; ++x) {
       float m = kFar;
-      for (int k = std::max(0, x - rx); k <= std::min(cw - 1, x + rx); ++k) m = std::min(m, in[y * cw + k]);
+      for (int k = std::max(0, x - r); k <= std::min(cw - 1, x + r); ++k) m = std::min(m, in[y * cw + k]);
       tmp[y * cw + x] = m;
     }
   for (int y = 0; y < ch; ++y)
     for (int x = 0; x < cw; ++x) {
       float m = kFar;
-      for (int k = std::max(0, y - ry); k <= std::min(ch - 1, y + ry); ++k) m = std::min(m, tmp[k * cw + x]);
+      for (int k = std::max(0, y - r); k <= std::min(ch - 1, y + r); ++k) m = std::min(m, tmp[k * cw + x]);
       out[y * cw + x] = m;
     }
-}
-
-// The dilation along the image's rows that the scan's own gaps there need, at most `r`: half the
-// median gap between neighbouring occupied cells of a row (a gap wider than the whole splat is
-// an object's edge or the sky, not sampling). A spinning LiDAR's columns land much closer than
-// its rings (a VLP-16 in a 640-px 90° camera: 1.4 px against 14 px), and dilating a nearer
-// object's silhouette sideways by the rings' splat hid what lies beside it (the 360° rig, naraha
-// seed 6: a heat patch 14 m away behind a tank's edge; docs/properties.md).
-int rowSplat(const std::vector<float>& zbuffer, int cw, int ch, int r) {
-  std::vector<int> gaps;
-  for (int y = 0; y < ch; ++y) {
-    int last = -1;
-    for (int x = 0; x < cw; ++x) {
-      if (!(zbuffer[static_cast<std::size_t>(y) * cw + x] < kFar)) continue;
-      if (last >= 0 && x - last <= 2 * r + 1) gaps.push_back(x - last);
-      last = x;
-    }
-  }
-  if (gaps.empty()) return r;
-  std::nth_element(gaps.begin(), gaps.begin() + static_cast<std::ptrdiff_t>(gaps.size() / 2), gaps.end());
-  return std::min(r, gaps[gaps.size() / 2] / 2);  // g - 1 empty cells: each side covers ceil((g - 1) / 2)
 }
 
 }  // namespace
@@ -129,8 +106,7 @@ ProjectionStats projectIntoImage(std::span<const Eigen::Vector3f> points, const 
   const std::vector<float>* nearest = &s.zbuffer;
   if (config.splat_cells > 0) {
     std::vector<float> tmp;
-    minFilter(s.zbuffer, tmp, s.zfiltered, cw, ch, rowSplat(s.zbuffer, cw, ch, config.splat_cells),
-              config.splat_cells);
+    minFilter(s.zbuffer, tmp, s.zfiltered, cw, ch, config.splat_cells);
     nearest = &s.zfiltered;
   }
   // Pass 3: depth test and bilinear sample.

@@ -6,9 +6,7 @@
 // The depth test is a z-buffer of the projected scan on a grid of depth_cell_px-pixel cells,
 // dilated by splat_cells (a point covers its neighbouring cells: a LiDAR scan is sparse, so a
 // wall's points leave gaps between them through which the wall's background would otherwise
-// "show"): along the image's columns by splat_cells, along its rows only as far as the scan's
-// own gaps there need (at most splat_cells; a spinning LiDAR's columns are much denser than its
-// rings, and a wider dilation hides what lies beside a nearer object). A point is hidden when it lies farther than the nearest depth around it by more than
+// "show"). A point is hidden when it lies farther than the nearest depth around it by more than
 // depth_tolerance + depth_tolerance_ratio · depth.
 #include <Eigen/Geometry>
 #include <cstdint>
@@ -23,7 +21,7 @@ namespace hazmap {
 struct ProjectionConfig {
   double min_depth = 0.2;               ///< m; closer points are not projected
   int depth_cell_px = 4;                ///< z-buffer cell size (pixels, >= 1)
-  int splat_cells = 2;                  ///< z-buffer dilation radius (cells, >= 0; rows: as needed, at most this)
+  int splat_cells = 2;                  ///< z-buffer dilation radius (cells, >= 0)
   double depth_tolerance = 0.15;        ///< m
   double depth_tolerance_ratio = 0.05;  ///< share of the depth added to the tolerance
   /// Edge guard (0 = off): also report the smallest and largest pixel value within this many
