@@ -15,6 +15,7 @@
 #include "hazmap/pipeline/run_outputs.hpp"
 #include "hazmap/sim/missions.hpp"
 #include "hazmap/sources/scan_source.hpp"
+#include "pipeline/prior_overview.hpp"
 #include "pipeline/prior_search.hpp"
 #include "test_helpers.hpp"
 
@@ -319,6 +320,15 @@ TEST(PriorMap, TheStoredSearchOverviewSearchesAsTheKeyframesWouldBitForBit) {
   EXPECT_EQ(from_overview.overview().size(), from_keyframes.overview().size());
   EXPECT_EQ(from_overview.overview().features(), from_keyframes.overview().features());
   EXPECT_EQ(from_overview.overview().landmarks(), from_keyframes.overview().landmarks());
+  {  // The run built it from its scans as it wrote them; from the written files it is the same cloud.
+    SearchOverviewBuilder rebuilt(classes);
+    for (std::size_t k = 0; k < plain.keyframes().size(); ++k)
+      rebuilt.add(keyframeOverview(plain.loadKeyframe(k), classes), plain.keyframes()[k].pose);
+    const LabeledCloud a = stored.loadSearchOverview(), b = rebuilt.finish();
+    ASSERT_EQ(a.size(), b.size());
+    EXPECT_TRUE(a.points == b.points);
+    EXPECT_TRUE(a.classes == b.classes);
+  }
   // The run's own keyframes searched in its map: every attempt alike, poses bit for bit.
   const RunKeyframes queries = mapKeyframes(stored, classes);
   FramePoses poses(stored.manifest().frames);

@@ -29,7 +29,8 @@ std::vector<std::size_t> keyframeFrames(const SlamResult& result, const SlamConf
 MapFolderOutput::MapFolderOutput(std::filesystem::path dir, const SlamResult& result, const SlamConfig& config,
                                  const ClassTable& classes)
     : dir_(std::move(dir)), result_(result), config_(config), classes_(classes),
-      keyframes_(keyframeFrames(result, config)) {
+      keyframes_(keyframeFrames(result, config)),
+      search_classes_(config.property_icp.applyTo(classes, dir_.string())), overview_(search_classes_) {
   invalidateMapFolder(dir_);
   manifest_.method = toString(result.method);
   manifest_.source = result.source;
@@ -45,6 +46,7 @@ void MapFolderOutput::addScan(std::size_t frame, const LabeledCloud& scan) {
   k.pose = result_.estimate.poses.at(frame);
   k.points = scan.size();
   k.cloud = writeMapKeyframeCloud(dir_, frame, scan);
+  overview_.add(keyframeOverview(scan, search_classes_), k.pose);
   k.landmarks = extractLandmarks(scan, classes_, config_.loop_closure.landmarks);
   heights_.push_back(sensorHeightAboveFloor(scan));
   manifest_.keyframes.push_back(std::move(k));
@@ -62,8 +64,7 @@ void MapFolderOutput::finish() {
   manifest_.parameters_json = configToJson(config_).dump();
   const std::string extras = writeGraphExtras(dir_, result_.graph);
   // What a later mission's localisation in this map would otherwise rebuild from every keyframe.
-  manifest_.search_overview =
-      writeSearchOverview(dir_, manifest_, classes_, config_.property_icp.applyTo(classes_, dir_.string()));
+  manifest_.search_overview = writeSearchOverview(dir_, overview_.finish(), search_classes_);
   writeMapManifest(dir_, manifest_, classes_, {"graph.g2o", "trajectory.kitti", "hazards.json"}, extras);
 }
 

@@ -8,6 +8,7 @@
 
 #include "hazmap/map/map_folder.hpp"
 #include "hazmap/pipeline/slam.hpp"
+#include "pipeline/prior_overview.hpp"
 
 namespace hazmap::pipeline_detail {
 
@@ -20,6 +21,8 @@ class MapFolderOutput {
   /// Removes a previous map.json from `dir` (the folder is not a map until finish()).
   MapFolderOutput(std::filesystem::path dir, const SlamResult& result, const SlamConfig& config,
                   const ClassTable& classes);
+  MapFolderOutput(const MapFolderOutput&) = delete;  // overview_ refers to search_classes_
+  MapFolderOutput& operator=(const MapFolderOutput&) = delete;
   /// Frame `frame`'s scan, deskewed as tracking saw it: written when it is a keyframe.
   void addScan(std::size_t frame, const LabeledCloud& scan);
   /// map.json, listing the run's files (graph.g2o, trajectory.kitti, hazards.json; run.json is
@@ -35,6 +38,10 @@ class MapFolderOutput {
   std::size_t next_ = 0;  // next keyframe expected
   MapManifest manifest_;
   std::vector<double> heights_;
+  // The search overview (prior_overview.hpp), built from the keyframes as they are written: a
+  // reader rebuilding it from their files gets the same bits (a written cloud reads back unchanged).
+  ClassTable search_classes_;  ///< the run's classes with its property-ICP settings
+  SearchOverviewBuilder overview_;
 };
 
 }  // namespace hazmap::pipeline_detail

@@ -45,7 +45,12 @@ MapSearchOverview writeSearchOverview(const std::filesystem::path& dir, const Ma
   SearchOverviewBuilder builder(classes);
   for (const auto& k : manifest.keyframes)
     builder.add(keyframeOverview(readPcd(dir / k.cloud, map_classes), classes), k.pose);
-  writePcd(dir / kOverviewFile, builder.finish(), PcdEncoding::BinaryCompressed);
+  return writeSearchOverview(dir, builder.finish(), classes);
+}
+
+MapSearchOverview writeSearchOverview(const std::filesystem::path& dir, const LabeledCloud& overview,
+                                      const ClassTable& classes) {
+  writePcd(dir / kOverviewFile, overview, PcdEncoding::BinaryCompressed);
   return searchOverviewKey(kOverviewFile, classes);
 }
 

@@ -42,9 +42,12 @@ class SearchOverviewBuilder {
 /// What map.json records with the overview made with `classes`' property classes.
 MapSearchOverview searchOverviewKey(const std::string& cloud, const ClassTable& classes);
 
-/// Builds the overview of the keyframes `manifest` lists in `dir` (clouds already written, read
-/// with `map_classes`; downsampled with `classes`), writes it as search_overview.pcd (atomically)
-/// and returns its key for the manifest. Throws hazmap::Error naming a file that cannot be read.
+/// Writes `overview` (a builder's, made with `classes`) as `dir`/search_overview.pcd (atomically)
+/// and returns its key for the manifest.
+MapSearchOverview writeSearchOverview(const std::filesystem::path& dir, const LabeledCloud& overview,
+                                      const ClassTable& classes);
+/// The same from the keyframes `manifest` lists in `dir` (clouds already written, read with
+/// `map_classes`; downsampled with `classes`). Throws hazmap::Error naming a file that cannot be read.
 MapSearchOverview writeSearchOverview(const std::filesystem::path& dir, const MapManifest& manifest,
                                       const ClassTable& map_classes, const ClassTable& classes);
 
