@@ -186,7 +186,11 @@ void flagWeakAxis(OdometryFrame& f, const RegistrationResult& r, Estimate& estim
   std::optional<Eigen::Vector3d> axis = weakHorizontalAxis(r, kFlagWeakAxisRatio);
   const char* whose = "";
   char wheels[80] = "";
-  if (!axis)
+  // With the wheels, only an answer that left them by more than the threshold can be flagged for
+  // the scan's own surfaces (its distance along any unit axis is at most this): the scan's normals
+  // are not estimated for every frame.
+  const bool may_flag = !f.wheel_guess || (estimate.pose.translation() - guess.translation()).norm() > kFlagWheelDisagreement;
+  if (!axis && may_flag)
     if (const auto scan_axis = scanWeakHorizontalAxis(source, W * estimate.pose, kScanWeakAxisRatio)) {
       const Eigen::Vector3d in_w = W.linear().transpose() * *scan_axis;  // world → registration space
       const double from_wheels = in_w.dot(estimate.pose.translation() - guess.translation());

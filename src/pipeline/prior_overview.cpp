@@ -9,13 +9,6 @@ namespace {
 
 constexpr const char* kOverviewFile = "search_overview.pcd";
 
-LabeledCloud atOverviewVoxel(const LabeledCloud& cloud, const ClassTable& classes) {
-  VoxelDownsampleConfig c;
-  c.voxel_size = kOverviewVoxel;
-  c.vote = ClassVote::PreferProperty;
-  return voxelDownsample(cloud, c, classes);
-}
-
 std::vector<ClassId> propertyClasses(const ClassTable& classes) {
   std::vector<ClassId> ids;
   for (ClassId id : classes.ids())
@@ -25,20 +18,23 @@ std::vector<ClassId> propertyClasses(const ClassTable& classes) {
 
 }  // namespace
 
+LabeledCloud downsampledForPrior(const LabeledCloud& cloud, double voxel, const ClassTable& classes) {
+  VoxelDownsampleConfig c;
+  c.voxel_size = voxel;
+  c.vote = ClassVote::PreferProperty;
+  return voxelDownsample(cloud, c, classes);
+}
+
 LabeledCloud keyframeOverview(const LabeledCloud& full, const ClassTable& classes) {
-  return atOverviewVoxel(full, classes);
+  return downsampledForPrior(full, kOverviewVoxel, classes);
 }
 
 void SearchOverviewBuilder::add(const LabeledCloud& keyframe_overview, const Eigen::Isometry3d& pose) {
-  if (all_.size() + keyframe_overview.size() > kOverviewUnionPoints) all_ = atOverviewVoxel(all_, classes_);
+  if (all_.size() + keyframe_overview.size() > kOverviewUnionPoints) all_ = downsampledForPrior(all_, kOverviewVoxel, classes_);
   all_.append(keyframe_overview.transformed(pose));
 }
 
-LabeledCloud SearchOverviewBuilder::finish() const { return atOverviewVoxel(all_, classes_); }
-
-MapSearchOverview searchOverviewKey(const std::string& cloud, const ClassTable& classes) {
-  return {cloud, kOverviewVoxel, propertyClasses(classes)};
-}
+LabeledCloud SearchOverviewBuilder::finish() const { return downsampledForPrior(all_, kOverviewVoxel, classes_); }
 
 MapSearchOverview writeSearchOverview(const std::filesystem::path& dir, const MapManifest& manifest,
                                       const ClassTable& map_classes, const ClassTable& classes) {
@@ -51,7 +47,7 @@ MapSearchOverview writeSearchOverview(const std::filesystem::path& dir, const Ma
 MapSearchOverview writeSearchOverview(const std::filesystem::path& dir, const LabeledCloud& overview,
                                       const ClassTable& classes) {
   writePcd(dir / kOverviewFile, overview, PcdEncoding::BinaryCompressed);
-  return searchOverviewKey(kOverviewFile, classes);
+  return {kOverviewFile, kOverviewVoxel, propertyClasses(classes)};
 }
 
 std::optional<LabeledCloud> storedSearchOverview(const MapFolder& map, const ClassTable& classes) {

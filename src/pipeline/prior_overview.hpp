@@ -18,6 +18,10 @@ namespace hazmap::pipeline_detail {
 /// m: both downsamplings of the overview (the global registration downsamples to 0.5 m anyway).
 constexpr double kOverviewVoxel = 0.25;
 
+/// `cloud` at `voxel`, a voxel's class voted with property classes preferred: how the prior's
+/// pieces (the overview, the verification's keyframe clouds) are downsampled.
+LabeledCloud downsampledForPrior(const LabeledCloud& cloud, double voxel, const ClassTable& classes);
+
 /// One keyframe's contribution (sensor frame): its cloud at kOverviewVoxel.
 LabeledCloud keyframeOverview(const LabeledCloud& full, const ClassTable& classes);
 
@@ -38,9 +42,6 @@ class SearchOverviewBuilder {
   const ClassTable& classes_;
   LabeledCloud all_;
 };
-
-/// What map.json records with the overview made with `classes`' property classes.
-MapSearchOverview searchOverviewKey(const std::string& cloud, const ClassTable& classes);
 
 /// Writes `overview` (a builder's, made with `classes`) as `dir`/search_overview.pcd (atomically)
 /// and returns its key for the manifest.

@@ -8,7 +8,6 @@
 
 #include "hazmap/core/error.hpp"
 #include "hazmap/core/se3.hpp"
-#include "hazmap/preprocess/voxel_downsample.hpp"
 #include "pipeline/clock.hpp"
 #include "pipeline/loop_edges.hpp"
 #include "pipeline/map_folder_output.hpp"
@@ -30,13 +29,6 @@ constexpr double kPriorReach = 6.0;
 // Two answers localise the run when they agree this well (composed with the run's estimate).
 constexpr double kAgreeTranslation = 0.3;               // m
 constexpr double kAgreeRotation = 2.0 * M_PI / 180.0;   // rad
-
-LabeledCloud downsampled(const LabeledCloud& cloud, double voxel, const ClassTable& classes) {
-  VoxelDownsampleConfig c;
-  c.voxel_size = voxel;
-  c.vote = ClassVote::PreferProperty;
-  return voxelDownsample(cloud, c, classes);
-}
 
 double median(std::vector<double> v) {
   std::erase_if(v, [](double x) { return !std::isfinite(x); });
@@ -85,7 +77,7 @@ LabeledCloud RunKeyframes::query(std::size_t k, const FramePoses& poses) const {
 void RunKeyframes::add(std::size_t frame, const LabeledCloud& full, const ClassTable& classes) {
   frames.push_back(frame);
   heights.push_back(sensorHeightAboveFloor(full));
-  clouds.push_back(downsampled(full, kKeyframeVoxel, classes));
+  clouds.push_back(downsampledForPrior(full, kKeyframeVoxel, classes));
 }
 
 double RunKeyframes::sensorHeight() const { return median(heights); }
@@ -126,7 +118,6 @@ PriorIndex::PriorIndex(const MapFolder& prior, const ClassTable& classes, const 
     prepare(classes, prior.dir().string());
     return;
   }
-  if (poses.empty()) fail(prior.dir().string(), "the prior map has no keyframes");
   poses_ = std::move(poses);
   tags_ = std::move(tags);
   segments_.assign(poses_.size(), 0);
@@ -134,7 +125,7 @@ PriorIndex::PriorIndex(const MapFolder& prior, const ClassTable& classes, const 
   clouds_.resize(poses_.size());
   lazy_map_ = std::make_shared<const MapFolder>(prior);
   lazy_classes_ = std::make_shared<const ClassTable>(classes);
-  prepareTarget(*stored, classes);
+  prepareTarget(*stored, classes, prior.dir().string());
   used_stored_overview_ = true;
 }
 
@@ -146,21 +137,21 @@ void PriorIndex::add(const MapFolder& map, const std::vector<Eigen::Isometry3d>&
     poses_.push_back(poses.at(k));
     tags_.push_back(tags.at(k));
     segments_.push_back(segment_count_);
-    clouds_.emplace_back(downsampled(full, kKeyframeVoxel, classes));
+    clouds_.emplace_back(downsampledForPrior(full, kKeyframeVoxel, classes));
     overview_clouds_.push_back(keyframeOverview(full, classes));
   }
   ++segment_count_;
 }
 
 void PriorIndex::prepare(const ClassTable& classes, const std::string& where) {
-  if (poses_.empty()) fail(where, "the prior map has no keyframes");
   if (lazy_map_) throw std::logic_error("PriorIndex::prepare on an index prepared from a stored overview");
   SearchOverviewBuilder all(classes);
   for (std::size_t k = 0; k < poses_.size(); ++k) all.add(overview_clouds_[k], poses_[k]);
-  prepareTarget(all.finish(), classes);
+  prepareTarget(all.finish(), classes, where);
 }
 
-void PriorIndex::prepareTarget(const LabeledCloud& overview, const ClassTable& classes) {
+void PriorIndex::prepareTarget(const LabeledCloud& overview, const ClassTable& classes, const std::string& where) {
+  if (poses_.empty()) fail(where, "the prior map has no keyframes");
   Eigen::Vector3d centre = Eigen::Vector3d::Zero();
   for (const auto& p : poses_) centre += p.translation();
   centre /= static_cast<double>(poses_.size());
@@ -170,7 +161,7 @@ void PriorIndex::prepareTarget(const LabeledCloud& overview, const ClassTable& c
 const LabeledCloud& PriorIndex::cloud(std::size_t k) const {
   std::lock_guard lock(clouds_mutex_);
   std::optional<LabeledCloud>& c = clouds_.at(k);
-  if (!c) c = downsampled(lazy_map_->loadKeyframe(k), kKeyframeVoxel, *lazy_classes_);
+  if (!c) c = downsampledForPrior(lazy_map_->loadKeyframe(k), kKeyframeVoxel, *lazy_classes_);
   return *c;
 }
 

@@ -74,7 +74,8 @@ class PriorIndex {
  private:
   /// Keyframe k's cloud at the keyframe voxel (sensor frame), read on first use.
   const LabeledCloud& cloud(std::size_t k) const;
-  void prepareTarget(const LabeledCloud& overview, const ClassTable& classes);
+  /// The global registration target from the overview (fails, naming `where`, without keyframes).
+  void prepareTarget(const LabeledCloud& overview, const ClassTable& classes, const std::string& where);
 
   std::vector<Eigen::Isometry3d> poses_;
   std::vector<std::size_t> tags_, segments_;
