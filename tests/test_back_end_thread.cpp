@@ -13,6 +13,7 @@
 #include <mutex>
 #include <random>
 #include <string>
+#include <thread>
 
 #include "hazmap/core/error.hpp"
 #include "hazmap/core/se3.hpp"
@@ -303,6 +304,37 @@ TEST(AsyncBackEnd, TrackingNeverWaitsAndAStreamEndingDuringALoopStageWritesCompl
   for (std::string line; std::getline(g2o, line);) vertices += line.rfind("VERTEX_SE3", 0) == 0;
   EXPECT_EQ(vertices, 40u);
   expectSamePoses(async.estimate, sync.estimate);
+}
+
+// The back end gives way to tracking (back_end_thread.cpp, kMaxYieldLag): while tracking works on
+// a scan (here its frame hook holds it, keyframes queued behind it) the back end starts no loop
+// stage; held past the back end's patience (5 s after the frame in hand was queued) it goes on.
+TEST(AsyncBackEnd, GivesWayWhileTrackingWorksOnAScanButNotForever) {
+  const auto dir = test::writeSimulatedSequence("async-give-way", "naraha", 1, 30);
+  const Sequence seq = Sequence::open(dir);
+  const auto source = sequenceScanSource(seq, false);
+  std::atomic<std::size_t> loop_stages{0};
+  std::size_t held_at = 0, before = 0, after_1s = 0, after_7s = 0, backlog = 0;
+  SlamSnapshots hooks;
+  hooks.loop_stage = [&](std::size_t) {  // the first stages slow (no yield point in a sleep): frames queue up
+    if (++loop_stages <= 8) std::this_thread::sleep_for(std::chrono::milliseconds(40));
+  };
+  hooks.frame = [&](const SlamFrameEvent& e) {
+    if (held_at != 0 || e.back_end_backlog < 4) return;
+    held_at = e.record.index;
+    backlog = e.back_end_backlog;
+    before = loop_stages;
+    std::this_thread::sleep_for(std::chrono::seconds(1));
+    after_1s = loop_stages;
+    std::this_thread::sleep_for(std::chrono::seconds(6));
+    after_7s = loop_stages;
+  };
+  const SlamResult async = runSlam(*source, pgoConfig(SlamMethod::IcpPgo, true), {}, hooks);
+  ASSERT_GT(held_at, 0u) << "the back end never had 4 frames queued";
+  EXPECT_EQ(after_1s, before) << "a loop stage started while tracking held frame " << held_at;
+  EXPECT_GT(after_7s, after_1s) << "the back end waited for tracking beyond its patience (" << backlog << " queued)";
+  EXPECT_EQ(loop_stages.load(), async.keyframes);
+  EXPECT_EQ(async.graph.poses.size(), 30u);
 }
 
 TEST(AsyncBackEnd, QueueBoundMustBePositive) {

@@ -1,5 +1,6 @@
 #include "hazmap/core/error.hpp"
 #include "hazmap/core/se3.hpp"
+#include "hazmap/core/yield_point.hpp"
 #include "hazmap/loop/loop_closure.hpp"
 #include "hazmap/registration/registration_target.hpp"
 #include "hazmap/preprocess/voxel_downsample.hpp"
@@ -66,8 +67,11 @@ LabeledCloud LoopDetector::submap(std::size_t k, std::size_t query, const PoseLi
   const std::size_t gap = config_.candidates.min_index_gap;
   const std::size_t last = std::min(k + w, query >= gap ? query - gap : k);
   LabeledCloud merged = *cloud(k);
-  for (std::size_t j = k >= w ? k - w : 0; j <= last; ++j)
+  for (std::size_t j = k >= w ? k - w : 0; j <= last; ++j) {
+    yieldPoint();
     if (j != k) merged.append(cloud(j)->transformed(estimate[k].inverse() * estimate[j]));
+  }
+  yieldPoint();
   return prepare(std::move(merged));
 }
 
@@ -356,6 +360,7 @@ VerificationResult LoopDetector::verifyOne(const LoopCandidate& cand, const Pose
 
 void LoopDetector::verifyInto(const std::vector<LoopCandidate>& candidates, const PoseList& estimate, LoopDetection& det) {
   for (const auto& cand : candidates) {
+    yieldPoint();
     if (det.accepted.size() >= config_.max_loops_per_keyframe) break;
     if (relative_covariance_ && !candidatePlausible(cand, estimate, det)) continue;
     bool light = false;

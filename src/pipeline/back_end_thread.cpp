@@ -1,6 +1,8 @@
 #include "pipeline/back_end_thread.hpp"
 
 #include <sched.h>
+
+#include "hazmap/core/yield_point.hpp"
 #include <sys/resource.h>
 #include <tbb/task_arena.h>
 #include <unistd.h>
@@ -8,6 +10,8 @@
 namespace hazmap::pipeline_detail {
 
 namespace {
+
+using SteadyClock = std::chrono::steady_clock;
 
 // On a machine whose cores are all busy the back end yields to tracking (and to the receive
 // thread): tracking is what the sensor's rate waits for, the back end only has to keep up on
@@ -17,6 +21,18 @@ namespace {
 // that policy is refused, nice 10. It runs its loop stage on its own thread alone (an arena of
 // one: TBB's workers stay with tracking); the loop stage's results do not depend on the thread count.
 constexpr int kBackEndNice = 10;
+
+// Even on a core of its own the back end slows tracking: two busy vCPUs share caches and memory
+// bandwidth (here tracking on one thread took 6.7–6.9 ms a scan alone and 7.8–8.0 beside a busy
+// back end, docs/live.md). So it works only while tracking waits for the sensor: at its yield points
+// (an ICP iteration, a candidate, a submap's keyframe, a loop stage's start) it pauses while tracking
+// has a scan in hand, and until tracking has waited kInputGrace for the next one (a source with the
+// next scan at hand, a recording or a stream tracking is catching up on, hands it over sooner, and
+// then tracking goes on alone). A back end this far behind (the frame in hand queued that long ago:
+// tracking has had scans waiting for seconds) stops giving way and shares the cores as before, so
+// its corrections come at most this much later.
+constexpr auto kMaxYieldLag = std::chrono::seconds(5);
+constexpr auto kInputGrace = std::chrono::milliseconds(2);
 
 void yieldToTracking() {
   const sched_param none{};
@@ -57,17 +73,55 @@ BackEndThread::~BackEndThread() {
     stop_ = true;
     queue_.clear();  // not finished (an error on the tracker's side): what is queued is dropped
   }
+  releaseTurn(SteadyClock::time_point{});
   wake_.notify_all();
   if (thread_.joinable()) thread_.join();
 }
 
+void BackEndThread::trackingBegins() { tracking_.store(true, std::memory_order_release); }
+
+void BackEndThread::trackingWaits() { releaseTurn(SteadyClock::now()); }
+
+void BackEndThread::releaseTurn(SteadyClock::time_point waiting_since) {
+  {
+    std::lock_guard<std::mutex> lock(turn_m_);
+    waiting_since_.store(waiting_since.time_since_epoch().count(), std::memory_order_relaxed);
+    tracking_.store(false, std::memory_order_release);
+  }
+  turn_over_.notify_all();
+}
+
+// The back end's turn: tracking waits for input, and has for kInputGrace.
+bool BackEndThread::backEndsTurn(SteadyClock::time_point now) const {
+  if (tracking_.load(std::memory_order_acquire)) return false;
+  const SteadyClock::time_point since{SteadyClock::duration(waiting_since_.load(std::memory_order_relaxed))};
+  return now - since >= kInputGrace;
+}
+
+// The back end's yield points: wait for its turn, for at most what is left of kMaxYieldLag since
+// the frame in hand was queued.
+void BackEndThread::giveWayToTracking() {
+  if (backEndsTurn(SteadyClock::now())) return;
+  const SteadyClock::time_point patience = applying_queued_at_ + kMaxYieldLag;
+  std::unique_lock<std::mutex> lock(turn_m_);
+  for (SteadyClock::time_point now = SteadyClock::now(); !backEndsTurn(now) && now < patience; now = SteadyClock::now()) {
+    const SteadyClock::time_point since{SteadyClock::duration(waiting_since_.load(std::memory_order_relaxed))};
+    const bool waits = !tracking_.load(std::memory_order_acquire);
+    turn_over_.wait_until(lock, waits ? std::min(since + kInputGrace, patience) : patience);
+  }
+}
+
 void BackEndThread::push(TrackedFrame frame) {
+  frame.queued_at = SteadyClock::now();
   const std::size_t bytes = queuedBytes(frame);
   const double limit = config_.back_end_queue_mb * 1024.0 * 1024.0;
   {
     std::unique_lock<std::mutex> lock(m_);
     const auto room = [&] { return failure_ || queued_bytes_ == 0 || double(queued_bytes_ + bytes) <= limit; };
-    room_.wait(lock, room);
+    if (!room()) {
+      releaseTurn(SteadyClock::time_point{});  // tracking waits for the back end now
+      room_.wait(lock, room);
+    }
     rethrow();
     queued_bytes_ += bytes;
     queue_.push_back(std::move(frame));
@@ -105,6 +159,7 @@ SlamResult BackEndThread::finish() {
 }
 
 void BackEndThread::waitIdle(std::unique_lock<std::mutex>& lock) {
+  releaseTurn(SteadyClock::time_point{});
   idle_.wait(lock, [&] { return failure_ || (queue_.empty() && !busy_); });
 }
 
@@ -119,6 +174,7 @@ std::size_t BackEndThread::backlog() {
 
 void BackEndThread::run() {
   yieldToTracking();
+  const ScopedYieldHook give_way([this] { giveWayToTracking(); });
   tbb::task_arena alone(1);
   alone.execute([this] {
     for (;;) {
@@ -132,6 +188,7 @@ void BackEndThread::run() {
         busy_ = true;
       }
       const std::size_t bytes = queuedBytes(frame);
+      applying_queued_at_ = frame.queued_at;
       std::exception_ptr failure;
       try {
         apply(frame);
@@ -174,6 +231,7 @@ void BackEndThread::apply(TrackedFrame& f) {
   }
   if (!f.keyframe) return;
   graph_.addGravityPrior(f.gravity);
+  yieldPoint();  // a loop stage starts only on the back end's turn
   if (before_loop_stage_) before_loop_stage_(graph_.records().size() - 1);
   graph_.closeLoops(std::move(f.cloud));
 }

@@ -7,6 +7,8 @@
 // the other way, which the tracker applies at a frame boundary. The back end applies the frames in
 // the order they were tracked, and the tracker reads nothing the back end computes, so the graph
 // it builds, hence the final answer, is the one the synchronous schedule builds.
+#include <atomic>
+#include <chrono>
 #include <condition_variable>
 #include <deque>
 #include <exception>
@@ -31,6 +33,7 @@ struct TrackedFrame {
   bool keyframe = false;
   std::optional<GravitySample> gravity;  ///< a keyframe's, when its scan had one
   LabeledCloud cloud;                    ///< a keyframe's scan as tracking saw it (empty otherwise)
+  std::chrono::steady_clock::time_point queued_at{};  ///< set by BackEndThread::push
 };
 
 class BackEndThread {
@@ -43,8 +46,14 @@ class BackEndThread {
   BackEndThread(const BackEndThread&) = delete;
   BackEndThread& operator=(const BackEndThread&) = delete;
 
-  /// Queues a frame; waits only while the queued keyframe scans exceed slam.back_end_queue_mb.
-  /// Rethrows what failed on the back end's thread.
+  /// Tracking has a scan in hand (trackingBegins) or waits for the next one (trackingWaits): the back
+  /// end works only while tracking has waited a moment for input, pausing at its yield points
+  /// (core/yield_point.hpp) otherwise, unless the frame it works on was queued long ago
+  /// (back_end_thread.cpp: kInputGrace, kMaxYieldLag). Tracking's thread only.
+  void trackingBegins();
+  void trackingWaits();
+  /// Queues a frame; waits only while the queued keyframe scans exceed slam.back_end_queue_mb
+  /// (the back end's turn meanwhile). Rethrows what failed on the back end's thread.
   void push(TrackedFrame frame);
   /// The newest optimised poses (nodes 0..m) not taken yet; null when none came since.
   std::shared_ptr<const std::vector<Eigen::Isometry3d>> takeSolution();
@@ -58,6 +67,10 @@ class BackEndThread {
  private:
   void run();
   void apply(TrackedFrame& frame);
+  void giveWayToTracking();
+  bool backEndsTurn(std::chrono::steady_clock::time_point now) const;
+  /// Tracking waits for input since `waiting_since` (the epoch: the back end's turn at once).
+  void releaseTurn(std::chrono::steady_clock::time_point waiting_since);
   void waitIdle(std::unique_lock<std::mutex>& lock);
   void rethrow();
 
@@ -75,6 +88,13 @@ class BackEndThread {
   bool busy_ = false, stop_ = false;
   std::exception_ptr failure_;
   std::shared_ptr<const std::vector<Eigen::Isometry3d>> solution_;
+
+  std::atomic<bool> tracking_{false};  // tracking has a scan in hand
+  std::atomic<std::chrono::steady_clock::rep> waiting_since_{0};  // … else waits for one since then
+  std::mutex turn_m_;  // the back end's wait for its turn
+  std::condition_variable turn_over_;
+  std::chrono::steady_clock::time_point applying_queued_at_{};  // back end's thread only
+
   std::thread thread_;  // last: started once the members above exist
 };
 

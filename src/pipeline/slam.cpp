@@ -34,9 +34,16 @@ class SlamRun {
   }
 
   /// The next scan; the source is locked meanwhile (the back end's thread may re-read old keyframes).
+  /// Meanwhile the back end's thread may work (BackEndThread::trackingWaits).
   std::optional<Scan> next() {
-    std::lock_guard<std::mutex> lock(source_lock_);
-    return source_.next();
+    if (back_end_thread_) back_end_thread_->trackingWaits();
+    std::optional<Scan> scan;
+    {
+      std::lock_guard<std::mutex> lock(source_lock_);
+      scan = source_.next();
+    }
+    if (back_end_thread_ && scan) back_end_thread_->trackingBegins();
+    return scan;
   }
 
   /// Fig. 1 for one scan: wheel-odometry guess → deskewing and (property-)ICP tracking → the

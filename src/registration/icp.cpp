@@ -22,6 +22,7 @@
 #include <string>
 
 #include "hazmap/core/error.hpp"
+#include "hazmap/core/yield_point.hpp"
 #include "hazmap/registration/covariance.hpp"
 #include "hazmap/registration/registration.hpp"
 #include "hazmap/registration/registration_target.hpp"
@@ -233,6 +234,7 @@ void IcpSolver::iterate(const Eigen::Isometry3d& start, RegistrationResult& resu
   bool fresh = true;  // search correspondences for this step (else reuse the last ones)
   int it = -1, reuse_steps = 0;
   while (true) {
+    yieldPoint();  // between steps: a thread with more urgent work may pause here
     if (fresh) {
       if (++it == config_.max_iterations) break;
       reuse_steps = 0;
