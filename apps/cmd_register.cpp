@@ -130,9 +130,7 @@ void run(const RegisterOptions& o, const ParameterOptions& params) {
 
   const Inputs in = readInputs(o, params, cfg.use_classes);
   const Eigen::Isometry3d init = o.init.empty() ? Eigen::Isometry3d::Identity() : readTransformFile(o.init);
-  VoxelDownsampleConfig vd;
-  vd.voxel_size = o.voxel;
-  vd.vote = ClassVote::PreferProperty;
+  const VoxelDownsampleConfig vd = propertyVoxels(o.voxel);
   const RegistrationResult r = o.voxel > 0.0 ? registerScans(in.source, in.target, init, in.table, vd, cfg)
                                              : registerClouds(in.source, in.target, init, in.table, cfg);
 

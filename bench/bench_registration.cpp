@@ -109,9 +109,7 @@ void hazmapIcp(benchmark::State& state, const PairData& d, bool classes, IcpMetr
                bool overlapped = true) {
   tbb::global_control threads(tbb::global_control::max_allowed_parallelism, state.range(0));
   const ClassTable table = ClassTable::semanticKitti();
-  VoxelDownsampleConfig vd;
-  vd.voxel_size = d.voxel;
-  vd.vote = ClassVote::PreferProperty;
+  const VoxelDownsampleConfig vd = propertyVoxels(d.voxel);
   RegistrationConfig cfg;
   cfg.use_classes = classes;
   cfg.metric = metric;

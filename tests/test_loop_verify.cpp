@@ -49,10 +49,7 @@ LabeledCloud hallWorld(double step = 0.12) {
 // What LoopDetector stores for verification: the keyframe voxel-downsampled, property points
 // winning their voxel.
 LabeledCloud keyframeCloud(const LabeledCloud& c) {
-  VoxelDownsampleConfig v;
-  v.voxel_size = LoopClosureConfig{}.keyframe_voxel;
-  v.vote = ClassVote::PreferProperty;
-  return voxelDownsample(c, v, ClassTable::defaults());
+  return voxelDownsample(c, propertyVoxels(LoopClosureConfig{}.keyframe_voxel), ClassTable::defaults());
 }
 
 // Two keyframes of the hall 1.8 m and 0.7 rad apart and the loop candidate between them, its guess

@@ -28,9 +28,7 @@ using hazmap::test::transErr;
 // which points are paired.
 TEST(KittiSemantic, PropertyAndPlainIcpAgree) {
   const ClassTable table = ClassTable::semanticKitti();
-  VoxelDownsampleConfig vd;
-  vd.voxel_size = 0.5;
-  vd.vote = ClassVote::PreferProperty;
+  const VoxelDownsampleConfig vd = propertyVoxels(0.5);
   std::vector<LabeledCloud> scans;
   for (int i = 0; i < 3; ++i) scans.push_back(voxelDownsample(test::kittiScan(i, table), vd, table));
   Eigen::Isometry3d chain_plain = Eigen::Isometry3d::Identity(), chain_prop = Eigen::Isometry3d::Identity();

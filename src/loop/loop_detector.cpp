@@ -20,12 +20,7 @@ LoopDetector::LoopDetector(ClassTable classes, LoopClosureConfig config)
 }
 
 LabeledCloud LoopDetector::prepare(LabeledCloud cloud) const {
-  if (config_.keyframe_voxel > 0.0) {
-    VoxelDownsampleConfig v;
-    v.voxel_size = config_.keyframe_voxel;
-    v.vote = ClassVote::PreferProperty;
-    cloud = voxelDownsample(cloud, v, classes_);
-  }
+  if (config_.keyframe_voxel > 0.0) cloud = voxelDownsample(cloud, propertyVoxels(config_.keyframe_voxel), classes_);
   return cloud;
 }
 

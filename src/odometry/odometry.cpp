@@ -51,19 +51,12 @@ struct PreparedScan {
   const LabeledCloud& source() const { return separate_source ? coarse : frame; }
 };
 
-VoxelDownsampleConfig trackingVoxels(double voxel_size) {
-  VoxelDownsampleConfig vd;
-  vd.voxel_size = voxel_size;
-  vd.vote = ClassVote::PreferProperty;
-  return vd;
-}
-
 PreparedScan prepareScan(const LabeledCloud& scan, const OdometryConfig& config, const ClassTable& classes) {
   PreparedScan out;
   out.separate_source = config.source_voxel_size > config.voxel_size;
   const auto t = Clock::now();
   out.frame = preprocessForTracking(scan, config, classes);
-  if (out.separate_source) out.coarse = voxelDownsample(out.frame, trackingVoxels(config.source_voxel_size), classes);
+  if (out.separate_source) out.coarse = voxelDownsample(out.frame, propertyVoxels(config.source_voxel_size), classes);
   out.ms = msSince(t);
   return out;
 }
@@ -98,7 +91,7 @@ LabeledCloud preprocessForTracking(const LabeledCloud& scan, const OdometryConfi
   RangeCropConfig crop;
   crop.min_range = config.min_range;
   crop.max_range = config.max_range;
-  return cropAndDownsample(scan, crop, trackingVoxels(config.voxel_size), classes);
+  return cropAndDownsample(scan, crop, propertyVoxels(config.voxel_size), classes);
 }
 
 // Registration in its own space W: frame to map it estimates world ← current, frame to frame

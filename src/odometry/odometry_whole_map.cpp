@@ -65,10 +65,7 @@ static std::shared_ptr<const WholeMap> buildWholeMap(const Keyframes& keyframes,
     centre += pose.translation();
   }
   centre /= static_cast<double>(keyframes.size());
-  VoxelDownsampleConfig vd;
-  vd.voxel_size = config.voxel_size;
-  vd.vote = ClassVote::PreferProperty;
-  LabeledCloud cloud = voxelDownsample(all, vd, classes);
+  LabeledCloud cloud = voxelDownsample(all, propertyVoxels(config.voxel_size), classes);
   auto map = std::make_shared<WholeMap>();
   map->keyframes = keyframes.size();
   map->points = cloud.size();

@@ -19,10 +19,7 @@ std::vector<ClassId> propertyClasses(const ClassTable& classes) {
 }  // namespace
 
 LabeledCloud downsampledForPrior(const LabeledCloud& cloud, double voxel, const ClassTable& classes) {
-  VoxelDownsampleConfig c;
-  c.voxel_size = voxel;
-  c.vote = ClassVote::PreferProperty;
-  return voxelDownsample(cloud, c, classes);
+  return voxelDownsample(cloud, propertyVoxels(voxel), classes);
 }
 
 LabeledCloud keyframeOverview(const LabeledCloud& full, const ClassTable& classes) {

@@ -176,6 +176,13 @@ LabeledCloud downsample(const LabeledCloud& cloud, const VoxelDownsampleConfig& 
 
 }  // namespace
 
+VoxelDownsampleConfig propertyVoxels(double voxel_size) {
+  VoxelDownsampleConfig c;
+  c.voxel_size = voxel_size;
+  c.vote = ClassVote::PreferProperty;
+  return c;
+}
+
 LabeledCloud voxelDownsample(const LabeledCloud& cloud, const VoxelDownsampleConfig& config,
                              const ClassTable& table) {
   checkConfig(config);

@@ -141,9 +141,7 @@ void computeDescriptors(FeatureCloud& fc, const GlobalRegistrationConfig& config
 FeatureCloud computeFeatures(const LabeledCloud& raw, const ClassTable& classes,
                              const GlobalRegistrationConfig& config, const Eigen::Vector3f& viewpoint) {
   FeatureCloud fc;
-  VoxelDownsampleConfig vd;
-  vd.voxel_size = config.voxel_size;
-  vd.vote = ClassVote::PreferProperty;
+  const VoxelDownsampleConfig vd = propertyVoxels(config.voxel_size);
   if (config.max_range > 0.0) {
     RangeCropConfig crop;
     crop.max_range = config.max_range;

@@ -63,10 +63,7 @@ RegistrationConfig refinementOf(const GlobalRegistrationConfig& config) {
 }
 
 VoxelDownsampleConfig polishDownsampling(const GlobalRegistrationConfig& config) {
-  VoxelDownsampleConfig vd;
-  vd.voxel_size = config.final_voxel_size;
-  vd.vote = ClassVote::PreferProperty;
-  return vd;
+  return propertyVoxels(config.final_voxel_size);
 }
 
 // The winner's last step: the refinement ICP on finer clouds. Kept only if it converged and

@@ -19,6 +19,11 @@ struct VoxelDownsampleConfig {
   double property_share = 0.25;  ///< for PreferProperty
 };
 
+/// Registration's and loop closure's downsampling: `voxel_size`, a property class winning its voxel
+/// at property_share (ClassVote::PreferProperty). Every cloud that is matched against another
+/// (tracking, loops, global registration, priors) is made this way, so their labels agree.
+VoxelDownsampleConfig propertyVoxels(double voxel_size);
+
 /// Deterministic: output order follows the voxels' sorted keys (and does not depend on the number
 /// of threads; key computation and per-voxel averaging run in parallel). Non-finite points are
 /// dropped. `table` tells which classes are properties (needed for PreferProperty). Throws
