@@ -142,6 +142,7 @@ struct SaveJob {
   nlohmann::json live;  ///< run.json's "live"
   std::string state;
   std::uint64_t requests = 0;  ///< the POST /save requests it answers (SaveRequests::waiting)
+  std::chrono::steady_clock::time_point taken = std::chrono::steady_clock::now();  ///< the state's moment
 };
 
 struct Session {
@@ -202,10 +203,12 @@ void Session::save(const SaveJob& job, bool final_write) {
   nlohmann::json answer;
   try {
     if (view) view->setState("saving");
+    const auto started = std::chrono::steady_clock::now();
     write(job, final_write);
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
     const auto folder = std::filesystem::absolute(o.out).lexically_normal();
     const std::vector<Hazard> hazards = readHazardsJson(folder / "hazards.json");
-    if (view) view->showSaved(hazards, result.estimate, folder.string());
+    if (view) view->showSaved(hazards, result.estimate, folder.string(), LiveViewFeed::SaveTiming{result.frames.size(), job.taken, seconds});
     answer = {{"saved", folder.string()}, {"frames", result.frames.size()}, {"hazards", hazards.size()}, {"state", job.state}};
   } catch (const std::exception& e) {  // hazmap::Error, and a full disk's filesystem_error alike
     if (view) view->showSaveError(e.what());

@@ -251,6 +251,11 @@ TEST_F(LiveBrowser, FramesRiseMapGrowsAndAfterSaveTheTableEqualsHazardsJson) {
     EXPECT_EQ(rows[i][1].get<std::string>(), hazards[i].class_name);
   }
   EXPECT_EQ(browser.eval("hazmapLive.status.saves"), 1);
+  // The save's frames and timing in /status (what a kill -9 now would lose: the saved state's age).
+  const json after = json::parse(httpGet(portOf(url), "/status?token=s3cret-token"));
+  EXPECT_EQ(after["last_save_frames"], saved["frames"]) << after;
+  EXPECT_GT(after["last_save_seconds"].get<double>(), 0.0) << after;
+  EXPECT_GE(after["last_save_age_s"].get<double>(), after["last_save_seconds"].get<double>()) << after;
   // The sensor falls silent: waiting for sensor, by itself.
   stopProcess(replay, SIGTERM);
   EXPECT_TRUE(eventually([&] { return browser.eval("hazmapLive.status.state") == "waiting for sensor"; }));

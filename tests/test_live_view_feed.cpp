@@ -439,11 +439,25 @@ TEST(LiveViewFeed, PublishesFramesCorrectionsHazardsAndTheStatusAndANewBrowserCa
   ASSERT_EQ(late_drawn.size(), early_drawn.size());
   for (std::size_t k = 0; k < early_drawn.size(); ++k) EXPECT_LT((late_drawn[k] - early_drawn[k]).norm(), 1e-4);
   EXPECT_EQ(late.ofType("trajectory").at(0)["points"].size(), 6u);
-  // A save: the run folder's hazards replace the live ones.
-  feed.showSaved({}, Trajectory{}, "/tmp/run");
+  // A save: the run folder's hazards replace the live ones. Before it the status has no save's
+  // age; after it, the age of the saved state (taken 2 s before it was shown) and how long it took.
+  EXPECT_TRUE(json::parse(httpGet(feed.port(), "/status"))["last_save_age_s"].is_null());
+  const auto taken = std::chrono::steady_clock::now() - std::chrono::seconds(2);
+  feed.showSaved({}, Trajectory{}, "/tmp/run", LiveViewFeed::SaveTiming{6, taken, 0.75});
   EXPECT_TRUE(eventually([&] { const auto h = late.ofType("hazards"); return !h.empty() && h.back()["origin"] == "saved"; }));
   EXPECT_TRUE(late.ofType("hazards").back()["hazards"].empty());
-  EXPECT_EQ(json::parse(httpGet(feed.port(), "/status"))["saves"], 1);
+  const json saved = json::parse(httpGet(feed.port(), "/status"));
+  EXPECT_EQ(saved["saves"], 1);
+  EXPECT_EQ(saved["last_save_frames"], 6);
+  EXPECT_DOUBLE_EQ(saved["last_save_seconds"].get<double>(), 0.75);
+  ASSERT_TRUE(saved["last_save_age_s"].is_number());
+  EXPECT_GE(saved["last_save_age_s"].get<double>(), 2.0);
+  EXPECT_LT(saved["last_save_age_s"].get<double>(), 60.0);
+  // The age grows while no save comes (the status is published every 250 ms at most).
+  EXPECT_TRUE(eventually([&] {
+    return json::parse(httpGet(feed.port(), "/status"))["last_save_age_s"].get<double>() >=
+           saved["last_save_age_s"].get<double>() + 0.2;
+  }));
   mg_close_connection(early.conn);
   mg_close_connection(late.conn);
 }

@@ -95,6 +95,7 @@ struct LiveViewFeed::Impl {
   std::string anchors_message;  // every map segment's pose, as of the last correction
   bool hazards_saved = false;   // the page shows a save's hazards (until the live ones change)
   LiveStatus counts;  // the status line's own fields (frames, hazards, tracking, map_points, saves, …)
+  std::optional<std::chrono::steady_clock::time_point> last_save_taken;  // the last complete save's snapshot
   std::deque<SteadyClock::time_point> frame_times;  // the last 2 s: frames/s
   RecentLatency recent_latency;                      // the last 600 frames
   std::string state_override;
@@ -218,6 +219,8 @@ LiveStatus LiveViewFeed::Impl::status() const {
                        std::max(1e-3, std::chrono::duration<double>(frame_times.back() - frame_times.front()).count());
     s.state = state_override;
     if (const auto l = recent_latency.summary(); l.frames > 0) s.latency_ms = l;
+    if (last_save_taken)
+      s.last_save_age_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - *last_save_taken).count();
   }
   std::optional<UdpReceiverStats> r;
   if (receiver) r = receiver();
@@ -337,7 +340,8 @@ void LiveViewFeed::setState(const std::string& state) {
   impl_->publishStatus();
 }
 
-void LiveViewFeed::showSaved(const std::vector<Hazard>& hazards, const Trajectory& trajectory, const std::string& where) {
+void LiveViewFeed::showSaved(const std::vector<Hazard>& hazards, const Trajectory& trajectory, const std::string& where,
+                             std::optional<SaveTiming> timing) {
   Impl& s = *impl_;
   std::string message = liveHazardsMessage(hazards, s.classes, "saved");
   {
@@ -347,6 +351,11 @@ void LiveViewFeed::showSaved(const std::vector<Hazard>& hazards, const Trajector
     s.counts.hazards = hazards.size();
     ++s.counts.saves;
     s.counts.last_save = where;
+    if (timing) {
+      s.counts.last_save_frames = timing->frames;
+      s.counts.last_save_seconds = timing->seconds;
+      s.last_save_taken = timing->taken;
+    }
   }
   s.server->publishState("hazards", std::move(message));
   if (!trajectory.poses.empty()) {  // the saved estimate: the view's thread redraws the trajectory and moves the map

@@ -54,6 +54,9 @@ json statusObject(const LiveStatus& s) {
           {"clients_dropped", s.clients_dropped},
           {"saves", s.saves},
           {"last_save", s.last_save},
+          {"last_save_frames", s.last_save_frames},
+          {"last_save_seconds", s.last_save_seconds ? json(std::round(*s.last_save_seconds * 1000) / 1000) : json()},
+          {"last_save_age_s", s.last_save_age_s ? json(std::round(*s.last_save_age_s * 1000) / 1000) : json()},
           {"cameras", cameras},
           {"camera_warnings", s.camera_warnings},
           {"latency_ms", latencyObject(s.latency_ms)}};

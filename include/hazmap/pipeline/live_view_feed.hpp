@@ -6,6 +6,7 @@
 // quarter second, also while the pipeline waits for a silent sensor. The server's publish()
 // only queues per browser, so neither a slow view thread nor a slow browser slows tracking:
 // when the view's queue is full a frame's scan is skipped for the view (its pose still goes).
+#include <chrono>
 #include <functional>
 #include <memory>
 #include <optional>
@@ -58,9 +59,16 @@ class LiveViewFeed {
   void onFrame(const SlamFrameEvent& event, std::optional<double> latency_s = std::nullopt);
   /// Overrides the status line's state ("saving", "stopped by SIGINT"); empty: computed again.
   void setState(const std::string& state);
+  /// When a save's state was taken and how long writing it took (the status line's last_save_*).
+  struct SaveTiming {
+    std::size_t frames = 0;
+    std::chrono::steady_clock::time_point taken{};  ///< its snapshot
+    double seconds = 0.0;                           ///< writing it
+  };
   /// A save finished: the run folder's hazards (what hazards.json holds) replace the live ones,
   /// `trajectory` (the saved estimate) replaces the drawn one; `where` is shown in the status.
-  void showSaved(const std::vector<Hazard>& hazards, const Trajectory& trajectory, const std::string& where);
+  void showSaved(const std::vector<Hazard>& hazards, const Trajectory& trajectory, const std::string& where,
+                 std::optional<SaveTiming> timing = std::nullopt);
   void showSaveError(const std::string& error);
   /// Waits until every queued frame was published (tests, the end of a run).
   void drain();

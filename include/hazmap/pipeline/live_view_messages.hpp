@@ -46,6 +46,10 @@ struct LiveStatus {
   std::size_t clients = 0, clients_dropped = 0;
   std::size_t saves = 0;
   std::string last_save;       ///< the folder of the last save, or its error
+  /// The last complete save: its frames, how long it took to write, and the age of the state it
+  /// holds (since its snapshot was taken: what a kill -9 now would lose). Null before the first.
+  std::size_t last_save_frames = 0;
+  std::optional<double> last_save_seconds, last_save_age_s;
   std::vector<LiveCameraStats> cameras;  ///< the live property cameras (empty without --camera)
   /// Frames rejected, pipeline errors, frames dropped unused, stalls and scans without a frame,
   /// summed over the cameras.
