@@ -3,7 +3,8 @@
 # CAPTURE replayed on loopback with --loop at RATE for SECONDS, the live view on (no browser) and
 # the default autosave; every STEP seconds one line of: elapsed s, resident memory (VmRSS, MiB),
 # frames, /status latency_ms p50 / p99 / max (the last 600 frames), the back end's backlog,
-# map points, map corrections, datagrams received and lost, the spool's size (MiB). Then SIGINT and
+# map points, map corrections, datagrams received and lost, the spool's size (MiB), the age of the
+# newest complete save's state and how long writing it took (s; None before one). Then SIGINT and
 # run.json's frames, loops and live.latency_ms (the whole run).
 #   scripts/live-long-replay.sh HAZMAP_BIN OUT_DIR CAPTURE RATE SECONDS STEP [live args...]
 #   e.g. nice -n 10 scripts/live-long-replay.sh build/hazmap /tmp/long naraha.pcap 100 1800 30 --no-deskew
@@ -28,7 +29,7 @@ view=$(sed -n 's|^live view: http://127.0.0.1:\([0-9]*\)/.*|\1|p' "$out/live.log
 sleep 0.2
 replay=$(pgrep -n -f -- "replay .*--port $port " || echo "$rpid")
 start=$(date +%s)
-printf "elapsed_s\trss_mib\tframes\tp50_ms\tp99_ms\tmax_ms\tbacklog\tmap_points\tcorrections\treceived\tdrops\tspool_mib\n" \
+printf "elapsed_s\trss_mib\tframes\tp50_ms\tp99_ms\tmax_ms\tbacklog\tmap_points\tcorrections\treceived\tdrops\tspool_mib\tsave_age_s\tsave_s\n" \
   | tee "$out/samples.tsv"
 while (( $(date +%s) - start < seconds )); do
   sleep "$step"
@@ -38,7 +39,8 @@ while (( $(date +%s) - start < seconds )); do
 import json, sys
 s = json.load(sys.stdin); l = s.get("latency_ms") or {}
 print("\t".join(str(x) for x in [sys.argv[1], sys.argv[2], s["frames"], l.get("p50"), l.get("p99"), l.get("max"),
-      s.get("back_end_backlog"), s["map_points"], s.get("map_corrections"), s["packets"], s["drops"], sys.argv[3]]))
+      s.get("back_end_backlog"), s["map_points"], s.get("map_corrections"), s["packets"], s["drops"], sys.argv[3],
+      s.get("last_save_age_s"), s.get("last_save_seconds")]))
 ' "$(( $(date +%s) - start ))" "$rss" "$spool" | tee -a "$out/samples.tsv"
 done
 kill -TERM "$replay" "$rpid" 2>/dev/null; wait "$rpid" || true
