@@ -8,7 +8,8 @@
 //                       time to the last frame's pose (the back end may still be finishing:
 //                       *_backlog_s); *_x_rate = the row's rate ÷ tracking alone's.
 // Each runs three rows in turn, the peer in the same run: alone (property-icp, tracking alone),
-// async (property-icp+pgo, the back end on its own thread: `hazmap live`'s), sync (property-icp+pgo,
+// async (property-icp+pgo, the back end on its own thread, working while tracking waits for the
+// next scan: `hazmap live`'s; as fast as tracking goes it works after the last scan), sync (property-icp+pgo,
 // the synchronous schedule, a keyframe's loop stage beside the next scan's tracking: `hazmap run`'s).
 #include <benchmark/benchmark.h>
 
