@@ -1,11 +1,11 @@
 #include "pipeline/back_end_thread.hpp"
 
 #include <sched.h>
-
-#include "hazmap/core/yield_point.hpp"
 #include <sys/resource.h>
 #include <tbb/task_arena.h>
 #include <unistd.h>
+
+#include "hazmap/core/yield_point.hpp"
 
 namespace hazmap::pipeline_detail {
 
@@ -91,11 +91,13 @@ void BackEndThread::releaseTurn(SteadyClock::time_point waiting_since) {
   turn_over_.notify_all();
 }
 
+SteadyClock::time_point BackEndThread::waitingSince() const {
+  return SteadyClock::time_point{SteadyClock::duration(waiting_since_.load(std::memory_order_relaxed))};
+}
+
 // The back end's turn: tracking waits for input, and has for kInputGrace.
 bool BackEndThread::backEndsTurn(SteadyClock::time_point now) const {
-  if (tracking_.load(std::memory_order_acquire)) return false;
-  const SteadyClock::time_point since{SteadyClock::duration(waiting_since_.load(std::memory_order_relaxed))};
-  return now - since >= kInputGrace;
+  return !tracking_.load(std::memory_order_acquire) && now - waitingSince() >= kInputGrace;
 }
 
 // The back end's yield points: wait for its turn, for at most what is left of kMaxYieldLag since
@@ -105,9 +107,8 @@ void BackEndThread::giveWayToTracking() {
   const SteadyClock::time_point patience = applying_queued_at_ + kMaxYieldLag;
   std::unique_lock<std::mutex> lock(turn_m_);
   for (SteadyClock::time_point now = SteadyClock::now(); !backEndsTurn(now) && now < patience; now = SteadyClock::now()) {
-    const SteadyClock::time_point since{SteadyClock::duration(waiting_since_.load(std::memory_order_relaxed))};
     const bool waits = !tracking_.load(std::memory_order_acquire);
-    turn_over_.wait_until(lock, waits ? std::min(since + kInputGrace, patience) : patience);
+    turn_over_.wait_until(lock, waits ? std::min(waitingSince() + kInputGrace, patience) : patience);
   }
 }
 

@@ -69,6 +69,7 @@ class BackEndThread {
   void apply(TrackedFrame& frame);
   void giveWayToTracking();
   bool backEndsTurn(std::chrono::steady_clock::time_point now) const;
+  std::chrono::steady_clock::time_point waitingSince() const;
   /// Tracking waits for input since `waiting_since` (the epoch: the back end's turn at once).
   void releaseTurn(std::chrono::steady_clock::time_point waiting_since);
   void waitIdle(std::unique_lock<std::mutex>& lock);

@@ -62,16 +62,12 @@ RegistrationConfig refinementOf(const GlobalRegistrationConfig& config) {
   return r;
 }
 
-VoxelDownsampleConfig polishDownsampling(const GlobalRegistrationConfig& config) {
-  return propertyVoxels(config.final_voxel_size);
-}
-
 // The winner's last step: the refinement ICP on finer clouds. Kept only if it converged and
 // moved little (a polish, not a new answer).
 void polish(GlobalRegistrationResult& r, const LabeledCloud& source, const GlobalRegistrationTarget::Impl& tgt,
             const ClassTable& classes, const GlobalRegistrationConfig& config) {
   if (!tgt.final_icp || !r.success) return;
-  const LabeledCloud fine = voxelDownsample(source, polishDownsampling(config), classes);
+  const LabeledCloud fine = voxelDownsample(source, propertyVoxels(config.final_voxel_size), classes);
   const RegistrationResult p = registerClouds(fine, *tgt.final_icp, r.transform, classes, refinementOf(config));
   const bool usable = p.termination == Termination::Converged || p.termination == Termination::MaxIterations;
   if (!usable || !isFinite(p.transform) || global::distinct(p.transform, r.transform)) return;
@@ -204,7 +200,7 @@ GlobalRegistrationTarget prepareGlobalTarget(const LabeledCloud& target, const C
     }
     impl.icp.emplace(impl.features.cloud, classes, refinementOf(config));
     if (config.final_voxel_size > 0.0)
-      impl.final_icp.emplace(voxelDownsample(target, polishDownsampling(config), classes), classes, refinementOf(config));
+      impl.final_icp.emplace(voxelDownsample(target, propertyVoxels(config.final_voxel_size), classes), classes, refinementOf(config));
   });
   return out;
 }
