@@ -34,6 +34,7 @@ hazmap_label(test_loop_verify unit
   scene "^LoopVerify\\.DetectorClosesTheRouteLoopUnderDrift$")
 hazmap_label(test_properties_map unit)
 hazmap_label(test_registration unit)
+hazmap_label(test_segmented_map unit)
 hazmap_label(test_sim unit)
 hazmap_label(test_stable_sort unit)
 hazmap_label(test_live_view unit)

@@ -329,6 +329,64 @@ void GlobalMap::insert(std::size_t frame, const LabeledCloud& scan, const Eigen:
   while (m.cells.size() > m.config.max_voxels) m.coarsen();
 }
 
+void GlobalMap::insertMap(const GlobalMap& part, const Eigen::Isometry3d& T) {
+  Impl& m = *impl_;
+  const Impl& p = *part.impl_;
+  if (!isFinite(T)) fail("global map", "a part's transform is not finite");
+  if (p.table.ids() != m.table.ids()) fail("global map", "a part made with another class table");
+  std::vector<std::size_t> slots;  // the part's channel k is this map's slots[k]
+  for (const std::string& name : p.channel_names) {
+    const auto it = std::find(m.channel_names.begin(), m.channel_names.end(), name);
+    slots.push_back(std::size_t(it - m.channel_names.begin()));
+    if (it == m.channel_names.end()) m.channel_names.push_back(name);
+  }
+  const Eigen::Matrix3d R = T.linear();
+  const Eigen::Vector3d t = T.translation();
+  const bool unmoved = T.matrix() == Eigen::Matrix4d::Identity();
+  for (std::size_t i = 0; i < p.cells.size(); ++i) {
+    const std::uint64_t part_key = p.cells.keyAt(i);
+    const Cell& c = p.cells.valueAt(i);
+    const Eigen::Vector3i part_idx = unpackKey(part_key);
+    Eigen::Vector3i idx = part_idx;
+    Eigen::Vector3f offset_sum = c.offset_sum;
+    // Unmoved, on the same grid: each cell stays where its points went, spread and all.
+    if (!unmoved || p.voxel != m.voxel) {
+      const Eigen::Vector3d centroid = part_idx.cast<double>() * p.voxel + (c.offset_sum / float(c.count)).cast<double>();
+      const Eigen::Vector3d pw = R * centroid + t;
+      const Eigen::Vector3d q = (pw / m.voxel).array().floor();
+      if ((q.array().abs() >= double(kVoxelKeyBias)).any()) continue;  // beyond ±2^20 voxels
+      idx = q.cast<int>();
+      offset_sum = float(c.count) * (pw - idx.cast<double>() * m.voxel).cast<float>();
+    }
+    const std::uint64_t key = packKey(idx);
+    Cell& d = m.cells[key];
+    d.offset_sum += offset_sum;
+    d.count += c.count;
+    for (int s = 0; s < c.used_slots; ++s) d.vote(c.class_ids[s], c.class_counts[s]);
+    d.property_sum += c.property_sum;
+    d.property_count += c.property_count;
+    d.property_max = std::max(d.property_max, c.property_max);
+    if (const FrameRecord* rec = p.frame_records.find(part_key)) {
+      FrameRecord& dst = m.frame_records[key];
+      if (dst.ranges.empty() && dst.count == 0) {
+        dst = *rec;
+        dst.cap(m.config.max_frame_ranges);
+      } else {
+        dst.merge(*rec, m.config.max_frame_ranges);
+      }
+    }
+    if (const ChannelRecord* rec = p.channel_records.find(part_key)) {
+      ChannelRecord& dst = m.channel_records[key];
+      if (dst.channels.size() < m.channel_names.size()) dst.channels.resize(m.channel_names.size());
+      for (std::size_t k = 0; k < rec->channels.size(); ++k) dst.channels[slots[k]].merge(rec->channels[k]);
+    }
+    while (m.cells.size() > m.config.max_voxels) m.coarsen();
+  }
+  m.frames += p.frames;
+  m.points += p.points;
+  m.any_property_channel = m.any_property_channel || p.any_property_channel;
+}
+
 std::size_t GlobalMap::size() const { return impl_->cells.size(); }
 std::size_t GlobalMap::frames() const { return impl_->frames; }
 std::size_t GlobalMap::pointsInserted() const { return impl_->points; }

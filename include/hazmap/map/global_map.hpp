@@ -90,6 +90,15 @@ class GlobalMap {
   void insert(std::size_t frame, const LabeledCloud& scan, const Eigen::Isometry3d& T_world_sensor,
               std::span<const PointChannel> channels = {});
 
+  /// Adds every cell of `part` (a map of other frames, built in another frame: `T_this_part`
+  /// maps its coordinates into this map's) with its counts, class votes, property and channel
+  /// sums and frame lists, as if its points had been inserted here; its frames and points add
+  /// to this map's counts. A cell lands whole in the cell its centroid moves to: exact when
+  /// `T_this_part` is the identity and both maps share the cell size, within a cell otherwise
+  /// (re-placing a map after a loop correction instead of rebuilding it, map/segmented_map.hpp).
+  /// Throws hazmap::Error for a non-finite transform or another class table.
+  void insertMap(const GlobalMap& part, const Eigen::Isometry3d& T_this_part);
+
   std::size_t size() const;          ///< occupied cells
   std::size_t frames() const;        ///< insert() calls
   std::size_t pointsInserted() const;
