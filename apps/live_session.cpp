@@ -23,6 +23,7 @@
 #include "hazmap/io/atomic_file.hpp"
 #include "hazmap/io/trajectory.hpp"
 #include "hazmap/pipeline/frame_latency.hpp"
+#include "hazmap/pipeline/live_save_map.hpp"
 #include "hazmap/pipeline/live_view_feed.hpp"
 #include "hazmap/pipeline/run_outputs.hpp"
 #include "hazmap/properties/live_labels.hpp"
@@ -153,6 +154,7 @@ struct Session {
   std::unique_ptr<LiveCameras> cameras;        // with --camera
   std::unique_ptr<LiveLabelledScans> labelled;  // the source's scans with the cameras' labels
   std::unique_ptr<LiveViewFeed> view;
+  std::unique_ptr<LiveSaveMap> save_map;  // the saves' map while running (none: no saves then)
   SaveRequests saves;
   FrameLatency latency;  // a scan's newest point to its pose (pipeline thread only)
 
@@ -173,21 +175,32 @@ SaveJob Session::job(SlamResult result, std::string state) {
   return job;
 }
 
-/// The run folder from the job's result (the end's or a save's): the map's second pass re-reads
-/// the spool; run.json gains the stream's counts (`live`).
+/// The run folder from the job's result (the end's or a save's). While running, the map is
+/// composed from the segments built beside tracking (pipeline/live_save_map.hpp: its cost follows
+/// the map, not the mission); at the end, or when those gave up, the map's second pass re-reads
+/// the spool as `hazmap run` does. run.json gains the stream's counts (`live`).
 void Session::write(const SaveJob& job, bool final_write) {
   const std::filesystem::path out(o.out);
-  ScanSourceOptions options = sourceOptions(o, sensor);
-  options.notice = nullptr;  // the live pass said it already
-  std::unique_ptr<ScanSource> second_pass = openLiveSpool(out / "live.pcap", sensor, options);
-  if (labelled) second_pass = relabelFromSpool(std::move(second_pass), out / kLabelSpool);
   OutputConfig outputs;
   outputs.write_viewer = !o.no_viewer;
   if (cameras) outputs.channel_cameras = cameras->channelCameras();
   outputs.write_map_folder = final_write;  // the reopenable map once, at the end (not every autosave)
-  const RunSummary summary = writeRunOutputs(*second_pass, job.result, config, outputs, out);
+  std::optional<GlobalMap> composed;
+  if (!final_write && save_map) composed = save_map->compose(job.result.estimate.size(), job.result.estimate.poses);
+  RunSummary summary;
+  if (composed) {
+    summary = writeRunOutputs(*composed, job.result, config, outputs, out);
+  } else {
+    ScanSourceOptions options = sourceOptions(o, sensor);
+    options.notice = nullptr;  // the live pass said it already
+    std::unique_ptr<ScanSource> second_pass = openLiveSpool(out / "live.pcap", sensor, options);
+    if (labelled) second_pass = relabelFromSpool(std::move(second_pass), out / kLabelSpool);
+    summary = writeRunOutputs(*second_pass, job.result, config, outputs, out);
+  }
   nlohmann::json j = nlohmann::json::parse(readTextFile(out / "run.json"));
   j["live"] = job.live;
+  j["live"]["map"] = composed ? fmt::format("re-placed from {} segments built while running", save_map->segments())
+                              : std::string("rebuilt from the spool");
   writeTextAtomically(out / "run.json", j.dump(2) + "\n");
   if (o.quiet) return;
   if (final_write) std::cout << formatRunSummary(job.result, summary, out, outputs);
@@ -273,7 +286,7 @@ void stopLiveSession() { g_stop.store(true); }
 
 void runLiveSession(const LiveOptions& o, const ParameterOptions& params,
                     const std::function<void(std::uint16_t)>& listening) {
-  Session s{o, liveConfig(o, params), liveSensorNamed(o.sensor), nullptr, nullptr, nullptr, nullptr, {}, {}};
+  Session s{o, liveConfig(o, params), liveSensorNamed(o.sensor), nullptr, nullptr, nullptr, nullptr, nullptr, {}, {}};
   if (o.port < -1 || o.port > 65535) fail("--port", std::to_string(o.port) + " is no UDP port (0-65535)");
   if (!(o.queue_mb >= 0.01 && o.queue_mb <= 65536)) fail("--queue-mb", "must be in [0.01, 65536] MiB");
   if (!(o.autosave_every >= 0)) fail("--autosave-every", "must be >= 0 seconds (0: no autosave)");
@@ -297,6 +310,8 @@ void runLiveSession(const LiveOptions& o, const ParameterOptions& params,
   if (!o.sensor_metadata.empty())  // beside the spool, so `hazmap run DIR/live.pcap` finds it
     std::filesystem::copy_file(o.sensor_metadata, out / "live.json", std::filesystem::copy_options::overwrite_existing);
   s.startView();
+  if (o.autosave_every > 0 || s.view)
+    s.save_map = std::make_unique<LiveSaveMap>(OutputConfig{}.map, s.scans().classTable());
   installSignalHandlers();
   std::cout << fmt::format("listening on UDP port {} ({}; auxiliary port {}); Ctrl-C ends the run and writes {}\n",
                            s.source->dataPort(), toString(s.sensor), s.source->auxiliaryPort(), o.out)
@@ -321,6 +336,7 @@ void runLiveSession(const LiveOptions& o, const ParameterOptions& params,
   };
   hooks.take = [&](SlamResult snapshot) {
     const char* state = s.saves.waiting() > 0 ? "saved on request while running" : "autosave while running";
+    if (s.save_map) s.save_map->cut(snapshot.estimate.size());
     saver.submit(s.job(std::move(snapshot), state));
   };
   hooks.frame = [&](const SlamFrameEvent& e) {
@@ -328,6 +344,7 @@ void runLiveSession(const LiveOptions& o, const ParameterOptions& params,
     if (const double newest = newestPointTime(e.scan); newest > 0) latency = realtimeNow() - newest;
     if (latency) s.latency.add(*latency);
     if (s.view) s.view->onFrame(e, latency);
+    if (s.save_map) s.save_map->frame(e, s.labelled ? std::span<const PointChannel>(s.labelled->lastChannels()) : std::span<const PointChannel>{});
     // A long mission's resident memory follows what is in use (core/memory.hpp); the cost, one
     // frame's page faults again, is paid once per interval.
     if (std::chrono::steady_clock::now() - last_release >= kReleaseFreedMemoryEvery) {
@@ -337,6 +354,7 @@ void runLiveSession(const LiveOptions& o, const ParameterOptions& params,
   };
   SlamResult result = runSlam(s.scans(), s.config, {}, hooks);
   saver.finish();  // one writer of the run folder at a time
+  s.save_map.reset();  // the end rebuilds the map from the spool
   if (s.view) s.view->drain();
   s.save(s.job(std::move(result), stoppedBy()), true);
 }

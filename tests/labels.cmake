@@ -37,6 +37,7 @@ hazmap_label(test_registration unit)
 hazmap_label(test_segmented_map unit)
 hazmap_label(test_sim unit)
 hazmap_label(test_stable_sort unit)
+hazmap_label(test_live_save_map scene)
 hazmap_label(test_live_view unit)
 hazmap_label(test_live_view_feed unit
   scene "^LiveViewHook\\.")

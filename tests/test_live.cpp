@@ -438,6 +438,8 @@ TEST(LiveReplay, KillNineLeavesTheLastAutosaveReadable) {
   const auto j = nlohmann::json::parse(readTextFile(dir / "live" / "run.json"));
   EXPECT_EQ(j.at("frames").get<std::size_t>(), t.size());
   EXPECT_EQ(j.at("live").at("state").get<std::string>(), "autosave while running");
+  // The autosave's map was composed from the segments built beside tracking, not the spool.
+  EXPECT_TRUE(j["live"].value("map", "").starts_with("re-placed from")) << j["live"].dump();
 }
 
 // A save that fails while running (here: trajectory.kitti cannot be written, a directory stands

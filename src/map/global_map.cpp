@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <limits>
 #include <array>
+#include <unordered_set>
 #include <cmath>
 
 #include "hazmap/core/error.hpp"
@@ -343,6 +344,7 @@ void GlobalMap::insertMap(const GlobalMap& part, const Eigen::Isometry3d& T) {
   const Eigen::Matrix3d R = T.linear();
   const Eigen::Vector3d t = T.translation();
   const bool unmoved = T.matrix() == Eigen::Matrix4d::Identity();
+  std::unordered_set<std::uint64_t> landed;  // cells the part's moved cells went to
   for (std::size_t i = 0; i < p.cells.size(); ++i) {
     const std::uint64_t part_key = p.cells.keyAt(i);
     const Cell& c = p.cells.valueAt(i);
@@ -354,9 +356,26 @@ void GlobalMap::insertMap(const GlobalMap& part, const Eigen::Isometry3d& T) {
       const Eigen::Vector3d centroid = part_idx.cast<double>() * p.voxel + (c.offset_sum / float(c.count)).cast<double>();
       const Eigen::Vector3d pw = R * centroid + t;
       const Eigen::Vector3d q = (pw / m.voxel).array().floor();
-      if ((q.array().abs() >= double(kVoxelKeyBias)).any()) continue;  // beyond ±2^20 voxels
+      if ((q.array().abs() >= double(kVoxelKeyBias) - 1).any()) continue;  // beyond ±2^20 voxels
       idx = q.cast<int>();
-      offset_sum = float(c.count) * (pw - idx.cast<double>() * m.voxel).cast<float>();
+      // Two of the part's cells in one: the points of the later one would mostly have gone to
+      // the neighbour across the nearest face (their centroid is near it), so it goes there if
+      // that is still free of the part, its centroid put just inside. Keeps a moved surface
+      // whole instead of thinning it where its centroids crowd.
+      if (!landed.insert(packKey(idx)).second) {
+        const Eigen::Vector3d within = pw / m.voxel - q;  // in [0, 1)³
+        int axis = 0;
+        double nearest = 1;
+        for (int k = 0; k < 3; ++k)
+          for (const double d : {within[k], 1 - within[k]})
+            if (d < nearest) nearest = d, axis = k;
+        Eigen::Vector3i across = idx;
+        across[axis] += within[axis] < 0.5 ? -1 : 1;
+        if (landed.insert(packKey(across)).second) idx = across;
+      }
+      const Eigen::Vector3d origin = idx.cast<double>() * m.voxel;
+      const Eigen::Vector3d inside = (pw - origin).cwiseMax(0.001 * m.voxel).cwiseMin(0.999 * m.voxel);
+      offset_sum = float(c.count) * inside.cast<float>();
     }
     const std::uint64_t key = packKey(idx);
     Cell& d = m.cells[key];

@@ -179,43 +179,14 @@ RunSummary writeRunOutputs(const Sequence& sequence, const SlamResult& result, c
   return writeRunOutputs(*scans, result, config, output, out_dir, artifacts);
 }
 
-RunSummary writeRunOutputs(ScanSource& scans, const SlamResult& result, const SlamConfig& config,
-                           const OutputConfig& output, const std::filesystem::path& out_dir,
-                           RunArtifacts* artifacts) {
-  const auto t0 = std::chrono::steady_clock::now();
-  std::error_code ec;
-  std::filesystem::create_directories(out_dir, ec);
-  if (ec) fail(out_dir.string(), "cannot create output folder: " + ec.message());
+namespace {
+
+/// Everything but the map: trajectories, graph, the map's files, run.json (the map folder last).
+RunSummary writeFiles(const GlobalMap& map, const SlamResult& result, const SlamConfig& config,
+                      const OutputConfig& output, const std::filesystem::path& out_dir, const Trajectory* truth,
+                      pipeline_detail::MapFolderOutput* folder, RunSummary summary,
+                      std::chrono::steady_clock::time_point t0, RunArtifacts* artifacts) {
   const std::size_t n = result.estimate.size();
-  if (scans.size() && *scans.size() != n)
-    fail(out_dir.string(), "result does not match the sequence's frame count");
-
-  RunSummary summary;
-  summary.frames = n;
-  GlobalMap map(output.map, scans.classTable());
-  // The outputs change: a previous map.json no longer describes them (MapFolderOutput writes anew).
-  invalidateMapFolder(out_dir);
-  std::optional<pipeline_detail::MapFolderOutput> folder;
-  if (output.write_map_folder) folder.emplace(out_dir, result, config, scans.classTable());
-  const Trajectory truth_poses = assembleMap(scans, result, map, output.map_error, summary.map_error,
-                                             out_dir.string(), folder ? &*folder : nullptr);
-  const bool with_truth = truth_poses.size() == n;
-  const Trajectory* truth = with_truth ? &truth_poses : nullptr;
-  if (with_truth) {
-    // SE(3)-aligned APE as evo reports it; a straight-line run (a corridor) cannot be aligned
-    // rotationally, and then — estimate and truth share the start pose — no alignment is used.
-    try {
-      summary.trajectory = evaluateTrajectory(*truth, result.estimate);
-    } catch (const Error&) {
-      TrajectoryEvalConfig unaligned;
-      unaligned.ape_alignment = Alignment::None;
-      summary.trajectory = evaluateTrajectory(*truth, result.estimate, unaligned);
-    }
-    // How honest the edges' information is (NEES against the true relative poses).
-    if (result.graph.numNodes() == static_cast<int>(n))
-      summary.edge_nees = computeEdgeNees(result.graph, truth_poses.poses, out_dir.string());
-  }
-
   writeKittiTrajectory(out_dir / "trajectory.kitti", result.estimate);
   writeTumTrajectory(out_dir / "trajectory.tum", result.estimate);
   if (!result.odometry_only.empty())
@@ -250,6 +221,67 @@ RunSummary writeRunOutputs(ScanSource& scans, const SlamResult& result, const Sl
     artifacts->hazards = std::move(written.hazards);
   }
   return summary;
+}
+
+void createOutputFolder(const std::filesystem::path& out_dir) {
+  std::error_code ec;
+  std::filesystem::create_directories(out_dir, ec);
+  if (ec) fail(out_dir.string(), "cannot create output folder: " + ec.message());
+}
+
+}  // namespace
+
+RunSummary writeRunOutputs(ScanSource& scans, const SlamResult& result, const SlamConfig& config,
+                           const OutputConfig& output, const std::filesystem::path& out_dir,
+                           RunArtifacts* artifacts) {
+  const auto t0 = std::chrono::steady_clock::now();
+  createOutputFolder(out_dir);
+  const std::size_t n = result.estimate.size();
+  if (scans.size() && *scans.size() != n)
+    fail(out_dir.string(), "result does not match the sequence's frame count");
+
+  RunSummary summary;
+  summary.frames = n;
+  GlobalMap map(output.map, scans.classTable());
+  // The outputs change: a previous map.json no longer describes them (MapFolderOutput writes anew).
+  invalidateMapFolder(out_dir);
+  std::optional<pipeline_detail::MapFolderOutput> folder;
+  if (output.write_map_folder) folder.emplace(out_dir, result, config, scans.classTable());
+  const Trajectory truth_poses = assembleMap(scans, result, map, output.map_error, summary.map_error,
+                                             out_dir.string(), folder ? &*folder : nullptr);
+  const bool with_truth = truth_poses.size() == n;
+  const Trajectory* truth = with_truth ? &truth_poses : nullptr;
+  if (with_truth) {
+    // SE(3)-aligned APE as evo reports it; a straight-line run (a corridor) cannot be aligned
+    // rotationally, and then — estimate and truth share the start pose — no alignment is used.
+    try {
+      summary.trajectory = evaluateTrajectory(*truth, result.estimate);
+    } catch (const Error&) {
+      TrajectoryEvalConfig unaligned;
+      unaligned.ape_alignment = Alignment::None;
+      summary.trajectory = evaluateTrajectory(*truth, result.estimate, unaligned);
+    }
+    // How honest the edges' information is (NEES against the true relative poses).
+    if (result.graph.numNodes() == static_cast<int>(n))
+      summary.edge_nees = computeEdgeNees(result.graph, truth_poses.poses, out_dir.string());
+  }
+  return writeFiles(map, result, config, output, out_dir, truth, folder ? &*folder : nullptr, std::move(summary), t0,
+                    artifacts);
+}
+
+RunSummary writeRunOutputs(const GlobalMap& map, const SlamResult& result, const SlamConfig& config,
+                           const OutputConfig& output, const std::filesystem::path& out_dir,
+                           RunArtifacts* artifacts) {
+  const auto t0 = std::chrono::steady_clock::now();
+  createOutputFolder(out_dir);
+  const std::size_t n = result.estimate.size();
+  if (map.frames() != n)
+    fail(out_dir.string(), "the map holds " + std::to_string(map.frames()) + " frames, the run " + std::to_string(n));
+  if (output.write_map_folder) fail(out_dir.string(), "the map folder needs the scans (a second pass)");
+  RunSummary summary;
+  summary.frames = n;
+  invalidateMapFolder(out_dir);
+  return writeFiles(map, result, config, output, out_dir, nullptr, nullptr, std::move(summary), t0, artifacts);
 }
 
 }  // namespace hazmap

@@ -49,11 +49,15 @@ std::optional<Scan> LiveLabelledScans::next() {
   if (!scan) return scan;
   const ScanLabels labels = labeler_.label(scan->cloud, scan->stamp);
   PropertyLabeler::apply(labels, scan->cloud);
-  if (!spool_) return scan;
-  const std::uint64_t head[2] = {scan->index, scan->cloud.size()};
-  put(spool_, head, 2, spool_path_);
-  put(spool_, labels.classes.data(), labels.classes.size(), spool_path_);
-  for (const auto& channel : labels.channels) put(spool_, channel.data(), channel.size(), spool_path_);
+  if (spool_) {
+    const std::uint64_t head[2] = {scan->index, scan->cloud.size()};
+    put(spool_, head, 2, spool_path_);
+    put(spool_, labels.classes.data(), labels.classes.size(), spool_path_);
+    for (const auto& channel : labels.channels) put(spool_, channel.data(), channel.size(), spool_path_);
+  }
+  last_channels_.clear();
+  for (std::size_t c = 0; c < labels.channels.size(); ++c)
+    last_channels_.push_back({labeler_.channels().at(c), std::move(labels.channels[c])});
   return scan;
 }
 

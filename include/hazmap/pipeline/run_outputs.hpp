@@ -66,6 +66,12 @@ std::string formatRunSummary(const SlamResult& result, const RunSummary& summary
 RunSummary writeRunOutputs(ScanSource& scans, const SlamResult& result, const SlamConfig& config,
                            const OutputConfig& output, const std::filesystem::path& out_dir,
                            RunArtifacts* artifacts = nullptr);
+/// The same from a map already assembled (hazmap live's saves while running: the map re-placed
+/// from its segments, map/segmented_map.hpp): no second pass, so no map error, no map folder
+/// (`output.write_map_folder` throws), no trajectory error. `map` must hold every frame.
+RunSummary writeRunOutputs(const GlobalMap& map, const SlamResult& result, const SlamConfig& config,
+                           const OutputConfig& output, const std::filesystem::path& out_dir,
+                           RunArtifacts* artifacts = nullptr);
 RunSummary writeRunOutputs(const Sequence& sequence, const SlamResult& result,
                            const SlamConfig& config, const OutputConfig& output,
                            const std::filesystem::path& out_dir, RunArtifacts* artifacts = nullptr);

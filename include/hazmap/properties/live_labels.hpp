@@ -29,6 +29,8 @@ class LiveLabelledScans final : public ScanSource {
   std::string describe() const override;
   /// Writes what the spool holds to disk (before its second pass reads it).
   void flush();
+  /// The newest scan's named channels (one value per point), as the second pass gives them.
+  const std::vector<PointChannel>& lastChannels() const { return last_channels_; }
 
  private:
   ScanSource& scans_;
@@ -36,6 +38,7 @@ class LiveLabelledScans final : public ScanSource {
   ClassTable table_;
   std::FILE* spool_ = nullptr;
   std::filesystem::path spool_path_;
+  std::vector<PointChannel> last_channels_;
 };
 
 /// `scans` (the LiDAR spool's, in the live pass's order) with the labels the label spool holds
