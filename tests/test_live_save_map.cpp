@@ -137,7 +137,7 @@ TEST(LiveSaveMap, GivesUpRatherThanHoldTracking) {
   const auto dir = test::writeSimulatedSequence("live-save-map-full", "naraha", 1, 12);
   const Sequence seq = Sequence::open(dir);
   const auto source = sequenceScanSource(seq, false);
-  LiveSaveMap save_map(GlobalMapConfig{}, source->classTable(), SegmentedMapConfig{}, /*max_queued=*/0);
+  LiveSaveMap save_map(GlobalMapConfig{}, source->classTable(), SegmentedMapConfig{}, 100, /*max_queued=*/0);
   std::vector<Eigen::Isometry3d> poses;
   SlamSnapshots hooks;
   hooks.frame = [&](const SlamFrameEvent& e) {

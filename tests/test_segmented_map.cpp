@@ -196,12 +196,10 @@ TEST(GlobalMapInsertMap, RefusesANonFiniteMoveAndAnotherClassTable) {
 TEST(SegmentedMap, WithoutCorrectionsItComposesTheMapOfEveryScan) {
   const World w;
   const auto poses = truePoses(130);
-  SegmentedMapConfig c;
-  c.max_frames = 25;
-  SegmentedMap segments(GlobalMapConfig{}, ClassTable::defaults(), c);
+  SegmentedMap segments(GlobalMapConfig{}, ClassTable::defaults());
   for (std::size_t i = 0; i < 130; ++i) {
     const Frame f = scanAt(w, poses[i]);
-    segments.add(i, f.cloud, f.channels, poses[i], 0);
+    segments.add(i, f.cloud, f.channels, poses, 25);
   }
   segments.close();
   EXPECT_EQ(segments.segments(), 6u);  // 5 × 25 + 5
@@ -220,12 +218,10 @@ TEST(SegmentedMap, ACorrectionMovesEachSegmentWithItsAnchor) {
     drifted[i] = Eigen::Translation3d(0, 0.001 * s * s, 0) * Eigen::AngleAxisd(0.004 * s, Eigen::Vector3d::UnitZ()) *
                  truth[i];
   }
-  SegmentedMapConfig c;
-  c.max_frames = 10;
-  SegmentedMap segments(GlobalMapConfig{}, ClassTable::defaults(), c);
-  for (std::size_t i = 0; i < n; ++i) {  // tracked from the corrected pose after frame 100
+  SegmentedMap segments(GlobalMapConfig{}, ClassTable::defaults());
+  for (std::size_t i = 0; i < n; ++i) {  // from frame 100 on every pose is corrected
     const Frame f = scanAt(w, truth[i]);
-    segments.add(i, f.cloud, f.channels, i < 100 ? drifted[i] : truth[i], i < 100 ? 0 : 1);
+    segments.add(i, f.cloud, f.channels, i < 100 ? drifted : truth, 10);
   }
   segments.close();
   const GlobalMap composed = segments.compose(n, truth);
@@ -248,11 +244,11 @@ TEST(SegmentedMap, SteadyNeighboursMergeAndTheMapStaysTheSame) {
   const std::size_t n = 100;
   const auto poses = truePoses(n);
   SegmentedMapConfig c;
-  c.max_frames = 10;
+  c.max_segments = 100;
   SegmentedMap segments(GlobalMapConfig{}, ClassTable::defaults(), c);
   for (std::size_t i = 0; i < 60; ++i) {
     const Frame f = scanAt(w, poses[i]);
-    segments.add(i, f.cloud, f.channels, poses[i], 0);
+    segments.add(i, f.cloud, f.channels, poses, 10);
   }
   segments.close();
   const GlobalMap first = segments.compose(60, poses);
@@ -262,7 +258,7 @@ TEST(SegmentedMap, SteadyNeighboursMergeAndTheMapStaysTheSame) {
   for (std::size_t i = 30; i < n; ++i) moved[i] = Eigen::Translation3d(0.5, 0, 0) * poses[i];
   for (std::size_t i = 60; i < n; ++i) {
     const Frame f = scanAt(w, poses[i]);
-    segments.add(i, f.cloud, f.channels, moved[i], 1);
+    segments.add(i, f.cloud, f.channels, moved, 10);
   }
   segments.close();
   const GlobalMap second = segments.compose(n, moved);
@@ -280,12 +276,11 @@ TEST(SegmentedMap, TooManySegmentsMergeTheSteadiest) {
   const World w;
   const auto poses = truePoses(40);
   SegmentedMapConfig c;
-  c.max_frames = 1;
   c.max_segments = 8;
   SegmentedMap segments(GlobalMapConfig{}, ClassTable::defaults(), c);
   for (std::size_t i = 0; i < 40; ++i) {
     const Frame f = scanAt(w, poses[i]);
-    segments.add(i, f.cloud, f.channels, poses[i], i);  // a correction before every frame
+    segments.add(i, f.cloud, f.channels, poses, 1);  // a segment per frame
   }
   segments.close();
   EXPECT_EQ(segments.segments(), 40u);
@@ -300,7 +295,7 @@ TEST(SegmentedMap, ComposesOnlyAtACutAndTakesFramesInOrder) {
   SegmentedMap segments(GlobalMapConfig{}, ClassTable::defaults());
   for (std::size_t i = 0; i < 12; ++i) {
     const Frame f = scanAt(w, poses[i]);
-    segments.add(i, f.cloud, f.channels, poses[i], 0);
+    segments.add(i, f.cloud, f.channels, poses, 100);
   }
   EXPECT_THROW(segments.compose(12, poses), Error);  // the open segment is not composed
   segments.close();
@@ -309,8 +304,11 @@ TEST(SegmentedMap, ComposesOnlyAtACutAndTakesFramesInOrder) {
   EXPECT_EQ(segments.compose(12, poses).frames(), 12u);
   EXPECT_EQ(segments.compose(0, poses).size(), 0u);
   const Frame f = scanAt(w, poses[0]);
-  EXPECT_THROW(segments.add(14, f.cloud, f.channels, poses[0], 0), Error);
-  EXPECT_THROW(SegmentedMap(GlobalMapConfig{}, ClassTable::defaults(), SegmentedMapConfig{0}), Error);
+  EXPECT_THROW(segments.add(14, f.cloud, f.channels, poses[0], 14, poses[0]), Error);  // frame 12 is next
+  EXPECT_THROW(segments.add(12, f.cloud, f.channels, poses[0], 3, poses[3]), Error);   // no segment begins at 3
+  SegmentedMapConfig one;
+  one.max_segments = 1;
+  EXPECT_THROW(SegmentedMap(GlobalMapConfig{}, ClassTable::defaults(), one), Error);
 }
 
 TEST(SegmentedMap, OneThreadAddsWhileAnotherComposesItsCuts) {
@@ -319,13 +317,11 @@ TEST(SegmentedMap, OneThreadAddsWhileAnotherComposesItsCuts) {
   const auto poses = truePoses(n);
   std::vector<Frame> frames;
   for (std::size_t i = 0; i < n; ++i) frames.push_back(scanAt(w, poses[i]));
-  SegmentedMapConfig c;
-  c.max_frames = 7;
-  SegmentedMap segments(GlobalMapConfig{}, ClassTable::defaults(), c);
+  SegmentedMap segments(GlobalMapConfig{}, ClassTable::defaults());
   std::atomic<std::size_t> cut{0};
   std::thread adder([&] {
     for (std::size_t i = 0; i < n; ++i) {
-      segments.add(i, frames[i].cloud, frames[i].channels, poses[i], 0);
+      segments.add(i, frames[i].cloud, frames[i].channels, poses, 7);
       if (i % 20 == 19) {
         segments.close();
         cut = i + 1;

@@ -42,7 +42,6 @@ Eigen::Isometry3d correctionOf(const Eigen::Isometry3d& now, const Eigen::Isomet
 SegmentedMap::SegmentedMap(GlobalMapConfig map, ClassTable table, SegmentedMapConfig config)
     : map_config_(map), table_(std::move(table)), config_(config) {
   map_config_.validate();
-  if (config_.max_frames < 1) fail("segmented map", "max_frames must be >= 1");
   if (config_.max_segments < 2) fail("segmented map", "max_segments must be >= 2");
   if (!(config_.merge_translation >= 0) || !(config_.merge_rotation >= 0))
     fail("segmented map", "merge tolerances must be >= 0");
@@ -51,15 +50,33 @@ SegmentedMap::SegmentedMap(GlobalMapConfig map, ClassTable table, SegmentedMapCo
 SegmentedMap::~SegmentedMap() = default;
 
 void SegmentedMap::add(std::size_t frame, const LabeledCloud& scan, std::span<const PointChannel> channels,
-                       const Eigen::Isometry3d& T_world_sensor, std::size_t epoch) {
+                       const Eigen::Isometry3d& T_world_sensor, std::size_t anchor,
+                       const Eigen::Isometry3d& T_world_anchor_now) {
   if (frame != frames_)
     fail("segmented map", "frame " + std::to_string(frame) + " added after " + std::to_string(frames_) + " frames");
-  if (open_ && (epoch != epoch_ || open_->count >= config_.max_frames)) close();
-  epoch_ = epoch;
-  if (!open_) open_ = std::make_unique<Segment>(frame, T_world_sensor, map_config_, table_);
-  open_->map.insert(frame, scan, T_world_sensor, channels);
+  if (anchor == frame) {
+    close();
+    open_ = std::make_unique<Segment>(frame, T_world_sensor, map_config_, table_);
+    open_->map.insert(frame, scan, T_world_sensor, channels);
+  } else {
+    if (!open_ || open_->first != anchor)
+      fail("segmented map", "frame " + std::to_string(frame) + " given anchor " + std::to_string(anchor) +
+                                " but the open segment begins at " + (open_ ? std::to_string(open_->first) : "none"));
+    // Where the frame lies relative to the anchor now, in the anchor's coordinates then.
+    const Eigen::Isometry3d placed = open_->anchor_then * T_world_anchor_now.inverse() * T_world_sensor;
+    open_->map.insert(frame, scan, T_world_anchor_now.matrix() == open_->anchor_then.matrix() ? T_world_sensor : placed,
+                      channels);
+  }
   ++open_->count;
   ++frames_;
+}
+
+void SegmentedMap::add(std::size_t frame, const LabeledCloud& scan, std::span<const PointChannel> channels,
+                       std::span<const Eigen::Isometry3d> poses_now, std::size_t frames_per_segment) {
+  const bool begins = !open_ || open_->count >= std::max<std::size_t>(frames_per_segment, 1);
+  const std::size_t anchor = begins ? frame : open_->first;
+  if (poses_now.size() <= frame) fail("segmented map", "no pose for frame " + std::to_string(frame));
+  add(frame, scan, channels, poses_now[frame], anchor, poses_now[anchor]);
 }
 
 void SegmentedMap::close() {

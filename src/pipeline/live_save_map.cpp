@@ -1,5 +1,6 @@
 #include "hazmap/pipeline/live_save_map.hpp"
 
+#include <algorithm>
 #include <iostream>
 #include <string>
 
@@ -7,8 +8,10 @@
 
 namespace hazmap {
 
-LiveSaveMap::LiveSaveMap(GlobalMapConfig map, ClassTable table, SegmentedMapConfig segments, std::size_t max_queued)
-    : map_(map, std::move(table), segments), max_queued_(max_queued), thread_([this] { loop(); }) {}
+LiveSaveMap::LiveSaveMap(GlobalMapConfig map, ClassTable table, SegmentedMapConfig segments,
+                         std::size_t frames_per_segment, std::size_t max_queued)
+    : map_(map, std::move(table), segments), frames_per_segment_(std::max<std::size_t>(frames_per_segment, 1)),
+      max_queued_(max_queued), thread_([this] { loop(); }) {}
 
 LiveSaveMap::~LiveSaveMap() {
   {
@@ -33,16 +36,24 @@ void LiveSaveMap::frame(const SlamFrameEvent& event, std::span<const PointChanne
       return;
     }
   }
+  if (!open_ || in_segment_ >= frames_per_segment_) {  // as the thread's SegmentedMap::add will see it
+    open_ = true;
+    anchor_ = event.record.index;
+    in_segment_ = 0;
+  }
+  ++in_segment_;
   Item item;
   item.frame = event.record.index;
   item.cloud = event.scan;
   item.channels.assign(channels.begin(), channels.end());
   item.pose = event.poses[event.record.index];
-  item.epoch = event.corrections;
+  item.anchor = anchor_;
+  item.anchor_pose = event.poses[anchor_];
   push(std::move(item));
 }
 
 void LiveSaveMap::cut(std::size_t frames) {
+  open_ = false;
   Item item;
   item.is_cut = true;
   item.frame = frames;
@@ -93,7 +104,7 @@ void LiveSaveMap::loop() {
           fail("live save map", "a cut at frame " + std::to_string(item.frame) + " after " + std::to_string(map_.frames()));
         map_.close();
       } else {
-        map_.add(item.frame, item.cloud, item.channels, item.pose, item.epoch);
+        map_.add(item.frame, item.cloud, item.channels, item.pose, item.anchor, item.anchor_pose);
       }
     } catch (const std::exception& e) {  // a frame out of order, a bad pose: the saves rebuild
       std::cerr << "notice: the saves' map gave up (" << e.what() << "); saves rebuild it from the spool\n";

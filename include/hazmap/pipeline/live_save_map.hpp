@@ -23,9 +23,11 @@ namespace hazmap {
 
 class LiveSaveMap {
  public:
-  /// `max_queued`: frames waiting for the thread; one more and the map gives up (compose() then
-  /// says so and the save rebuilds from the spool), so tracking never waits for it.
-  LiveSaveMap(GlobalMapConfig map, ClassTable table, SegmentedMapConfig segments = {}, std::size_t max_queued = 64);
+  /// A segment begins every `frames_per_segment` frames and after each cut. `max_queued`: frames
+  /// waiting for the thread; one more and the map gives up (compose() then says so and the save
+  /// rebuilds from the spool), so tracking never waits for it.
+  LiveSaveMap(GlobalMapConfig map, ClassTable table, SegmentedMapConfig segments = {},
+              std::size_t frames_per_segment = 100, std::size_t max_queued = 64);
   ~LiveSaveMap();
   LiveSaveMap(const LiveSaveMap&) = delete;
   LiveSaveMap& operator=(const LiveSaveMap&) = delete;
@@ -49,13 +51,17 @@ class LiveSaveMap {
     LabeledCloud cloud;
     std::vector<PointChannel> channels;
     Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-    std::size_t epoch = 0;
+    std::size_t anchor = 0;  // the segment's first frame, and its pose now
+    Eigen::Isometry3d anchor_pose = Eigen::Isometry3d::Identity();
   };
   void push(Item item);
   void loop();
 
   SegmentedMap map_;
-  std::size_t max_queued_;
+  std::size_t frames_per_segment_, max_queued_;
+  // The pipeline's side: where the open segment begins (the thread makes the same segments).
+  bool open_ = false;
+  std::size_t anchor_ = 0, in_segment_ = 0;
   mutable std::mutex m_;
   std::condition_variable work_, done_;
   std::deque<Item> queue_;
