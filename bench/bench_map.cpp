@@ -3,6 +3,14 @@
 //  - BM_GlobalMapLongRun: 10,000 frames driven down an endless corridor with the default voxel
 //    cap; reports cells, coarsenings, the map's own bytes and the process's peak RSS growth —
 //    the map stays bounded however long the run.
+//  - BM_SaveMapRebuilt vs BM_SaveMapComposed: the map of a save while running, N frames into a
+//    mission round a closed 20 m route after a loop correction moved every pose: rebuilt from
+//    every scan at the corrected poses (what an autosave did, and the end still does) against
+//    composed from segments built as the frames came (map/segmented_map.hpp: N / 100 segments,
+//    none seen before, merged down to 8 and composed: a save's worst case). Rebuilding grows
+//    with N; composing with the segments' cells, which the route's area bounds. (The corridor's
+//    walls lie on the grid's planes: the rebuilt map keeps them one cell thick, segments built
+//    in drifted frames put them up to a cell apart, so `cells` is larger composed.)
 //  - BM_GlobalMapInsert vs BM_PclVoxelGridPeer: the same 100 VLP-16-like scans assembled into
 //    a 0.1 m voxel map incrementally by GlobalMap (classes voted, frames recorded) and in one
 //    batch by PCL's VoxelGrid over the concatenated cloud (no classes) — the peer.
@@ -20,6 +28,7 @@
 #include "hazmap/map/global_map.hpp"
 #include "hazmap/map/hazards.hpp"
 #include "hazmap/map/render.hpp"
+#include "hazmap/map/segmented_map.hpp"
 
 #ifdef HAZMAP_BENCH_HAVE_PCL
 #include <pcl/filters/voxel_grid.h>
@@ -112,6 +121,55 @@ void BM_GlobalMapInsert(benchmark::State& state) {
   state.counters["points_per_s"] = benchmark::Counter(double(points) * state.iterations(), benchmark::Counter::kIsRate);
 }
 BENCHMARK(BM_GlobalMapInsert)->Arg(100)->Unit(benchmark::kMillisecond);
+
+// A closed 20 m route along the corridor, 0.25 m a frame: 80 distinct scans, driven round again
+// and again; the poses tracking gave (a slow yaw drift) and those after the loop correction.
+struct ClosedRoute {
+  std::vector<LabeledCloud> scans;
+  ClosedRoute() {
+    for (int k = 0; k < 80; ++k) scans.push_back(corridorScan(1800, 0.25 * k));
+  }
+  const LabeledCloud& scan(std::size_t f) const { return scans[f % 80]; }
+  static Eigen::Isometry3d corrected(std::size_t f) { return fromXyzRpy(0.25 * double(f % 80), 0, 0, 0, 0, 0); }
+  // Tracking's drift: a slow turn and sideways creep of the whole frame.
+  static Eigen::Isometry3d tracked(std::size_t f) {
+    return fromXyzRpy(0, 1e-4 * double(f), 0, 0, 0, 5e-6 * double(f)) * corrected(f);
+  }
+};
+
+void BM_SaveMapRebuilt(benchmark::State& state) {
+  static const ClosedRoute route;
+  const std::size_t n = std::size_t(state.range(0));
+  std::size_t cells = 0;
+  for (auto _ : state) {
+    GlobalMap map;
+    for (std::size_t f = 0; f < n; ++f) map.insert(f, route.scan(f), ClosedRoute::corrected(f));
+    cells = map.size();
+  }
+  state.counters["cells"] = double(cells);
+}
+BENCHMARK(BM_SaveMapRebuilt)->Arg(300)->Arg(1200)->Arg(4800)->Unit(benchmark::kMillisecond)->Iterations(2);
+
+void BM_SaveMapComposed(benchmark::State& state) {
+  static const ClosedRoute route;
+  const std::size_t n = std::size_t(state.range(0));
+  std::vector<Eigen::Isometry3d> tracked, corrected;
+  for (std::size_t f = 0; f < n; ++f) tracked.push_back(ClosedRoute::tracked(f));
+  for (std::size_t f = 0; f < n; ++f) corrected.push_back(ClosedRoute::corrected(f));
+  std::size_t cells = 0, segments = 0;
+  for (auto _ : state) {
+    state.PauseTiming();  // the segments are built beside tracking, frame by frame
+    SegmentedMap map(GlobalMapConfig{}, ClassTable::defaults());
+    for (std::size_t f = 0; f < n; ++f) map.add(f, route.scan(f), {}, tracked, 100);
+    map.close();
+    state.ResumeTiming();
+    cells = map.compose(n, corrected).size();  // n / 100 segments, merged down to 8 first
+    segments = map.segments();
+  }
+  state.counters["cells"] = double(cells);
+  state.counters["segments"] = double(segments);
+}
+BENCHMARK(BM_SaveMapComposed)->Arg(300)->Arg(1200)->Arg(4800)->Unit(benchmark::kMillisecond)->Iterations(2);
 
 // Real scans: the six KITTI HDL-64 scans (labels where the sample has them) (~120k points each, dense near the car: several points
 // per 0.1 m cell) at their reference poses, into a 0.1 m map with the semantic classes.
