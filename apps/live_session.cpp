@@ -310,8 +310,9 @@ void runLiveSession(const LiveOptions& o, const ParameterOptions& params,
   if (!o.sensor_metadata.empty())  // beside the spool, so `hazmap run DIR/live.pcap` finds it
     std::filesystem::copy_file(o.sensor_metadata, out / "live.json", std::filesystem::copy_options::overwrite_existing);
   s.startView();
-  if (o.autosave_every > 0 || s.view)
-    s.save_map = std::make_unique<LiveSaveMap>(OutputConfig{}.map, s.scans().classTable());
+  // Autosaves need a map whose cost does not grow with the mission; without them a save on
+  // request rebuilds it from the spool (and the session holds no segments).
+  if (o.autosave_every > 0) s.save_map = std::make_unique<LiveSaveMap>(OutputConfig{}.map, s.scans().classTable());
   installSignalHandlers();
   std::cout << fmt::format("listening on UDP port {} ({}; auxiliary port {}); Ctrl-C ends the run and writes {}\n",
                            s.source->dataPort(), toString(s.sensor), s.source->auxiliaryPort(), o.out)

@@ -338,9 +338,11 @@ TEST_F(LiveBrowser, HazardsAppearWithTheirValuesAndHeatIsDrawnRed) {
   EXPECT_EQ(row[1], "heat");
   EXPECT_EQ(row[5], fmt::format("{:.1f}", *hazards[0].mean_property));  // the value column
   EXPECT_EQ(browser.eval("hazmapLive.hazardsOrigin"), "live");
-  browser.eval("hazmapLive.flush();hazmapViewer.setView('top')");
+  browser.eval("hazmapLive.flush();hazmapViewer.live.fit(true);hazmapViewer.setView('top')");
   // Eventually: a loaded machine's browser can count before it has drawn the new view (failed once,
-  // 0 red pixels, with a sanitizer build and the suite sharing the two cores).
+  // 0 red pixels, with a sanitizer build and the suite sharing the two cores). Fitted first: the
+  // page follows the map at most once a second, and setView keeps the view's centre and scale
+  // (failed once under load, 21 red pixels: the view fitted to the first frame only).
   int red = 0;
   EXPECT_TRUE(eventually([&] { return (red = browser.eval("hazmapViewer.countPixels([230,25,25],30)").get<int>()) > 50; }))
       << red << " red pixels";

@@ -16,7 +16,7 @@
   const withToken = (path) => path + (token ? '?token=' + encodeURIComponent(token) : '');
   const state = { connected: false, connects: 0, messages: 0, mapPoints: 0, frame: -1, status: null,
                   lastSeq: -1, hazardsOrigin: null, lastSave: null, mapCorrections: 0, pointsMoved: 0 };
-  let track = [], trackDirty = false, lastFit = 0;
+  let track = [], trackDirty = false, lastFit = 0, fitTimer = null;
   $('live-panel').hidden = false;
 
   function bytes(base64) {
@@ -79,8 +79,17 @@
       at += g.count;
     }
     state.mapPoints += at;
-    const now = performance.now();
-    if (!v.live.userMoved && now - lastFit > 1000) { lastFit = now; v.live.fit(true); }
+    fitSoon();
+  }
+
+  // The view follows the map as it grows (until the user moves it), at most once a second; the
+  // last growth of a burst is fitted a second later, so the newest points are always in view.
+  function fitSoon() {
+    if (v.live.userMoved || fitTimer) return;
+    const wait = 1000 - (performance.now() - lastFit);
+    const fit = () => { fitTimer = null; lastFit = performance.now(); if (!v.live.userMoved) v.live.fit(true); };
+    if (wait <= 0) fit();
+    else fitTimer = setTimeout(fit, wait);
   }
 
   // An "anchors" message: segments (uint32 LE) moved to poses (7 float32 LE each).
