@@ -144,6 +144,7 @@ struct SaveJob {
   std::string state;
   std::uint64_t requests = 0;  ///< the POST /save requests it answers (SaveRequests::waiting)
   std::chrono::steady_clock::time_point taken = std::chrono::steady_clock::now();  ///< the state's moment
+  bool segments_only = false;  ///< write only if the saves' map can be composed (no rebuild)
 };
 
 struct Session {
@@ -161,6 +162,7 @@ struct Session {
   SaveJob job(SlamResult result, std::string state);
   void write(const SaveJob& job, bool final_write);
   void save(const SaveJob& job, bool final_write);
+  void saveEndQuickly(const SlamResult& result);
   void startView();
   ScanSource& scans() { return labelled ? static_cast<ScanSource&>(*labelled) : *source; }
 };
@@ -187,6 +189,7 @@ void Session::write(const SaveJob& job, bool final_write) {
   outputs.write_map_folder = final_write;  // the reopenable map once, at the end (not every autosave)
   std::optional<GlobalMap> composed;
   if (!final_write && save_map) composed = save_map->compose(job.result.estimate.size(), job.result.estimate.poses);
+  if (!composed && job.segments_only) return;
   RunSummary summary;
   if (composed) {
     summary = writeRunOutputs(*composed, job.result, config, outputs, out);
@@ -204,9 +207,24 @@ void Session::write(const SaveJob& job, bool final_write) {
   writeTextAtomically(out / "run.json", j.dump(2) + "\n");
   if (o.quiet) return;
   if (final_write) std::cout << formatRunSummary(job.result, summary, out, outputs);
+  else if (job.state.starts_with("stopped"))
+    std::cout << fmt::format("wrote {} frames to {} (the map re-placed); rebuilding the map from {}\n",
+                             job.result.frames.size(), o.out, (out / "live.pcap").string())
+              << std::flush;
   else std::cout << fmt::format("{} {} frames to {}\n", job.state.starts_with("autosave") ? "autosaved" : "saved on request",
                                 job.result.frames.size(), o.out)
                  << std::flush;
+}
+
+/// At the end, before the map's exact rebuild (minutes after an hour): the final state at once
+/// with the segments' map, so a second signal or a power cut meanwhile finds the final poses
+/// and a consistent folder, not an autosave up to a minute old.
+void Session::saveEndQuickly(const SlamResult& result) {
+  if (!save_map || !save_map->complete()) return;
+  save_map->cut(result.estimate.size());
+  SaveJob quick = job(SlamResult(result), stoppedBy() + "; the map re-placed, being rebuilt");
+  quick.segments_only = true;
+  save(quick, false);
 }
 
 /// write(), told to the browsers (the saved hazards and trajectory) and to a waiting POST /save.
@@ -355,8 +373,9 @@ void runLiveSession(const LiveOptions& o, const ParameterOptions& params,
   };
   SlamResult result = runSlam(s.scans(), s.config, {}, hooks);
   saver.finish();  // one writer of the run folder at a time
-  s.save_map.reset();  // the end rebuilds the map from the spool
   if (s.view) s.view->drain();
+  s.saveEndQuickly(result);
+  s.save_map.reset();  // the end rebuilds the map from the spool
   s.save(s.job(std::move(result), stoppedBy()), true);
 }
 

@@ -371,6 +371,10 @@ TEST(LiveSimulated, SigintWhileTheBackEndVerifiesLoopsWritesACompleteRunFolder) 
   const Trajectory t = readKittiTrajectory(out / "trajectory.kitti");
   const auto run = nlohmann::json::parse(readTextFile(out / "run.json"));
   EXPECT_EQ(run.at("live").at("state").get<std::string>(), "stopped by SIGINT");
+  EXPECT_EQ(run.at("live").at("map").get<std::string>(), "rebuilt from the spool");
+  // Before the exact rebuild the end's state was written at once with the re-placed map.
+  EXPECT_NE(live.log().find(std::to_string(t.size()) + " frames to " + out.string() + " (the map re-placed); rebuilding"),
+            std::string::npos) << live.log();
   EXPECT_EQ(run.at("frames").get<std::size_t>(), t.size());
   EXPECT_EQ(linesStartingWith(readTextFile(out / "graph.g2o"), "VERTEX_SE3:QUAT "), t.size());
   EXPECT_EQ(linesStartingWith(readTextFile(out / "trajectory.kitti"), ""), t.size());
