@@ -1,6 +1,10 @@
 // Loop-closure benchmarks: landmark extraction on a VLP-16-sized scan (peer: PCL's
 // EuclideanClusterExtraction on the same labelled points, same tolerance), and the constellation
-// candidate search of one query against a few hundred keyframes.
+// candidate search of one query against a few hundred keyframes. BM_ConsistentSubset: the
+// pairwise loop-consistency check the back end runs before each optimisation, L loops over a
+// closed route of 3,000 keyframes (a long mission), against its pairs computed one by one with
+// pairwiseDistance2 (each summing the path between the keyframes: what it did before
+// 2026-12-05, when that sum was 43 % of a long icp+pgo live session's CPU).
 #include <benchmark/benchmark.h>
 
 #include "bench_main.hpp"
@@ -10,6 +14,7 @@
 #include "hazmap/core/class_table.hpp"
 #include "hazmap/core/se3.hpp"
 #include "hazmap/loop/candidates.hpp"
+#include "hazmap/loop/consistency.hpp"
 #include "hazmap/loop/landmarks.hpp"
 
 #ifdef HAZMAP_BENCH_HAVE_PCL
@@ -121,6 +126,53 @@ void BM_ConstellationSearch(benchmark::State& state) {
                                                      benchmark::Counter::kIsRate);
 }
 BENCHMARK(BM_ConstellationSearch)->Arg(150)->Arg(600)->Unit(benchmark::kMillisecond);
+
+}  // namespace
+
+namespace {
+
+// A 100 m closed route driven three times (3,000 keyframes, 0.1 m apart) and `n` loops between
+// the laps, all right.
+struct LoopsOnLaps {
+  PoseList poses;
+  std::vector<LoopClosure> loops;
+  explicit LoopsOnLaps(std::size_t n) {
+    for (std::size_t k = 0; k < 3000; ++k) {
+      const double s = 0.1 * double(k % 1000), angle = 2 * M_PI * s / 100.0;
+      poses.push_back(fromXyzRpy(15.9 * std::cos(angle), 15.9 * std::sin(angle), 0, 0, 0, angle + M_PI / 2));
+    }
+    for (std::size_t i = 0; i < n; ++i) {
+      LoopClosure l;
+      l.from = (i * 37) % 1000;
+      l.to = l.from + 1000 * (1 + i % 2);
+      l.T_from_to = poses[l.from].inverse() * poses[l.to];
+      l.covariance = Matrix6d::Identity() * 1e-4;
+      loops.push_back(l);
+    }
+  }
+};
+
+void BM_ConsistentSubset(benchmark::State& state) {
+  const LoopsOnLaps route(std::size_t(state.range(0)));
+  std::size_t kept = 0;
+  for (auto _ : state) kept = consistentSubset(route.loops, route.poses).size();
+  state.counters["kept"] = double(kept);
+}
+BENCHMARK(BM_ConsistentSubset)->Arg(100)->Arg(400)->Unit(benchmark::kMillisecond);
+
+void BM_ConsistencyPairsSummedAlongThePath(benchmark::State& state) {
+  const LoopsOnLaps route(std::size_t(state.range(0)));
+  const double threshold = chiSquareQuantile(6, ConsistencyConfig{}.gate_probability);
+  std::size_t consistent = 0;
+  for (auto _ : state) {
+    consistent = 0;
+    for (std::size_t i = 0; i < route.loops.size(); ++i)
+      for (std::size_t j = i + 1; j < route.loops.size(); ++j)
+        consistent += pairwiseDistance2(route.loops[i], route.loops[j], route.poses) <= threshold;
+  }
+  state.counters["consistent_pairs"] = double(consistent);
+}
+BENCHMARK(BM_ConsistencyPairsSummedAlongThePath)->Arg(100)->Arg(400)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 

@@ -423,6 +423,34 @@ TEST(LoopConsistency, PairwiseConsistencyDropsInjectedWrongLoops) {
   EXPECT_TRUE(consistentSubset({}, estimate, {}).empty());
 }
 
+// Hundreds of loops (a long mission, the greedy path): the subset kept is consistent pair by pair
+// as pairwiseDistance2 says (the subset reads path lengths as differences of one cumulative sum,
+// the public functions sum along the path), and every loop left out fails with one kept.
+TEST(LoopConsistency, ManyLoopsKeepAPairwiseConsistentMaximalSubset) {
+  const PoseList truth = test::rectangleRoute();
+  const PoseList estimate = test::driftedRoute(truth, 0.06, 0.5 * M_PI / 180.0);
+  std::vector<LoopClosure> loops;
+  for (std::size_t k = 0; k < 150; ++k) {
+    const std::size_t from = k % 20, to = truth.size() - 1 - (k * 7) % 20;
+    const bool wrong = k % 9 == 4;  // one in nine 2.5 m / 15° off
+    loops.push_back(loopBetween(truth, from, to, wrong ? fromXyYaw(2.5, 0.5, 0.26) : fromXyYaw(0.01, -0.01, 0.002)));
+  }
+  const ConsistencyConfig cfg;
+  const auto keep = consistentSubset(loops, estimate, cfg);
+  const double threshold = chiSquareQuantile(6, cfg.gate_probability);
+  ASSERT_GT(keep.size(), 100u);
+  for (std::size_t a : keep) {
+    EXPECT_NE(a % 9, 4u) << "a wrong loop kept: " << a;
+    for (std::size_t b : keep) EXPECT_LE(pairwiseDistance2(loops[a], loops[b], estimate, cfg), threshold) << a << ", " << b;
+  }
+  for (std::size_t c = 0; c < loops.size(); ++c) {
+    if (std::find(keep.begin(), keep.end(), c) != keep.end()) continue;
+    bool fails_with_one = false;
+    for (std::size_t a : keep) fails_with_one = fails_with_one || pairwiseDistance2(loops[c], loops[a], estimate, cfg) > threshold;
+    EXPECT_TRUE(fails_with_one) << c;
+  }
+}
+
 // ----------------------------------------------------------------------------------- config
 
 TEST(LoopConfig, YamlRoundTripAndErrors) {

@@ -59,12 +59,13 @@ double mahalanobis2(const Vector6d& e, const Matrix6d& cov) {
 
 }  // namespace
 
-GateResult driftGate(const LoopClosure& loop, const PoseList& poses, const ConsistencyConfig& c) {
-  validate(c);
-  if (loop.from >= poses.size() || loop.to >= poses.size())
-    fail("driftGate", "loop keyframe index out of range of the pose estimate");
+namespace {
+
+// Gate 1 with the path length between the loop's keyframes given.
+GateResult driftGateAlong(const LoopClosure& loop, const PoseList& poses, double path_length,
+                          const ConsistencyConfig& c) {
   GateResult g;
-  g.path_length = pathLength(poses, loop.from, loop.to);
+  g.path_length = path_length;
   g.threshold = chiSquareQuantile(6, c.gate_probability);
   const Eigen::Isometry3d predicted = poses[loop.from].inverse() * poses[loop.to];
   // Left-perturbation error in the `from` frame, the convention of the loop covariance.
@@ -72,6 +73,42 @@ GateResult driftGate(const LoopClosure& loop, const PoseList& poses, const Consi
   g.mahalanobis2 = mahalanobis2(e, loop.covariance + driftCovariance(g.path_length, c));
   g.accepted = g.mahalanobis2 <= g.threshold;
   return g;
+}
+
+// The cycle of two loops with the length of its two estimate paths given.
+double pairwiseDistance2Along(const LoopClosure& a, const LoopClosure& b, const PoseList& poses, double path_length,
+                              const ConsistencyConfig& c) {
+  const Eigen::Isometry3d T_ik = poses[a.from].inverse() * poses[b.from];
+  const Eigen::Isometry3d T_lj = poses[b.to].inverse() * poses[a.to];
+  // Both routes from i to j: the loop a directly, or estimate i→k, loop b, estimate l→j.
+  const Eigen::Isometry3d via_b = T_ik * b.T_from_to * T_lj;
+  const Vector6d e = se3Log(a.T_from_to * via_b.inverse());
+  // First-order: the covariances of both loops and the drift of the two short estimate paths.
+  return mahalanobis2(e, a.covariance + b.covariance + driftCovariance(path_length, c));
+}
+
+// Path length along `poses` from the first pose to each: a path between two keyframes is a
+// difference, O(1) instead of a sum along it (the consistency check asks for every pair of loops:
+// on a long mission with hundreds of loops the sums were most of the back end's time).
+class CumulativePath {
+ public:
+  explicit CumulativePath(const PoseList& poses) : from_start_(poses.size(), 0.0) {
+    for (std::size_t i = 1; i < poses.size(); ++i)
+      from_start_[i] = from_start_[i - 1] + (poses[i].translation() - poses[i - 1].translation()).norm();
+  }
+  double between(std::size_t a, std::size_t b) const { return std::abs(from_start_[b] - from_start_[a]); }
+
+ private:
+  std::vector<double> from_start_;
+};
+
+}  // namespace
+
+GateResult driftGate(const LoopClosure& loop, const PoseList& poses, const ConsistencyConfig& c) {
+  validate(c);
+  if (loop.from >= poses.size() || loop.to >= poses.size())
+    fail("driftGate", "loop keyframe index out of range of the pose estimate");
+  return driftGateAlong(loop, poses, pathLength(poses, loop.from, loop.to), c);
 }
 
 GateResult innovationGate(const LoopClosure& loop, const PoseList& poses, const Matrix6d& relative_covariance,
@@ -94,14 +131,7 @@ double pairwiseDistance2(const LoopClosure& a, const LoopClosure& b, const PoseL
   const std::size_t i = a.from, j = a.to, k = b.from, l = b.to;
   if (std::max({i, j, k, l}) >= poses.size())
     fail("pairwiseDistance2", "loop keyframe index out of range of the pose estimate");
-  const Eigen::Isometry3d T_ik = poses[i].inverse() * poses[k];
-  const Eigen::Isometry3d T_lj = poses[l].inverse() * poses[j];
-  // Both routes from i to j: the loop a directly, or estimate i→k, loop b, estimate l→j.
-  const Eigen::Isometry3d via_b = T_ik * b.T_from_to * T_lj;
-  const Vector6d e = se3Log(a.T_from_to * via_b.inverse());
-  // First-order: the covariances of both loops and the drift of the two short estimate paths.
-  const double L = pathLength(poses, i, k) + pathLength(poses, l, j);
-  return mahalanobis2(e, a.covariance + b.covariance + driftCovariance(L, c));
+  return pairwiseDistance2Along(a, b, poses, pathLength(poses, i, k) + pathLength(poses, l, j), c);
 }
 
 std::vector<std::size_t> consistentSubset(const std::vector<LoopClosure>& loops, const PoseList& poses,
@@ -113,13 +143,20 @@ std::vector<std::size_t> consistentSubset(const std::vector<LoopClosure>& loops,
     for (std::size_t i = 0; i < n; ++i) all[i] = i;
     return all;
   }
+  for (const LoopClosure& l : loops)
+    if (std::max(l.from, l.to) >= poses.size()) fail("consistentSubset", "loop keyframe index out of range of the pose estimate");
   const double threshold = chiSquareQuantile(6, c.gate_probability);
+  const CumulativePath path(poses);
   std::vector<double> cost(n);
-  for (std::size_t i = 0; i < n; ++i) cost[i] = driftGate(loops[i], poses, c).mahalanobis2;
+  for (std::size_t i = 0; i < n; ++i)
+    cost[i] = driftGateAlong(loops[i], poses, path.between(loops[i].from, loops[i].to), c).mahalanobis2;
   std::vector<std::vector<char>> adj(n, std::vector<char>(n, 0));
   for (std::size_t i = 0; i < n; ++i)
-    for (std::size_t j = i + 1; j < n; ++j)
-      adj[i][j] = adj[j][i] = pairwiseDistance2(loops[i], loops[j], poses, c) <= threshold;
+    for (std::size_t j = i + 1; j < n; ++j) {
+      const LoopClosure &a = loops[i], &b = loops[j];
+      const double L = path.between(a.from, b.from) + path.between(b.to, a.to);
+      adj[i][j] = adj[j][i] = pairwiseDistance2Along(a, b, poses, L, c) <= threshold;
+    }
 
   std::vector<std::size_t> best;
   double best_cost = 0.0;
