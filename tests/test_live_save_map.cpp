@@ -98,6 +98,14 @@ TEST(LiveSaveMap, ASavesMapAfterLoopCorrectionsIsTheRebuiltOneWithinCentimetres)
   ASSERT_FALSE(result.loops.empty());
   EXPECT_GT(corrections, 0u);
   ASSERT_EQ(snapshots.size(), 3u);
+  // What a save's run.json reports of the loops: those in the snapshot's graph (not only at the end).
+  EXPECT_TRUE(snapshots[0].loops.empty());
+  EXPECT_GT(snapshots[0].keyframes, 0u);
+  ASSERT_FALSE(snapshots[2].loops.empty());
+  std::size_t loop_edges = 0;
+  for (const PoseGraphEdge& e : snapshots[2].graph.edges) loop_edges += e.kind == EdgeKind::Loop;
+  EXPECT_EQ(snapshots[2].loops.size(), loop_edges);
+  for (const auto& l : snapshots[2].loops) EXPECT_LT(l.to_frame, 110u);
   for (const SlamResult& s : snapshots) {
     const std::size_t n = s.estimate.size();
     std::optional<GlobalMap> composed = save_map.compose(n, s.estimate.poses);

@@ -102,6 +102,30 @@ class CumulativePath {
   std::vector<double> from_start_;
 };
 
+// Each loop's drift-gate distance, and which pairs of loops are consistent.
+struct ConsistencyGraph {
+  std::vector<double> cost;
+  std::vector<std::vector<char>> adj;
+};
+ConsistencyGraph consistencyGraph(const std::vector<LoopClosure>& loops, const PoseList& poses,
+                                  const ConsistencyConfig& c) {
+  for (const LoopClosure& l : loops)
+    if (std::max(l.from, l.to) >= poses.size()) fail("consistentSubset", "loop keyframe index out of range of the pose estimate");
+  const std::size_t n = loops.size();
+  const double threshold = chiSquareQuantile(6, c.gate_probability);
+  const CumulativePath path(poses);
+  ConsistencyGraph g{std::vector<double>(n), std::vector<std::vector<char>>(n, std::vector<char>(n, 0))};
+  for (std::size_t i = 0; i < n; ++i)
+    g.cost[i] = driftGateAlong(loops[i], poses, path.between(loops[i].from, loops[i].to), c).mahalanobis2;
+  for (std::size_t i = 0; i < n; ++i)
+    for (std::size_t j = i + 1; j < n; ++j) {
+      const LoopClosure &a = loops[i], &b = loops[j];
+      const double L = path.between(a.from, b.from) + path.between(b.to, a.to);
+      g.adj[i][j] = g.adj[j][i] = pairwiseDistance2Along(a, b, poses, L, c) <= threshold;
+    }
+  return g;
+}
+
 }  // namespace
 
 GateResult driftGate(const LoopClosure& loop, const PoseList& poses, const ConsistencyConfig& c) {
@@ -143,21 +167,7 @@ std::vector<std::size_t> consistentSubset(const std::vector<LoopClosure>& loops,
     for (std::size_t i = 0; i < n; ++i) all[i] = i;
     return all;
   }
-  for (const LoopClosure& l : loops)
-    if (std::max(l.from, l.to) >= poses.size()) fail("consistentSubset", "loop keyframe index out of range of the pose estimate");
-  const double threshold = chiSquareQuantile(6, c.gate_probability);
-  const CumulativePath path(poses);
-  std::vector<double> cost(n);
-  for (std::size_t i = 0; i < n; ++i)
-    cost[i] = driftGateAlong(loops[i], poses, path.between(loops[i].from, loops[i].to), c).mahalanobis2;
-  std::vector<std::vector<char>> adj(n, std::vector<char>(n, 0));
-  for (std::size_t i = 0; i < n; ++i)
-    for (std::size_t j = i + 1; j < n; ++j) {
-      const LoopClosure &a = loops[i], &b = loops[j];
-      const double L = path.between(a.from, b.from) + path.between(b.to, a.to);
-      adj[i][j] = adj[j][i] = pairwiseDistance2Along(a, b, poses, L, c) <= threshold;
-    }
-
+  const auto [cost, adj] = consistencyGraph(loops, poses, c);
   std::vector<std::size_t> best;
   double best_cost = 0.0;
   auto consider = [&](const std::vector<std::size_t>& clique) {

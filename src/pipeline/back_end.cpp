@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <set>
 
 #include "hazmap/graph/chain_covariance.hpp"
 #include "hazmap/graph/optimizer.hpp"
@@ -109,6 +110,19 @@ void BackEnd::finish() {
   setLoopEdges(result_.graph, consistent, keyframe_frames_);
   if (consistent.empty() && gravityAloneHelps()) optimise();
   recordLoops(consistent);
+}
+
+void BackEnd::describeLoopsSoFar(SlamResult& snapshot) const {
+  snapshot.keyframes = keyframe_frames_.size();
+  std::set<std::pair<int, int>> in_graph;
+  for (const PoseGraphEdge& e : snapshot.graph.edges)
+    if (e.kind == EdgeKind::Loop) in_graph.insert({e.from, e.to});
+  snapshot.loops.clear();
+  for (const auto& l : loops_->acceptedLoops()) {
+    const std::size_t from = keyframe_frames_[l.from], to = keyframe_frames_[l.to];
+    if (in_graph.count({static_cast<int>(from), static_cast<int>(to)}))
+      snapshot.loops.push_back({from, to, toString(l.source), l.fitness, l.rmse});
+  }
 }
 
 void BackEnd::recordLoops(const std::vector<LoopClosure>& consistent) {

@@ -51,6 +51,9 @@ class BackEnd {
   void closeLoops(LabeledCloud cloud);
   /// The last optimisation with the consistent loops; the loops and rejections recorded.
   void finish();
+  /// A snapshot's loop records (`finish` makes the run's): the keyframes so far and the loops
+  /// in the graph now, those of the newest consistent set (`snapshot` holds the graph's edges).
+  void describeLoopsSoFar(SlamResult& snapshot) const;
 
  private:
   Matrix6d relativeCovariance(std::size_t from, std::size_t to) const;

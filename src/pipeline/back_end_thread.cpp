@@ -142,6 +142,7 @@ SlamResult BackEndThread::snapshot() {
   SlamResult s = result_;  // the back end waits for a frame meanwhile: nothing writes it
   s.frames = graph_.records().all();
   s.graph.edges = graph_.allEdges();
+  graph_.describeLoopsSoFar(s);
   return s;
 }
 

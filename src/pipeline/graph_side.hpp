@@ -42,6 +42,10 @@ class GraphSide {
   /// The newest keyframe's loop stage: anchor edge, loop search and verification, optimisation.
   void closeLoops(LabeledCloud cloud);
   void finish();
+  /// A snapshot's keyframe count and loops so far (BackEnd::describeLoopsSoFar); none without PGO.
+  void describeLoopsSoFar(SlamResult& snapshot) const {
+    if (back_end_) back_end_->describeLoopsSoFar(snapshot);
+  }
   /// The records the graph's side reads: a view of result.frames unless journalled.
   FrameRecordStore& records() { return records_; }
   /// From now on the records, the loop gate's step covariances and the graph's edges older than the
