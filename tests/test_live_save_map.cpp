@@ -3,13 +3,14 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <unordered_map>
+#include <algorithm>
 
 #include "hazmap/io/sequence.hpp"
 #include "hazmap/map/hazards.hpp"
 #include "hazmap/pipeline/live_save_map.hpp"
 #include "hazmap/pipeline/slam.hpp"
 #include "hazmap/sources/forwarding_source.hpp"
+#include "map_agreement.hpp"
 #include "test_helpers.hpp"
 
 using namespace hazmap;
@@ -45,25 +46,13 @@ struct Agreement {
   double farthest = 0, mean = 0;  // m, from each cell of one map to the nearest centroid of the other
 };
 Agreement agreement(const GlobalMap& a, const GlobalMap& b) {
-  const auto key = [](const Eigen::Vector3i& v) {
-    return (std::int64_t(v.x()) << 42) ^ (std::int64_t(v.y()) << 21) ^ std::int64_t(v.z() & 0x1fffff);
-  };
-  std::unordered_map<std::int64_t, Eigen::Vector3f> centroids;
-  for (const MapCell& d : b.cells()) centroids[key(d.index)] = d.centroid;
+  const std::vector<double> d = test::nearestCentroidDistances(a, b, 3, 1.0);
   Agreement out;
-  std::size_t n = 0;
-  for (const MapCell& c : a.cells()) {
-    double best = 1.0;
-    for (int dx = -3; dx <= 3; ++dx)
-      for (int dy = -3; dy <= 3; ++dy)
-        for (int dz = -3; dz <= 3; ++dz)
-          if (const auto it = centroids.find(key(c.index + Eigen::Vector3i(dx, dy, dz))); it != centroids.end())
-            best = std::min(best, double((it->second - c.centroid).norm()));
-    out.farthest = std::max(out.farthest, best);
-    out.mean += best;
-    ++n;
+  for (const double x : d) {
+    out.farthest = std::max(out.farthest, x);
+    out.mean += x;
   }
-  out.mean /= double(std::max<std::size_t>(n, 1));
+  out.mean /= double(std::max<std::size_t>(d.size(), 1));
   return out;
 }
 

@@ -2,16 +2,17 @@
 // equals the map rebuilt from every scan (exactly where nothing moved, within a cell otherwise).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <random>
 #include <thread>
-#include <unordered_map>
 
 #include "hazmap/core/error.hpp"
 #include "hazmap/map/global_map.hpp"
 #include "hazmap/map/hazards.hpp"
 #include "hazmap/map/segmented_map.hpp"
+#include "map_agreement.hpp"
 
 using namespace hazmap;
 
@@ -106,22 +107,8 @@ GlobalMap rebuilt(const World& w, std::size_t n, const std::vector<Eigen::Isomet
 
 // For each cell of `a`, the distance to the nearest centroid of `b` within two cells: the largest.
 double farthestCentroid(const GlobalMap& a, const GlobalMap& b) {
-  const auto key = [](const Eigen::Vector3i& v) {
-    return (std::int64_t(v.x()) << 42) ^ (std::int64_t(v.y()) << 21) ^ std::int64_t(v.z() & 0x1fffff);
-  };
-  std::unordered_map<std::int64_t, Eigen::Vector3f> centroids;
-  for (const MapCell& d : b.cells()) centroids[key(d.index)] = d.centroid;
-  double worst = 0;
-  for (const MapCell& c : a.cells()) {
-    double best = 1e9;
-    for (int dx = -2; dx <= 2; ++dx)
-      for (int dy = -2; dy <= 2; ++dy)
-        for (int dz = -2; dz <= 2; ++dz)
-          if (const auto it = centroids.find(key(c.index + Eigen::Vector3i(dx, dy, dz))); it != centroids.end())
-            best = std::min(best, double((it->second - c.centroid).norm()));
-    worst = std::max(worst, best);
-  }
-  return worst;
+  const std::vector<double> d = test::nearestCentroidDistances(a, b, 2, 1e9);
+  return d.empty() ? 0.0 : *std::max_element(d.begin(), d.end());
 }
 
 std::vector<Eigen::Isometry3d> truePoses(std::size_t n) {

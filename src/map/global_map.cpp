@@ -385,15 +385,7 @@ void GlobalMap::insertMap(const GlobalMap& part, const Eigen::Isometry3d& T) {
     d.property_sum += c.property_sum;
     d.property_count += c.property_count;
     d.property_max = std::max(d.property_max, c.property_max);
-    if (const FrameRecord* rec = p.frame_records.find(part_key)) {
-      FrameRecord& dst = m.frame_records[key];
-      if (dst.ranges.empty() && dst.count == 0) {
-        dst = *rec;
-        dst.cap(m.config.max_frame_ranges);
-      } else {
-        dst.merge(*rec, m.config.max_frame_ranges);
-      }
-    }
+    if (const FrameRecord* rec = p.frame_records.find(part_key)) m.frame_records[key].merge(*rec, m.config.max_frame_ranges);
     if (const ChannelRecord* rec = p.channel_records.find(part_key)) {
       ChannelRecord& dst = m.channel_records[key];
       if (dst.channels.size() < m.channel_names.size()) dst.channels.resize(m.channel_names.size());

@@ -63,8 +63,7 @@ void SegmentedMap::add(std::size_t frame, const LabeledCloud& scan, std::span<co
       fail("segmented map", "frame " + std::to_string(frame) + " given anchor " + std::to_string(anchor) +
                                 " but the open segment begins at " + (open_ ? std::to_string(open_->first) : "none"));
     // Where the frame lies relative to the anchor now, in the anchor's coordinates then.
-    const Eigen::Isometry3d placed = open_->anchor_then * T_world_anchor_now.inverse() * T_world_sensor;
-    open_->map.insert(frame, scan, T_world_anchor_now.matrix() == open_->anchor_then.matrix() ? T_world_sensor : placed,
+    open_->map.insert(frame, scan, correctionOf(T_world_anchor_now, open_->anchor_then).inverse() * T_world_sensor,
                       channels);
   }
   ++open_->count;
@@ -126,7 +125,6 @@ void SegmentedMap::mergeSteadyNeighbours(std::vector<std::shared_ptr<Segment>>& 
         --runs;
       }
     }
-    prefix[i]->relative_seen = relative;
   }
   // Too many segments: the steadiest remaining neighbours (the oldest first among the unseen).
   while (runs > config_.max_segments) {
@@ -137,6 +135,7 @@ void SegmentedMap::mergeSteadyNeighbours(std::vector<std::shared_ptr<Segment>>& 
     --runs;
   }
   std::vector<std::shared_ptr<Segment>> out;
+  std::size_t previous_first = 0;  // where the previous run began in `prefix`
   for (std::size_t i = 0; i < n;) {
     std::size_t j = i + 1;
     while (j < n && join[j]) ++j;
@@ -146,12 +145,11 @@ void SegmentedMap::mergeSteadyNeighbours(std::vector<std::shared_ptr<Segment>>& 
       const std::vector<std::shared_ptr<Segment>> run(prefix.begin() + std::ptrdiff_t(i), prefix.begin() + std::ptrdiff_t(j));
       out.push_back(merged(run, std::span(correction).subspan(i, j - i)));
     }
+    // Seen from here on relative to the previous run's first member (the merged segment's anchor).
+    if (i > 0) out.back()->relative_seen = correction[previous_first].inverse() * correction[i];
+    previous_first = i;
     i = j;
   }
-  // A merged run's successor is now placed relative to the run's first member.
-  for (std::size_t i = 1; i < out.size(); ++i)
-    out[i]->relative_seen = correctionOf(poses[out[i - 1]->first], out[i - 1]->anchor_then).inverse() *
-                            correctionOf(poses[out[i]->first], out[i]->anchor_then);
   prefix = std::move(out);
 }
 

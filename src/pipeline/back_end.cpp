@@ -120,9 +120,12 @@ void BackEnd::describeLoopsSoFar(SlamResult& snapshot) const {
   snapshot.loops.clear();
   for (const auto& l : loops_->acceptedLoops()) {
     const std::size_t from = keyframe_frames_[l.from], to = keyframe_frames_[l.to];
-    if (in_graph.count({static_cast<int>(from), static_cast<int>(to)}))
-      snapshot.loops.push_back({from, to, toString(l.source), l.fitness, l.rmse});
+    if (in_graph.count({static_cast<int>(from), static_cast<int>(to)})) snapshot.loops.push_back(recordOf(l));
   }
+}
+
+LoopRecord BackEnd::recordOf(const LoopClosure& l) const {
+  return {keyframe_frames_[l.from], keyframe_frames_[l.to], toString(l.source), l.fitness, l.rmse};
 }
 
 void BackEnd::recordLoops(const std::vector<LoopClosure>& consistent) {
@@ -130,7 +133,7 @@ void BackEnd::recordLoops(const std::vector<LoopClosure>& consistent) {
     const bool kept = std::any_of(consistent.begin(), consistent.end(),
                                   [&](const LoopClosure& c) { return c.from == l.from && c.to == l.to; });
     if (kept)
-      result_.loops.push_back({keyframe_frames_[l.from], keyframe_frames_[l.to], toString(l.source), l.fitness, l.rmse});
+      result_.loops.push_back(recordOf(l));
     else
       reject(l, LoopRejection::Inconsistent, "not in the largest pairwise-consistent set");
   }

@@ -65,6 +65,7 @@ class BackEnd {
   void dropLoop(const LoopClosure& l, LoopRejection why, const std::string& detail);
   void recordDetection(const LoopDetection& detection);
   void recordLoops(const std::vector<LoopClosure>& consistent);
+  LoopRecord recordOf(const LoopClosure& l) const;  ///< run.json's entry of an accepted loop
   bool gravityAloneHelps() const;
   PoseList keyframeEstimate() const;
 

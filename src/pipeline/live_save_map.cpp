@@ -29,10 +29,7 @@ void LiveSaveMap::frame(const SlamFrameEvent& event, std::span<const PointChanne
     if (given_up_) return;
     // The thread that far behind, or a frame without its pose: tracking goes first.
     if (queued_frames_ >= max_queued_ || event.record.index >= event.poses.size()) {
-      given_up_ = true;
-      queue_.clear();
-      queued_frames_ = 0;
-      done_.notify_all();
+      giveUp();
       return;
     }
   }
@@ -68,6 +65,13 @@ void LiveSaveMap::push(Item item) {
     queue_.push_back(std::move(item));
   }
   work_.notify_one();
+}
+
+void LiveSaveMap::giveUp() {
+  given_up_ = true;
+  queue_.clear();
+  queued_frames_ = 0;
+  done_.notify_all();
 }
 
 bool LiveSaveMap::complete() const {
@@ -111,12 +115,8 @@ void LiveSaveMap::loop() {
       failed = true;
     }
     lock.lock();
-    if (failed) {
-      given_up_ = true;
-      queue_.clear();
-      queued_frames_ = 0;
-    }
-    if (item.is_cut && !failed) cut_at_ = std::max(cut_at_, item.frame);
+    if (failed) giveUp();
+    else if (item.is_cut) cut_at_ = std::max(cut_at_, item.frame);
     done_.notify_all();
   }
 }

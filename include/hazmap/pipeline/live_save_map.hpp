@@ -56,6 +56,7 @@ class LiveSaveMap {
   };
   void push(Item item);
   void loop();
+  void giveUp();  ///< with m_ held: no more frames; waiting saves are told (compose gives nullopt)
 
   SegmentedMap map_;
   std::size_t frames_per_segment_, max_queued_;
