@@ -158,7 +158,23 @@ void BM_ConsistentSubset(benchmark::State& state) {
   for (auto _ : state) kept = consistentSubset(route.loops, route.poses).size();
   state.counters["kept"] = double(kept);
 }
-BENCHMARK(BM_ConsistentSubset)->Arg(100)->Arg(400)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_ConsistentSubset)->Arg(100)->Arg(400)->Arg(1600)->Unit(benchmark::kMillisecond);
+
+// The back end's pattern on a long mission: the consistent loops asked for again after one more
+// loop (here: the newest forgotten, then accepted again: two calls per iteration), the pairs
+// already tested remembered. Against BM_ConsistentSubset at the same count, one call from scratch.
+void BM_IncrementalConsistencyOneMoreLoop(benchmark::State& state) {
+  const LoopsOnLaps route(std::size_t(state.range(0)));
+  IncrementalConsistency consistency;
+  std::vector<LoopClosure> fewer(route.loops.begin(), route.loops.end() - 1);
+  std::size_t kept = consistency.subset(route.loops, route.poses).size();
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(consistency.subset(fewer, route.poses));
+    kept = consistency.subset(route.loops, route.poses).size();
+  }
+  state.counters["kept"] = double(kept);
+}
+BENCHMARK(BM_IncrementalConsistencyOneMoreLoop)->Arg(100)->Arg(400)->Arg(1600)->Unit(benchmark::kMillisecond);
 
 void BM_ConsistencyPairsSummedAlongThePath(benchmark::State& state) {
   const LoopsOnLaps route(std::size_t(state.range(0)));

@@ -451,6 +451,44 @@ TEST(LoopConsistency, ManyLoopsKeepAPairwiseConsistentMaximalSubset) {
   }
 }
 
+// A long mission's back end asks for the consistent loops before every optimisation while the list
+// grows and loses the loops an optimisation drops: beyond 64 loops the incremental subset tests
+// each pair once (the calls' pair tests grow as new × all, not all² per call), and under an
+// unchanged estimate it answers exactly what consistentSubset answers from scratch.
+TEST(LoopConsistency, IncrementalSubsetEqualsTheSubsetFromScratchAndTestsEachPairOnce) {
+  const PoseList truth = test::rectangleRoute();
+  const PoseList estimate = test::driftedRoute(truth, 0.06, 0.5 * M_PI / 180.0);
+  std::vector<LoopClosure> all;
+  for (std::size_t k = 0; k < 200; ++k) {
+    const std::size_t from = k % 20, to = truth.size() - 1 - (k * 7) % 20;
+    const bool wrong = k % 9 == 4;
+    all.push_back(loopBetween(truth, from, to, wrong ? fromXyYaw(2.5, 0.5, 0.26) : fromXyYaw(0.01, -0.01, 0.002 * (k % 3))));
+  }
+  IncrementalConsistency incremental;
+  std::vector<LoopClosure> loops;
+  std::size_t beyond_64_tests = 0, from_scratch_tests = 0;
+  for (std::size_t k = 0; k < all.size(); ++k) {
+    loops.push_back(all[k]);
+    if (k % 25 == 24) loops.erase(loops.begin() + 30);  // a loop the optimisation dropped
+    if (k % 3 != 0) continue;                           // several new loops between calls
+    const std::size_t tests_before = incremental.pairTests();
+    ASSERT_EQ(incremental.subset(loops, estimate), consistentSubset(loops, estimate)) << k;
+    if (loops.size() <= 70) continue;
+    beyond_64_tests += incremental.pairTests() - tests_before;
+    from_scratch_tests += loops.size() * (loops.size() - 1) / 2;
+  }
+  ASSERT_GT(loops.size(), 150u);
+  // Remembered, a pair is tested once: at most all pairs of all loops ever added, against
+  // n(n−1)/2 at every call from scratch.
+  EXPECT_GT(beyond_64_tests, 0u);
+  EXPECT_LE(beyond_64_tests, all.size() * (all.size() - 1) / 2);
+  EXPECT_LT(10 * beyond_64_tests, from_scratch_tests);
+  // Loops dropped below 64 again: exact as before.
+  loops.resize(40);
+  EXPECT_EQ(incremental.subset(loops, estimate), consistentSubset(loops, estimate));
+  EXPECT_THROW(incremental.subset(all, PoseList(truth.begin(), truth.begin() + 10)), Error);
+}
+
 // ----------------------------------------------------------------------------------- config
 
 TEST(LoopConfig, YamlRoundTripAndErrors) {

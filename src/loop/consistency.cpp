@@ -102,28 +102,161 @@ class CumulativePath {
   std::vector<double> from_start_;
 };
 
-// Each loop's drift-gate distance, and which pairs of loops are consistent.
+// Which pairs of loops are consistent, one bit per pair: row i bit j. Words of 64 loops, so the
+// exact search reads a row as a vertex set and the greedy one tests a loop against all kept at once.
+class BitRows {
+ public:
+  std::size_t size() const { return rows_.size(); }
+  bool test(std::size_t i, std::size_t j) const { return (rows_[i][j / 64] >> (j % 64)) & 1u; }
+  const std::vector<std::uint64_t>& row(std::size_t i) const { return rows_[i]; }
+  /// A new loop, consistent with the earlier loops where `with[j]`.
+  void append(const std::vector<char>& with) {
+    const std::size_t n = rows_.size(), words = n / 64 + 1;
+    for (auto& r : rows_) r.resize(words, 0);
+    std::vector<std::uint64_t> mine(words, 0);
+    for (std::size_t j = 0; j < n; ++j)
+      if (with[j]) {
+        mine[j / 64] |= std::uint64_t{1} << (j % 64);
+        rows_[j][n / 64] |= std::uint64_t{1} << (n % 64);
+      }
+    rows_.push_back(std::move(mine));
+  }
+  /// Loop k forgotten: the later loops move down one place.
+  void erase(std::size_t k) {
+    rows_.erase(rows_.begin() + static_cast<std::ptrdiff_t>(k));
+    const std::size_t n = rows_.size(), words = std::max<std::size_t>(1, (n + 63) / 64);
+    for (auto& r : rows_) {
+      std::vector<std::uint64_t> out(words, 0);
+      for (std::size_t j = 0, o = 0; j <= n; ++j) {  // the old indices
+        if (j == k) continue;
+        if ((r[j / 64] >> (j % 64)) & 1u) out[o / 64] |= std::uint64_t{1} << (o % 64);
+        ++o;
+      }
+      r = std::move(out);
+    }
+  }
+  std::size_t degree(std::size_t i) const {
+    std::size_t d = 0;
+    for (std::uint64_t w : rows_[i]) d += static_cast<std::size_t>(std::popcount(w));
+    return d;
+  }
+
+ private:
+  std::vector<std::vector<std::uint64_t>> rows_;
+};
+
+// Each loop's drift-gate distance and which pairs of loops are consistent, for the estimate given.
 struct ConsistencyGraph {
   std::vector<double> cost;
-  std::vector<std::vector<char>> adj;
+  BitRows adj;
 };
-ConsistencyGraph consistencyGraph(const std::vector<LoopClosure>& loops, const PoseList& poses,
-                                  const ConsistencyConfig& c) {
+
+void checkInRange(const std::vector<LoopClosure>& loops, const PoseList& poses) {
   for (const LoopClosure& l : loops)
     if (std::max(l.from, l.to) >= poses.size()) fail("consistentSubset", "loop keyframe index out of range of the pose estimate");
-  const std::size_t n = loops.size();
+}
+
+std::vector<double> driftGateCosts(const std::vector<LoopClosure>& loops, const PoseList& poses, const CumulativePath& path,
+                                   const ConsistencyConfig& c) {
+  std::vector<double> cost(loops.size());
+  for (std::size_t i = 0; i < loops.size(); ++i)
+    cost[i] = driftGateAlong(loops[i], poses, path.between(loops[i].from, loops[i].to), c).mahalanobis2;
+  return cost;
+}
+
+// Loop `k` against each of loops[0, k).
+std::vector<char> consistentWithEarlier(const std::vector<LoopClosure>& loops, std::size_t k, const PoseList& poses,
+                                        const CumulativePath& path, const ConsistencyConfig& c) {
   const double threshold = chiSquareQuantile(6, c.gate_probability);
+  std::vector<char> with(k, 0);
+  const LoopClosure& b = loops[k];
+  for (std::size_t i = 0; i < k; ++i) {
+    const LoopClosure& a = loops[i];
+    const double L = path.between(a.from, b.from) + path.between(b.to, a.to);
+    with[i] = pairwiseDistance2Along(a, b, poses, L, c) <= threshold;
+  }
+  return with;
+}
+
+ConsistencyGraph consistencyGraph(const std::vector<LoopClosure>& loops, const PoseList& poses,
+                                  const ConsistencyConfig& c) {
+  checkInRange(loops, poses);
   const CumulativePath path(poses);
-  ConsistencyGraph g{std::vector<double>(n), std::vector<std::vector<char>>(n, std::vector<char>(n, 0))};
-  for (std::size_t i = 0; i < n; ++i)
-    g.cost[i] = driftGateAlong(loops[i], poses, path.between(loops[i].from, loops[i].to), c).mahalanobis2;
-  for (std::size_t i = 0; i < n; ++i)
-    for (std::size_t j = i + 1; j < n; ++j) {
-      const LoopClosure &a = loops[i], &b = loops[j];
-      const double L = path.between(a.from, b.from) + path.between(b.to, a.to);
-      g.adj[i][j] = g.adj[j][i] = pairwiseDistance2Along(a, b, poses, L, c) <= threshold;
-    }
+  ConsistencyGraph g{driftGateCosts(loops, poses, path, c), {}};
+  for (std::size_t k = 0; k < loops.size(); ++k) g.adj.append(consistentWithEarlier(loops, k, poses, path, c));
   return g;
+}
+
+// Bron–Kerbosch with pivoting on 64-bit vertex sets: the exact maximum clique (n ≤ 64); ties
+// prefer the smaller summed cost.
+std::vector<std::size_t> maximumClique(const std::vector<double>& cost, const BitRows& adj) {
+  const std::size_t n = adj.size();
+  std::vector<std::uint64_t> nbr(n, 0);
+  for (std::size_t i = 0; i < n; ++i) nbr[i] = adj.row(i)[0];
+  std::vector<std::size_t> best, current;
+  double best_cost = 0.0;
+  std::function<void(std::uint64_t, std::uint64_t)> expand = [&](std::uint64_t P, std::uint64_t X) {
+    if (P == 0) {
+      if (X != 0) return;
+      double s = 0.0;
+      for (std::size_t v : current) s += cost[v];
+      if (current.size() > best.size() || (current.size() == best.size() && s < best_cost)) {
+        best = current;
+        best_cost = s;
+      }
+      return;
+    }
+    if (current.size() + static_cast<std::size_t>(std::popcount(P)) < best.size()) return;
+    const int pivot = std::countr_zero(P | X);
+    std::uint64_t candidates = P & ~nbr[pivot];
+    while (candidates) {
+      const int v = std::countr_zero(candidates);
+      candidates &= candidates - 1;
+      current.push_back(static_cast<std::size_t>(v));
+      expand(P & nbr[v], X & nbr[v]);
+      current.pop_back();
+      P &= ~(std::uint64_t{1} << v);
+      X |= std::uint64_t{1} << v;
+    }
+  };
+  expand(n == 64 ? ~std::uint64_t{0} : (std::uint64_t{1} << n) - 1, 0);
+  return best;
+}
+
+// Greedy (n > 64): most-connected loops first, each kept if consistent with all kept so far.
+std::vector<std::size_t> greedyClique(const std::vector<double>& cost, const BitRows& adj) {
+  const std::size_t n = adj.size();
+  std::vector<std::size_t> order(n), degree(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    order[i] = i;
+    degree[i] = adj.degree(i);
+  }
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+    return degree[a] != degree[b] ? degree[a] > degree[b] : cost[a] < cost[b];
+  });
+  std::vector<std::size_t> kept;
+  std::vector<std::uint64_t> kept_set((n + 63) / 64, 0);
+  for (std::size_t v : order) {
+    const auto& row = adj.row(v);
+    bool ok = true;
+    for (std::size_t w = 0; w < kept_set.size() && ok; ++w) ok = (kept_set[w] & ~row[w]) == 0;
+    if (!ok) continue;
+    kept.push_back(v);
+    kept_set[v / 64] |= std::uint64_t{1} << (v % 64);
+  }
+  return kept;
+}
+
+std::vector<std::size_t> largestConsistentSet(const std::vector<double>& cost, const BitRows& adj) {
+  const std::size_t n = adj.size();
+  if (n <= 1) {
+    std::vector<std::size_t> all(n);
+    for (std::size_t i = 0; i < n; ++i) all[i] = i;
+    return all;
+  }
+  std::vector<std::size_t> best = n <= 64 ? maximumClique(cost, adj) : greedyClique(cost, adj);
+  std::sort(best.begin(), best.end());
+  return best;
 }
 
 }  // namespace
@@ -161,72 +294,60 @@ double pairwiseDistance2(const LoopClosure& a, const LoopClosure& b, const PoseL
 std::vector<std::size_t> consistentSubset(const std::vector<LoopClosure>& loops, const PoseList& poses,
                                           const ConsistencyConfig& c) {
   validate(c);
-  const std::size_t n = loops.size();
-  if (n <= 1) {
-    std::vector<std::size_t> all(n);
-    for (std::size_t i = 0; i < n; ++i) all[i] = i;
-    return all;
-  }
-  const auto [cost, adj] = consistencyGraph(loops, poses, c);
-  std::vector<std::size_t> best;
-  double best_cost = 0.0;
-  auto consider = [&](const std::vector<std::size_t>& clique) {
-    double s = 0.0;
-    for (std::size_t v : clique) s += cost[v];
-    if (clique.size() > best.size() || (clique.size() == best.size() && s < best_cost)) {
-      best = clique;
-      best_cost = s;
-    }
-  };
+  const ConsistencyGraph g = consistencyGraph(loops, poses, c);
+  return largestConsistentSet(g.cost, g.adj);
+}
 
-  if (n <= 64) {
-    // Bron–Kerbosch with pivoting on 64-bit vertex sets: exact maximum clique.
-    std::vector<std::uint64_t> nbr(n, 0);
-    for (std::size_t i = 0; i < n; ++i)
-      for (std::size_t j = 0; j < n; ++j)
-        if (adj[i][j]) nbr[i] |= std::uint64_t{1} << j;
-    std::vector<std::size_t> current;
-    std::function<void(std::uint64_t, std::uint64_t)> expand = [&](std::uint64_t P, std::uint64_t X) {
-      if (P == 0) {
-        if (X == 0) consider(current);
-        return;
-      }
-      if (current.size() + static_cast<std::size_t>(std::popcount(P)) < best.size()) return;
-      const std::uint64_t PX = P | X;
-      const int pivot = std::countr_zero(PX);
-      std::uint64_t candidates = P & ~nbr[pivot];
-      while (candidates) {
-        const int v = std::countr_zero(candidates);
-        candidates &= candidates - 1;
-        current.push_back(static_cast<std::size_t>(v));
-        expand(P & nbr[v], X & nbr[v]);
-        current.pop_back();
-        P &= ~(std::uint64_t{1} << v);
-        X |= std::uint64_t{1} << v;
-      }
-    };
-    const std::uint64_t all = n == 64 ? ~std::uint64_t{0} : (std::uint64_t{1} << n) - 1;
-    expand(all, 0);
-  } else {
-    // Greedy: most-connected loops first, each kept if consistent with all kept so far.
-    std::vector<std::size_t> order(n);
-    for (std::size_t i = 0; i < n; ++i) order[i] = i;
-    std::vector<int> degree(n, 0);
-    for (std::size_t i = 0; i < n; ++i)
-      for (std::size_t j = 0; j < n; ++j) degree[i] += adj[i][j];
-    std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
-      return degree[a] != degree[b] ? degree[a] > degree[b] : cost[a] < cost[b];
-    });
-    std::vector<std::size_t> kept;
-    for (std::size_t v : order) {
-      bool ok = true;
-      for (std::size_t u : kept) ok = ok && adj[u][v];
-      if (ok) kept.push_back(v);
-    }
-    consider(kept);
+// The loops whose pairs are remembered, in order, and the pairs' verdicts.
+struct IncrementalConsistency::Remembered {
+  std::vector<LoopClosure> loops;
+  BitRows adj;
+
+  static bool same(const LoopClosure& a, const LoopClosure& b) {
+    return a.from == b.from && a.to == b.to && a.T_from_to.matrix() == b.T_from_to.matrix();
   }
-  std::sort(best.begin(), best.end());
-  return best;
+  // Forgets what `now` no longer holds (loops keep their order) and tests the new loops against
+  // all; returns the number of pair tests.
+  std::size_t catchUp(const std::vector<LoopClosure>& now, const PoseList& poses, const ConsistencyConfig& c) {
+    std::size_t i = 0;
+    for (std::size_t k = 0; k < loops.size();) {
+      if (i < now.size() && same(loops[k], now[i])) {
+        ++k;
+        ++i;
+        continue;
+      }
+      adj.erase(k);
+      loops.erase(loops.begin() + static_cast<std::ptrdiff_t>(k));
+    }
+    const CumulativePath path(poses);
+    std::size_t tests = 0;
+    for (; i < now.size(); ++i) {
+      loops.push_back(now[i]);
+      adj.append(consistentWithEarlier(loops, i, poses, path, c));
+      tests += i;
+    }
+    return tests;
+  }
+};
+
+IncrementalConsistency::IncrementalConsistency(ConsistencyConfig config) : config_(config) {}
+IncrementalConsistency::~IncrementalConsistency() = default;
+IncrementalConsistency::IncrementalConsistency(IncrementalConsistency&&) noexcept = default;
+IncrementalConsistency& IncrementalConsistency::operator=(IncrementalConsistency&&) noexcept = default;
+
+std::size_t IncrementalConsistency::pairTests() const { return pair_tests_; }
+
+std::vector<std::size_t> IncrementalConsistency::subset(const std::vector<LoopClosure>& loops, const PoseList& poses) {
+  if (loops.size() <= 64) {
+    remembered_.reset();
+    pair_tests_ += loops.size() * (loops.size() - (loops.empty() ? 0 : 1)) / 2;
+    return consistentSubset(loops, poses, config_);
+  }
+  validate(config_);
+  checkInRange(loops, poses);
+  if (!remembered_) remembered_ = std::make_unique<Remembered>();
+  pair_tests_ += remembered_->catchUp(loops, poses, config_);
+  return largestConsistentSet(driftGateCosts(loops, poses, CumulativePath(poses), config_), remembered_->adj);
 }
 
 }  // namespace hazmap

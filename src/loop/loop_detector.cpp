@@ -12,7 +12,7 @@
 namespace hazmap {
 
 LoopDetector::LoopDetector(ClassTable classes, LoopClosureConfig config)
-    : classes_(std::move(classes)), config_(std::move(config)) {
+    : classes_(std::move(classes)), config_(std::move(config)), consistency_(config_.consistency) {
   config_.validate();
   for (ClassId id : classes_.ids())
     neighbourhood_ = neighbourhood_ || (classes_.isProperty(id) && !classes_.at(id).whole_extent);
@@ -386,7 +386,7 @@ void LoopDetector::verifyInto(const std::vector<LoopCandidate>& candidates, cons
 
 std::vector<LoopClosure> LoopDetector::consistentLoops(const PoseList& estimate) const {
   std::vector<LoopClosure> out;
-  for (std::size_t i : consistentSubset(loops_, estimate, config_.consistency)) out.push_back(loops_[i]);
+  for (std::size_t i : consistency_.subset(loops_, estimate)) out.push_back(loops_[i]);
   return out;
 }
 

@@ -12,6 +12,7 @@
 //     the short paths i…k and l…j. Only the largest mutually consistent set is kept, so a
 //     wrong loop must agree with every other loop to survive.
 #include <cstddef>
+#include <memory>
 #include <vector>
 
 #include "hazmap/loop/candidates.hpp"
@@ -66,6 +67,35 @@ double pairwiseDistance2(const LoopClosure& a, const LoopClosure& b, const PoseL
 /// drift-gate distance. Every loop is consistent with itself, so one loop is kept as is.
 std::vector<std::size_t> consistentSubset(const std::vector<LoopClosure>& loops, const PoseList& poses,
                                           const ConsistencyConfig& config = {});
+
+/// consistentSubset for a list of loops that grows call by call (a long mission revisiting its
+/// route closes a loop at nearly every keyframe, and the back end asks before every
+/// optimisation). Up to 64 loops each call is consistentSubset itself: exact, every pair tested
+/// under the estimate given. Beyond, where the subset is greedy anyway, a pair is tested once,
+/// under the estimate of the call that first sees both loops, and remembered: a call costs
+/// O(new loops × loops) pair tests instead of O(loops²), which grew into most of the back end's
+/// time after ~500 loops (docs/loop_closure.md). The pairwise test reads only the estimate's short
+/// relative paths between the loops' ends, which later optimisations move by far less than the
+/// drift the test allows them. Loops may be forgotten between calls (an order-keeping erase, as
+/// LoopDetector::dropLoop); the others keep their tests.
+class IncrementalConsistency {
+ public:
+  explicit IncrementalConsistency(ConsistencyConfig config = {});
+  ~IncrementalConsistency();
+  IncrementalConsistency(IncrementalConsistency&&) noexcept;
+  IncrementalConsistency& operator=(IncrementalConsistency&&) noexcept;
+
+  /// Indices (ascending) of the largest pairwise-consistent subset of `loops`, as consistentSubset.
+  std::vector<std::size_t> subset(const std::vector<LoopClosure>& loops, const PoseList& poses);
+  /// Pair tests made so far (by all calls), for benchmarks and tests.
+  std::size_t pairTests() const;
+
+ private:
+  struct Remembered;
+  ConsistencyConfig config_;
+  std::unique_ptr<Remembered> remembered_;
+  std::size_t pair_tests_ = 0;
+};
 
 void validate(const ConsistencyConfig& config);
 

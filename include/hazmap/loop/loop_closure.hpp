@@ -223,7 +223,7 @@ class LoopDetector {
   LoopDetection detect(std::size_t query, const PoseList& estimate);
 
   /// Every loop accepted so far that belongs to the largest pairwise-consistent set under
-  /// `estimate` (all of them when use_pairwise is off).
+  /// `estimate` (IncrementalConsistency: beyond 64 loops a pair once tested is remembered).
   std::vector<LoopClosure> consistentLoops(const PoseList& estimate) const;
   /// With this set, detect() gates verified loops by the calibrated innovation test
   /// (innovationGate) with the covariance the caller's pose graph gives the relative pose of two
@@ -282,6 +282,7 @@ class LoopDetector {
   mutable std::size_t submap_targets_built_ = 0;
   std::vector<std::vector<PropertyLandmark>> landmarks_;
   std::vector<LoopClosure> loops_;
+  mutable IncrementalConsistency consistency_;  ///< pair tests of loops_ remembered beyond 64 loops
 };
 
 /// Whether a loop agrees with ground truth (`truth` = world ← keyframe): its relative pose is
