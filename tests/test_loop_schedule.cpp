@@ -51,6 +51,21 @@ TEST(LoopSchedule, PauseAfterAnAcceptedLoop) {
   EXPECT_EQ(searched(longer, 10, {4}), (std::vector<std::size_t>{0, 2, 4, 8}));
 }
 
+// Up to 4,000 nodes every accepted loop is solved at once (all the runs of Table 2 and the tests);
+// beyond, the keyframes between solves grow with the graph so that nodes solved per keyframe stay
+// at most 4,000 (the hour on the closed route: ~37,000 frames, a solve every 10 keyframes).
+TEST(LoopSchedule, SolvesGetRarerAsTheGraphGrowsAndTheirShareStaysBounded) {
+  EXPECT_EQ(keyframesBetweenSolves(1), 1u);
+  EXPECT_EQ(keyframesBetweenSolves(kNodesSolvedPerKeyframe), 1u);
+  EXPECT_EQ(keyframesBetweenSolves(kNodesSolvedPerKeyframe + 1), 2u);
+  EXPECT_EQ(keyframesBetweenSolves(37000), 10u);
+  for (std::size_t nodes = 1; nodes < 200000; nodes += 997) {
+    const std::size_t every = keyframesBetweenSolves(nodes);
+    EXPECT_LE(double(nodes) / double(every), double(kNodesSolvedPerKeyframe)) << nodes;
+    EXPECT_GE(keyframesBetweenSolves(nodes + 1), every) << nodes;  // never more often as it grows
+  }
+}
+
 TEST(LoopSchedule, ARunSearchesOnlyTheScheduledKeyframes) {
   const auto dir = test::writeSimulatedSequence("loop-schedule", "corridor", 3, 12);
   const Sequence seq = Sequence::open(dir);

@@ -87,7 +87,12 @@ void BackEnd::closeLoops(LabeledCloud cloud) {
   if (!detection.accepted.empty()) schedule_.accepted(k);
   recordDetection(detection);
   result_.timings.loop_s += secondsSince(t_loop);
-  if (!detection.accepted.empty() && config_.optimise_online) optimiseWithLoops();
+  loops_pending_ = loops_pending_ || !detection.accepted.empty();
+  if (loops_pending_ && config_.optimise_online && solveDue(k)) optimiseWithLoops();
+}
+
+bool BackEnd::solveDue(std::size_t keyframe) const {
+  return keyframe >= last_solve_keyframe_ + keyframesBetweenSolves(result_.graph.poses.size());
 }
 
 void BackEnd::recordDetection(const LoopDetection& detection) {
@@ -158,6 +163,8 @@ void BackEnd::dropLoop(const LoopClosure& l, LoopRejection why, const std::strin
 
 // On the whole graph: its loop edges are replaced, its anchors refreshed, all of it solved.
 void BackEnd::optimiseWithLoops() {
+  loops_pending_ = false;
+  if (!keyframe_frames_.empty()) last_solve_keyframe_ = keyframe_frames_.size() - 1;
   edges_.restore(result_.graph);
   solveWithConsistentLoops();
   journalOldEdges();

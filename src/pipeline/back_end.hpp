@@ -47,7 +47,8 @@ class BackEnd {
   /// The newest frame's gravity-direction prior when its scan has an IMU measurement.
   void addGravityPrior(const std::optional<GravitySample>& gravity);
   /// The newest frame becomes a keyframe: its anchor edge, loop candidates verified by ICP, and
-  /// an online optimisation as soon as one is accepted.
+  /// an online optimisation as soon as one is accepted (on a large graph, every few keyframes:
+  /// solveDue).
   void closeLoops(LabeledCloud cloud);
   /// The last optimisation with the consistent loops; the loops and rejections recorded.
   void finish();
@@ -67,6 +68,8 @@ class BackEnd {
   void recordLoops(const std::vector<LoopClosure>& consistent);
   LoopRecord recordOf(const LoopClosure& l) const;  ///< run.json's entry of an accepted loop
   bool gravityAloneHelps() const;
+  /// Whether loops accepted by now are solved at this keyframe (keyframesBetweenSolves).
+  bool solveDue(std::size_t keyframe) const;
   PoseList keyframeEstimate() const;
 
   const SlamConfig& config_;
@@ -81,6 +84,8 @@ class BackEnd {
   MapAnchors anchors_;
   EdgeJournal edges_;
   std::size_t journal_keep_ = 0;  // 0: the graph's edges all in memory
+  bool loops_pending_ = false;           // loops accepted since the last solve
+  std::size_t last_solve_keyframe_ = 0;  // the keyframe of the last solve with loops
 };
 
 }  // namespace hazmap::pipeline_detail

@@ -27,7 +27,9 @@ const ConfigFields<SlamConfig>& slamSectionFields() {
           .number("keyframe_distance", &C::keyframe_distance, positive(),
                   "m of travel after which a frame becomes a loop-closure keyframe")
           .number("keyframe_angle", &C::keyframe_angle, positive(), "rad of turn, likewise")
-          .flag("optimise_online", &C::optimise_online, "Re-optimise the graph whenever a loop is accepted")
+          .flag("optimise_online", &C::optimise_online,
+                "Re-optimise the graph whenever a loop is accepted (beyond 4,000 frames, the loops of "
+                "every ⌈frames / 4,000⌉ keyframes together)")
           .integer("loop_search_every", &C::loop_search_every, atLeast(1),
                    "Search loops on every n-th keyframe (online cost; 1 = every keyframe)")
           .integer("loop_pause_after_accept", &C::loop_pause_after_accept, nonNegative(),
