@@ -107,7 +107,6 @@ class CumulativePath {
 class BitRows {
  public:
   std::size_t size() const { return rows_.size(); }
-  bool test(std::size_t i, std::size_t j) const { return (rows_[i][j / 64] >> (j % 64)) & 1u; }
   const std::vector<std::uint64_t>& row(std::size_t i) const { return rows_[i]; }
   /// A new loop, consistent with the earlier loops where `with[j]`.
   void append(const std::vector<char>& with) {
