@@ -51,7 +51,7 @@ TEST(LoopSchedule, PauseAfterAnAcceptedLoop) {
   EXPECT_EQ(searched(longer, 10, {4}), (std::vector<std::size_t>{0, 2, 4, 8}));
 }
 
-// Up to 4,000 nodes every accepted loop is solved at once (all the runs of Table 2 and the tests);
+// Up to 4,000 nodes every accepted loop is solved at once (Table 2's runs have 100–163 frames);
 // beyond, the keyframes between solves grow with the graph so that nodes solved per keyframe stay
 // at most 4,000 (the hour on the closed route: ~37,000 frames, a solve every 10 keyframes).
 TEST(LoopSchedule, SolvesGetRarerAsTheGraphGrowsAndTheirShareStaysBounded) {
