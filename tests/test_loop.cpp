@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <functional>
 
 #include "hazmap/core/error.hpp"
 #include "hazmap/loop/loop_closure.hpp"
@@ -426,15 +427,27 @@ TEST(LoopConsistency, PairwiseConsistencyDropsInjectedWrongLoops) {
 // Hundreds of loops (a long mission, the greedy path): the subset kept is consistent pair by pair
 // as pairwiseDistance2 says (the subset reads path lengths as differences of one cumulative sum,
 // the public functions sum along the path), and every loop left out fails with one kept.
+namespace {
+
+// `n` loops between the rectangle route's first and last 20 keyframes: one in nine (k % 9 == 4)
+// 2.5 m / 15° off, the others off by `right(k)`.
+std::vector<LoopClosure> loopsAcrossTheRoute(const PoseList& truth, std::size_t n,
+                                             const std::function<Eigen::Isometry3d(std::size_t)>& right) {
+  std::vector<LoopClosure> loops;
+  for (std::size_t k = 0; k < n; ++k) {
+    const std::size_t from = k % 20, to = truth.size() - 1 - (k * 7) % 20;
+    loops.push_back(loopBetween(truth, from, to, k % 9 == 4 ? fromXyYaw(2.5, 0.5, 0.26) : right(k)));
+  }
+  return loops;
+}
+
+}  // namespace
+
 TEST(LoopConsistency, ManyLoopsKeepAPairwiseConsistentMaximalSubset) {
   const PoseList truth = test::rectangleRoute();
   const PoseList estimate = test::driftedRoute(truth, 0.06, 0.5 * M_PI / 180.0);
-  std::vector<LoopClosure> loops;
-  for (std::size_t k = 0; k < 150; ++k) {
-    const std::size_t from = k % 20, to = truth.size() - 1 - (k * 7) % 20;
-    const bool wrong = k % 9 == 4;  // one in nine 2.5 m / 15° off
-    loops.push_back(loopBetween(truth, from, to, wrong ? fromXyYaw(2.5, 0.5, 0.26) : fromXyYaw(0.01, -0.01, 0.002)));
-  }
+  const std::vector<LoopClosure> loops =
+      loopsAcrossTheRoute(truth, 150, [](std::size_t) { return fromXyYaw(0.01, -0.01, 0.002); });
   const ConsistencyConfig cfg;
   const auto keep = consistentSubset(loops, estimate, cfg);
   const double threshold = chiSquareQuantile(6, cfg.gate_probability);
@@ -458,12 +471,8 @@ TEST(LoopConsistency, ManyLoopsKeepAPairwiseConsistentMaximalSubset) {
 TEST(LoopConsistency, IncrementalSubsetEqualsTheSubsetFromScratchAndTestsEachPairOnce) {
   const PoseList truth = test::rectangleRoute();
   const PoseList estimate = test::driftedRoute(truth, 0.06, 0.5 * M_PI / 180.0);
-  std::vector<LoopClosure> all;
-  for (std::size_t k = 0; k < 200; ++k) {
-    const std::size_t from = k % 20, to = truth.size() - 1 - (k * 7) % 20;
-    const bool wrong = k % 9 == 4;
-    all.push_back(loopBetween(truth, from, to, wrong ? fromXyYaw(2.5, 0.5, 0.26) : fromXyYaw(0.01, -0.01, 0.002 * (k % 3))));
-  }
+  const std::vector<LoopClosure> all =
+      loopsAcrossTheRoute(truth, 200, [](std::size_t k) { return fromXyYaw(0.01, -0.01, 0.002 * double(k % 3)); });
   IncrementalConsistency incremental;
   std::vector<LoopClosure> loops;
   std::size_t beyond_64_tests = 0, from_scratch_tests = 0;

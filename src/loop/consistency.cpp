@@ -163,10 +163,9 @@ std::vector<double> driftGateCosts(const std::vector<LoopClosure>& loops, const 
   return cost;
 }
 
-// Loop `k` against each of loops[0, k).
+// Loop `k` against each of loops[0, k): consistent where the cycle's d² is within `threshold`.
 std::vector<char> consistentWithEarlier(const std::vector<LoopClosure>& loops, std::size_t k, const PoseList& poses,
-                                        const CumulativePath& path, const ConsistencyConfig& c) {
-  const double threshold = chiSquareQuantile(6, c.gate_probability);
+                                        const CumulativePath& path, double threshold, const ConsistencyConfig& c) {
   std::vector<char> with(k, 0);
   const LoopClosure& b = loops[k];
   for (std::size_t i = 0; i < k; ++i) {
@@ -181,8 +180,9 @@ ConsistencyGraph consistencyGraph(const std::vector<LoopClosure>& loops, const P
                                   const ConsistencyConfig& c) {
   checkInRange(loops, poses);
   const CumulativePath path(poses);
+  const double threshold = chiSquareQuantile(6, c.gate_probability);
   ConsistencyGraph g{driftGateCosts(loops, poses, path, c), {}};
-  for (std::size_t k = 0; k < loops.size(); ++k) g.adj.append(consistentWithEarlier(loops, k, poses, path, c));
+  for (std::size_t k = 0; k < loops.size(); ++k) g.adj.append(consistentWithEarlier(loops, k, poses, path, threshold, c));
   return g;
 }
 
@@ -307,7 +307,8 @@ struct IncrementalConsistency::Remembered {
   }
   // Forgets what `now` no longer holds (loops keep their order) and tests the new loops against
   // all; returns the number of pair tests.
-  std::size_t catchUp(const std::vector<LoopClosure>& now, const PoseList& poses, const ConsistencyConfig& c) {
+  std::size_t catchUp(const std::vector<LoopClosure>& now, const PoseList& poses, const CumulativePath& path,
+                      const ConsistencyConfig& c) {
     std::size_t i = 0;
     for (std::size_t k = 0; k < loops.size();) {
       if (i < now.size() && same(loops[k], now[i])) {
@@ -318,11 +319,11 @@ struct IncrementalConsistency::Remembered {
       adj.erase(k);
       loops.erase(loops.begin() + static_cast<std::ptrdiff_t>(k));
     }
-    const CumulativePath path(poses);
+    const double threshold = chiSquareQuantile(6, c.gate_probability);
     std::size_t tests = 0;
     for (; i < now.size(); ++i) {
       loops.push_back(now[i]);
-      adj.append(consistentWithEarlier(loops, i, poses, path, c));
+      adj.append(consistentWithEarlier(loops, i, poses, path, threshold, c));
       tests += i;
     }
     return tests;
@@ -337,16 +338,18 @@ IncrementalConsistency& IncrementalConsistency::operator=(IncrementalConsistency
 std::size_t IncrementalConsistency::pairTests() const { return pair_tests_; }
 
 std::vector<std::size_t> IncrementalConsistency::subset(const std::vector<LoopClosure>& loops, const PoseList& poses) {
-  if (loops.size() <= 64) {
+  const std::size_t n = loops.size();
+  if (n <= 64) {
     remembered_.reset();
-    pair_tests_ += loops.size() * (loops.size() - (loops.empty() ? 0 : 1)) / 2;
+    pair_tests_ += n < 2 ? 0 : n * (n - 1) / 2;
     return consistentSubset(loops, poses, config_);
   }
   validate(config_);
   checkInRange(loops, poses);
   if (!remembered_) remembered_ = std::make_unique<Remembered>();
-  pair_tests_ += remembered_->catchUp(loops, poses, config_);
-  return largestConsistentSet(driftGateCosts(loops, poses, CumulativePath(poses), config_), remembered_->adj);
+  const CumulativePath path(poses);
+  pair_tests_ += remembered_->catchUp(loops, poses, path, config_);
+  return largestConsistentSet(driftGateCosts(loops, poses, path, config_), remembered_->adj);
 }
 
 }  // namespace hazmap
