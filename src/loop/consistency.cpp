@@ -61,18 +61,13 @@ double mahalanobis2(const Vector6d& e, const Matrix6d& cov) {
 
 namespace {
 
-// Gate 1 with the path length between the loop's keyframes given.
-GateResult driftGateAlong(const LoopClosure& loop, const PoseList& poses, double path_length,
+// Gate 1's d² with the path length between the loop's keyframes given.
+double driftGateDistance2(const LoopClosure& loop, const PoseList& poses, double path_length,
                           const ConsistencyConfig& c) {
-  GateResult g;
-  g.path_length = path_length;
-  g.threshold = chiSquareQuantile(6, c.gate_probability);
   const Eigen::Isometry3d predicted = poses[loop.from].inverse() * poses[loop.to];
   // Left-perturbation error in the `from` frame, the convention of the loop covariance.
   const Vector6d e = se3Log(loop.T_from_to * predicted.inverse());
-  g.mahalanobis2 = mahalanobis2(e, loop.covariance + driftCovariance(g.path_length, c));
-  g.accepted = g.mahalanobis2 <= g.threshold;
-  return g;
+  return mahalanobis2(e, loop.covariance + driftCovariance(path_length, c));
 }
 
 // The cycle of two loops with the length of its two estimate paths given.
@@ -159,7 +154,7 @@ std::vector<double> driftGateCosts(const std::vector<LoopClosure>& loops, const 
                                    const ConsistencyConfig& c) {
   std::vector<double> cost(loops.size());
   for (std::size_t i = 0; i < loops.size(); ++i)
-    cost[i] = driftGateAlong(loops[i], poses, path.between(loops[i].from, loops[i].to), c).mahalanobis2;
+    cost[i] = driftGateDistance2(loops[i], poses, path.between(loops[i].from, loops[i].to), c);
   return cost;
 }
 
@@ -264,7 +259,12 @@ GateResult driftGate(const LoopClosure& loop, const PoseList& poses, const Consi
   validate(c);
   if (loop.from >= poses.size() || loop.to >= poses.size())
     fail("driftGate", "loop keyframe index out of range of the pose estimate");
-  return driftGateAlong(loop, poses, pathLength(poses, loop.from, loop.to), c);
+  GateResult g;
+  g.path_length = pathLength(poses, loop.from, loop.to);
+  g.threshold = chiSquareQuantile(6, c.gate_probability);
+  g.mahalanobis2 = driftGateDistance2(loop, poses, g.path_length, c);
+  g.accepted = g.mahalanobis2 <= g.threshold;
+  return g;
 }
 
 GateResult innovationGate(const LoopClosure& loop, const PoseList& poses, const Matrix6d& relative_covariance,
