@@ -136,8 +136,9 @@ class SaveRequests {
   bool ended_ = false;
 };
 
-/// One save: the result and what run.json says of the stream, taken between two frames on the
-/// pipeline's thread; written there (at the end) or on the saver's (while running).
+/// One save: what run.json says of the stream, taken between two frames on the pipeline's thread,
+/// and the result of the frames so far (while running, from the back end's thread once its graph
+/// has them); written on the pipeline's thread (at the end) or on the saver's (while running).
 struct SaveJob {
   SlamResult result;
   nlohmann::json live;  ///< run.json's "live"
@@ -353,10 +354,18 @@ void runLiveSession(const LiveOptions& o, const ParameterOptions& params,
     const double since = std::chrono::duration<double>(std::chrono::steady_clock::now() - saver.lastEnded()).count();
     return s.saves.waiting() > 0 || (o.autosave_every > 0 && since >= o.autosave_every);
   };
-  hooks.take = [&](SlamResult snapshot) {
+  // The save's state (spools flushed, the stream's counts, the saves' map cut) at the frame the
+  // snapshot ends with; its result comes later, from the back end's thread once it has that frame
+  // (tracking does not wait for it: a solve of a long mission's graph takes seconds).
+  SaveJob next_save;
+  hooks.taking = [&](std::size_t frames) {
     const char* state = s.saves.waiting() > 0 ? "saved on request while running" : "autosave while running";
-    if (s.save_map) s.save_map->cut(snapshot.estimate.size());
-    saver.submit(s.job(std::move(snapshot), state));
+    if (s.save_map) s.save_map->cut(frames);
+    next_save = s.job(SlamResult{}, state);
+  };
+  hooks.take = [&](SlamResult snapshot) {
+    next_save.result = std::move(snapshot);
+    saver.submit(std::move(next_save));
   };
   hooks.frame = [&](const SlamFrameEvent& e) {
     std::optional<double> latency;

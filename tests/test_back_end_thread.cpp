@@ -262,8 +262,10 @@ TEST(EdgeJournal, APrefixGoesAndComesBackInItsOrderBitForBit) {
 
 // Tracking never waits for a loop stage: the first keyframe's loop stage is held until the stream
 // has ended (every frame tracked, told to the live view, and the source read to its end), which
-// could never happen if tracking waited for it. Then the run still finishes every queued frame and
-// the final optimisation, the outputs are complete, and the answer is the synchronous one.
+// could never happen if tracking waited for it, nor for a snapshot (an autosave's) asked for at
+// frame 25 meanwhile: that one is delivered once the back end has frame 25, and holds those 25.
+// Then the run still finishes every queued frame and the final optimisation, the outputs are
+// complete, and the answer is the synchronous one.
 TEST(AsyncBackEnd, TrackingNeverWaitsAndAStreamEndingDuringALoopStageWritesCompleteOutputs) {
   const auto dir = test::writeSimulatedSequence("async-slow", "naraha", 1, 40);
   const Sequence seq = Sequence::open(dir);
@@ -272,6 +274,11 @@ TEST(AsyncBackEnd, TrackingNeverWaitsAndAStreamEndingDuringALoopStageWritesCompl
   bool held = false, released_by_the_end = false;
   SlamSnapshots hooks;
   hooks.frame = [&](const SlamFrameEvent&) { ++frames_told; };
+  std::size_t snapshot_asked_at = 0;
+  std::optional<SlamResult> snapshot;
+  hooks.due = [&] { return frames_told == 25; };
+  hooks.taking = [&](std::size_t frames) { snapshot_asked_at = frames; };
+  hooks.take = [&](SlamResult s) { snapshot = std::move(s); };
   hooks.loop_stage = [&](std::size_t) {
     if (held) return;
     held = true;  // a deliberately slow verification: until the stream has ended (or 120 s)
@@ -283,6 +290,12 @@ TEST(AsyncBackEnd, TrackingNeverWaitsAndAStreamEndingDuringALoopStageWritesCompl
   EXPECT_TRUE(held);
   EXPECT_TRUE(released_by_the_end) << "tracking waited for the loop stage";
   EXPECT_EQ(frames_told.load(), 40u);
+  EXPECT_EQ(snapshot_asked_at, 25u);
+  ASSERT_TRUE(snapshot.has_value());
+  EXPECT_EQ(snapshot->frames.size(), 25u);
+  EXPECT_EQ(snapshot->graph.poses.size(), 25u);
+  EXPECT_EQ(snapshot->estimate.size(), 25u);
+  EXPECT_EQ(snapshot->tracked.size(), 25u);
   ASSERT_EQ(async.frames.size(), 40u);
   EXPECT_EQ(async.graph.poses.size(), 40u);
   const SlamResult sync = runSlam(seq, pgoConfig(SlamMethod::IcpPgo, false));

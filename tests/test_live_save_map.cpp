@@ -2,8 +2,10 @@
 // against the map the run folder's second pass rebuilds from every scan at the same poses.
 #include <gtest/gtest.h>
 
-#include <cmath>
 #include <algorithm>
+#include <cmath>
+#include <condition_variable>
+#include <mutex>
 
 #include "hazmap/io/sequence.hpp"
 #include "hazmap/map/hazards.hpp"
@@ -18,15 +20,37 @@ using namespace hazmap;
 namespace {
 
 // The scans with their named channels, the newest kept (as LiveLabelledScans::lastChannels).
+// A snapshot asked for (`asked`) holds the next scan back until it was taken, as a sensor slower
+// than the back end would: the snapshot then comes from the back end's thread at once.
 class KeepsChannels final : public ForwardingScanSource {
  public:
   using ForwardingScanSource::ForwardingScanSource;
   std::optional<Scan> next() override {
+    {
+      std::unique_lock<std::mutex> lock(m);
+      taken_cv.wait(lock, [&] { return taken == asked; });
+    }
     std::optional<Scan> scan = ForwardingScanSource::next();
     if (scan) last = scan->channels;
     return scan;
   }
+  void ask() {
+    std::lock_guard<std::mutex> lock(m);
+    ++asked;
+  }
+  void take() {
+    {
+      std::lock_guard<std::mutex> lock(m);
+      ++taken;
+    }
+    taken_cv.notify_all();
+  }
   std::vector<PointChannel> last;
+
+ private:
+  std::mutex m;
+  std::condition_variable taken_cv;
+  std::size_t asked = 0, taken = 0;
 };
 
 // What the second pass builds: every scan, deskewed as tracking saw it, at `poses`.
@@ -79,9 +103,13 @@ TEST(LiveSaveMap, ASavesMapAfterLoopCorrectionsIsTheRebuiltOneWithinCentimetres)
     ++told;
   };
   hooks.due = [&] { return told == 40 || told == 80 || told == 110; };
+  hooks.taking = [&](std::size_t frames) {
+    save_map.cut(frames);
+    source.ask();
+  };
   hooks.take = [&](SlamResult s) {
-    save_map.cut(s.estimate.size());
     snapshots.push_back(std::move(s));
+    source.take();
   };
   const SlamResult result = runSlam(source, config, {}, hooks);
   ASSERT_FALSE(result.loops.empty());

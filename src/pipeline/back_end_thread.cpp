@@ -126,6 +126,7 @@ void BackEndThread::push(TrackedFrame frame) {
     rethrow();
     queued_bytes_ += bytes;
     queue_.push_back(std::move(frame));
+    ++frames_queued_;
   }
   wake_.notify_one();
 }
@@ -135,15 +136,42 @@ std::shared_ptr<const std::vector<Eigen::Isometry3d>> BackEndThread::takeSolutio
   return std::move(solution_);
 }
 
-SlamResult BackEndThread::snapshot() {
-  std::unique_lock<std::mutex> lock(m_);
-  waitIdle(lock);
-  rethrow();
-  SlamResult s = result_;  // the back end waits for a frame meanwhile: nothing writes it
+void BackEndThread::snapshotOfQueued(std::function<void(SlamResult)> deliver) {
+  {
+    std::lock_guard<std::mutex> lock(m_);
+    rethrow();
+    snapshots_.push_back({frames_queued_, std::move(deliver)});
+  }
+  wake_.notify_one();
+}
+
+// Between two frames on the back end's thread: nothing writes the result meanwhile.
+SlamResult BackEndThread::copyOfResult() {
+  SlamResult s = result_;
   s.frames = graph_.records().all();
   s.graph.edges = graph_.allEdges();
   graph_.describeLoopsSoFar(s);
   return s;
+}
+
+// Back end's thread, `m_` held.
+bool BackEndThread::snapshotDue() const { return !snapshots_.empty() && snapshots_.front().frames <= frames_applied_; }
+
+// The front snapshot request, copied and delivered outside the lock (`m_` held on entry and exit).
+void BackEndThread::deliverSnapshot(std::unique_lock<std::mutex>& lock) {
+  SnapshotRequest request = std::move(snapshots_.front());
+  snapshots_.pop_front();
+  delivering_ = true;
+  lock.unlock();
+  std::exception_ptr failure;
+  try {
+    request.deliver(copyOfResult());
+  } catch (...) {
+    failure = std::current_exception();
+  }
+  lock.lock();
+  delivering_ = false;
+  if (failure) failure_ = failure;
 }
 
 SlamResult BackEndThread::finish() {
@@ -162,7 +190,7 @@ SlamResult BackEndThread::finish() {
 
 void BackEndThread::waitIdle(std::unique_lock<std::mutex>& lock) {
   releaseTurn(SteadyClock::time_point{});
-  idle_.wait(lock, [&] { return failure_ || (queue_.empty() && !busy_); });
+  idle_.wait(lock, [&] { return failure_ || (queue_.empty() && !busy_ && !delivering_ && snapshots_.empty()); });
 }
 
 void BackEndThread::rethrow() {
@@ -183,7 +211,15 @@ void BackEndThread::run() {
       TrackedFrame frame;
       {
         std::unique_lock<std::mutex> lock(m_);
-        wake_.wait(lock, [&] { return stop_ || !queue_.empty(); });
+        wake_.wait(lock, [&] { return stop_ || !queue_.empty() || snapshotDue(); });
+        if (snapshotDue()) {
+          deliverSnapshot(lock);
+          const bool failed = failure_ != nullptr;
+          lock.unlock();
+          idle_.notify_all();
+          if (failed) return;
+          continue;
+        }
         if (queue_.empty()) return;
         frame = std::move(queue_.front());
         queue_.pop_front();
@@ -194,6 +230,7 @@ void BackEndThread::run() {
       std::exception_ptr failure;
       try {
         apply(frame);
+        ++frames_applied_;
       } catch (...) {
         failure = std::current_exception();
       }

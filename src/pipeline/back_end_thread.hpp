@@ -59,8 +59,9 @@ class BackEndThread {
   std::shared_ptr<const std::vector<Eigen::Isometry3d>> takeSolution();
   /// Frames queued or being applied (not yet in the graph).
   std::size_t backlog();
-  /// Waits until every queued frame is in the graph; then a copy of the back end's result.
-  SlamResult snapshot();
+  /// Once every frame queued so far is in the graph, `deliver` gets a copy of the back end's
+  /// result, on the back end's thread; tracking goes on meanwhile. finish() waits for it.
+  void snapshotOfQueued(std::function<void(SlamResult)> deliver);
   /// Every queued frame, then the final optimisation (BackEnd::finish); the back end's result.
   SlamResult finish();
 
@@ -73,6 +74,9 @@ class BackEndThread {
   /// Tracking waits for input since `waiting_since` (the epoch: the back end's turn at once).
   void releaseTurn(std::chrono::steady_clock::time_point waiting_since);
   void waitIdle(std::unique_lock<std::mutex>& lock);
+  bool snapshotDue() const;
+  void deliverSnapshot(std::unique_lock<std::mutex>& lock);
+  SlamResult copyOfResult();
   void rethrow();
 
   const SlamConfig& config_;
@@ -81,12 +85,19 @@ class BackEndThread {
   GraphSide graph_;
   std::function<void(std::size_t)> before_loop_stage_;
   std::size_t optimisations_published_ = 0;
+  std::size_t frames_applied_ = 0;  // back end's thread only
 
   std::mutex m_;  // everything below
   std::condition_variable wake_, idle_, room_;
   std::deque<TrackedFrame> queue_;
+  std::size_t frames_queued_ = 0;  // ever
+  struct SnapshotRequest {
+    std::size_t frames = 0;  // delivered once this many frames are in the graph
+    std::function<void(SlamResult)> deliver;
+  };
+  std::deque<SnapshotRequest> snapshots_;
   std::size_t queued_bytes_ = 0;
-  bool busy_ = false, stop_ = false;
+  bool busy_ = false, delivering_ = false, stop_ = false;
   std::exception_ptr failure_;
   std::shared_ptr<const std::vector<Eigen::Isometry3d>> solution_;
 

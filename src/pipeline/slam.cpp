@@ -4,6 +4,7 @@
 #include <tbb/parallel_invoke.h>
 
 #include <algorithm>
+#include <atomic>
 #include <memory>
 #include <mutex>
 
@@ -88,16 +89,23 @@ class SlamRun {
     on_frame_(SlamFrameEvent{result_.frames.back(), cloud, poses, corrections_, backlog});
   }
 
-  /// The result so far, between two scans (nothing runs beside tracking then; the back end's
-  /// thread is waited for until it has every frame).
-  SlamResult snapshot() {
-    SlamResult s = back_end_thread_ ? withTrackerSide(back_end_thread_->snapshot()) : result_;
-    s.source = source_.describe();
-    s.tracked = trajectoryOf(tracked_.all());
-    s.estimate = hasBackEnd() ? trajectoryOf(s.graph.poses)
-                 : config_.method == SlamMethod::Odometry ? s.odometry_only
-                                                          : s.tracked;
-    return s;
+  /// Whether a snapshot was asked for and not yet handed over (the back end's thread has it).
+  bool snapshotPending() const { return snapshot_pending_.load(std::memory_order_acquire); }
+
+  /// The result so far, between two scans, to `hooks.take`: at once from this thread's result, or
+  /// on the back end's thread once it has every frame tracked so far (tracking goes on meanwhile).
+  void takeSnapshot(const SlamSnapshots& hooks) {
+    if (hooks.taking) hooks.taking(frames());
+    Trajectory tracked = trajectoryOf(tracked_.all());
+    if (!back_end_thread_) return hooks.take(finishedAsAtTheEnd(SlamResult(result_), std::move(tracked), source_.describe()));
+    snapshot_pending_.store(true, std::memory_order_release);
+    back_end_thread_->snapshotOfQueued([this, take = hooks.take, tracker_side = withTrackerSide(SlamResult{}),
+                                        tracked = std::move(tracked), source = source_.describe()](SlamResult back) mutable {
+      back.odometry_only = std::move(tracker_side.odometry_only);
+      back.timings.tracking_s = tracker_side.timings.tracking_s;
+      take(finishedAsAtTheEnd(std::move(back), std::move(tracked), std::move(source)));
+      snapshot_pending_.store(false, std::memory_order_release);
+    });
   }
 
   SlamResult finish() {
@@ -109,12 +117,8 @@ class SlamRun {
       runPendingLoops();
       graph_->finish();
     }
-    result_.source = source_.describe();  // after the scans: a decoder knows its sensor by then
-    result_.tracked = std::move(tracked);
-    if (hasBackEnd()) result_.estimate = trajectoryOf(result_.graph.poses);
-    else if (config_.method == SlamMethod::Odometry) result_.estimate = result_.odometry_only;
-    else result_.estimate = result_.tracked;
-    return std::move(result_);
+    // The source's description after the scans: a decoder knows its sensor by then.
+    return finishedAsAtTheEnd(std::move(result_), std::move(tracked), source_.describe());
   }
 
  private:
@@ -249,6 +253,20 @@ class SlamRun {
     back_end_thread_->push(std::move(f));
   }
 
+  /// A result's source, tracked and final trajectories (the optimised poses' stamps from its own
+  /// records: this may run on the back end's thread).
+  SlamResult finishedAsAtTheEnd(SlamResult r, Trajectory tracked, std::string source) const {
+    r.source = std::move(source);
+    r.tracked = std::move(tracked);
+    if (hasBackEnd()) {
+      r.estimate = Trajectory{};
+      for (std::size_t i = 0; i < r.graph.poses.size(); ++i) r.estimate.push_back(r.frames.at(i).stamp, r.graph.poses[i]);
+    } else {
+      r.estimate = config_.method == SlamMethod::Odometry ? r.odometry_only : r.tracked;
+    }
+    return r;
+  }
+
   /// The back end's result with what only the tracker knows (wheel odometry, tracking's time).
   SlamResult withTrackerSide(SlamResult back) const {
     back.odometry_only = result_.odometry_only;
@@ -332,6 +350,7 @@ class SlamRun {
   std::mutex source_lock_;
   // SlamConfig::back_end own-thread: the graph on the back end's thread, and the estimate so far as
   // the tracker knows it (the back end's newest optimised poses, then the tracked increments).
+  std::atomic<bool> snapshot_pending_{false};  // set here, cleared on the back end's thread
   std::unique_ptr<BackEndThread> back_end_thread_;
   std::vector<Eigen::Isometry3d> estimate_;
   // Own thread: stamp and increment of frames 0 … first_record_ − 1 (forgetOldRecords).
@@ -358,7 +377,7 @@ SlamResult runSlam(ScanSource& source, const SlamConfig& config, const FrameProg
   while (std::optional<Scan> scan = run.next()) {
     run.addScan(std::move(*scan));
     if (progress) progress(run.frames(), total);
-    if (snapshots.due && snapshots.take && snapshots.due()) snapshots.take(run.snapshot());
+    if (snapshots.due && snapshots.take && !run.snapshotPending() && snapshots.due()) run.takeSnapshot(snapshots);
   }
   if (run.frames() == 0) fail(source.describe(), "has no scans");
   SlamResult result = run.finish();

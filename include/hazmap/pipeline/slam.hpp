@@ -194,8 +194,12 @@ using FrameProgress = std::function<void(std::size_t done, std::size_t total)>;
 /// on unusable input (e.g. the odometry method without wheel odometry).
 SlamResult runSlam(ScanSource& source, const SlamConfig& config, const FrameProgress& progress = {});
 /// Copies of a running SLAM's result (what `hazmap live` autosaves): `due` is asked after each
-/// frame; when it answers yes, `take` gets the result so far as the end of the run would give it,
-/// without the final optimisation (the graph as optimised online so far).
+/// frame; when it answers yes, `taking` (optional) is told how many frames the copy holds, and
+/// `take` gets the result of those frames as the end of the run would give it, without the final
+/// optimisation (the graph as optimised online so far). Both on the pipeline's thread, except with
+/// the back end on its own thread (SlamConfig::back_end own-thread): then `take` is called on the
+/// back end's thread once its graph has those frames, and tracking goes on meanwhile (it never
+/// waits for a loop stage to end). `due` is not asked again until `take` has returned.
 /// `frame` (optional) is told of each frame as it joins the graph (what the live view draws):
 /// cheap work only, it runs on the pipeline's thread.
 struct SlamFrameEvent {
@@ -212,6 +216,7 @@ struct SlamFrameEvent {
 };
 struct SlamSnapshots {
   std::function<bool()> due;
+  std::function<void(std::size_t frames)> taking;
   std::function<void(SlamResult)> take;  ///< by value: the snapshot is the hook's to keep
   std::function<void(const SlamFrameEvent&)> frame;
   /// (Optional; tests) called with a keyframe's frame index just before its loop stage, on the
