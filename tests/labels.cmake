@@ -60,6 +60,7 @@ hazmap_label(test_global_registration unit
 hazmap_label(test_graph unit
   real-data "^GraphG2o\\.(RoundTrip3DIsExact|FileWithoutVertices)|^GraphOptimizer\\.(SmallGrids|OptimumIsStationary|TwoDimensional|InvalidConfig)|^GraphCli\\.(Optimize|YamlConfig)|^G2oIndefiniteInformation\\.")
 hazmap_label(test_graph_datasets real-data)
+hazmap_label(test_keyframe_graph unit)
 hazmap_label(test_gravity unit
   scene "^GravityNeverWorse\\.")
 hazmap_label(test_imu unit
@@ -71,7 +72,7 @@ hazmap_label(test_io_errors unit
   real-data "^IoCli\\.|^IoErrors\\.TransformFiles$")
 hazmap_label(test_label_noise scene)
 hazmap_label(test_loop_schedule unit
-  scene "ARunSearchesOnlyTheScheduledKeyframes|^LoopsBesideTracking\\.")
+  scene "ARunSearchesOnlyTheScheduledKeyframes|OnlineSolvesOfTheKeyframesGraph|^LoopsBesideTracking\\.")
 hazmap_label(test_loop_sim scene)
 hazmap_label(test_map unit
   real-data "^GlobalMapReal\\.")

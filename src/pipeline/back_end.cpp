@@ -5,6 +5,7 @@
 #include <set>
 
 #include "hazmap/graph/chain_covariance.hpp"
+#include "hazmap/graph/keyframe_graph.hpp"
 #include "hazmap/graph/optimizer.hpp"
 #include "pipeline/clock.hpp"
 #include "pipeline/loop_edges.hpp"
@@ -106,6 +107,7 @@ void BackEnd::recordDetection(const LoopDetection& detection) {
 }
 
 void BackEnd::finish() {
+  finishing_ = true;
   edges_.restore(result_.graph);  // the run's graph whole from here on
   journal_keep_ = 0;
   result_.keyframes = keyframe_frames_.size();
@@ -201,10 +203,27 @@ std::string BackEnd::optimise() {
   anchors_.refreshInformation(result_.graph);
   const auto t = Clock::now();
   std::string failure;
-  result_.optimisations.push_back(optimizePoseGraphOrKeep(result_.graph, config_.graph, failure));
+  result_.optimisations.push_back(solvesKeyframes() ? optimiseKeyframes(failure)
+                                                    : optimizePoseGraphOrKeep(result_.graph, config_.graph, failure));
   result_.optimisation_outcomes.push_back({failure.empty(), failure.empty() ? "" : "not solved, previous estimate kept: " + failure});
   result_.timings.graph_s += secondsSince(t);
   return failure;
+}
+
+bool BackEnd::solvesKeyframes() const {
+  const std::size_t after = config_.online_keyframe_graph_after;
+  return !finishing_ && after > 0 && result_.graph.poses.size() > after;
+}
+
+// The keyframes' graph solved (graph/keyframe_graph.hpp), the frames between moved with theirs;
+// the whole graph where it is not a keyframe chain.
+PoseGraphReport BackEnd::optimiseKeyframes(std::string& failure) {
+  const std::vector<int> kept(keyframe_frames_.begin(), keyframe_frames_.end());
+  std::optional<PoseGraph> keyframes = keyframeGraph(result_.graph, kept);
+  if (!keyframes) return optimizePoseGraphOrKeep(result_.graph, config_.graph, failure);
+  const PoseGraphReport report = optimizePoseGraphOrKeep(*keyframes, config_.graph, failure);
+  if (failure.empty()) applyKeyframeSolution(result_.graph, kept, *keyframes);
+  return report;
 }
 
 // A run that closed no loop is optimised with its gravity priors alone only frame to frame. Frame

@@ -62,6 +62,9 @@ class BackEnd {
   void solveWithConsistentLoops();
   void journalOldEdges();
   std::string optimise();
+  /// Beyond SlamConfig::online_keyframe_graph_after frames, until the end: the keyframes' graph.
+  bool solvesKeyframes() const;
+  PoseGraphReport optimiseKeyframes(std::string& failure);
   void reject(const LoopClosure& l, LoopRejection why, std::string detail);
   void dropLoop(const LoopClosure& l, LoopRejection why, const std::string& detail);
   void recordDetection(const LoopDetection& detection);
@@ -86,6 +89,7 @@ class BackEnd {
   std::size_t journal_keep_ = 0;  // 0: the graph's edges all in memory
   bool loops_pending_ = false;           // loops accepted since the last solve
   std::size_t last_solve_keyframe_ = 0;  // the keyframe of the last solve with loops
+  bool finishing_ = false;               // the end's solves: of the whole graph
 };
 
 }  // namespace hazmap::pipeline_detail

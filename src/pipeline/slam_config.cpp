@@ -34,6 +34,9 @@ const ConfigFields<SlamConfig>& slamSectionFields() {
                    "Search loops on every n-th keyframe (online cost; 1 = every keyframe)")
           .integer("loop_pause_after_accept", &C::loop_pause_after_accept, nonNegative(),
                    "Keyframes not searched for loops after one whose search accepted a loop")
+          .integer("online_keyframe_graph_after", &C::online_keyframe_graph_after, nonNegative(),
+                   "Frames beyond which the online solves are of the keyframes' graph (the chains between "
+                   "keyframes folded; the end solves the whole graph); 0 = always the whole graph")
           .choice("back_end", &C::back_end,
                   {{"beside-tracking", BackEndSchedule::BesideTracking},
                    {"own-thread", BackEndSchedule::OwnThread},

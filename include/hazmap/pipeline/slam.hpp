@@ -76,6 +76,12 @@ struct SlamConfig {
   /// neighbour; docs/measurements.md has the cost and the map errors). 1 and 0 = every keyframe.
   std::size_t loop_search_every = 1;
   std::size_t loop_pause_after_accept = 0;
+  /// Beyond this many frames the online solves are of the keyframes' graph (graph/keyframe_graph.hpp:
+  /// the odometry chains between keyframes folded, the frames between moved with their keyframe;
+  /// the end solves the whole graph). On a 0.1 m-per-frame route that is a ninth of the nodes: at
+  /// 36,000 frames a solve of the whole graph held ~290 MB of Ceres' working memory and took
+  /// 2–3 s (docs/live.md). 0 = always the whole graph.
+  std::size_t online_keyframe_graph_after = 4000;
   /// When a keyframe's loop stage (search, verification, optimisation) runs; every schedule gives
   /// the same final answer bit for bit. BesideTracking: while the next scan is tracked, the two
   /// sharing the threads (the next scan's node joins the graph after both). OwnThread: the whole
