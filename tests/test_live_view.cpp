@@ -8,9 +8,11 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <chrono>
 #include <cstring>
 #include <functional>
+#include <memory>
 #include <mutex>
 #include <string>
 #include <thread>
@@ -160,23 +162,33 @@ TEST(LiveView, BrowsersGetTheSnapshotThenEveryUpdateInOrderAndTheLatestState) {
   EXPECT_TRUE(eventually([&] { return server.stats().clients == 0; }));
 }
 
-TEST(LiveView, ABrowserThatStopsReadingIsDroppedAndSlowsNobody) {
-  LiveViewConfig config = loopback();
-  config.client_buffer_bytes = 1 << 20;
-  LiveViewServer server(config, nullptr, nullptr);
-  // A client that completes the WebSocket handshake and never reads again.
+namespace {
+
+/// A client that completes the WebSocket handshake and never reads again (-1 on failure).
+int stuckBrowser(int port) {
   const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
   const int small = 4096;
   ::setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &small, sizeof small);
   sockaddr_in addr{};
   addr.sin_family = AF_INET;
-  addr.sin_port = htons(static_cast<std::uint16_t>(server.port()));
+  addr.sin_port = htons(static_cast<std::uint16_t>(port));
   addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  ASSERT_EQ(::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr), 0);
+  if (::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) return ::close(fd), -1;
   const std::string handshake =
       "GET /ws HTTP/1.1\r\nHost: 127.0.0.1\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
       "Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n\r\n";
-  ASSERT_EQ(::send(fd, handshake.data(), handshake.size(), 0), static_cast<ssize_t>(handshake.size()));
+  if (::send(fd, handshake.data(), handshake.size(), 0) != static_cast<ssize_t>(handshake.size())) return ::close(fd), -1;
+  return fd;
+}
+
+}  // namespace
+
+TEST(LiveView, ABrowserThatStopsReadingIsDroppedAndSlowsNobody) {
+  LiveViewConfig config = loopback();
+  config.client_buffer_bytes = 1 << 20;
+  LiveViewServer server(config, nullptr, nullptr);
+  const int fd = stuckBrowser(server.port());
+  ASSERT_GE(fd, 0);
   ASSERT_TRUE(eventually([&] { return server.stats().clients == 1; }));
   Browser reader;
   ASSERT_TRUE(connectBrowser(reader, server.port()));
@@ -192,4 +204,61 @@ TEST(LiveView, ABrowserThatStopsReadingIsDroppedAndSlowsNobody) {
   EXPECT_TRUE(eventually([&] { const auto r = reader.copy(); return !r.empty() && r.back() == "last"; }));
   ::close(fd);
   mg_close_connection(reader.conn);
+}
+
+// A browser that keeps only how many messages came and whether each was the next in order.
+struct CountingBrowser {
+  std::atomic<std::size_t> received{0}, out_of_order{0};
+  mg_connection* conn = nullptr;
+};
+
+int onCountedMessage(mg_connection*, int bits, char* data, size_t size, void* user) {
+  if ((bits & 0x0f) != MG_WEBSOCKET_OPCODE_TEXT) return 1;
+  auto& b = *static_cast<CountingBrowser*>(user);
+  const std::string text(data, size);
+  const std::size_t n = b.received.load();
+  if (text.substr(text.find_last_of('x') + 1) != std::to_string(n)) ++b.out_of_order;
+  b.received = n + 1;
+  return 1;
+}
+
+// The "fifty of them": 25 browsers that stop reading and 25 that read, at once. publish()
+// never waits for any of them (it returns with every stuck browser's queue full), the stuck ones
+// are dropped once their queues pass the bound (their connections close when they do), and every
+// reader gets every message in order.
+TEST(LiveView, FiftyBrowsersHalfOfThemStuckSlowNobody) {
+  LiveViewConfig config = loopback();
+  config.client_buffer_bytes = 1 << 20;
+  LiveViewServer server(config, nullptr, nullptr);
+  std::vector<int> stuck;
+  for (int i = 0; i < 25; ++i) {
+    stuck.push_back(stuckBrowser(server.port()));
+    ASSERT_GE(stuck.back(), 0);
+  }
+  std::vector<std::unique_ptr<CountingBrowser>> readers;
+  for (int i = 0; i < 25; ++i) {
+    readers.push_back(std::make_unique<CountingBrowser>());
+    char error[256] = "";
+    readers.back()->conn = mg_connect_websocket_client("127.0.0.1", server.port(), 0, error, sizeof error, "/ws",
+                                                       nullptr, onCountedMessage, nullptr, readers.back().get());
+    ASSERT_NE(readers.back()->conn, nullptr) << error;
+  }
+  ASSERT_TRUE(eventually([&] { return server.stats().clients == 50; }));
+  const std::string chunk(96 << 10, 'x');
+  // 100 × 96 kB: 9.4 MB each, beyond a stuck browser's 1 MB and its socket's buffers (≤ 4 MB here).
+  for (std::size_t i = 0; i < 100; ++i) {
+    server.publish(chunk + std::to_string(i));
+    for (auto& r : readers)
+      ASSERT_TRUE(eventually([&] { return r->received.load() == i + 1; })) << "a reader stalled at " << i;
+  }
+  EXPECT_EQ(server.stats().clients_dropped, 25u);
+  std::vector<std::thread> closing;  // a civetweb client's close waits out its reader's timeout (~1.6 s): at once
+  for (auto& r : readers) {
+    EXPECT_EQ(r->received.load(), 100u);
+    EXPECT_EQ(r->out_of_order.load(), 0u);
+    closing.emplace_back([conn = r->conn] { mg_close_connection(conn); });
+  }
+  for (auto& c : closing) c.join();
+  for (const int fd : stuck) ::close(fd);
+  EXPECT_TRUE(eventually([&] { return server.stats().clients == 0; })) << server.stats().clients << " still connected";
 }
