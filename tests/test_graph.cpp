@@ -426,15 +426,7 @@ Scenario makeScenario(int wrong_loops, std::uint32_t seed) {
   std::mt19937 rng(seed);
   Scenario s;
   const int lap = 60;
-  for (int i = 0; i < 3 * lap; ++i) {
-    const int k = i % lap;
-    double x, y, yaw;
-    if (k < 20) x = k, y = 0, yaw = 0;
-    else if (k < 30) x = 20, y = k - 20, yaw = M_PI / 2;
-    else if (k < 50) x = 20 - (k - 30), y = 10, yaw = M_PI;
-    else x = 0, y = 10 - (k - 50), yaw = -M_PI / 2;
-    s.truth.push_back(fromXyzRpy(x, y, 0.02 * i, 0, 0, yaw));
-  }
+  s.truth = test::rectangleLaps(3, 1.0, 0.02);
   const double st = 0.05, sr = 0.01;
   Matrix6d info = Matrix6d::Zero();
   info.diagonal() << 1 / (st * st), 1 / (st * st), 1 / (st * st), 1 / (sr * sr), 1 / (sr * sr),

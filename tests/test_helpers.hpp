@@ -2,11 +2,13 @@
 // Shared test helpers: paths to the shared real data and a fresh scratch folder per test.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <functional>
 #include <string>
+#include <vector>
 
 #include <unistd.h>
 
@@ -94,6 +96,23 @@ inline std::filesystem::path writeSimulatedSequence(const std::string& tag, cons
   std::filesystem::create_directories(d.parent_path());
   sim::writeSimulation(c, d, /*overwrite=*/true);
   return d;
+}
+
+/// `laps` laps of a 20 m × 10 m rectangle driven counter-clockwise from the origin in steps of
+/// `step` m (dividing 1 m), rising `climb` m a step: the true poses of the pose-graph tests' routes.
+inline std::vector<Eigen::Isometry3d> rectangleLaps(int laps, double step, double climb) {
+  const int lap = static_cast<int>(std::lround(60.0 / step));
+  std::vector<Eigen::Isometry3d> poses;
+  for (int i = 0; i < laps * lap; ++i) {
+    const double s = step * (i % lap);
+    double x, y, yaw;
+    if (s < 20) x = s, y = 0, yaw = 0;
+    else if (s < 30) x = 20, y = s - 20, yaw = M_PI / 2;
+    else if (s < 50) x = 20 - (s - 30), y = 10, yaw = M_PI;
+    else x = 0, y = 10 - (s - 50), yaw = -M_PI / 2;
+    poses.push_back(fromXyzRpy(x, y, climb * i, 0, 0, yaw));
+  }
+  return poses;
 }
 
 }  // namespace hazmap::test

@@ -10,6 +10,7 @@
 #include "hazmap/core/se3.hpp"
 #include "hazmap/graph/keyframe_graph.hpp"
 #include "hazmap/graph/optimizer.hpp"
+#include "test_helpers.hpp"
 
 namespace hazmap {
 namespace {
@@ -35,15 +36,7 @@ Mission makeMission(std::uint32_t seed) {
   std::normal_distribution<double> n(0.0, 1.0);
   Mission m;
   const int lap = 240;
-  for (int i = 0; i < 3 * lap; ++i) {
-    const double s = 0.25 * (i % lap);
-    double x, y, yaw;
-    if (s < 20) x = s, y = 0, yaw = 0;
-    else if (s < 30) x = 20, y = s - 20, yaw = M_PI / 2;
-    else if (s < 50) x = 20 - (s - 30), y = 10, yaw = M_PI;
-    else x = 0, y = 10 - (s - 50), yaw = -M_PI / 2;
-    m.truth.push_back(fromXyzRpy(x, y, 0.005 * i, 0, 0, yaw));
-  }
+  m.truth = test::rectangleLaps(3, 0.25, 0.005);
   PoseGraph& g = m.graph;
   for (std::size_t i = 0; i < m.truth.size(); ++i) g.addNode(Eigen::Isometry3d::Identity());
   const auto noisy = [&](const Eigen::Isometry3d& T, double st, double sr) {

@@ -99,11 +99,9 @@ class SlamRun {
     Trajectory tracked = trajectoryOf(tracked_.all());
     if (!back_end_thread_) return hooks.take(finishedAsAtTheEnd(SlamResult(result_), std::move(tracked), source_.describe()));
     snapshot_pending_.store(true, std::memory_order_release);
-    back_end_thread_->snapshotOfQueued([this, take = hooks.take, tracker_side = withTrackerSide(SlamResult{}),
+    back_end_thread_->snapshotOfQueued([this, take = hooks.take, tracker_side = withTrackerSide(SlamResult{}, result_),
                                         tracked = std::move(tracked), source = source_.describe()](SlamResult back) mutable {
-      back.odometry_only = std::move(tracker_side.odometry_only);
-      back.timings.tracking_s = tracker_side.timings.tracking_s;
-      take(finishedAsAtTheEnd(std::move(back), std::move(tracked), std::move(source)));
+      take(finishedAsAtTheEnd(withTrackerSide(std::move(back), tracker_side), std::move(tracked), std::move(source)));
       snapshot_pending_.store(false, std::memory_order_release);
     });
   }
@@ -111,7 +109,7 @@ class SlamRun {
   SlamResult finish() {
     Trajectory tracked = trajectoryOf(tracked_.all());  // before the back end's records replace ours
     if (back_end_thread_) {
-      result_ = withTrackerSide(back_end_thread_->finish());
+      result_ = withTrackerSide(back_end_thread_->finish(), result_);
       first_record_ = 0;
     } else {
       runPendingLoops();
@@ -268,9 +266,9 @@ class SlamRun {
   }
 
   /// The back end's result with what only the tracker knows (wheel odometry, tracking's time).
-  SlamResult withTrackerSide(SlamResult back) const {
-    back.odometry_only = result_.odometry_only;
-    back.timings.tracking_s = result_.timings.tracking_s;
+  static SlamResult withTrackerSide(SlamResult back, const SlamResult& tracker) {
+    back.odometry_only = tracker.odometry_only;
+    back.timings.tracking_s = tracker.timings.tracking_s;
     return back;
   }
 
