@@ -5,6 +5,8 @@
 // an IMU rotation (when one is given), a yaw sweep over the plausible turn around the best of
 // them, and, with no motion known yet, a grid of
 // horizontal steps are scored too and the best few refined by a short ICP of the sampled points.
+// The guess's own refinement comes first: with no motion known yet, a refinement that fits well
+// ends the search there (an easy first step costs about what a later one does).
 // The full ICP starts from another start only when the guess lies in a wrong basin (its own
 // refinement fits clearly worse) or must travel beyond the tracking checks' limits. The score is
 // geometric only (nearest target point of any class): the labels act in the ICP that follows,
