@@ -504,6 +504,41 @@ TEST(Labeler, NearestImageInTimeAndMotionCompensation) {
   EXPECT_LT(l.channels[0][0], 90.0f);  // 0.125 px off: interpolated with the cold neighbour
 }
 
+// normal_z where the scan lines lie apart: a floor seen by two dense lines 0.6 m apart (a far
+// floor's rings; each point's 20 nearest neighbours lie on its own line and fit no plane) gets its
+// normal from both lines, and the water rule labels it; a wall seen the same way does not pass.
+TEST(Labeler, FloorBetweenScanLinesGetsANormal) {
+  CameraCalibration cam = smallCamera(41, 41);
+  cam.channel = defaultChannel("nir_reflectance");
+  cam.T_camera_lidar.linear() << 0, -1, 0, 0, 0, -1, 1, 0, 0;  // looking along x
+  auto images = std::make_shared<MemoryImages>();
+  PropertyImage img;
+  img.width = img.height = 41;
+  img.values.assign(41 * 41, 0.05f);  // dark everywhere: the normal decides
+  images->add(img);
+  const auto rules = PropertyRules::defaults({"nir_reflectance"}, ClassTable::defaults());
+  const auto scanOf = [](bool floor) {
+    LabeledCloud scan;
+    for (const float line : {0.0f, 0.6f})
+      for (int k = -100; k <= 100; ++k) {
+        const float y = 0.01f * static_cast<float>(k);
+        scan.push_back(floor ? Eigen::Vector3f(3.0f + line, y, -0.5f) : Eigen::Vector3f(3.0f, y, -0.3f + line));
+      }
+    return scan;
+  };
+  const ScanLabels on_floor = PropertyLabeler({{cam, images}}, rules).label(scanOf(true), 0.0);
+  const ScanLabels on_wall = PropertyLabeler({{cam, images}}, rules).label(scanOf(false), 0.0);
+  const auto count = [](const ScanLabels& l, ClassId c) { return std::count(l.classes.begin(), l.classes.end(), c); };
+  // The camera sees the nearer floor line (the farther one lies behind it within a pixel):
+  // water (nir_reflectance <= 0.2 and normal_z > 0.9) on it all.
+  EXPECT_EQ(count(on_floor, 2), 201);
+  const auto seen = [](const ScanLabels& l) {
+    return std::count_if(l.channels[0].begin(), l.channels[0].end(), [](float v) { return v == 0.05f; });
+  };
+  EXPECT_GE(seen(on_wall), 201);  // dark and seen, but upright: no water
+  EXPECT_EQ(count(on_wall, 2), 0);
+}
+
 TEST(Labeler, EdgeGuardRefusesClassesACalibrationErrorCouldFlip) {
   CameraCalibration cam = smallCamera(41, 41);
   cam.T_camera_lidar.linear() << 0, -1, 0, 0, 0, -1, 1, 0, 0;
