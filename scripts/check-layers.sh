@@ -30,6 +30,9 @@ exceptions=(
   # only core below): properties needs them for the normal_z rule variable on the raw scan,
   # preprocess for ICP targets.
   "properties hazmap/preprocess/normals.hpp"
+  # The same normals' neighbour search, which normals.hpp's interface takes (normalAt) and the
+  # labeller builds itself for the footprints and for normal_z between scan lines.
+  "properties hazmap/preprocess/spatial_index.hpp"
 )
 
 allowed() {  # allowed <from> <to>
