@@ -1,12 +1,14 @@
 #include "hazmap/properties/labeler.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <memory>
 #include <unordered_set>
 
 #include "hazmap/core/error.hpp"
+#include "hazmap/core/voxel_key.hpp"
 #include "hazmap/preprocess/spatial_index.hpp"
 
 namespace hazmap {
@@ -78,15 +80,13 @@ long nearestImage(const std::vector<double>& stamps, double offset, double t, do
 void fillSparseNormals(const LabeledCloud& scan, const NormalConfig& config, std::vector<Eigen::Vector3f>& normals) {
   constexpr float kThin = 0.25f, kMinRadius = 1.0f, kMaxRadius = 4.0f, kRangeShare = 0.2f;
   constexpr int kNeighbours = 48;
+  if (std::none_of(normals.begin(), normals.end(), [](const Eigen::Vector3f& n) { return n.isZero(); })) return;
   std::vector<Eigen::Vector3f> thin;
   std::unordered_set<std::uint64_t> seen;
-  for (const Eigen::Vector3f& p : scan.points) {
-    if (!p.allFinite()) continue;
-    const Eigen::Vector3i v = (p / kThin).array().floor().cast<int>();
-    const std::uint64_t key = (std::uint64_t(std::uint32_t(v.x()) & 0x1FFFFF) << 42) |
-                              (std::uint64_t(std::uint32_t(v.y()) & 0x1FFFFF) << 21) | (std::uint32_t(v.z()) & 0x1FFFFF);
-    if (seen.insert(key).second) thin.push_back(p);
-  }
+  std::array<std::int64_t, 3> voxel;
+  std::uint64_t key = 0;
+  for (const Eigen::Vector3f& p : scan.points)
+    if (voxelOfPoint(p.x() / kThin, p.y() / kThin, p.z() / kThin, voxel, key) && seen.insert(key).second) thin.push_back(p);
   const VoxelHashIndex index(thin, {}, kMaxRadius / 2.0f, kMaxRadius);
   std::vector<Neighbor> near;
   std::vector<Eigen::Vector3f> pts;
