@@ -539,6 +539,43 @@ TEST(Labeler, FloorBetweenScanLinesGetsANormal) {
   EXPECT_EQ(count(on_wall, 2), 0);
 }
 
+// normal_z on a far floor: a ring 9.5 m out lies metres from the next one, so neither its own
+// line nor the thinned scan gives it a plane; lying on the floor plane fitted to the near floor,
+// it takes that plane's normal (water on it, dark); the same line 0.4 m above the floor (a crate's
+// top edge, a step) stays without a normal (no water).
+TEST(Labeler, FarFloorRingTakesTheFloorPlanesNormal) {
+  CameraCalibration cam = smallCamera(41, 41);
+  cam.channel = defaultChannel("nir_reflectance");
+  cam.T_camera_lidar.linear() << 0, -1, 0, 0, 0, -1, 1, 0, 0;  // looking along x
+  auto images = std::make_shared<MemoryImages>();
+  PropertyImage img;
+  img.width = img.height = 41;
+  img.values.assign(41 * 41, 0.05f);  // dark everywhere: the normal decides
+  images->add(img);
+  const auto rules = PropertyRules::defaults({"nir_reflectance"}, ClassTable::defaults());
+  constexpr float kFloor = -0.5f;
+  const auto scanWithFarLineAt = [&](float z) {
+    LabeledCloud scan;
+    for (int i = 0; i <= 40; ++i)  // the near floor, to the side of the camera's view of the far line
+      for (int j = 0; j <= 40; ++j) scan.push_back({1.0f + 0.05f * i, 4.0f + 0.05f * j, kFloor});
+    for (int k = -50; k <= 50; ++k) scan.push_back({9.5f, 0.01f * static_cast<float>(k), z});
+    return scan;
+  };
+  const auto farWater = [&](float z) {
+    const LabeledCloud scan = scanWithFarLineAt(z);
+    const ScanLabels l = PropertyLabeler({{cam, images}}, rules).label(scan, 0.0);
+    long seen = 0, water = 0;
+    for (std::size_t i = 41 * 41; i < scan.size(); ++i) {
+      seen += l.channels[0][i] == 0.05f;
+      water += l.classes[i] == 2 && l.channels[0][i] == 0.05f;
+    }
+    EXPECT_GE(seen, 80) << z;  // the camera sees (most of) the far line either way
+    return water == seen ? 1.0 : static_cast<double>(water) / static_cast<double>(seen);
+  };
+  EXPECT_EQ(farWater(kFloor), 1.0);  // every seen point of it
+  EXPECT_EQ(farWater(kFloor + 0.4f), 0.0);
+}
+
 TEST(Labeler, EdgeGuardRefusesClassesACalibrationErrorCouldFlip) {
   CameraCalibration cam = smallCamera(41, 41);
   cam.T_camera_lidar.linear() << 0, -1, 0, 0, 0, -1, 1, 0, 0;

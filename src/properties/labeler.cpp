@@ -4,7 +4,9 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <memory>
+#include <optional>
 #include <unordered_set>
 
 #include "hazmap/core/error.hpp"
@@ -75,7 +77,7 @@ long nearestImage(const std::vector<double>& stamps, double offset, double t, do
 // got no normal, so a dark floor there could not be `water`. Such a point takes its neighbours
 // from a copy of the scan thinned to one point per 0.25 m voxel, within a radius growing with
 // range (0.2 × range, 1-4 m), which reaches the next line where it lies that close (to ~4 m
-// range for that sensor); farther, the point stays without a normal, as before. Rig seed 6:
+// range for that sensor); farther, only a floor point gets one (fillFloorNormals). Rig seed 6:
 // water recall 0.859 → 0.881 (docs/properties.md, "Camera rigs").
 void fillSparseNormals(const LabeledCloud& scan, const NormalConfig& config, std::vector<Eigen::Vector3f>& normals) {
   constexpr float kThin = 0.25f, kMinRadius = 1.0f, kMaxRadius = 4.0f, kRangeShare = 0.2f;
@@ -100,12 +102,63 @@ void fillSparseNormals(const LabeledCloud& scan, const NormalConfig& config, std
   }
 }
 
+/// Height (along `up`) of the most populated 5 cm band of level surface below the sensor, from
+/// the points whose own normal is within ~18° of `up`; nullopt with fewer than `min_support`.
+std::optional<float> floorHeight(const LabeledCloud& scan, const Eigen::Vector3f& up,
+                                 const std::vector<Eigen::Vector3f>& normals, std::size_t min_support) {
+  constexpr float kLevel = 0.95f, kBin = 0.05f, kBelowSensor = -0.1f;
+  std::map<long, std::size_t> bins;
+  std::size_t level = 0;
+  for (std::size_t i = 0; i < scan.size(); ++i) {
+    const float h = up.dot(scan.points[i]);
+    if (normals[i].isZero() || std::abs(normals[i].dot(up)) < kLevel || !(h < kBelowSensor)) continue;
+    ++bins[static_cast<long>(std::floor(h / kBin))];
+    ++level;
+  }
+  if (level < min_support) return std::nullopt;
+  const auto top = std::max_element(bins.begin(), bins.end(), [](const auto& a, const auto& b) { return a.second < b.second; });
+  return (static_cast<float>(top->first) + 0.5f) * kBin;
+}
+
+// normal_z on the floor beyond the thinned scan's reach (fillSparseNormals): a VLP-16's floor
+// rings 9.5 m away lie 3.8 m apart, so a dark puddle there had no normal and could not be
+// `water` (rig seed 6, frames 47 and 72). The floor is one plane: fitted to the level points
+// near the floor's height, it gives its normal to every point without one that lies on it
+// (within 5 cm + 0.5 % of range: the rings' own spread). A point just above the floor at a
+// wall's foot gets the floor's normal too; it is floor-high either way.
+void fillFloorNormals(const LabeledCloud& scan, const Eigen::Vector3f& up, const NormalConfig& config,
+                      std::vector<Eigen::Vector3f>& normals) {
+  constexpr std::size_t kMinSupport = 50;
+  constexpr float kBand = 0.1f, kMinAlignment = 0.985f, kTolerance = 0.05f, kTolerancePerMetre = 0.005f;
+  if (std::none_of(normals.begin(), normals.end(), [](const Eigen::Vector3f& n) { return n.isZero(); })) return;
+  const std::optional<float> height = floorHeight(scan, up, normals, kMinSupport);
+  if (!height) return;
+  std::vector<Eigen::Vector3f> floor;
+  Eigen::Vector3f centroid = Eigen::Vector3f::Zero();
+  for (std::size_t i = 0; i < scan.size(); ++i) {
+    if (normals[i].isZero() || std::abs(up.dot(scan.points[i]) - *height) > kBand) continue;
+    floor.push_back(scan.points[i]);
+    centroid += scan.points[i];
+  }
+  if (floor.size() < kMinSupport) return;
+  centroid /= static_cast<float>(floor.size());
+  Eigen::Vector3f n = planeNormal(centroid, floor, config);
+  if (n.isZero() || std::abs(n.dot(up)) < kMinAlignment) return;  // not a level floor: leave it
+  const float offset = n.dot(centroid);
+  for (std::size_t i = 0; i < scan.size(); ++i) {
+    const Eigen::Vector3f& p = scan.points[i];
+    if (!normals[i].isZero() || !p.allFinite()) continue;
+    if (std::abs(n.dot(p) - offset) < kTolerance + kTolerancePerMetre * p.norm()) normals[i] = n;
+  }
+}
+
 /// |z| of each point's unit normal in the world frame (NaN where no normal could be fitted).
 std::vector<float> normalZ(const LabeledCloud& scan, const Eigen::Matrix3d& R_world_lidar, const NormalConfig& config) {
   std::vector<Eigen::Vector3f> normals = estimateNormals(scan, config);
   fillSparseNormals(scan, config, normals);
-  std::vector<float> out(scan.size(), std::numeric_limits<float>::quiet_NaN());
   const Eigen::Vector3f up = R_world_lidar.transpose().col(2).cast<float>();  // world z in the LiDAR frame
+  fillFloorNormals(scan, up, config, normals);
+  std::vector<float> out(scan.size(), std::numeric_limits<float>::quiet_NaN());
   for (std::size_t i = 0; i < normals.size(); ++i)
     if (normals[i].squaredNorm() > 0.5f) out[i] = std::abs(normals[i].dot(up));
   return out;
