@@ -330,3 +330,40 @@ TEST(GravityNeverWorse, PapersSetUpNaraha7IcpPgoIsNoWorseThanIcp) {
   EXPECT_LT(pgo, pgo_without) << "with gravity " << pgo << ", without " << pgo_without;
   fs::remove_all(dir);
 }
+
+// A recording with an IMU but no gravity.txt (a bag, a capture, an imu.txt alone): each keyframe's
+// prior comes from its accelerometer (preprocess/imu_gravity.hpp) — within 3σ of the true down,
+// with the accelerometer's σ, not an AHRS's; gravity.txt, where present, wins; and
+// graph.gravity_prior = false turns both off.
+TEST(GravityFromImu, KeyframesOfASequenceWithOnlyImuTxtGetTheAccelerometersPriors) {
+  const fs::path d = test::scratchDir();
+  sim::SimulatorConfig c;
+  c.scenario = "corridor";
+  c.max_frames = 12;
+  c.imu.rate_hz = 200.0;
+  sim::writeSimulation(c, d / "ahrs");
+  fs::create_directories(d / "imu");
+  for (const auto& e : fs::directory_iterator(d / "ahrs"))
+    if (e.path().filename() != "gravity.txt") fs::create_symlink(e.path(), d / "imu" / e.path().filename());
+  const Sequence ahrs = Sequence::open(d / "ahrs"), imu = Sequence::open(d / "imu");
+  ASSERT_TRUE(ahrs.gravity());
+  ASSERT_FALSE(imu.gravity());
+  ASSERT_FALSE(imu.imu().empty());
+  SlamConfig config = SlamConfig::forMethod(SlamMethod::PropertyIcpPgo);
+  config.odometry.mode = OdometryMode::FrameToFrame;  // σ as given (frame to map scales it)
+  const SlamResult r = runSlam(imu, config);
+  ASSERT_GE(r.graph.gravity_priors.size(), 5u);
+  const Trajectory& truth = *imu.groundTruth();
+  for (const GravityPrior& p : r.graph.gravity_priors) {
+    const Eigen::Vector3d down = truth.poses.at(p.node).linear().transpose() * Eigen::Vector3d(0.0, 0.0, -1.0);
+    const double angle = std::acos(std::clamp(p.down.dot(down), -1.0, 1.0));
+    EXPECT_LT(angle, 3.0 * p.sigma) << "node " << p.node;
+    EXPECT_GT(p.sigma, 1.0 * M_PI / 180.0) << "node " << p.node;  // the offset's 1.2°, not 0.2°
+  }
+  const SlamResult from_file = runSlam(ahrs, config);
+  ASSERT_FALSE(from_file.graph.gravity_priors.empty());
+  for (const GravityPrior& p : from_file.graph.gravity_priors) EXPECT_NEAR(p.sigma, 0.2 * M_PI / 180.0, 1e-9);
+  config.graph.gravity_prior = false;
+  EXPECT_TRUE(runSlam(imu, config).graph.gravity_priors.empty());
+  fs::remove_all(d);
+}

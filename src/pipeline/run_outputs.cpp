@@ -98,6 +98,7 @@ nlohmann::json runJson(const SlamResult& r, const SlamConfig& config, const RunS
   }
   j["pose_graph"] = {{"nodes", r.graph.numNodes()}, {"edges", r.graph.numEdges()},
                      {"loop_edges", r.graph.numLoopEdges()}, {"map_anchor_edges", r.anchors},
+                     {"gravity_priors", r.graph.gravity_priors.size()},
                      {"optimisations", opt}};
   // Every setting of the run, nested as in the YAML (`hazmap run --config` reads it back).
   j["parameters"] = configToJson(config);

@@ -11,6 +11,7 @@
 #include "hazmap/core/error.hpp"
 #include "hazmap/core/retire_oldest.hpp"
 #include "hazmap/core/se3.hpp"
+#include "hazmap/preprocess/imu_gravity.hpp"
 #include "pipeline/back_end_thread.hpp"
 #include "pipeline/clock.hpp"
 #include "pipeline/frame_records.hpp"
@@ -59,6 +60,7 @@ class SlamRun {
     const std::vector<std::size_t> changed = takeReestimatedLostFrames();
     if (graph_) graph_->replaceFrames(changed);
     const bool keyframe = isKeyframe(pose);
+    if (keyframe && !scan.gravity) scan.gravity = gravityFromImu(scan);
     if (back_end_thread_) {
       passToBackEnd(scan, pose, changed, keyframe);
       return forgetOldRecords();
@@ -161,6 +163,27 @@ class SlamRun {
     }
     last_keyframe_ = pose;
     return true;
+  }
+
+  /// A keyframe's gravity prior from its accelerometer where the recording gives no direction of
+  /// its own (gravity.txt): σ widened by how much the tracked motion accelerated.
+  std::optional<GravitySample> gravityFromImu(const Scan& scan) const {
+    if (scan.imu.empty() || !config_.graph.gravity_prior || !usesIcp(config_.method)) return std::nullopt;
+    return gravityFromAccelerometer(scan.imu, scan.stamp, trackedAcceleration(), imu_.bias());
+  }
+
+  /// m/s²: the velocity change over the last two tracked increments (velocities in the middle
+  /// frame's axes); 1 m/s² before there are two, which leaves a prior too weak to add.
+  double trackedAcceleration() const {
+    constexpr double kUnknown = 1.0;
+    const std::size_t n = frames();
+    if (n < 3 || result_.frames.size() < 3) return kUnknown;
+    const FrameRecord &a = record(n - 3), &b = record(n - 2), &c = record(n - 1);
+    const double dt1 = b.stamp - a.stamp, dt2 = c.stamp - b.stamp;
+    if (!(dt1 > 0.0 && dt2 > 0.0)) return kUnknown;
+    const Eigen::Vector3d v1 = b.T_prev_curr.linear().transpose() * b.T_prev_curr.translation() / dt1;
+    const Eigen::Vector3d v2 = c.T_prev_curr.translation() / dt2;
+    return (v2 - v1).norm() / (0.5 * (dt1 + dt2));
   }
 
   /// Wheel odometry from the common start pose; the increment from the previous scan.
