@@ -9,12 +9,13 @@
 #include <string>
 
 #include "hazmap/core/class_table.hpp"
+#include "hazmap/sources/imu_rotation.hpp"
 #include "hazmap/sources/scan_source.hpp"
 
 namespace hazmap::cli {
 
 struct SourceFlags {
-  std::string lidar_topic, odom_topic, sensor_metadata, velodyne_calibration, hesai_calibration, sensor;
+  std::string lidar_topic, odom_topic, sensor_metadata, velodyne_calibration, hesai_calibration, sensor, imu_rotation;
   bool no_deskew = false;
 
   void add(CLI::App& app, bool with_deskew = true) {
@@ -31,6 +32,9 @@ struct SourceFlags {
     app.add_option("--sensor", sensor,
                    "LiDAR model to expect (Hesai: Pandar40P, Pandar64, PandarQT64, PandarQT128, PandarXT16, "
                    "PandarXT32, PandarXT32M; Velodyne: VLP-16, VLP-32C, HDL-32E, VLS-128); default: from the packets");
+    app.add_option("--imu-rotation", imu_rotation,
+                   "R_lidar_imu of a bag's sensor_msgs/Imu: roll,pitch,yaw (deg), qw,qx,qy,qz, 9 or 16 numbers "
+                   "(rotation or 4x4 T_lidar_imu, row-major); default: the IMU's axes are the LiDAR's");
     if (with_deskew)
       app.add_flag("--no-deskew", no_deskew, "Do not motion-compensate scans with per-point times");
   }
@@ -44,6 +48,7 @@ struct SourceFlags {
     o.velodyne_calibration = velodyne_calibration;
     o.hesai_calibration = hesai_calibration;
     o.sensor = sensor;
+    if (!imu_rotation.empty()) o.imu_rotation = parseImuRotation(imu_rotation, "--imu-rotation");
     o.class_table = std::move(table);
     // On a terminal the progress bar's line is cleared first (it is redrawn on the next frame).
     if (print_notices)

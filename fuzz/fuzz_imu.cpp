@@ -1,13 +1,16 @@
-// libFuzzer target: IMU streams. The first byte picks the input: even = the rest is an imu.txt
+// libFuzzer target: IMU streams. The first byte picks the input: 'R' = the rest is an
+// --imu-rotation text (a rotation or hazmap::Error); other even bytes = the rest is an imu.txt
 // (read, cleaned, cut into spans); odd = the rest is cut into 48-byte Ouster IMU packets, decoded
 // alone and through the OS-1-128-like decoder beside its lidar packets.
 #include <cmath>
 #include <cstdlib>
+#include <string>
 #include <vector>
 
 #include "fuzz_input.hpp"
 #include "hazmap/core/error.hpp"
 #include "hazmap/io/imu.hpp"
+#include "hazmap/sources/imu_rotation.hpp"
 #include "hazmap/sources/ouster.hpp"
 #include "ouster_sensors.hpp"
 
@@ -47,6 +50,15 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   if (size == 0) return 0;
   if (data[0] % 2 == 1) {
     decodePackets(data + 1, size - 1);
+    return 0;
+  }
+  if (data[0] == 'R') {
+    try {
+      const Eigen::Matrix3d R = hazmap::parseImuRotation(std::string(data + 1, data + size), "--imu-rotation");
+      if (!R.allFinite() || (R.transpose() * R - Eigen::Matrix3d::Identity()).norm() > 1e-6 || R.determinant() < 0.99)
+        std::abort();
+    } catch (const hazmap::Error&) {
+    }
     return 0;
   }
   try {

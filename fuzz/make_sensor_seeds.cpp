@@ -132,6 +132,11 @@ int main(int argc, char** argv) {
   Bytes imu_file{0};
   imu_file.insert(imu_file.end(), imu_txt.begin(), imu_txt.end());
   write(out / "imu/imu-txt", imu_file);
+  // ... and --imu-rotation texts (first byte 'R').
+  for (const auto& [name, text] : {std::pair<const char*, std::string>{"rotation-rpy", "R10,-20,90"},
+                                   {"rotation-quaternion", "R0.7071067811865476 0 0 0.7071067811865476"},
+                                   {"rotation-4x4", "R0 -1 0 0.1 1 0 0 -0.2 0 0 1 0.05 0 0 0 1"}})
+    write(out / "imu" / name, Bytes(text.begin(), text.end()));
   std::uint8_t mode = 1;
   for (const auto& m : hazmap::fuzz::fuzzOusterSensors()) {
     Bytes seed{mode};

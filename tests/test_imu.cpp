@@ -18,6 +18,7 @@
 #include "hazmap/preprocess/normals.hpp"
 #include "hazmap/sim/simulator.hpp"
 #include "hazmap/sources/bag_message.hpp"
+#include "hazmap/sources/imu_rotation.hpp"
 #include "hazmap/sources/ouster.hpp"
 #include "hazmap/sources/ros_encode.hpp"
 #include "hazmap/sources/ros_messages.hpp"
@@ -527,4 +528,57 @@ TEST(ImuGravity, RealOusterCaptureOwnsItsUncertainty) {
     const double angle = std::acos(std::clamp(gi.down.dot(R_i_j * gj.down), -1.0, 1.0)) * 180.0 / M_PI;
     EXPECT_LT(angle, std::hypot(gi.sigma_deg, gj.sigma_deg)) << i << " " << j;
   }
+}
+
+// --imu-rotation: R_lidar_imu for a sensor_msgs/Imu recorded in the IMU's own axes.
+TEST(ImuRotation, ParsesEveryFormAndNamesBadInput) {
+  const Eigen::Matrix3d Rz90 = Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  EXPECT_TRUE(parseImuRotation("0,0,90", "--imu-rotation").isApprox(Rz90, 1e-12));
+  EXPECT_TRUE(parseImuRotation("0.7071067811865476 0 0 0.7071067811865476", "x").isApprox(Rz90, 1e-9));
+  EXPECT_TRUE(parseImuRotation("0,-1,0, 1,0,0, 0,0,1", "x").isApprox(Rz90, 1e-12));
+  EXPECT_TRUE(parseImuRotation("0 -1 0 0.1  1 0 0 -0.2  0 0 1 0.05  0 0 0 1", "x").isApprox(Rz90, 1e-12));
+  // roll, pitch, yaw: R = Rz(yaw)·Ry(pitch)·Rx(roll).
+  const Eigen::Matrix3d rpy = Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitZ()) *
+                              Eigen::AngleAxisd(-0.2, Eigen::Vector3d::UnitY()) *
+                              Eigen::AngleAxisd(0.1, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  EXPECT_TRUE(parseImuRotation("5.729577951308232,-11.459155902616464,17.188733853924695", "x").isApprox(rpy, 1e-12));
+  const auto error = [](const std::string& text) { return test::errorOf([&] { parseImuRotation(text, "--imu-rotation"); }); };
+  for (const auto& [text, what] : std::vector<std::pair<std::string, std::string>>{
+           {"1,2", "got 2"},
+           {"1,2,x", "'x' is not a number"},
+           {"1,nan,3", "not finite"},
+           {"1,0,0,0.5", "not a unit quaternion"},
+           {"1,0,0, 0,2,0, 0,0,1", "not a rotation"},
+           {"-1,0,0, 0,1,0, 0,0,1", "not a rotation"},
+           {"1 0 0 0  0 1 0 0  0 0 1 0  0 0 1 1", "last row"}}) {
+    const std::string e = error(text);
+    EXPECT_NE(e.find("--imu-rotation"), std::string::npos) << text << ": " << e;
+    EXPECT_NE(e.find(what), std::string::npos) << text << ": " << e;
+  }
+}
+
+TEST(ImuRotation, BagSamplesAreTurnedIntoTheLidarsAxesAndABadFlagIsOneLine) {
+  const fs::path bag = test::scratchDir() / "imu_rotation.mcap";
+  fs::remove(bag);
+  const auto r = test::runCli("simulate --scenario corridor --frames 3 --imu-rate 200 --format mcap --overwrite --out " +
+                              bag.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  ScanSourceOptions turned;
+  turned.imu_rotation = parseImuRotation("10,-20,90", "test");
+  auto plain = openScanSource(bag), rotated = openScanSource(bag, turned);
+  std::size_t compared = 0;
+  while (auto a = plain->next()) {
+    const auto b = rotated->next();
+    ASSERT_TRUE(b);
+    ASSERT_EQ(a->imu.size(), b->imu.size());
+    for (std::size_t k = 0; k < a->imu.size(); ++k, ++compared) {
+      EXPECT_TRUE(b->imu[k].gyro.isApprox(*turned.imu_rotation * a->imu[k].gyro, 1e-12));
+      EXPECT_TRUE(b->imu[k].accel.isApprox(*turned.imu_rotation * a->imu[k].accel, 1e-12));
+    }
+  }
+  EXPECT_GT(compared, 100u);
+  const auto bad = test::runCli("info " + bag.string() + " --imu-rotation 1,2");
+  EXPECT_NE(bad.exit_code, 0);
+  EXPECT_NE(bad.output.find("--imu-rotation: expected"), std::string::npos) << bad.output;
+  fs::remove(bag);
 }

@@ -2,6 +2,7 @@
 #include <memory>
 
 #include "bindings.hpp"
+#include "hazmap/sources/imu_rotation.hpp"
 #include "hazmap/sources/scan_source.hpp"
 
 namespace hazmap::python {
@@ -15,11 +16,12 @@ py::object optionalPose(const std::optional<Eigen::Isometry3d>& pose) {
 
 ScanSourceOptions sourceOptions(const std::string& lidar_topic, const std::string& odom_topic,
                                 const py::object& classes, const std::string& sensor,
-                                const py::object& hesai_calibration) {
+                                const py::object& hesai_calibration, const std::string& imu_rotation) {
   ScanSourceOptions options;
   options.lidar_topic = lidar_topic;
   options.odom_topic = odom_topic;
   options.sensor = sensor;
+  if (!imu_rotation.empty()) options.imu_rotation = parseImuRotation(imu_rotation, "imu_rotation");
   // None (not an empty path: pybind turns "" into ".") means the built-in angles.
   if (!hesai_calibration.is_none()) options.hesai_calibration = hesai_calibration.cast<std::filesystem::path>();
   if (!classes.is_none()) options.class_table = classTableArg(classes);
@@ -72,15 +74,18 @@ void bindSources(py::module_& m) {
   m.def(
       "open",
       [](const std::filesystem::path& path, const std::string& lidar_topic, const std::string& odom_topic,
-         const py::object& classes, const std::string& sensor, const py::object& hesai_calibration) {
-        const ScanSourceOptions options = sourceOptions(lidar_topic, odom_topic, classes, sensor, hesai_calibration);
+         const py::object& classes, const std::string& sensor, const py::object& hesai_calibration,
+         const std::string& imu_rotation) {
+        const ScanSourceOptions options =
+            sourceOptions(lidar_topic, odom_topic, classes, sensor, hesai_calibration, imu_rotation);
         py::gil_scoped_release release;
         return openScanSource(path, options);
       },
       py::arg("path"), py::arg("lidar_topic") = "", py::arg("odom_topic") = "", py::arg("classes") = py::none(),
-      py::arg("sensor") = "", py::arg("hesai_calibration") = py::none(),
+      py::arg("sensor") = "", py::arg("hesai_calibration") = py::none(), py::arg("imu_rotation") = "",
       "Opens a sequence folder, a bag (.bag, .mcap, rosbag2 folder) or a capture (.pcap) as a scan stream; "
-      "sensor: the LiDAR model to expect (e.g. 'PandarXT32'), hesai_calibration: a Hesai angle-correction CSV");
+      "sensor: the LiDAR model to expect (e.g. 'PandarXT32'), hesai_calibration: a Hesai angle-correction CSV, "
+      "imu_rotation: R_lidar_imu of a sensor_msgs/Imu topic ('roll,pitch,yaw' deg, 'qw,qx,qy,qz', 9 or 16 numbers)");
 }
 
 }  // namespace hazmap::python

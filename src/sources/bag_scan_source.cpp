@@ -125,8 +125,9 @@ class BagScanSource final : public ScanSource {
     }
   }
 
-  /// sensor_msgs/Imu samples are taken in the LiDAR's frame (no tf lookup, as for the odometry);
-  /// Ouster IMU packets go through the packet decoder, which rotates them by the metadata.
+  /// sensor_msgs/Imu samples are in the LiDAR's axes unless --imu-rotation gives R_lidar_imu (no
+  /// tf lookup, as for the odometry); Ouster IMU packets go through the packet decoder, which
+  /// rotates them by the metadata.
   void readImu(const BagMessage& m, const std::string& where) {
     if (topics_.imu_packets) {
       const LidarPacket p = decodeOusterPacket(m.data, m.topic->serialization, where);
@@ -134,7 +135,8 @@ class BagScanSource final : public ScanSource {
       imu_.append(assembler_->takeImu());
     } else {
       const ImuMsg msg = decodeImu(m.data, m.topic->serialization, where);
-      imu_.append({ImuSample{msg.header.stamp, msg.angular_velocity, msg.linear_acceleration}});
+      const Eigen::Matrix3d R = options_.imu_rotation.value_or(Eigen::Matrix3d::Identity());
+      imu_.append({ImuSample{msg.header.stamp, R * msg.angular_velocity, R * msg.linear_acceleration}});
     }
   }
 

@@ -53,3 +53,10 @@ def test_bad_recording(tmp_path):
     p.write_bytes(b"\x89MCAP0\r\n garbage")
     with pytest.raises(hazmap.Error, match="nothing.mcap"):
         list(hazmap.open(p))
+
+
+def test_imu_rotation_is_parsed_and_a_bad_one_named(data):
+    capture = data / "sensors" / "ouster-os1-128" / "OS-1-128_v2.3.0_1024x10_lb_n3.pcap"
+    assert len(list(hazmap.open(capture, imu_rotation="0,0,90"))) == 3  # Ouster packets: the metadata's
+    with pytest.raises(hazmap.Error, match="imu_rotation: expected roll,pitch,yaw"):
+        hazmap.open(capture, imu_rotation="1,2")

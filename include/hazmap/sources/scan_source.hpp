@@ -49,6 +49,10 @@ struct ScanSourceOptions {
   /// The LiDAR model to expect, a Hesai ("Pandar64", "XT32", …) or Velodyne ("VLP-16", …) name;
   /// empty: from the packets. Packets of another model are skipped and counted.
   std::string sensor;
+  /// R_lidar_imu: turns a bag's sensor_msgs/Imu samples (gyro and accelerometer) from the IMU's
+  /// axes into the LiDAR's (sources/imu_rotation.hpp parses it); unset: the axes are the LiDAR's.
+  /// Ouster IMU packets take the metadata's imu_to_sensor_transform instead.
+  std::optional<Eigen::Matrix3d> imu_rotation;
   std::optional<ClassTable> class_table;     ///< overrides the recording's
   /// Read the named per-point channels (Scan::channels). Only map assembly uses them: a pass
   /// that only tracks (hazmap run's first) turns this off and skips their files.
