@@ -73,7 +73,7 @@ void run(const ConvertOptions& o) {
 const RegisterCommand kRegister{
     {"convert",
      "Convert a cloud between .bin(+.label), .pcd and .ply, keeping classes and intensity; or a bag or "
-     "capture into a sequence folder (velodyne/NNNNNN.pcd, times.txt, odometry.txt)",
+     "capture into a sequence folder (velodyne/NNNNNN.pcd, times.txt, odometry.txt, imu.txt)",
      [](CLI::App& app) {
        auto o = std::make_shared<ConvertOptions>();
        app.add_option("input", o->input,

@@ -9,6 +9,7 @@
 
 #include "hazmap/core/error.hpp"
 #include "hazmap/io/atomic_file.hpp"
+#include "hazmap/io/imu.hpp"
 #include "hazmap/io/pcd.hpp"
 #include "hazmap/io/trajectory.hpp"
 #include "recording.hpp"
@@ -67,7 +68,13 @@ void convertRecording(const fs::path& input, const fs::path& out_dir, const Sour
   Trajectory odometry, truth;
   bool with_odometry = true, with_truth = true;
   std::size_t n = 0, points = 0;
+  // The IMU stream again, from the scans' spans (each from the previous scan's stamp, one sample
+  // beyond each end: they overlap): a folder run, or `label`/`run --camera` (which convert first),
+  // then deskews, guesses and gets gravity as a run on the recording does.
+  std::vector<ImuSample> imu;
   for (std::optional<Scan> scan; (scan = scans->next()); ++n) {
+    for (const ImuSample& sample : scan->imu)
+      if (imu.empty() || sample.time > imu.back().time) imu.push_back(sample);
     // Per-point times stay in the PCD (absolute seconds), so a run on the folder deskews as a
     // run on the recording does.
     writePcd(staging.path() / "velodyne" / (frameName(n) + ".pcd"), scan->cloud, PcdEncoding::Binary);
@@ -82,6 +89,7 @@ void convertRecording(const fs::path& input, const fs::path& out_dir, const Sour
   writeTextAtomically(staging.path() / "times.txt", times.str());
   if (with_odometry) writeKittiTrajectory(staging.path() / "odometry.txt", odometry);
   if (with_truth) writeKittiTrajectory(staging.path() / "poses.txt", truth);
+  if (!imu.empty()) writeImuFile(staging.path() / "imu.txt", imu);
   YAML::Emitter yaml;
   yaml << YAML::Comment("hazmap sequence converted from " + input.string());
   yaml << YAML::BeginMap << YAML::Key << "frames" << YAML::Value << n;
@@ -91,8 +99,9 @@ void convertRecording(const fs::path& input, const fs::path& out_dir, const Sour
   writeTextAtomically(staging.path() / "hazmap.yaml", std::string(yaml.c_str()) + "\n");
   staging.commit();
   if (!quiet)
-    std::cout << fmt::format("{} -> {}: {} scans, {} points{}{}\n", scans->describe(), out_dir.string(), n, points,
-                             with_odometry ? ", odometry.txt" : "", with_truth ? ", poses.txt" : "");
+    std::cout << fmt::format("{} -> {}: {} scans, {} points{}{}{}\n", scans->describe(), out_dir.string(), n, points,
+                             with_odometry ? ", odometry.txt" : "", with_truth ? ", poses.txt" : "",
+                             imu.empty() ? "" : fmt::format(", imu.txt ({} samples)", imu.size()));
 }
 
 }  // namespace hazmap::cli

@@ -78,7 +78,8 @@ TEST(PropertiesSim, PerturbedCalibrationErrsAtEdges) {
 
 TEST(PropertiesSim, BadInputIsOneLineAndWritesNothing) {
   const fs::path dir = test::scratchDir();
-  ASSERT_EQ(test::runCli("simulate --frames 3 --cameras thermal --camera-size 64x48 --out " + (dir / "seq").string()).exit_code, 0);
+  ASSERT_EQ(test::runCli("simulate --frames 3 --cameras thermal --camera-size 64x48 --imu-rate 200 --out " +
+                         (dir / "seq").string()).exit_code, 0);
   const std::string cam = (dir / "seq/cameras/thermal/camera.yaml").string();
   // An image of the wrong size.
   std::string yaml = readTextFile(cam);
@@ -100,6 +101,9 @@ TEST(PropertiesSim, BadInputIsOneLineAndWritesNothing) {
                    " --out " + (dir / "out").string() + " --json");
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_EQ(nlohmann::json::parse(r.output)["images_missing"].get<int>(), 3);
+  // The labelled sequence keeps the recording's IMU (a run on it deskews and has gravity as on the
+  // recording).
+  for (const char* f : {"imu.txt", "gravity.txt"}) EXPECT_EQ(readTextFile(dir / "out" / f), readTextFile(dir / "seq" / f)) << f;
 }
 
 TEST(PropertiesSim, RunWithCameraReportsPeakTemperaturePerHazard) {

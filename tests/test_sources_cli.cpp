@@ -9,6 +9,7 @@
 #include "hazmap/core/se3.hpp"
 #include "hazmap/io/atomic_file.hpp"
 #include "hazmap/io/trajectory.hpp"
+#include "hazmap/sources/scan_source.hpp"
 #include "test_helpers.hpp"
 
 using namespace hazmap;
@@ -248,4 +249,30 @@ TEST(SimulateMcap, BagToMapGivesTheFolderRunsMapError) {
     ASSERT_EQ(b.size(), 12u);
     for (std::size_t i = 0; i < a.size(); ++i) EXPECT_TRUE(a.poses[i].isApprox(b.poses[i], 1e-9)) << i;
   }
+}
+
+// A recording's IMU survives the conversion (`hazmap label BAG` and `run BAG --camera` convert
+// first): the OS-1-128 capture's folder gives every scan the same samples as the capture does.
+TEST(ConvertRecording, TheImuStreamComesAlongAndEachScanGetsTheSameSamples) {
+  const fs::path pcap = test::sharedData("sensors/ouster-os1-128/OS-1-128_v2.3.0_1024x10_lb_n3.pcap");
+  const fs::path dir = test::scratchDir();
+  const auto r = test::runCli("convert " + quoted(pcap) + " " + quoted(dir / "seq"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("imu.txt ("), std::string::npos) << r.output;
+  ASSERT_TRUE(fs::exists(dir / "seq/imu.txt"));
+  auto capture = openScanSource(pcap), folder = openScanSource(dir / "seq");
+  std::size_t samples = 0;
+  while (auto a = capture->next()) {
+    const auto b = folder->next();
+    ASSERT_TRUE(b);
+    ASSERT_EQ(a->imu.size(), b->imu.size()) << "scan " << a->index;
+    for (std::size_t k = 0; k < a->imu.size(); ++k, ++samples) {
+      EXPECT_EQ(a->imu[k].time, b->imu[k].time);
+      EXPECT_EQ(a->imu[k].gyro, b->imu[k].gyro);
+      EXPECT_EQ(a->imu[k].accel, b->imu[k].accel);
+    }
+  }
+  EXPECT_FALSE(folder->next());
+  EXPECT_GE(samples, 30u);
+  fs::remove_all(dir);
 }

@@ -348,8 +348,11 @@ LabelReport labelSequence(const fs::path& sequence_dir, const fs::path& out_arg,
   if (seq.odometry()) writer.writeOdometry(*seq.odometry());
   writer.finish();
   copyIfExists(sequence_dir / "times.txt", tmp.path / "times.txt");
-  // gravity.txt: the recording's IMU data, one line per scan like the scans written here.
-  for (const char* f : {"reference_map.ply", "scene.ply", "regions.yaml", "gravity.txt"}) copyIfExists(sequence_dir / f, tmp.path / f);
+  // gravity.txt and imu.txt: the recording's IMU (the AHRS's direction per scan, the raw samples
+  // on the scans' clock): a run on the labelled sequence deskews, guesses and has gravity as on the
+  // recording.
+  for (const char* f : {"reference_map.ply", "scene.ply", "regions.yaml", "gravity.txt", "imu.txt"})
+    copyIfExists(sequence_dir / f, tmp.path / f);
   if (report.truth_source == "labels_true") fs::copy(sequence_dir / "labels_true", tmp.path / "labels_true");
   writeTextAtomically(tmp.path / "labels.json", labelReportJson(report));
   commitFolder(tmp, out, out_arg.string(), replace);
