@@ -106,6 +106,8 @@ class BackEndThread {
   std::mutex turn_m_;  // the back end's wait for its turn
   std::condition_variable turn_over_;
   std::chrono::steady_clock::time_point applying_queued_at_{};  // back end's thread only
+  bool sharing_cores_ = false;  // back end's thread only: out of SCHED_IDLE while far behind
+  void keepUp(std::chrono::steady_clock::time_point now);
 
   std::thread thread_;  // last: started once the members above exist
 };
