@@ -41,6 +41,17 @@ std::vector<ImuSample> evenSamples(double t0, double rate, std::size_t n) {
   return out;
 }
 
+/// `hazmap simulate` of `frames` corridor frames with a 200 Hz IMU, written as an MCAP bag (LiDAR +
+/// sensor_msgs/Imu) in the scratch folder.
+fs::path simulatedCorridorMcap(const std::string& name, int frames) {
+  const fs::path bag = test::scratchDir() / name;
+  fs::remove(bag);
+  const auto r = test::runCli("simulate --scenario corridor --frames " + std::to_string(frames) +
+                              " --imu-rate 200 --format mcap --overwrite --out " + bag.string());
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  return bag;
+}
+
 fs::path os128Pcap() { return test::sharedData("sensors/ouster-os1-128/OS-1-128_v2.3.0_1024x10_lb_n3.pcap"); }
 
 }  // namespace
@@ -388,11 +399,7 @@ TEST(OusterImu, RealRos1BagImuPacketsDecode) {
 }
 
 TEST(SimImu, McapCarriesTheImuAndReadsBackPerScan) {
-  const fs::path bag = test::scratchDir() / "imu_corridor.mcap";
-  fs::remove(bag);
-  const auto r = test::runCli("simulate --scenario corridor --frames 5 --imu-rate 200 --format mcap --overwrite --out " +
-                              bag.string());
-  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const fs::path bag = simulatedCorridorMcap("imu_corridor.mcap", 5);
   auto source = openScanSource(bag);
   std::size_t scans = 0, with_imu = 0;
   while (auto scan = source->next()) {
@@ -558,11 +565,7 @@ TEST(ImuRotation, ParsesEveryFormAndNamesBadInput) {
 }
 
 TEST(ImuRotation, BagSamplesAreTurnedIntoTheLidarsAxesAndABadFlagIsOneLine) {
-  const fs::path bag = test::scratchDir() / "imu_rotation.mcap";
-  fs::remove(bag);
-  const auto r = test::runCli("simulate --scenario corridor --frames 3 --imu-rate 200 --format mcap --overwrite --out " +
-                              bag.string());
-  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const fs::path bag = simulatedCorridorMcap("imu_rotation.mcap", 3);
   ScanSourceOptions turned;
   turned.imu_rotation = parseImuRotation("10,-20,90", "test");
   auto plain = openScanSource(bag), rotated = openScanSource(bag, turned);

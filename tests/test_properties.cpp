@@ -504,19 +504,26 @@ TEST(Labeler, NearestImageInTimeAndMotionCompensation) {
   EXPECT_LT(l.channels[0][0], 90.0f);  // 0.125 px off: interpolated with the cold neighbour
 }
 
-// normal_z where the scan lines lie apart: a floor seen by two dense lines 0.6 m apart (a far
-// floor's rings; each point's 20 nearest neighbours lie on its own line and fit no plane) gets its
-// normal from both lines, and the water rule labels it; a wall seen the same way does not pass.
-TEST(Labeler, FloorBetweenScanLinesGetsANormal) {
+/// A NIR camera looking along the LiDAR's x axis whose one image is dark everywhere
+/// (nir_reflectance 0.05): with the default rules a point it sees is water exactly where its
+/// normal_z passes, so the normal decides.
+PropertyLabeler darkFloorLabeler() {
   CameraCalibration cam = smallCamera(41, 41);
   cam.channel = defaultChannel("nir_reflectance");
   cam.T_camera_lidar.linear() << 0, -1, 0, 0, 0, -1, 1, 0, 0;  // looking along x
   auto images = std::make_shared<MemoryImages>();
   PropertyImage img;
   img.width = img.height = 41;
-  img.values.assign(41 * 41, 0.05f);  // dark everywhere: the normal decides
+  img.values.assign(41 * 41, 0.05f);
   images->add(img);
-  const auto rules = PropertyRules::defaults({"nir_reflectance"}, ClassTable::defaults());
+  return PropertyLabeler({{cam, images}}, PropertyRules::defaults({"nir_reflectance"}, ClassTable::defaults()));
+}
+
+// normal_z where the scan lines lie apart: a floor seen by two dense lines 0.6 m apart (a far
+// floor's rings; each point's 20 nearest neighbours lie on its own line and fit no plane) gets its
+// normal from both lines, and the water rule labels it; a wall seen the same way does not pass.
+TEST(Labeler, FloorBetweenScanLinesGetsANormal) {
+  const PropertyLabeler labeler = darkFloorLabeler();
   const auto scanOf = [](bool floor) {
     LabeledCloud scan;
     for (const float line : {0.0f, 0.6f})
@@ -526,8 +533,8 @@ TEST(Labeler, FloorBetweenScanLinesGetsANormal) {
       }
     return scan;
   };
-  const ScanLabels on_floor = PropertyLabeler({{cam, images}}, rules).label(scanOf(true), 0.0);
-  const ScanLabels on_wall = PropertyLabeler({{cam, images}}, rules).label(scanOf(false), 0.0);
+  const ScanLabels on_floor = labeler.label(scanOf(true), 0.0);
+  const ScanLabels on_wall = labeler.label(scanOf(false), 0.0);
   const auto count = [](const ScanLabels& l, ClassId c) { return std::count(l.classes.begin(), l.classes.end(), c); };
   // The camera sees the nearer floor line (the farther one lies behind it within a pixel):
   // water (nir_reflectance <= 0.2 and normal_z > 0.9) on it all.
@@ -544,15 +551,7 @@ TEST(Labeler, FloorBetweenScanLinesGetsANormal) {
 // it takes that plane's normal (water on it, dark); the same line 0.4 m above the floor (a crate's
 // top edge, a step) stays without a normal (no water).
 TEST(Labeler, FarFloorRingTakesTheFloorPlanesNormal) {
-  CameraCalibration cam = smallCamera(41, 41);
-  cam.channel = defaultChannel("nir_reflectance");
-  cam.T_camera_lidar.linear() << 0, -1, 0, 0, 0, -1, 1, 0, 0;  // looking along x
-  auto images = std::make_shared<MemoryImages>();
-  PropertyImage img;
-  img.width = img.height = 41;
-  img.values.assign(41 * 41, 0.05f);  // dark everywhere: the normal decides
-  images->add(img);
-  const auto rules = PropertyRules::defaults({"nir_reflectance"}, ClassTable::defaults());
+  const PropertyLabeler labeler = darkFloorLabeler();
   constexpr float kFloor = -0.5f;
   const auto scanWithFarLineAt = [&](float z) {
     LabeledCloud scan;
@@ -563,7 +562,7 @@ TEST(Labeler, FarFloorRingTakesTheFloorPlanesNormal) {
   };
   const auto farWater = [&](float z) {
     const LabeledCloud scan = scanWithFarLineAt(z);
-    const ScanLabels l = PropertyLabeler({{cam, images}}, rules).label(scan, 0.0);
+    const ScanLabels l = labeler.label(scan, 0.0);
     long seen = 0, water = 0;
     for (std::size_t i = 41 * 41; i < scan.size(); ++i) {
       seen += l.channels[0][i] == 0.05f;

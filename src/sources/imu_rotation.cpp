@@ -3,32 +3,27 @@
 
 #include <Eigen/Geometry>
 
+#include <algorithm>
 #include <cmath>
-#include <sstream>
+#include <string_view>
 #include <vector>
 
 #include "hazmap/core/error.hpp"
+#include "io/io_detail.hpp"
 
 namespace hazmap {
 
 namespace {
 
 std::vector<double> numbers(std::string text, const std::string& where) {
-  for (char& c : text)
-    if (c == ',') c = ' ';
-  std::istringstream in(text);
+  std::replace(text.begin(), text.end(), ',', ' ');
+  std::vector<std::string_view> tokens;
+  io_detail::splitTokens(text, tokens);
   std::vector<double> out;
-  std::string word;
-  while (in >> word) {
-    std::size_t used = 0;
+  for (const std::string_view token : tokens) {
     double v = 0.0;
-    try {
-      v = std::stod(word, &used);
-    } catch (const std::exception&) {
-      used = 0;
-    }
-    if (used != word.size()) fail(where, "'" + word + "' is not a number");
-    if (!std::isfinite(v)) fail(where, "'" + word + "' is not finite");
+    if (!io_detail::parseDouble(token, v)) fail(where, "'" + std::string(token) + "' is not a number");
+    if (!std::isfinite(v)) fail(where, "'" + std::string(token) + "' is not finite");
     out.push_back(v);
   }
   return out;
