@@ -109,8 +109,6 @@ bool BackEndThread::backEndsTurn(SteadyClock::time_point now) const {
   return !tracking_.load(std::memory_order_acquire) && now - waitingSince() >= kInputGrace;
 }
 
-// The back end's yield points: wait for its turn, for at most what is left of kMaxYieldLag since
-// the frame in hand was queued.
 // Back end's thread: out of SCHED_IDLE while the frame in hand was queued kMaxYieldLag ago or more.
 void BackEndThread::keepUp(SteadyClock::time_point now) {
   const bool behind = now - applying_queued_at_ >= kMaxYieldLag;
@@ -119,9 +117,12 @@ void BackEndThread::keepUp(SteadyClock::time_point now) {
   sharing_cores_ = behind;
 }
 
+// The back end's yield points: wait for its turn, for at most what is left of kMaxYieldLag since
+// the frame in hand was queued.
 void BackEndThread::giveWayToTracking() {
-  keepUp(SteadyClock::now());
-  if (backEndsTurn(SteadyClock::now())) return;
+  const SteadyClock::time_point now = SteadyClock::now();
+  keepUp(now);
+  if (backEndsTurn(now)) return;
   const SteadyClock::time_point patience = applying_queued_at_ + kMaxYieldLag;
   std::unique_lock<std::mutex> lock(turn_m_);
   for (SteadyClock::time_point now = SteadyClock::now(); !backEndsTurn(now) && now < patience; now = SteadyClock::now()) {
@@ -182,11 +183,17 @@ void BackEndThread::deliverSnapshot(std::unique_lock<std::mutex>& lock) {
   delivering_ = true;
   lock.unlock();
   std::exception_ptr failure;
+  // Out of SCHED_IDLE while delivering: the consumer's hand-over ends with the run's "snapshot
+  // pending" cleared, and a consumer that lets tracking go on inside it (a source waiting for the
+  // snapshot) must not find the next one still pending because this thread, idle-class, got no
+  // core again for seconds (LiveSaveMap.ASavesMapAfterLoopCorrections…, a snapshot short under ctest -j2).
+  if (!sharing_cores_) shareCores();
   try {
     request.deliver(copyOfResult());
   } catch (...) {
     failure = std::current_exception();
   }
+  if (!sharing_cores_) yieldToTracking();
   lock.lock();
   delivering_ = false;
   if (failure) failure_ = failure;
