@@ -2,6 +2,7 @@
 // Synthetic scenes for the registration and odometry tests: surfaces sampled at random with
 // Gaussian noise, some patches carrying property classes (1 heat, 2 water, 3 radiation).
 #include <Eigen/Geometry>
+#include <cmath>
 #include <functional>
 #include <random>
 #include <vector>
@@ -63,6 +64,27 @@ inline std::vector<Patch> corridorScene(double length = 40.0, bool with_patches 
     }
   }
   return s;
+}
+
+/// An open field seen from a low sensor: a 30 m square of floor (`floor_points`, noise
+/// `floor_sigma` along z) and six round pillars (radius 1 m, 3 m high, 4 m apart; `pillar_points`
+/// each, radial noise `pillar_sigma`), placed with `T`. A floor seen at grazing angles is flat to
+/// millimetres while sparse pillars fit their local planes to centimetres.
+inline LabeledCloud pillarField(std::size_t floor_points, double floor_sigma, std::size_t pillar_points,
+                                double pillar_sigma, std::mt19937& rng,
+                                const Eigen::Isometry3d& T = Eigen::Isometry3d::Identity()) {
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::normal_distribution<double> floor_noise(0.0, floor_sigma), pillar_noise(0.0, pillar_sigma);
+  LabeledCloud c;
+  const auto add = [&](const Eigen::Vector3d& p) { c.push_back((T * p).cast<float>(), 0); };
+  for (std::size_t k = 0; k < floor_points; ++k) add({30.0 * u(rng) - 15.0, 30.0 * u(rng) - 15.0, floor_noise(rng)});
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 2; ++j)
+      for (std::size_t k = 0; k < pillar_points; ++k) {
+        const double a = 2.0 * M_PI * u(rng), r = 1.0 + pillar_noise(rng);
+        add({4.0 * i - 4.0 + r * std::cos(a), 4.0 * j - 2.0 + r * std::sin(a), 3.0 * u(rng)});
+      }
+  return c;
 }
 
 /// Samples `n` points over the patches (proportional to area), then applies `T` and adds noise.

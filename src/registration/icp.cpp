@@ -73,8 +73,19 @@ struct Corr {
   float weight = 1.0f;    ///< class / soft-label weight (robust weight applied later)
   bool cross = false;
   FactorKind kind = FactorKind::Plane;
-  std::uint8_t group = 0;  ///< 0 ordinary pair, 1 property point matched to its class
+  std::uint8_t group = 0;  ///< PairGroup
 };
+
+// Pairs whose residuals get a robust scale of their own (IcpSolver::estimateRobustScales).
+enum PairGroup : std::uint8_t {
+  kOrdinaryPair = 0,  ///< point-to-plane on a surface that is not level, or point-to-point
+  kPropertyPair = 1,  ///< a property point matched to its own class
+  kLevelPair = 2,     ///< point-to-plane on a level surface (floor, ceiling): sees z, roll, pitch only
+};
+
+// A target normal within ~26° of the target frame's z is level (tracking's map and scans are
+// gravity-up within a few degrees; a ramp of up to ~25° still counts as floor).
+constexpr float kLevelNormalZ = 0.9f;
 
 std::vector<char> propertyFlags(const ClassTable& classes) {
   std::vector<char> is_property;
@@ -157,6 +168,8 @@ class IcpSolver {
   bool searchCorrespondences(int iteration, RegistrationResult& result);
   void pair(std::size_t k, const Eigen::Matrix3f& R, const Eigen::Vector3f& t);
   std::size_t estimateRobustScales();
+  template <class InGroup>
+  double robustScale(InGroup in_group);
   StepSums accumulate(bool fresh) const;
   void accumulateChunk(std::size_t chunk, bool fresh, StepSums& s) const;
   std::optional<Eigen::Isometry3d> step(RegistrationResult& result);
@@ -190,7 +203,8 @@ class IcpSolver {
   Eigen::Isometry3d T_corr_ = Eigen::Isometry3d::Identity();  ///< the pose at which corr_ was computed
   StepSums total_;
   TangentMix mix_;  ///< of the last step (the covariance uses it too)
-  double kernel_[2] = {0.0, 0.0};
+  double kernel_[3] = {0.0, 0.0, 0.0};  ///< per PairGroup
+  bool level_majority_ = false;  ///< level pairs outnumber the other ordinary pairs (the last search)
 };
 
 IcpSolver::IcpSolver(const LabeledCloud& source, const RegistrationTarget& target, const ClassTable& classes,
@@ -305,7 +319,9 @@ void IcpSolver::pair(std::size_t k, const Eigen::Matrix3f& R, const Eigen::Vecto
   const Eigen::Vector3f& nq = plane_ ? target_.normal(m.index) : p;  // p: unused
   const bool anisotropic = plane_ && point3 && tangent_scale_ < 1.0 && !nq.isZero();
   cr.kind = anisotropic ? FactorKind::PropertyPair : point3 ? FactorKind::Point : FactorKind::Plane;
-  cr.group = own_property ? 1 : 0;
+  cr.group = own_property ? kPropertyPair
+             : plane_ && std::abs(nq.z()) > kLevelNormalZ ? kLevelPair
+                                                          : kOrdinaryPair;
   if (anisotropic) {
     cr.residual = detail::weightedResidual(p - tc_.points[m.index], nq, tangent_scale_).norm();
   } else if (!point3) {
@@ -325,26 +341,44 @@ void IcpSolver::pair(std::size_t k, const Eigen::Matrix3f& R, const Eigen::Vecto
 
 // Adaptive robust scale from the observed residuals (median absolute residual), separately for
 // ordinary pairs and for property pairs (few, larger residuals, and the ones that carry the
-// label's information — one shared scale would silence them). Returns the number of pairs.
+// label's information — one shared scale would silence them). Ordinary pairs share one scale
+// unless level pairs are most of them: in an open field seen from a low sensor the floor is
+// 75–90 % of the pairs, its residuals are near zero whatever the error in x, y and yaw, so their
+// median is the floor's noise and the kernel rejected the pairs that see the horizontal (tanks:
+// tracking stayed at the wheels' guess, map error 0.18–1.07 m); the other ordinary pairs then get
+// their own scale. Returns the number of pairs.
 std::size_t IcpSolver::estimateRobustScales() {
-  std::size_t matched = 0;
-  for (int grp = 0; grp < 2; ++grp) {
-    abs_res_.clear();
-    bool p3 = !plane_;
-    for (std::size_t k = 0; k < n_; ++k)
-      if (corr_[k].target >= 0 && corr_[k].group == grp) {
-        abs_res_.push_back(std::abs(corr_[k].residual));
-        p3 = detail::isPointFactor(corr_[k].kind);
-      }
-    matched += abs_res_.size();
-    if (abs_res_.empty()) continue;
-    const std::size_t mid = abs_res_.size() / 2;
-    std::nth_element(abs_res_.begin(), abs_res_.begin() + mid, abs_res_.end());
-    // |r| of a 1-D Gaussian has median 0.6745σ; the norm of a 3-D one 1.5382σ.
-    const double sigma = abs_res_[mid] / (p3 ? 1.5382 : 0.6745);
-    kernel_[grp] = std::max(config_.robust_min_scale, config_.robust_scale_factor * sigma);
+  std::size_t level = 0, other = 0, property = 0;
+  for (const Corr& cr : corr_) {
+    if (cr.target < 0) continue;
+    level += cr.group == kLevelPair;
+    other += cr.group == kOrdinaryPair;
+    property += cr.group == kPropertyPair;
   }
-  return matched;
+  level_majority_ = level > other;
+  const auto ordinary = [](const Corr& cr) { return cr.group != kPropertyPair; };
+  if (level + other > 0) kernel_[kOrdinaryPair] = kernel_[kLevelPair] = robustScale(ordinary);
+  if (level_majority_ && other > 0)
+    kernel_[kOrdinaryPair] = robustScale([](const Corr& cr) { return cr.group == kOrdinaryPair; });
+  if (property > 0) kernel_[kPropertyPair] = robustScale([](const Corr& cr) { return cr.group == kPropertyPair; });
+  return level + other + property;
+}
+
+// The kernel's scale from the median absolute residual of the matched pairs `in_group` selects.
+template <class InGroup>
+double IcpSolver::robustScale(InGroup in_group) {
+  abs_res_.clear();
+  bool p3 = !plane_;
+  for (const Corr& cr : corr_)
+    if (cr.target >= 0 && in_group(cr)) {
+      abs_res_.push_back(std::abs(cr.residual));
+      p3 = detail::isPointFactor(cr.kind);
+    }
+  const std::size_t mid = abs_res_.size() / 2;
+  std::nth_element(abs_res_.begin(), abs_res_.begin() + mid, abs_res_.end());
+  // |r| of a 1-D Gaussian has median 0.6745σ; the norm of a 3-D one 1.5382σ.
+  const double sigma = abs_res_[mid] / (p3 ? 1.5382 : 0.6745);
+  return std::max(config_.robust_min_scale, config_.robust_scale_factor * sigma);
 }
 
 // The weighted normal equations at the current pose, chunk by chunk, added in chunk order.
@@ -460,6 +494,7 @@ void IcpSolver::estimateCovariance(RegistrationResult& result) const {
     seen.resize(tc_.size(), 0);
   }
   touched.clear();
+  double level_weight = 0.0;
   for (std::size_t k = 0; k < n_; ++k) {
     const Corr& cr = corr_[k];
     if (cr.target < 0) continue;
@@ -471,6 +506,7 @@ void IcpSolver::estimateCovariance(RegistrationResult& result) const {
     detail::withFactor(cr.kind, p, q, normals_, cr.target, cr.residual, config_.property_tangent_weight,
                        [&](const auto& factor) { per_target[cr.target] += factor.addToCovariance(sums, w, kernel, mix_); });
     sums.pairs += w;
+    if (cr.group == kLevelPair) level_weight += w;
     if (!seen[cr.target]) touched.push_back(static_cast<std::uint32_t>(cr.target));
     seen[cr.target] = 1;
   }
@@ -484,7 +520,12 @@ void IcpSolver::estimateCovariance(RegistrationResult& result) const {
   }
   const Matrix6d bread = sums.bread + mix_(sums.bread_t);
   const Matrix6d H = total_.H + mix_(total_.Ht);
-  const PoseCovariance pc = poseCovariance(H, bread, meat, sums.wr2, sums.components, sums.pairs,
+  // Degenerate = a direction below degeneracy_threshold of the pairs' weight. Where level pairs
+  // are most of the pairs (estimateRobustScales) they would make x, y and yaw look degenerate by
+  // their number alone — they can constrain only z, roll and pitch — so the share is taken of
+  // the other pairs' weight there.
+  const double judged_weight = level_majority_ ? sums.pairs - level_weight : sums.pairs;
+  const PoseCovariance pc = poseCovariance(H, bread, meat, sums.wr2, sums.components, judged_weight,
                                            config_.degeneracy_length, config_.degeneracy_threshold);
   result.hessian = H;
   result.covariance = pc.covariance;
