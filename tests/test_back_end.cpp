@@ -424,8 +424,9 @@ INSTANTIATE_TEST_SUITE_P(Scenes, NeverWorse,
                                            std::make_pair("tanks", 2)),
                          [](const auto& info) { return std::string(info.param.first) + std::to_string(info.param.second); });
 
-// Plain ICP in the tanks' open field: every frame is degenerate (the tracker keeps the wheel
-// guess along ICP's weak directions), so tracking's map places the return path 20-40 cm and
+// Plain ICP in the tanks' open field: until 2026-12-06 every frame was degenerate (the floor's pairs
+// set the robust scale and the weight degeneracy is judged against; the tracker kept the wheel
+// guess along ICP's weak directions), so tracking's map placed the return path 20-40 cm and
 // 1-2 deg off the outbound one. Map anchors that claimed that relative pose to 2-3 cm turned
 // seed 8's whole route by 5 deg (icp 0.41 m, icp+pgo 0.71 m; seed 6 lost 17 mm the same way).
 class NeverWorsePlainIcp : public ::testing::TestWithParam<std::pair<const char*, int>> {};

@@ -255,16 +255,15 @@ TEST(ScanSurfaces, ACorridorIsWeakAlongItAndARoomIsNot) {
 }
 
 // Recovery must never make tracking worse than keeping the guess (it is on by default). Tanks
-// (twelve identical tanks: ICP slides along degenerate directions and fails its checks): answers
-// from other starts fitted no better than the wheel-odometry guess yet replaced it, and property
-// ICP's mean error on seed 3 went 0.925 -> 2.287 m. Now every such answer must beat the guess's
-// own surface fit, and a degenerate one is not accepted.
-// Which frames fail and try recovery is chaotic (seed 3 tried 4 on one machine, 1 on another), so
-// the test holds no count of one run: on three seeds, each run with recovery stays within a few
-// per cent of the same run without it and within the scene's bounds, and recovery ran on some
-// frames of them (else the test would prove nothing). Measured 2026-12-03, seeds 2 / 3 / 5: off
-// 0.893 / 0.920 / 0.788 m, on 0.706 / 0.920 / 0.788 m (seed 2: one frame relocalised), 9 / 4 / 8
-// frames tried.
+// (twelve identical tanks) was where it did: frames failed their checks, answers from other
+// starts fitted no better than the wheel-odometry guess yet replaced it, and property ICP's mean
+// error on seed 3 went 0.925 -> 2.287 m; every such answer must now beat the guess's own surface
+// fit, and a degenerate one is not accepted. Until 2026-12-06 9 / 4 / 8 frames of seeds 2 / 3 / 5
+// tried recovery (off 0.893 / 0.920 / 0.788 m, on 0.706 / 0.920 / 0.788 m). Since the floor no
+// longer sets the others' robust scale (docs/registration.md, "Open fields") the tanks track to
+// 4-6 cm and no frame fails: recovery must stay out of the way — on and off agree, and at most a
+// frame or two (a chaotic run on another machine) may try it. Recovery itself is exercised where
+// frames do fail: the worst days below (naraha: >= 3 frames relocalised, each within 5 cm).
 TEST(Relocalise, NeverWorseThanTheGuessOnTanks) {
   std::size_t tried = 0;
   for (const std::uint64_t seed : {2, 3, 5}) {
@@ -288,13 +287,11 @@ TEST(Relocalise, NeverWorseThanTheGuessOnTanks) {
     };
     const double off = run(false), on = run(true);
     std::printf("tanks seed %u, property ICP: relocalise off %.3f m, on %.3f m\n", unsigned(seed), off, on);
-    // Never worse: a few per cent for the chaos of a run that took another answer somewhere
-    // (the regression above was +150 %).
     EXPECT_LE(on, 1.05 * off + 0.01) << "seed " << seed;
-    EXPECT_LT(on, 1.5) << "seed " << seed;  // the tanks' property-ICP tracking: 0.15-1.03 m on seeds 1-8
+    EXPECT_LT(on, 0.15) << "seed " << seed;  // 0.047-0.062 m measured
   }
   std::printf("%zu frames tried recovery\n", tried);
-  EXPECT_GE(tried, 4u);  // a frame or two per seed (21 measured)
+  EXPECT_LE(tried, 2u);  // 0 measured
 }
 
 // The targets on naraha, with and without wheel odometry: >= 98 % of the frames within

@@ -168,8 +168,13 @@ class IcpSolver {
   bool searchCorrespondences(int iteration, RegistrationResult& result);
   void pair(std::size_t k, const Eigen::Matrix3f& R, const Eigen::Vector3f& t);
   std::size_t estimateRobustScales();
+  struct MedianResidual {
+    double value;
+    bool three_d;  ///< norms of 3-D residuals (else signed 1-D ones)
+  };
   template <class InGroup>
-  double robustScale(InGroup in_group);
+  MedianResidual medianResidual(InGroup in_group);
+  double kernelScale(const MedianResidual& m) const;
   StepSums accumulate(bool fresh) const;
   void accumulateChunk(std::size_t chunk, bool fresh, StepSums& s) const;
   std::optional<Eigen::Isometry3d> step(RegistrationResult& result);
@@ -204,7 +209,7 @@ class IcpSolver {
   StepSums total_;
   TangentMix mix_;  ///< of the last step (the covariance uses it too)
   double kernel_[3] = {0.0, 0.0, 0.0};  ///< per PairGroup
-  bool level_majority_ = false;  ///< level pairs outnumber the other ordinary pairs (the last search)
+  bool level_majority_ = false;  ///< level pairs outnumbered the other ordinary pairs (the last search)
 };
 
 IcpSolver::IcpSolver(const LabeledCloud& source, const RegistrationTarget& target, const ClassTable& classes,
@@ -342,11 +347,14 @@ void IcpSolver::pair(std::size_t k, const Eigen::Matrix3f& R, const Eigen::Vecto
 // Adaptive robust scale from the observed residuals (median absolute residual), separately for
 // ordinary pairs and for property pairs (few, larger residuals, and the ones that carry the
 // label's information — one shared scale would silence them). Ordinary pairs share one scale
-// unless level pairs are most of them: in an open field seen from a low sensor the floor is
-// 75–90 % of the pairs, its residuals are near zero whatever the error in x, y and yaw, so their
-// median is the floor's noise and the kernel rejected the pairs that see the horizontal (tanks:
-// tracking stayed at the wheels' guess, map error 0.18–1.07 m); the other ordinary pairs then get
-// their own scale. Returns the number of pairs.
+// unless level pairs are most of them *and* the others' median residual lies beyond that
+// kernel, i.e. most of the others would count as outliers; the others then get their own scale.
+// In an open field seen from a low sensor the floor is 77–87 % of the pairs and its residuals are
+// near zero whatever the error in x, y and yaw: the shared kernel was the floor's noise and
+// rejected the pairs that see the horizontal (tanks: tracking stayed at the wheels' guess, map
+// error 0.18–1.07 m). A hall whose floor is a bare majority keeps the shared scale: its walls fit
+// it, and scaling them apart only let more outliers in (docs/history/2026-12-06-open-field-robust-scale.md).
+// Returns the number of pairs.
 std::size_t IcpSolver::estimateRobustScales() {
   std::size_t level = 0, other = 0, property = 0;
   for (const Corr& cr : corr_) {
@@ -355,18 +363,20 @@ std::size_t IcpSolver::estimateRobustScales() {
     other += cr.group == kOrdinaryPair;
     property += cr.group == kPropertyPair;
   }
-  level_majority_ = level > other;
   const auto ordinary = [](const Corr& cr) { return cr.group != kPropertyPair; };
-  if (level + other > 0) kernel_[kOrdinaryPair] = kernel_[kLevelPair] = robustScale(ordinary);
-  if (level_majority_ && other > 0)
-    kernel_[kOrdinaryPair] = robustScale([](const Corr& cr) { return cr.group == kOrdinaryPair; });
-  if (property > 0) kernel_[kPropertyPair] = robustScale([](const Corr& cr) { return cr.group == kPropertyPair; });
+  if (level + other > 0) kernel_[kOrdinaryPair] = kernel_[kLevelPair] = kernelScale(medianResidual(ordinary));
+  level_majority_ = level > other;
+  if (level_majority_ && other > 0) {
+    const MedianResidual others = medianResidual([](const Corr& cr) { return cr.group == kOrdinaryPair; });
+    if (others.value > kernel_[kOrdinaryPair]) kernel_[kOrdinaryPair] = kernelScale(others);
+  }
+  if (property > 0) kernel_[kPropertyPair] = kernelScale(medianResidual([](const Corr& cr) { return cr.group == kPropertyPair; }));
   return level + other + property;
 }
 
-// The kernel's scale from the median absolute residual of the matched pairs `in_group` selects.
+// The median absolute residual of the matched pairs `in_group` selects (at least one).
 template <class InGroup>
-double IcpSolver::robustScale(InGroup in_group) {
+IcpSolver::MedianResidual IcpSolver::medianResidual(InGroup in_group) {
   abs_res_.clear();
   bool p3 = !plane_;
   for (const Corr& cr : corr_)
@@ -376,8 +386,13 @@ double IcpSolver::robustScale(InGroup in_group) {
     }
   const std::size_t mid = abs_res_.size() / 2;
   std::nth_element(abs_res_.begin(), abs_res_.begin() + mid, abs_res_.end());
+  return {abs_res_[mid], p3};
+}
+
+// The kernel's scale: robust_scale_factor σ̂, σ̂ from a median absolute residual.
+double IcpSolver::kernelScale(const MedianResidual& m) const {
   // |r| of a 1-D Gaussian has median 0.6745σ; the norm of a 3-D one 1.5382σ.
-  const double sigma = abs_res_[mid] / (p3 ? 1.5382 : 0.6745);
+  const double sigma = m.value / (m.three_d ? 1.5382 : 0.6745);
   return std::max(config_.robust_min_scale, config_.robust_scale_factor * sigma);
 }
 
@@ -521,9 +536,8 @@ void IcpSolver::estimateCovariance(RegistrationResult& result) const {
   const Matrix6d bread = sums.bread + mix_(sums.bread_t);
   const Matrix6d H = total_.H + mix_(total_.Ht);
   // Degenerate = a direction below degeneracy_threshold of the pairs' weight. Where level pairs
-  // are most of the pairs (estimateRobustScales) they would make x, y and yaw look degenerate by
-  // their number alone — they can constrain only z, roll and pitch — so the share is taken of
-  // the other pairs' weight there.
+  // are most of the pairs they would make x, y and yaw look degenerate by their number alone —
+  // they constrain only z, roll and pitch — so the share is taken of the others' weight there.
   const double judged_weight = level_majority_ ? sums.pairs - level_weight : sums.pairs;
   const PoseCovariance pc = poseCovariance(H, bread, meat, sums.wr2, sums.components, judged_weight,
                                            config_.degeneracy_length, config_.degeneracy_threshold);
