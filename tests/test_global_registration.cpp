@@ -11,6 +11,7 @@
 #include "hazmap/core/error.hpp"
 #include "hazmap/io/pcd.hpp"
 #include "hazmap/io/trajectory.hpp"
+#include "hazmap/registration/correlative_search.hpp"
 #include "hazmap/registration/global_registration.hpp"
 #include "hazmap/sources/scan_source.hpp"
 #include "hazmap/io/transform_file.hpp"
@@ -322,4 +323,115 @@ TEST(GlobalRegistration, Cli) {
   const auto set = hazmap::test::runCli("register " + pair + " --global --set ransac_iteration=5");
   EXPECT_NE(set.exit_code, 0);
   EXPECT_NE(set.output.find("ransac_iterations"), std::string::npos) << set.output;
+}
+
+// ---- Correlative search (x, y, yaw by brute force): a field of identical pillars -------------
+
+namespace {
+
+// A 4 × 3 grid of identical pillars (radius 1 m, 3 m high, 4 m apart) on a 36 m floor: the
+// layout maps onto itself by a half turn about (6, 4). `heat_shift` moves the heat patch on the
+// north side of pillar (4, 0) (labels only); `drop_pillar` removes pillar (12, 8), breaking the
+// symmetry in the structure itself. World frame, floor at z = 0.
+LabeledCloud pillarGrid(const Eigen::Vector2d& heat_shift = Eigen::Vector2d::Zero(), bool drop_pillar = false) {
+  LabeledCloud c;
+  for (double x = -12.0; x <= 24.0; x += 0.25)
+    for (double y = -14.0; y <= 22.0; y += 0.25) c.push_back(Eigen::Vector3f(float(x), float(y), 0.0f), 0);
+  for (int i = 0; i < 4; ++i)
+    for (int j = 0; j < 3; ++j) {
+      if (drop_pillar && i == 3 && j == 2) continue;
+      for (int a = 0; a < 64; ++a)
+        for (double z = 0.1; z < 3.0; z += 0.15) {
+          const double t = 2.0 * M_PI * a / 64.0;
+          const Eigen::Vector2d p(4.0 * i + std::cos(t), 4.0 * j + std::sin(t));
+          const bool heat = i == 1 && j == 0 && std::sin(t) > 0.5 && z > 0.5 && z < 2.0;
+          const Eigen::Vector2d q = heat ? Eigen::Vector2d(p + heat_shift) : p;
+          c.push_back(Eigen::Vector3f(float(q.x()), float(q.y()), float(z)), heat ? ClassId(1) : ClassId(0));
+        }
+    }
+  return c;
+}
+
+// What a sensor 0.5 m above the floor at (x, y, yaw) sees within 14 m, in its own frame.
+LabeledCloud seenFrom(const LabeledCloud& world, const Eigen::Isometry3d& pose) {
+  LabeledCloud q;
+  const Eigen::Isometry3d inv = pose.inverse();
+  for (std::size_t i = 0; i < world.size(); ++i)
+    if ((world.points[i].cast<double>() - pose.translation()).head<2>().norm() < 14.0)
+      q.push_back((inv * world.points[i].cast<double>()).cast<float>(), world.classes[i]);
+  return q;
+}
+
+// The places a robot driving around the field could be: its loop, every metre.
+std::vector<Eigen::Vector2d> loopAroundTheField() {
+  std::vector<Eigen::Vector2d> places;
+  for (double t = -4.0; t <= 16.0; t += 1.0) places.push_back({t, -4.0}), places.push_back({t, 12.0});
+  for (double t = -4.0; t <= 12.0; t += 1.0) places.push_back({-4.0, t}), places.push_back({16.0, t});
+  return places;
+}
+
+const Eigen::Isometry3d kWestSide = Eigen::Translation3d(-4.0, 1.0, 0.5) * Eigen::AngleAxisd(0.1, Eigen::Vector3d::UnitZ());
+
+}  // namespace
+
+// Identical pillars: every place along the loop has a twin by the half turn. The heat patch,
+// seen from the west side, tells the two apart.
+TEST(CorrelativeSearch, LabelsPickThePlaceAmongIdenticalPillars) {
+  const ClassTable classes = ClassTable::defaults();
+  const CorrelativeTarget target(pillarGrid(), 0.5, classes);
+  const CorrelativeResult r = searchCorrelative(seenFrom(pillarGrid(), kWestSide), target, loopAroundTheField(), 3.0, classes);
+  std::printf("pillars: %s; error %.3f m / %.2f deg\n", r.reason.c_str(), transErr(r.transform, kWestSide),
+              rotErrDeg(r.transform, kWestSide));
+  ASSERT_TRUE(r.success) << r.reason;
+  EXPECT_NE(r.reason.find("the labels chose one"), std::string::npos) << r.reason;
+  EXPECT_LT(transErr(r.transform, kWestSide), 0.15);
+  EXPECT_LT(rotErrDeg(r.transform, kWestSide), 1.5);
+}
+
+// Without labels the twin cannot be told apart, and the search says so instead of guessing.
+TEST(CorrelativeSearch, TheTwinWithoutLabelsIsRefused) {
+  const ClassTable classes = ClassTable::defaults();
+  const CorrelativeTarget target(pillarGrid(), 0.5, classes);
+  LabeledCloud query = seenFrom(pillarGrid(), kWestSide);
+  std::fill(query.classes.begin(), query.classes.end(), ClassId(0));
+  const CorrelativeResult r = searchCorrelative(query, target, loopAroundTheField(), 3.0, classes);
+  std::printf("pillars, no labels: %s\n", r.reason.c_str());
+  EXPECT_FALSE(r.success);
+  EXPECT_NE(r.reason.find("ambiguous"), std::string::npos) << r.reason;
+}
+
+// A hazard that moved since (the patch 2 m along the pillar row) never drags the answer: in the
+// symmetric field it supports neither twin and the search refuses; where the structure alone
+// decides (one pillar gone), the answer is the structure's, not 2 m off with the patch.
+TEST(CorrelativeSearch, AMovedHazardNeverOutvotesTheStructure) {
+  const ClassTable classes = ClassTable::defaults();
+  const Eigen::Vector2d moved(2.0, 0.0);
+  const CorrelativeTarget symmetric(pillarGrid(), 0.5, classes);
+  const CorrelativeResult twin = searchCorrelative(seenFrom(pillarGrid(moved), kWestSide), symmetric,
+                                                   loopAroundTheField(), 3.0, classes);
+  EXPECT_FALSE(twin.success) << twin.reason;
+  const CorrelativeTarget broken(pillarGrid({0, 0}, true), 0.5, classes);
+  const Eigen::Isometry3d east = Eigen::Translation3d(16.0, 6.0, 0.5) * Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitZ());
+  const CorrelativeResult r = searchCorrelative(seenFrom(pillarGrid(moved, true), east), broken, loopAroundTheField(), 3.0, classes);
+  std::printf("one pillar gone, patch moved: %s; error %.3f m\n", r.reason.c_str(), transErr(r.transform, east));
+  ASSERT_TRUE(r.success) << r.reason;
+  EXPECT_LT(transErr(r.transform, east), 0.15);
+}
+
+TEST(CorrelativeSearch, TooLittleStructureOrNoTargetSaySo) {
+  const ClassTable classes = ClassTable::defaults();
+  const CorrelativeTarget target(pillarGrid(), 0.5, classes);
+  LabeledCloud floor_only;
+  for (double x = -5; x < 5; x += 0.2)
+    for (double y = -5; y < 5; y += 0.2) floor_only.push_back(Eigen::Vector3f(float(x), float(y), -0.5f), 0);
+  const CorrelativeResult r = searchCorrelative(floor_only, target, loopAroundTheField(), 3.0, classes);
+  EXPECT_FALSE(r.success);
+  EXPECT_NE(r.reason.find("structure points above the floor"), std::string::npos) << r.reason;
+  const CorrelativeTarget none(floor_only, 0.0, classes);
+  EXPECT_TRUE(none.empty());
+  const CorrelativeResult n = searchCorrelative(seenFrom(pillarGrid(), kWestSide), none, loopAroundTheField(), 3.0, classes);
+  EXPECT_FALSE(n.success);
+  EXPECT_NE(n.reason.find("no structure"), std::string::npos) << n.reason;
+  EXPECT_FALSE(searchCorrelative(LabeledCloud{}, target, loopAroundTheField(), 3.0, classes).success);
+  EXPECT_FALSE(searchCorrelative(seenFrom(pillarGrid(), kWestSide), target, {}, 3.0, classes).success);
 }

@@ -2,6 +2,8 @@
 // on bad folders, simulated missions and localisation in a prior map.
 #include <gtest/gtest.h>
 
+#include <fmt/format.h>
+
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <set>
@@ -373,34 +375,54 @@ TEST(PriorMap, PriorCliRefusesBadPriorsInOneLine) {
   EXPECT_FALSE(fs::exists(out / "run.json"));
 }
 
-TEST(PriorMap, SecondMissionLocalisesInTheFirstsMap) {
-  // naraha, seed 2: mission 1 whole, mission 2 from elsewhere with the scene changed.
+struct LaterMission {
+  const char* scene;
+  int seed, mission;
+  double max_error_m;      ///< of the localised pose against the truth
+  double max_map_error_m;  ///< of the whole run in mission 1's frame
+};
+
+class PriorMapScenes : public ::testing::TestWithParam<LaterMission> {};
+
+// A later mission, from elsewhere with the scene changed, localised in mission 1's map. naraha:
+// by global registration. tanks (twelve identical tanks, symmetric by a half turn once the
+// later mission has moved what broke it): every global registration is ambiguous, and the
+// correlative search of a stretch of keyframes, its twins told apart by the heat patch, places it
+// (measured 2026-12-06: frame 2, 0.071 m / 0.26 deg, map error 0.044 m; mission 1's own map
+// 0.044 m off the truth — the bound is the map's, not the search's).
+TEST_P(PriorMapScenes, ALaterMissionLocalisesInTheFirstsMap) {
+  const LaterMission m = GetParam();
   const fs::path dir = test::scratchDir();
-  for (int k : {1, 2}) {
-    const auto r = test::runCli("simulate --scenario naraha --seed 2 --mission " + std::to_string(k) + " --out " +
-                                (dir / ("m" + std::to_string(k))).string());
+  for (int k : {1, m.mission}) {
+    const auto r = test::runCli(fmt::format("simulate --scenario {} --seed {} --mission {} --out {}", m.scene, m.seed, k,
+                                            (dir / ("m" + std::to_string(k))).string()));
     ASSERT_EQ(r.exit_code, 0) << r.output;
   }
   auto r = test::runCli("run " + (dir / "m1").string() + " --quiet --no-viewer --threads 2 --out " + (dir / "r1").string());
   ASSERT_EQ(r.exit_code, 0) << r.output;
-  r = test::runCli("run " + (dir / "m2").string() + " --prior " + (dir / "r1").string() +
-                   " --no-viewer --threads 2 --out " + (dir / "r2").string());
+  const fs::path later = dir / ("m" + std::to_string(m.mission));
+  r = test::runCli("run " + later.string() + " --prior " + (dir / "r1").string() + " --no-viewer --threads 2 --out " +
+                   (dir / "r2").string());
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("Prior map: localised at frame"), std::string::npos) << r.output;
   const nlohmann::json run = nlohmann::json::parse(readTextFile(dir / "r2" / "run.json"));
   const nlohmann::json& p = run["prior"];
   ASSERT_EQ(p["state"], "localised");
-  const Trajectory truth = readKittiTrajectory(dir / "m2" / "poses.txt");
+  const Trajectory truth = readKittiTrajectory(later / "poses.txt");
   const std::size_t frame = p["localised_at_frame"];
   Eigen::Isometry3d at = Eigen::Isometry3d::Identity();
   for (int i = 0; i < 12; ++i)
     (i % 4 < 3 ? at.linear()(i / 4, i % 4) : at.translation()(i / 4)) = p["localised_pose"][static_cast<std::size_t>(i)];
-  EXPECT_LT(test::transErr(at, truth.poses.at(frame)), 0.10);
+  EXPECT_LT(test::transErr(at, truth.poses.at(frame)), m.max_error_m);
   EXPECT_LT(test::rotErrDeg(at, truth.poses.at(frame)), 1.0);
   // The whole run in mission 1's frame: its map error against the truth there.
-  EXPECT_LT(run["map_error"]["point"]["mean"].get<double>(), 0.05);
+  EXPECT_LT(run["map_error"]["point"]["mean"].get<double>(), m.max_map_error_m);
   EXPECT_NO_THROW(openMap(dir / "r2"));  // a run in a prior leaves a map too
 }
+
+INSTANTIATE_TEST_SUITE_P(Scenes, PriorMapScenes,
+                         ::testing::Values(LaterMission{"naraha", 2, 2, 0.10, 0.05}, LaterMission{"tanks", 6, 3, 0.12, 0.08}),
+                         [](const auto& info) { return std::string(info.param.scene); });
 
 TEST(PriorMapReal, SecondHalfOfAKittiSequenceLocalisesInTheFirstHalfsMap) {
   // Real HDL-64 scans (SemanticKITTI sample, 6 frames, labels on the first 3) split in two: the

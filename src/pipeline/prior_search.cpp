@@ -22,8 +22,13 @@ namespace {
 constexpr double kKeyframeVoxel = 0.15;
 // A query = the keyframe and this many before it (a VLP-16 scan alone is sparse).
 constexpr std::size_t kQueryKeyframesBefore = 2;
+// Where the descriptors cannot tell places apart (global registration ambiguous: a field of
+// identical tanks), a stretch of this many keyframes before the query is placed by the
+// correlative search instead, among the places within kStretchReach m of the prior's keyframes.
+constexpr std::size_t kStretchKeyframesBefore = 12;
+constexpr double kStretchReach = 3.0;
 // Verification target: the nearest prior keyframe and this many on each side.
-constexpr std::size_t kPriorSubmapHalf = 2;
+constexpr std::size_t kPriorSubmapHalf = 5;
 // The nearest prior keyframe must lie within this of the guess (m), else the run is elsewhere.
 constexpr double kPriorReach = 6.0;
 // Two answers localise the run when they agree this well (composed with the run's estimate).
@@ -67,9 +72,13 @@ Matrix6d loopInformation(const Matrix6d& covariance) {
 }  // namespace
 
 LabeledCloud RunKeyframes::query(std::size_t k, const FramePoses& poses) const {
+  return query(k, poses, kQueryKeyframesBefore);
+}
+
+LabeledCloud RunKeyframes::query(std::size_t k, const FramePoses& poses, std::size_t before) const {
   const Eigen::Isometry3d world_k = poses.at(frames.at(k));
   LabeledCloud q = clouds.at(k);
-  for (std::size_t j = k > kQueryKeyframesBefore ? k - kQueryKeyframesBefore : 0; j < k; ++j)
+  for (std::size_t j = k > before ? k - before : 0; j < k; ++j)
     q.append(clouds[j].transformed(world_k.inverse() * poses.at(frames[j])));
   return q;
 }
@@ -156,6 +165,13 @@ void PriorIndex::prepareTarget(const LabeledCloud& overview, const ClassTable& c
   for (const auto& p : poses_) centre += p.translation();
   centre /= static_cast<double>(poses_.size());
   overview_ = prepareGlobalTarget(overview, classes, global_, centre.cast<float>());
+  footprint_ = CorrelativeTarget(overview, centre.z(), classes);
+}
+
+std::vector<Eigen::Vector2d> PriorIndex::places() const {
+  std::vector<Eigen::Vector2d> out;
+  for (const auto& p : poses_) out.push_back(p.translation().head<2>());
+  return out;
 }
 
 const LabeledCloud& PriorIndex::cloud(std::size_t k) const {
@@ -217,6 +233,27 @@ PriorVerification verifyInPrior(const PriorIndex& prior, const LabeledCloud& que
   return v;
 }
 
+namespace {
+
+// Where global registration places keyframe k (its short query), or — where it found the place
+// ambiguous — where the correlative search places a longer stretch of keyframes; nullopt when
+// neither answers. `outcome` says which did what.
+std::optional<Eigen::Isometry3d> placeQuery(const PriorIndex& prior, const RunKeyframes& run, std::size_t k,
+                                           const FramePoses& poses, const ClassTable& classes, std::string& outcome) {
+  const GlobalRegistrationResult g = registerGlobally(run.query(k, poses), prior.overview(), classes, prior.globalConfig());
+  if (g.success) return g.transform;
+  outcome = std::string("global registration: ") + toString(g.status) + (g.reason.empty() ? "" : " (" + g.reason + ")");
+  if (g.status != GlobalStatus::Ambiguous) return std::nullopt;
+  const CorrelativeResult c = searchCorrelative(run.query(k, poses, kStretchKeyframesBefore), prior.footprint(),
+                                                prior.places(), kStretchReach, classes);
+  outcome += "; correlative search of " + std::to_string(std::min(k, kStretchKeyframesBefore) + 1) + " keyframes: " + c.reason;
+  if (!c.success) return std::nullopt;
+  outcome += "; ";
+  return c.transform;
+}
+
+}  // namespace
+
 void searchPrior(const PriorIndex& prior, const RunKeyframes& run, const FramePoses& poses, const ClassTable& classes,
                  const SlamConfig& config, PriorLocalisation& out) {
   std::optional<std::pair<std::size_t, Eigen::Isometry3d>> last;  // keyframe, prior ← run
@@ -225,14 +262,12 @@ void searchPrior(const PriorIndex& prior, const RunKeyframes& run, const FramePo
     const auto t = Clock::now();
     const std::size_t f = run.frames[k];
     const LabeledCloud query = run.query(k, poses);
-    const GlobalRegistrationResult g = registerGlobally(query, prior.overview(), classes, prior.globalConfig());
     PriorAttempt a{f, false, "", 0};
-    if (!g.success) {
-      a.outcome = std::string("global registration: ") + toString(g.status) + (g.reason.empty() ? "" : " (" + g.reason + ")");
-    } else {
-      const PriorVerification v = verifyInPrior(prior, query, g.transform, classes, config);
+    const std::optional<Eigen::Isometry3d> guess = placeQuery(prior, run, k, poses, classes, a.outcome);
+    if (guess) {
+      const PriorVerification v = verifyInPrior(prior, query, *guess, classes, config);
       a.prior_keyframe = v.prior_keyframe;
-      a.outcome = v.outcome;
+      a.outcome += v.outcome;
       a.accepted = v.accepted;
       a.pose = v.T_world_query;
       if (v.accepted) {

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "hazmap/pipeline/prior_map.hpp"
+#include "hazmap/registration/correlative_search.hpp"
 #include "hazmap/registration/global_registration.hpp"
 
 namespace hazmap::pipeline_detail {
@@ -28,6 +29,8 @@ struct RunKeyframes {
   void add(std::size_t frame, const LabeledCloud& full, const ClassTable& classes);
   /// Keyframe k with the keyframes just before it, placed in k's frame with the run's poses.
   LabeledCloud query(std::size_t k, const FramePoses& poses) const;
+  /// Keyframe k with up to `before` keyframes before it, placed in k's frame.
+  LabeledCloud query(std::size_t k, const FramePoses& poses, std::size_t before) const;
   double sensorHeight() const;  ///< median of the finite heights, NaN when none
 };
 RunKeyframes readRunKeyframes(ScanSource& scans, const SlamResult& result, const SlamConfig& config,
@@ -65,6 +68,9 @@ class PriorIndex {
   /// verification target). Throws hazmap::Error naming a keyframe cloud that cannot be read.
   LabeledCloud submap(std::size_t k) const;
   const GlobalRegistrationTarget& overview() const { return overview_; }
+  /// The overview's footprint for the correlative search, and where its sensors were (x, y).
+  const CorrelativeTarget& footprint() const { return footprint_; }
+  std::vector<Eigen::Vector2d> places() const;
   const GlobalRegistrationConfig& globalConfig() const { return global_; }
   /// The target came from the map folder's stored overview (not rebuilt from the keyframes).
   bool usedStoredOverview() const { return used_stored_overview_; }
@@ -88,6 +94,7 @@ class PriorIndex {
   std::vector<LabeledCloud> overview_clouds_;  ///< keyframeOverview of each (add() only)
   GlobalRegistrationConfig global_;
   GlobalRegistrationTarget overview_;
+  CorrelativeTarget footprint_;
   bool used_stored_overview_ = false;
 };
 
