@@ -18,16 +18,20 @@ namespace {
 // The structure is a slice of the scene like a 2-D laser's: above the floor by more than
 // kSliceLow (floor returns and their noise), below kSliceHigh (ceilings cover everything).
 constexpr double kSliceLow = 0.3, kSliceHigh = 2.0;
-// Fine and coarse fields of the structure: cell and σ (m); labels are coarser than geometry.
-constexpr double kFineCell = 0.1, kFineSigma = 0.15, kCoarseCell = 0.4, kCoarseSigma = 0.4;
+// The structure's fields, fine to rough: cell and σ (m). Labels are coarser than geometry.
+constexpr double kCell[3] = {0.1, 0.4, 1.0}, kSigma[3] = {0.15, 0.4, 0.8};
 constexpr double kLabelCell = 0.2, kLabelSigma = 0.5;
 // Labelled patches: cells of kLabelCluster m where a property class holds kLabelShare of the points.
 constexpr double kLabelCluster = 0.5, kLabelShare = 0.3;
 constexpr std::size_t kLabelMinPoints = 3;
-// Search steps: coarse yaw, then ±kRefineReach m in kFineCell steps and ±kRefineYaw in 1°.
-constexpr double kCoarseYawDeg = 3.0, kRefineReach = 0.4, kRefineYawDeg = 3.0;
+// A pyramid: every place (rough cells) and heading (kYawDeg[2]) on the rough field; the
+// kSeeds best distinct of those searched again within one rough step on the middle field; the
+// kRefined best distinct of those within one middle step on the fine one. Each level's steps are
+// its cell and kYawDeg; its query is thinned to its cell (at most kMaxQueryStructure points).
+constexpr double kYawDeg[3] = {1.0, 3.0, 6.0};
+constexpr std::size_t kSeeds = 32, kRefined = 8;
+constexpr double kSeedDistinctMetres = 2.0, kSeedDistinctDeg = 12.0;
 constexpr std::size_t kMaxQueryStructure = 800, kMinQueryStructure = 50, kMinQueryLabels = 5;
-constexpr std::size_t kRefined = 8;  // distinct coarse maxima refined
 // A place this far from the best is another answer; within this share of its score, a twin.
 constexpr double kDistinctMetres = 1.5, kDistinctDeg = 15.0, kMaxAmbiguity = 0.9;
 // Labels choose among twins only with this much support (mean label field value) and this lead.
@@ -131,23 +135,24 @@ struct Pose2 {
   double x = 0.0, y = 0.0, yaw = 0.0;
 };
 
-bool distinct(const Pose2& a, const Pose2& b) {
+bool distinct(const Pose2& a, const Pose2& b, double metres = kDistinctMetres, double degrees = kDistinctDeg) {
   const double dyaw = std::abs(std::remainder(a.yaw - b.yaw, 2.0 * M_PI));
-  return std::hypot(a.x - b.x, a.y - b.y) >= kDistinctMetres || dyaw >= kDistinctDeg * kDeg;
+  return std::hypot(a.x - b.x, a.y - b.y) >= metres || dyaw >= degrees * kDeg;
 }
 
 struct Query {
-  std::vector<Eigen::Vector2d> structure;
+  std::vector<Eigen::Vector2d> structure;  ///< thinned to the fine cell
+  std::vector<Eigen::Vector2d> thinner[3];  ///< per pyramid level
   std::vector<std::pair<const CorrelativeTarget::Field*, std::vector<Eigen::Vector2d>>> labels;
   std::size_t label_points = 0;
 };
 
-// The mean structure field value of the query's slice placed at T.
-double structureScore(const Query& q, const CorrelativeTarget::Field& field, const Pose2& T) {
+// The mean structure field value of a query's slice `pts` placed at T.
+double structureScore(const std::vector<Eigen::Vector2d>& pts, const CorrelativeTarget::Field& field, const Pose2& T) {
   const double c = std::cos(T.yaw), s = std::sin(T.yaw);
   double sum = 0.0;
-  for (const auto& p : q.structure) sum += field.at(c * p.x() - s * p.y() + T.x, s * p.x() + c * p.y() + T.y);
-  return sum / static_cast<double>(q.structure.size());
+  for (const auto& p : pts) sum += field.at(c * p.x() - s * p.y() + T.x, s * p.x() + c * p.y() + T.y);
+  return sum / static_cast<double>(pts.size());
 }
 
 // The mean label field value of the query's labelled patches placed at T (each on its class's).
@@ -161,35 +166,50 @@ double labelShare(const Query& q, const Pose2& T) {
   return sum / static_cast<double>(q.label_points);
 }
 
-Pose2 refine(const Query& q, const CorrelativeTarget& target, Pose2 best, double& best_score) {
-  const Pose2 centre = best;
-  const int steps = static_cast<int>(std::lround(kRefineReach / kFineCell));
-  const int yaw_steps = static_cast<int>(std::lround(kRefineYawDeg));
-  best_score = -1.0;
+// The best place within one step of level `level + 1` around `centre`, in level `level`'s steps.
+std::pair<double, Pose2> searchAround(const Query& q, const CorrelativeTarget& target, int level, const Pose2& centre) {
+  const int steps = static_cast<int>(std::lround(kCell[level + 1] / kCell[level]));
+  const int yaw_steps = static_cast<int>(std::lround(kYawDeg[level + 1] / kYawDeg[level]));
+  std::pair<double, Pose2> best{-1.0, centre};
   for (int a = -yaw_steps; a <= yaw_steps; ++a)
     for (int i = -steps; i <= steps; ++i)
       for (int j = -steps; j <= steps; ++j) {
-        const Pose2 T{centre.x + i * kFineCell, centre.y + j * kFineCell, centre.yaw + a * kDeg};
-        const double sc = structureScore(q, target.structure(true), T);
-        if (sc > best_score) best_score = sc, best = T;
+        const Pose2 T{centre.x + i * kCell[level], centre.y + j * kCell[level], centre.yaw + a * kYawDeg[level] * kDeg};
+        const double sc = structureScore(q.thinner[level], target.structure(level), T);
+        if (sc > best.first) best = {sc, T};
       }
   return best;
 }
 
-// The coarse cells within `radius` of any place, sorted (deterministic).
+// The `n` best of `scored` (best first) that are pairwise distinct by (metres, degrees).
+std::vector<std::pair<double, Pose2>> bestDistinct(std::vector<std::pair<double, Pose2>> scored, std::size_t n,
+                                                   double metres, double degrees) {
+  std::stable_sort(scored.begin(), scored.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+  std::vector<std::pair<double, Pose2>> out;
+  for (const auto& c : scored) {
+    if (!std::all_of(out.begin(), out.end(), [&](const auto& o) { return distinct(o.second, c.second, metres, degrees); }))
+      continue;
+    out.push_back(c);
+    if (out.size() == n) break;
+  }
+  return out;
+}
+
+// The rough cells within `radius` of any place, sorted (deterministic).
 std::vector<Eigen::Vector2d> candidatePlaces(const std::vector<Eigen::Vector2d>& places, double radius) {
   std::vector<std::pair<long long, long long>> cells;
-  const int r = static_cast<int>(std::ceil(radius / kCoarseCell));
+  const double cell = kCell[2];
+  const int r = static_cast<int>(std::ceil(radius / cell));
   for (const auto& p : places) {
-    const long long cx = std::llround(p.x() / kCoarseCell), cy = std::llround(p.y() / kCoarseCell);
+    const long long cx = std::llround(p.x() / cell), cy = std::llround(p.y() / cell);
     for (int dx = -r; dx <= r; ++dx)
       for (int dy = -r; dy <= r; ++dy)
-        if (std::hypot(dx, dy) * kCoarseCell <= radius) cells.emplace_back(cx + dx, cy + dy);
+        if (std::hypot(dx, dy) * cell <= radius) cells.emplace_back(cx + dx, cy + dy);
   }
   std::sort(cells.begin(), cells.end());
   cells.erase(std::unique(cells.begin(), cells.end()), cells.end());
   std::vector<Eigen::Vector2d> out;
-  for (const auto& [x, y] : cells) out.emplace_back(x * kCoarseCell, y * kCoarseCell);
+  for (const auto& [x, y] : cells) out.emplace_back(x * cell, y * cell);
   return out;
 }
 
@@ -245,8 +265,7 @@ float CorrelativeTarget::Field::at(double x, double y) const {
 CorrelativeTarget::CorrelativeTarget(const LabeledCloud& cloud, double sensor_z, const ClassTable& classes) {
   floor_z_ = floorBelow(cloud, sensor_z);
   const std::vector<Eigen::Vector2d> s = slice(cloud, floor_z_);
-  structure_ = makeField(s, kFineCell, kFineSigma);
-  coarse_structure_ = makeField(s, kCoarseCell, kCoarseSigma);
+  for (int level = 0; level < 3; ++level) structure_[level] = makeField(s, kCell[level], kSigma[level]);
   for (const auto& [cls, pts] : labelPatches(cloud, classes)) labels_.emplace_back(cls, makeField(pts, kLabelCell, kLabelSigma));
 }
 
@@ -266,7 +285,9 @@ CorrelativeResult searchCorrelative(const LabeledCloud& query_cloud, const Corre
   }
   const double query_floor = floorBelow(query_cloud, 0.0);
   Query q;
-  q.structure = thinned(slice(query_cloud, query_floor), kFineCell * 2.0, kMaxQueryStructure);
+  const std::vector<Eigen::Vector2d> sliced = slice(query_cloud, query_floor);
+  for (int level = 0; level < 3; ++level) q.thinner[level] = thinned(sliced, std::max(kCell[level], 0.2), kMaxQueryStructure);
+  q.structure = q.thinner[0];
   for (const auto& [cls, pts] : labelPatches(query_cloud, classes)) {
     q.labels.emplace_back(target.labels(cls), thinned(pts, kLabelCell, kMaxQueryStructure));
     q.label_points += q.labels.back().second.size();
@@ -277,32 +298,23 @@ CorrelativeResult searchCorrelative(const LabeledCloud& query_cloud, const Corre
     r.reason = fmt::format("{} structure points above the floor (< {})", q.structure.size(), kMinQueryStructure);
     return r;
   }
-  // Coarse: every heading at every candidate place.
+  // Rough: every heading at every candidate place.
   const std::vector<Eigen::Vector2d> cells = candidatePlaces(places, place_radius);
-  const int yaws = static_cast<int>(std::lround(360.0 / kCoarseYawDeg));
-  std::vector<float> coarse(static_cast<std::size_t>(yaws) * cells.size());
+  const int yaws = static_cast<int>(std::lround(360.0 / kYawDeg[2]));
+  std::vector<std::pair<double, Pose2>> rough(static_cast<std::size_t>(yaws) * cells.size());
   tbb::parallel_for(tbb::blocked_range<int>(0, yaws), [&](const auto& range) {
     for (int a = range.begin(); a < range.end(); ++a)
-      for (std::size_t c = 0; c < cells.size(); ++c)
-        coarse[a * cells.size() + c] = static_cast<float>(
-            structureScore(q, target.structure(false), {cells[c].x(), cells[c].y(), a * kCoarseYawDeg * kDeg}));
+      for (std::size_t c = 0; c < cells.size(); ++c) {
+        const Pose2 T{cells[c].x(), cells[c].y(), a * kYawDeg[2] * kDeg};
+        rough[a * cells.size() + c] = {structureScore(q.thinner[2], target.structure(2), T), T};
+      }
   });
-  std::vector<std::uint32_t> order(coarse.size());
-  std::iota(order.begin(), order.end(), 0u);
-  std::stable_sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) { return coarse[a] > coarse[b]; });
-  // Refine the best distinct coarse maxima; the best refined is the answer, the best distinct
-  // from it its rival.
-  std::vector<std::pair<double, Pose2>> refined;
-  std::vector<Pose2> seeds;
-  for (const std::uint32_t i : order) {
-    const Pose2 p{cells[i % cells.size()].x(), cells[i % cells.size()].y(), (i / cells.size()) * kCoarseYawDeg * kDeg};
-    if (!std::all_of(seeds.begin(), seeds.end(), [&](const Pose2& s) { return distinct(s, p); })) continue;
-    seeds.push_back(p);
-    double sc = 0.0;
-    const Pose2 best = refine(q, target, p, sc);
-    refined.emplace_back(sc, best);
-    if (seeds.size() == kRefined) break;
-  }
+  // Middle around the rough seeds, fine around the middle's best: the best refined is the answer.
+  const std::vector<std::pair<double, Pose2>> seeds = bestDistinct(std::move(rough), kSeeds, kSeedDistinctMetres, kSeedDistinctDeg);
+  std::vector<std::pair<double, Pose2>> middle(seeds.size()), refined;
+  tbb::parallel_for(std::size_t(0), seeds.size(), [&](std::size_t i) { middle[i] = searchAround(q, target, 1, seeds[i].second); });
+  for (const auto& m : bestDistinct(std::move(middle), kRefined, kDistinctMetres, kDistinctDeg))
+    refined.push_back(searchAround(q, target, 0, m.second));
   std::stable_sort(refined.begin(), refined.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
   return decide(q, refined, target.floorZ() - query_floor, r);
 }

@@ -23,7 +23,7 @@ class CorrelativeTarget {
   /// `cloud` in the target's frame (z up); its floor is the most populated 10 cm band below
   /// `sensor_z` (the mean height of the sensors that saw it).
   CorrelativeTarget(const LabeledCloud& cloud, double sensor_z, const ClassTable& classes);
-  bool empty() const { return structure_.empty(); }
+  bool empty() const { return structure_[0].empty(); }
 
   struct Field {
     double x0 = 0.0, y0 = 0.0, cell = 0.0;
@@ -32,13 +32,14 @@ class CorrelativeTarget {
     bool empty() const { return value.empty(); }
     float at(double x, double y) const;
   };
-  const Field& structure(bool fine) const { return fine ? structure_ : coarse_structure_; }
+  /// The structure's field at level 0 (fine, 0.1 m), 1 (0.4 m) or 2 (rough, 1 m).
+  const Field& structure(int level) const { return structure_[level]; }
   /// The field of a property class (nullptr when the target has none of it).
   const Field* labels(ClassId cls) const;
   double floorZ() const { return floor_z_; }
 
  private:
-  Field structure_, coarse_structure_;
+  Field structure_[3];
   std::vector<std::pair<ClassId, Field>> labels_;
   double floor_z_ = 0.0;
 };
