@@ -7,7 +7,8 @@ out=$(realpath -m "$2")
 size=${3:-1400,900}
 profile=$(mktemp -d)
 trap 'rm -rf "$profile"' EXIT
-timeout 120 chromium --headless=new --use-angle=swiftshader --enable-unsafe-swiftshader --no-sandbox \
+# TMPDIR: a killed Chromium (the timeout) leaves its singleton socket directory there.
+TMPDIR="$profile" timeout 120 chromium --headless=new --use-angle=swiftshader --enable-unsafe-swiftshader --no-sandbox \
   --no-first-run --disable-background-networking --disable-component-update --disable-sync \
   --host-resolver-rules='MAP * ~NOTFOUND' --window-size="$size" --virtual-time-budget=8000 \
   --user-data-dir="$profile" --screenshot="$out" "file://$page" 2>/dev/null

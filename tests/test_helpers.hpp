@@ -52,6 +52,27 @@ inline std::filesystem::path scratchDir() {
   return dir;
 }
 
+/// A new folder with a short path under /tmp, removed with this object: Chromium's TMPDIR. A
+/// killed Chromium leaves its singleton socket folder (org.chromium.Chromium.*) in TMPDIR, and
+/// a Unix socket path must stay under 108 bytes, which a scratchDir() path may not.
+class ShortTempDir {
+ public:
+  ShortTempDir() {
+    char name[] = "/tmp/hzchrome.XXXXXX";
+    if (::mkdtemp(name)) path_ = name;
+  }
+  ~ShortTempDir() {
+    std::error_code ec;
+    if (!path_.empty()) std::filesystem::remove_all(path_, ec);
+  }
+  ShortTempDir(const ShortTempDir&) = delete;
+  ShortTempDir& operator=(const ShortTempDir&) = delete;
+  const std::filesystem::path& path() const { return path_; }
+
+ private:
+  std::filesystem::path path_;
+};
+
 /// The message of the hazmap::Error that f throws; "" when it throws none.
 inline std::string errorOf(const std::function<void()>& f) {
   try {

@@ -76,7 +76,9 @@ class Chromium {
  public:
   explicit Chromium(const fs::path& dir) : dir_(dir) {
     const fs::path profile = dir / "chromium-profile";
-    pid_ = spawnShell("exec " + chromiumPath() +
+    // TMPDIR: Chromium's singleton socket folder (org.chromium.Chromium.*) outlives a killed
+    // browser; in a folder removed with this object, not in /tmp (178 were left there).
+    pid_ = spawnShell("exec env TMPDIR=" + tmp_.path().string() + " " + chromiumPath() +
                       " --headless=new --use-angle=swiftshader --enable-unsafe-swiftshader --no-sandbox --no-first-run"
                       " --disable-background-networking --disable-component-update --disable-sync --disable-gpu-sandbox"
                       " --disable-background-timer-throttling --disable-renderer-backgrounding"
@@ -152,6 +154,7 @@ class Chromium {
     return 1;
   }
   fs::path dir_;
+  test::ShortTempDir tmp_;  ///< removed after the destructor has stopped the browser
   pid_t pid_ = -1;
   mg_connection* conn_ = nullptr;
   std::mutex m_;

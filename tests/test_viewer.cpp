@@ -71,7 +71,10 @@ std::string chromiumPath() {
 // Chromium flags for this machine: SwiftShader WebGL, no sandbox (root), nothing phoned home,
 // and every host name unresolvable so that any fetch the page tried would fail loudly.
 std::string chromium(const std::filesystem::path& dir, const std::string& mode, const std::filesystem::path& page) {
-  return "timeout 90 " + chromiumPath() +
+  // TMPDIR: a Chromium killed by the timeout leaves its singleton socket folder there; one short
+  // folder for the whole test binary, removed when it exits.
+  static const test::ShortTempDir tmp;
+  return "timeout 90 env TMPDIR=" + tmp.path().string() + " " + chromiumPath() +
          " --headless=new --use-angle=swiftshader --enable-unsafe-swiftshader --no-sandbox --no-first-run"
          " --disable-background-networking --disable-component-update --disable-sync --disable-gpu-sandbox"
          " --host-resolver-rules='MAP * ~NOTFOUND' --window-size=1400,900 --virtual-time-budget=8000"
