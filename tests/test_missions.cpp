@@ -382,6 +382,8 @@ struct LaterMission {
   double max_map_error_m;  ///< of the whole run in mission 1's frame
 };
 
+void PrintTo(const LaterMission& m, std::ostream* os) { *os << m.scene << " seed " << m.seed << " mission " << m.mission; }
+
 class PriorMapScenes : public ::testing::TestWithParam<LaterMission> {};
 
 // A later mission, from elsewhere with the scene changed, localised in mission 1's map. naraha:
