@@ -238,12 +238,13 @@ PriorVerification verifyInPrior(const PriorIndex& prior, const LabeledCloud& que
 
 namespace {
 
-// Where global registration places keyframe k (its short query), or — where it found the place
+// Where global registration places keyframe k's short `query`, or — where it found the place
 // ambiguous — where the correlative search places a longer stretch of keyframes; nullopt when
 // neither answers. `outcome` says which did what.
 std::optional<Eigen::Isometry3d> placeQuery(const PriorIndex& prior, const RunKeyframes& run, std::size_t k,
-                                           const FramePoses& poses, const ClassTable& classes, std::string& outcome) {
-  const GlobalRegistrationResult g = registerGlobally(run.query(k, poses), prior.overview(), classes, prior.globalConfig());
+                                           const LabeledCloud& query, const FramePoses& poses, const ClassTable& classes,
+                                           std::string& outcome) {
+  const GlobalRegistrationResult g = registerGlobally(query, prior.overview(), classes, prior.globalConfig());
   if (g.success) return g.transform;
   outcome = std::string("global registration: ") + toString(g.status) + (g.reason.empty() ? "" : " (" + g.reason + ")");
   if (g.status != GlobalStatus::Ambiguous) return std::nullopt;
@@ -266,7 +267,7 @@ void searchPrior(const PriorIndex& prior, const RunKeyframes& run, const FramePo
     const std::size_t f = run.frames[k];
     const LabeledCloud query = run.query(k, poses);
     PriorAttempt a{f, false, "", 0};
-    const std::optional<Eigen::Isometry3d> guess = placeQuery(prior, run, k, poses, classes, a.outcome);
+    const std::optional<Eigen::Isometry3d> guess = placeQuery(prior, run, k, query, poses, classes, a.outcome);
     if (guess) {
       const PriorVerification v = verifyInPrior(prior, query, *guess, classes, config);
       a.prior_keyframe = v.prior_keyframe;

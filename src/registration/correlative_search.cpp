@@ -4,8 +4,6 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
-#include <cstdio>
-#include <cstdlib>
 #include <cmath>
 #include <fmt/format.h>
 #include <numeric>
@@ -38,6 +36,11 @@ constexpr double kDistinctMetres = 1.5, kDistinctDeg = 15.0, kMaxAmbiguity = 0.9
 constexpr double kMinLabelSupport = 0.1, kLabelLead = 2.0;
 constexpr double kDeg = M_PI / 180.0;
 
+// The square of `cell` m holding (x, y), as one hash key.
+long long cellKey(double x, double y, double cell) {
+  return (static_cast<long long>(std::floor(x / cell)) << 32) ^ (static_cast<long long>(std::floor(y / cell)) & 0xffffffffLL);
+}
+
 double floorBelow(const LabeledCloud& cloud, double below) {
   std::unordered_map<long, std::size_t> bands;
   for (const auto& p : cloud.points)
@@ -62,10 +65,7 @@ std::vector<Eigen::Vector2d> slice(const LabeledCloud& cloud, double floor_z) {
 // clusters of their own, but never into a share of the surface.
 std::vector<std::pair<ClassId, std::vector<Eigen::Vector2d>>> labelPatches(const LabeledCloud& cloud,
                                                                            const ClassTable& classes) {
-  const auto key = [](const Eigen::Vector3f& p) {
-    return (static_cast<long long>(std::floor(p.x() / kLabelCluster)) << 32) ^
-           (static_cast<long long>(std::floor(p.y() / kLabelCluster)) & 0xffffffffLL);
-  };
+  const auto key = [](const Eigen::Vector3f& p) { return cellKey(p.x(), p.y(), kLabelCluster); };
   std::unordered_map<long long, std::size_t> all;
   std::unordered_map<ClassId, std::unordered_map<long long, std::size_t>> of_class;
   for (std::size_t i = 0; i < cloud.size(); ++i) {
@@ -120,8 +120,7 @@ std::vector<Eigen::Vector2d> thinned(const std::vector<Eigen::Vector2d>& pts, do
   std::unordered_map<long long, Eigen::Vector2d> one;
   std::vector<long long> order;
   for (const auto& p : pts) {
-    const long long k = (static_cast<long long>(std::floor(p.x() / cell)) << 32) ^
-                        (static_cast<long long>(std::floor(p.y() / cell)) & 0xffffffffLL);
+    const long long k = cellKey(p.x(), p.y(), cell);
     if (one.emplace(k, p).second) order.push_back(k);
   }
   std::sort(order.begin(), order.end());
@@ -141,8 +140,7 @@ bool distinct(const Pose2& a, const Pose2& b, double metres = kDistinctMetres, d
 }
 
 struct Query {
-  std::vector<Eigen::Vector2d> structure;  ///< thinned to the fine cell
-  std::vector<Eigen::Vector2d> thinner[3];  ///< per pyramid level
+  std::vector<Eigen::Vector2d> thinner[3];  ///< the slice per pyramid level (0: fine)
   std::vector<std::pair<const CorrelativeTarget::Field*, std::vector<Eigen::Vector2d>>> labels;
   std::size_t label_points = 0;
 };
@@ -219,7 +217,7 @@ std::vector<Eigen::Vector2d> candidatePlaces(const std::vector<Eigen::Vector2d>&
 // if it has at least kMinLabelSupport and kLabelLead times any other's. Labels never outvote the
 // structure: a hazard that moved since (a heat source 2 m further) would otherwise drag the answer.
 CorrelativeResult decide(const Query& q, const std::vector<std::pair<double, Pose2>>& refined, double dz,
-                         CorrelativeResult& r) {
+                         CorrelativeResult r) {
   const double best_structure = refined.front().first;
   std::vector<std::pair<double, Pose2>> twins;  // label share, place
   for (const auto& [sc, p] : refined)
@@ -250,7 +248,7 @@ CorrelativeResult decide(const Query& q, const std::vector<std::pair<double, Pos
   r.transform = Eigen::Translation3d(best.x, best.y, dz) * Eigen::AngleAxisd(best.yaw, Eigen::Vector3d::UnitZ());
   r.success = true;
   r.reason += fmt::format("structure {:.2f}, next distinct place {:.2f} ({} structure, {} labelled points)", r.score,
-                          r.second_score, q.structure.size(), q.label_points);
+                          r.second_score, q.thinner[0].size(), q.label_points);
   return r;
 }
 
@@ -287,15 +285,14 @@ CorrelativeResult searchCorrelative(const LabeledCloud& query_cloud, const Corre
   Query q;
   const std::vector<Eigen::Vector2d> sliced = slice(query_cloud, query_floor);
   for (int level = 0; level < 3; ++level) q.thinner[level] = thinned(sliced, std::max(kCell[level], 0.2), kMaxQueryStructure);
-  q.structure = q.thinner[0];
   for (const auto& [cls, pts] : labelPatches(query_cloud, classes)) {
     q.labels.emplace_back(target.labels(cls), thinned(pts, kLabelCell, kMaxQueryStructure));
     q.label_points += q.labels.back().second.size();
   }
-  r.structure_points = q.structure.size();
+  r.structure_points = q.thinner[0].size();
   r.label_points = q.label_points;
-  if (q.structure.size() < kMinQueryStructure) {
-    r.reason = fmt::format("{} structure points above the floor (< {})", q.structure.size(), kMinQueryStructure);
+  if (r.structure_points < kMinQueryStructure) {
+    r.reason = fmt::format("{} structure points above the floor (< {})", r.structure_points, kMinQueryStructure);
     return r;
   }
   // Rough: every heading at every candidate place.

@@ -159,7 +159,7 @@ class IcpSolver {
 
   void iterate(const Eigen::Isometry3d& start, RegistrationResult& result);
   const Eigen::Isometry3d& pose() const { return T_; }
-  double kernelScale() const { return kernel_[0]; }
+  double kernelScale() const { return kernel_[kOrdinaryPair]; }
   bool solved() const { return total_.w > 0.0; }
   void reportCorrespondences(RegistrationResult& result) const;
   void estimateCovariance(RegistrationResult& result) const;
@@ -174,7 +174,7 @@ class IcpSolver {
   };
   template <class InGroup>
   MedianResidual medianResidual(InGroup in_group);
-  double kernelScale(const MedianResidual& m) const;
+  double kernelFrom(const MedianResidual& m) const;
   StepSums accumulate(bool fresh) const;
   void accumulateChunk(std::size_t chunk, bool fresh, StepSums& s) const;
   std::optional<Eigen::Isometry3d> step(RegistrationResult& result);
@@ -364,13 +364,13 @@ std::size_t IcpSolver::estimateRobustScales() {
     property += cr.group == kPropertyPair;
   }
   const auto ordinary = [](const Corr& cr) { return cr.group != kPropertyPair; };
-  if (level + other > 0) kernel_[kOrdinaryPair] = kernel_[kLevelPair] = kernelScale(medianResidual(ordinary));
+  if (level + other > 0) kernel_[kOrdinaryPair] = kernel_[kLevelPair] = kernelFrom(medianResidual(ordinary));
   level_majority_ = level > other;
   if (level_majority_ && other > 0) {
     const MedianResidual others = medianResidual([](const Corr& cr) { return cr.group == kOrdinaryPair; });
-    if (others.value > kernel_[kOrdinaryPair]) kernel_[kOrdinaryPair] = kernelScale(others);
+    if (others.value > kernel_[kOrdinaryPair]) kernel_[kOrdinaryPair] = kernelFrom(others);
   }
-  if (property > 0) kernel_[kPropertyPair] = kernelScale(medianResidual([](const Corr& cr) { return cr.group == kPropertyPair; }));
+  if (property > 0) kernel_[kPropertyPair] = kernelFrom(medianResidual([](const Corr& cr) { return cr.group == kPropertyPair; }));
   return level + other + property;
 }
 
@@ -390,7 +390,7 @@ IcpSolver::MedianResidual IcpSolver::medianResidual(InGroup in_group) {
 }
 
 // The kernel's scale: robust_scale_factor σ̂, σ̂ from a median absolute residual.
-double IcpSolver::kernelScale(const MedianResidual& m) const {
+double IcpSolver::kernelFrom(const MedianResidual& m) const {
   // |r| of a 1-D Gaussian has median 0.6745σ; the norm of a 3-D one 1.5382σ.
   const double sigma = m.value / (m.three_d ? 1.5382 : 0.6745);
   return std::max(config_.robust_min_scale, config_.robust_scale_factor * sigma);
